@@ -1,0 +1,1 @@
+"""widesky.irradiance: solar position, sites, weather, sky states and per-face spectral irradiance."""

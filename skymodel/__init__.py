@@ -1,0 +1,1 @@
+"""widesky.skymodel: the wide-spectral-range Prague Sky Model (reader, evaluator, renderer)."""
