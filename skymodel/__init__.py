@@ -1,1 +1,22 @@
-"""widesky.skymodel: the wide-spectral-range Prague Sky Model (reader, evaluator, renderer)."""
+"""widesky.skymodel: the wide-spectral-range Prague Sky Model (reader, evaluator, renderer).
+
+Quick start::
+
+    import skymodel
+    model = skymodel.load_dataset()                      # the embedded default dataset
+    dirs = skymodel.directions_from_angles([0, 45, 80], [0, 90, 180])
+    L = skymodel.sky_radiance(model, dirs, sun_elevation=30, sun_azimuth=180, visibility=40, albedo=0.2)
+    # L.shape == (3, model.n_channels), [W m-2 sr-1 nm-1]
+"""
+
+from .dataset import DatasetError, SkyModel, default_dataset_path, load_dataset
+from .evaluate import (SkyStateClampedWarning, channel_indices, directions_from_angles, polarisation,
+                       sky_radiance, solar_direct_normal, sun_direction, sun_radiance, transmittance)
+from .solar import SUN_RADIUS, SUN_SOLID_ANGLE, extraterrestrial_spectrum
+
+__all__ = [
+    "DatasetError", "SkyModel", "load_dataset", "default_dataset_path",
+    "SkyStateClampedWarning", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
+    "solar_direct_normal", "sun_direction", "directions_from_angles", "channel_indices",
+    "SUN_RADIUS", "SUN_SOLID_ANGLE", "extraterrestrial_spectrum",
+]

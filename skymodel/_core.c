@@ -1,5 +1,1033 @@
+/*
+ * widesky skymodel._core: hot kernels of the Prague Sky Model evaluator.
+ *
+ * Array in, array out. The Python wrapper (skymodel/evaluate.py) validates every argument,
+ * converts units and computes the per-sky-state quantities (configuration weights, sun vector);
+ * these kernels do the per-direction and per-channel work with the GIL released, OpenMP over
+ * directions.
+ *
+ * The evaluation rules follow the published reference algorithm (Wilkie et al. 2021, Vevoda et al.
+ * 2022) as documented in shared/spec/psm-dataset-format.md section 5: parameter computation with the
+ * 50 m safety altitude and altitude-corrected view direction, clamped knot lookup, piecewise-linear
+ * factors in double precision, per-configuration clamp at zero, nested linear interpolation over
+ * visibility, albedo, altitude and elevation, and the transmittance (altitude, distance) mapping.
+ *
+ * Two radiance paths:
+ *   direct: per direction the angle lookups are done once and reused for every channel and
+ *           configuration (the reference's work, reorganised).
+ *   table:  for a fixed sky state with the sun above the horizon, the weighted sum over
+ *           configurations of emph(zero) * sum_r sun_r(gamma) zen_r(zero) is, inside each cell of
+ *           (sun knots) x (union of zenith and emphasis knots), a polynomial
+ *           A + B g + C z + D g z + E z^2 + F g z^2 in the local offsets g, z. A configuration whose
+ *           product cannot change sign inside a cell (checked exactly: the rank sum is bilinear, so
+ *           its extremes are at the cell corners, and emph is linear) folds into the cell's
+ *           polynomial; one that may change sign keeps its own clamped term. Exact to rounding.
+ */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
-static PyMethodDef methods[] = {{NULL, NULL, 0, NULL}};
-static struct PyModuleDef mod = {PyModuleDef_HEAD_INIT, "_core", NULL, -1, methods};
-PyMODINIT_FUNC PyInit__core(void) { return PyModule_Create(&mod); }
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#ifdef WIDESKY_OPENMP
+#include <omp.h>
+#endif
+
+#define PLANET_RADIUS 6378000.0
+#define SAFETY_ALTITUDE 50.0
+#define ATMOSPHERE_WIDTH 100000.0
+#define DIST_TO_EDGE 1571524.413613
+#define DBL_EPSILON_ 2.220446049250313e-16
+
+/* ------------------------------------------------------------------------------------------ */
+/* small helpers                                                                              */
+
+typedef struct {
+    int idx;
+    double f;
+} ip_t;
+
+/* Reference knot lookup: clamp q to [b0, b_{n-1}], idx = k-1 for the first k >= 1 with b[k] > q,
+ * factor (q - b[idx]) / (b[k] - b[idx]); at the last knot idx = n-1 and factor 0. */
+static inline ip_t knot_lookup(double q, const double *b, int n)
+{
+    ip_t r;
+    if (!(q >= b[0])) q = b[0]; /* also maps NaN to the first knot: never index out of range */
+    if (q > b[n - 1]) q = b[n - 1];
+    int lo = 1, hi = n;
+    while (lo < hi) {
+        int mid = (lo + hi) >> 1;
+        if (b[mid] > q)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    if (lo >= n) {
+        r.idx = n - 1;
+        r.f = 0.0;
+    } else {
+        r.idx = lo - 1;
+        r.f = (q - b[lo - 1]) / (b[lo] - b[lo - 1]);
+    }
+    return r;
+}
+
+/* Piecewise-linear value, reference formula (c1 - c0) * f + c0 in double; the read of c[idx+1] is
+ * guarded when the factor is zero (the reference reads past the vector there and multiplies by 0). */
+static inline double pl_eval(const float *c, ip_t p)
+{
+    double c0 = (double)c[p.idx];
+    if (p.f == 0.0) return c0;
+    return ((double)c[p.idx + 1] - c0) * p.f + c0;
+}
+
+static inline double clamp_unit(double x)
+{
+    return x > 1.0 ? 1.0 : (x < -1.0 ? -1.0 : x);
+}
+
+typedef struct {
+    double theta, gamma, shadow, zero;
+} angles_t;
+
+/* Per-sky-state geometry for an observer at (0, 0, h) (reference computeParameters). */
+typedef struct {
+    double d;        /* |p - C| + safety altitude [m] */
+    double sz;       /* z of the shifted view point S = C + n d */
+    double oz;       /* z of the corrected origin O' = C + n (d - c) */
+    int corrected;   /* d > R */
+    double s[3];     /* unit vector to the sun */
+    double h[3];     /* shadow direction */
+    int use_shadow;  /* elevation < 0: radiance uses the shadow angle */
+} geom_t;
+
+static void geom_init(geom_t *g, double obs_alt, double el, double az)
+{
+    const double R = PLANET_RADIUS;
+    double tz = obs_alt + R; /* to_viewpoint = p - C = (0, 0, h + R) */
+    double len = fabs(tz);
+    double nz = tz / len;    /* normalised: exactly 1 */
+    g->d = len + SAFETY_ALTITUDE;
+    g->sz = -R + nz * g->d;
+    g->corrected = g->d > R;
+    if (g->corrected) {
+        double c = sqrt(g->d * g->d - R * R) / g->d;
+        g->oz = -R + nz * (g->d - c);
+    } else {
+        g->oz = 0.0;
+    }
+    g->s[0] = cos(az) * cos(el);
+    g->s[1] = sin(az) * cos(el);
+    g->s[2] = sin(el);
+    double sig = el + 0.5 * M_PI;
+    g->h[0] = cos(sig) * cos(az);
+    g->h[1] = cos(sig) * sin(az);
+    g->h[2] = sin(sig);
+    /* elevation at the view point: pi/2 - angle(n, s) with n = (0, 0, 1) */
+    double elev = 0.5 * M_PI - acos(clamp_unit(g->s[2]));
+    g->use_shadow = elev < 0.0;
+}
+
+static inline angles_t compute_angles(const double *v, const geom_t *g, int need_theta, int need_shadow)
+{
+    angles_t a;
+    double nv = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (nv < DBL_EPSILON_) nv = DBL_EPSILON_;
+    double vx = v[0] / nv, vy = v[1] / nv, vz = v[2] / nv;
+    double cx = vx, cy = vy, cz = vz;
+    if (g->corrected) {
+        /* look = S + v; corrected view = look - O' */
+        cz = (vz + g->sz) - g->oz;
+        double nc = sqrt(cx * cx + cy * cy + cz * cz);
+        cx /= nc;
+        cy /= nc;
+        cz /= nc;
+    }
+    a.gamma = acos(clamp_unit(vx * g->s[0] + vy * g->s[1] + vz * g->s[2]));
+    a.zero = acos(clamp_unit(cz));
+    a.theta = need_theta ? acos(clamp_unit(vz)) : 0.0;
+    a.shadow = need_shadow ? acos(clamp_unit(cx * g->h[0] + cy * g->h[1] + cz * g->h[2])) : 0.0;
+    return a;
+}
+
+/* One model component: radiance (with emphasis, clamped) or polarisation (no emphasis). */
+typedef struct {
+    const float *sun;   /* [ncfg][rank][ns] */
+    const float *zen;   /* [ncfg][rank][nz] */
+    const float *emph;  /* [ncfg][ne] or NULL */
+    const double *sb, *zb, *eb;
+    int ns, nz, ne, rank;
+    int clamp;
+    int nch;            /* channels per configuration block in the loaded arrays */
+} comp_t;
+
+static inline double eval_config(const comp_t *m, size_t cfg, ip_t g, ip_t a, ip_t z)
+{
+    const float *sun = m->sun + cfg * (size_t)m->rank * m->ns;
+    const float *zen = m->zen + cfg * (size_t)m->rank * m->nz;
+    double res = 0.0;
+    for (int r = 0; r < m->rank; ++r)
+        res += pl_eval(sun + (size_t)r * m->ns, g) * pl_eval(zen + (size_t)r * m->nz, a);
+    if (m->emph) {
+        res *= pl_eval(m->emph + cfg * (size_t)m->ne, z);
+        if (res < 0.0) res = 0.0;
+    }
+    return res;
+}
+
+/* Output writers (float32 or float64). */
+static inline void put(void *out, size_t i, double v, int is_double)
+{
+    if (is_double)
+        ((double *)out)[i] = v;
+    else
+        ((float *)out)[i] = (float)v;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* direct path                                                                                */
+
+static void radiance_direct(const comp_t *m, const geom_t *geo, const int64_t *cfg_base,
+                            const double *cfg_w, int ncfg, const int64_t *chi, int nc,
+                            const double *dirs, Py_ssize_t n, void *out, int is_double, double sign)
+{
+    Py_ssize_t i;
+#pragma omp parallel for schedule(static)
+    for (i = 0; i < n; ++i) {
+        angles_t a = compute_angles(dirs + 3 * i, geo, 0, m->emph != NULL && geo->use_shadow);
+        ip_t gp = knot_lookup(a.gamma, m->sb, m->ns);
+        double alpha = (m->emph != NULL && geo->use_shadow) ? a.shadow : a.zero;
+        ip_t ap = knot_lookup(alpha, m->zb, m->nz);
+        ip_t zp = {0, 0.0};
+        if (m->emph) zp = knot_lookup(a.zero, m->eb, m->ne);
+        for (int k = 0; k < nc; ++k) {
+            double acc = 0.0;
+            for (int c = 0; c < ncfg; ++c) {
+                size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
+                acc += cfg_w[c] * eval_config(m, cfg, gp, ap, zp);
+            }
+            put(out, (size_t)i * nc + k, sign * acc, is_double);
+        }
+    }
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* table path                                                                                 */
+
+typedef struct {
+    int ns, nu;
+    const double *sb;
+    double *u;       /* merged zenith/emphasis knots [nu] */
+    double *tab;     /* [(ns-1)*(nu-1)][6][nc] */
+    int *mix_start;  /* [ncell + 1] */
+    int *mix_ch;     /* [nmix] */
+    double *mix_coef;/* [nmix][6] */
+    int nc;
+} table_t;
+
+static void table_free(table_t *t)
+{
+    free(t->u);
+    free(t->tab);
+    free(t->mix_start);
+    free(t->mix_ch);
+    free(t->mix_coef);
+    memset(t, 0, sizeof(*t));
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+typedef struct {
+    int n, cap;
+    int *cell, *ch;
+    double *coef;
+} mixlist_t;
+
+static int mix_push(mixlist_t *l, int cell, int ch, const double *c6)
+{
+    if (l->n == l->cap) {
+        int cap = l->cap ? 2 * l->cap : 64;
+        int *nc_ = realloc(l->cell, sizeof(int) * cap);
+        if (!nc_) return -1;
+        l->cell = nc_;
+        int *nh = realloc(l->ch, sizeof(int) * cap);
+        if (!nh) return -1;
+        l->ch = nh;
+        double *nd = realloc(l->coef, sizeof(double) * 6 * cap);
+        if (!nd) return -1;
+        l->coef = nd;
+        l->cap = cap;
+    }
+    l->cell[l->n] = cell;
+    l->ch[l->n] = ch;
+    memcpy(l->coef + 6 * (size_t)l->n, c6, 6 * sizeof(double));
+    l->n++;
+    return 0;
+}
+
+/* Hot functions get an AVX2/FMA clone next to the portable one where the toolchain supports
+ * function multi-versioning (resolved once at load time). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HOT __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define HOT
+#endif
+
+/* Accelerated cell lookup on ascending knots: a uniform bucket grid gives a starting interval, a short
+ * forward scan finishes. Returns the interval i in [0, n-2] containing the clamped q (the last interval
+ * for q at the last knot), as the reference lookup would select, and the local offset q - b[i]. */
+typedef struct {
+    const double *b;
+    int n, nbk;
+    double b0, inv;
+    int *start;
+} accel_t;
+
+static int accel_init(accel_t *a, const double *b, int n)
+{
+    a->b = b;
+    a->n = n;
+    a->nbk = 8 * n;
+    a->b0 = b[0];
+    double span = b[n - 1] - b[0];
+    a->inv = span > 0 ? a->nbk / span : 0.0;
+    a->start = malloc(sizeof(int) * (a->nbk + 1));
+    if (!a->start) return -1;
+    int i = 0;
+    for (int k = 0; k <= a->nbk; ++k) {
+        double q = b[0] + k / a->inv;
+        while (i + 1 < n - 1 && b[i + 1] <= q) ++i;
+        /* rounding in q may overshoot: step back while the interval starts above the bucket */
+        while (i > 0 && b[i] > b[0] + (double)k / a->inv) --i;
+        a->start[k] = i;
+    }
+    return 0;
+}
+
+static inline int accel_cell(const accel_t *a, double q, double *local)
+{
+    const double *b = a->b;
+    const int n = a->n;
+    if (!(q >= b[0])) q = b[0];
+    if (q > b[n - 1]) q = b[n - 1];
+    int k = (int)((q - a->b0) * a->inv);
+    if (k > a->nbk) k = a->nbk;
+    if (k < 0) k = 0;
+    int i = a->start[k];
+    while (i > 0 && b[i] > q) --i;
+    while (i + 1 < n - 1 && b[i + 1] <= q) ++i;
+    *local = q - b[i];
+    return i;
+}
+
+typedef struct {
+    const comp_t *m;
+    const int64_t *cfg_base;
+    const double *cfg_w;
+    int ncfg, nc, nu, ncell_u;
+    const int64_t *chi;
+    const double *u;
+    const double *zat, *eat;
+    table_t *t;
+} build_ctx_t;
+
+/* One row of sun cells: S at sun knots i and i+1 (ra, rb), then 8 corner-product sums per cell
+ * acc[p][j], p = (e0|e1) x (S00|S01|S10|S11), accumulated over the configurations that cannot change
+ * sign inside the cell; the others go to the mixed list (clamped terms) or are dropped (<= 0). */
+HOT static int build_row(const build_ctx_t *X, int i, mixlist_t *mix, double *restrict ra, double *restrict rb,
+                         double *restrict acc)
+{
+    const comp_t *m = X->m;
+    const int nu = X->nu, ncell_u = X->ncell_u, nc = X->nc, R = m->rank, ns = m->ns;
+    const double dg = m->sb[i + 1] - m->sb[i];
+    const double *u = X->u;
+    for (int k = 0; k < nc; ++k) {
+        memset(acc, 0, sizeof(double) * 8 * (size_t)ncell_u);
+        for (int c = 0; c < X->ncfg; ++c) {
+            const double w = X->cfg_w[c];
+            size_t q = (size_t)c * nc + k;
+            size_t cfg = (size_t)X->cfg_base[c] * m->nch + (size_t)X->chi[k];
+            const float *sun = m->sun + cfg * (size_t)R * ns;
+            for (int j = 0; j < nu; ++j) ra[j] = rb[j] = 0.0;
+            for (int r = 0; r < R; ++r) {
+                const double s0 = sun[(size_t)r * ns + i], s1 = sun[(size_t)r * ns + i + 1];
+                const double *restrict zr = X->zat + (q * R + r) * nu;
+                for (int j = 0; j < nu; ++j) {
+                    ra[j] += s0 * zr[j];
+                    rb[j] += s1 * zr[j];
+                }
+            }
+            const double *restrict er = X->eat + q * nu;
+            int row_safe = 1;
+            if (m->clamp) {
+                double smin = ra[0], smax = ra[0], emin = er[0], emax = er[0];
+                for (int j = 0; j < nu; ++j) {
+                    double lo = ra[j] < rb[j] ? ra[j] : rb[j], hi = ra[j] < rb[j] ? rb[j] : ra[j];
+                    smin = lo < smin ? lo : smin;
+                    smax = hi > smax ? hi : smax;
+                    emin = er[j] < emin ? er[j] : emin;
+                    emax = er[j] > emax ? er[j] : emax;
+                }
+                row_safe = (smin >= 0 && emin >= 0) || (smax <= 0 && emax <= 0);
+            }
+            double *restrict a0 = acc, *restrict a1 = acc + ncell_u, *restrict a2 = acc + 2 * ncell_u;
+            double *restrict a3 = acc + 3 * ncell_u, *restrict a4 = acc + 4 * ncell_u;
+            double *restrict a5 = acc + 5 * ncell_u, *restrict a6 = acc + 6 * ncell_u;
+            double *restrict a7 = acc + 7 * ncell_u;
+            if (row_safe) {
+                for (int j = 0; j < ncell_u; ++j) {
+                    const double e0 = w * er[j], e1 = w * er[j + 1];
+                    a0[j] += e0 * ra[j];
+                    a1[j] += e0 * ra[j + 1];
+                    a2[j] += e0 * rb[j];
+                    a3[j] += e0 * rb[j + 1];
+                    a4[j] += e1 * ra[j];
+                    a5[j] += e1 * ra[j + 1];
+                    a6[j] += e1 * rb[j];
+                    a7[j] += e1 * rb[j + 1];
+                }
+                continue;
+            }
+            for (int j = 0; j < ncell_u; ++j) {
+                const double S00 = ra[j], S01 = ra[j + 1], S10 = rb[j], S11 = rb[j + 1];
+                const double e0 = er[j], e1v = er[j + 1];
+                double smin = fmin(fmin(S00, S01), fmin(S10, S11));
+                double smax = fmax(fmax(S00, S01), fmax(S10, S11));
+                double emin = fmin(e0, e1v), emax = fmax(e0, e1v);
+                if ((smin >= 0 && emin >= 0) || (smax <= 0 && emax <= 0)) {
+                    const double we0 = w * e0, we1 = w * e1v;
+                    a0[j] += we0 * S00;
+                    a1[j] += we0 * S01;
+                    a2[j] += we0 * S10;
+                    a3[j] += we0 * S11;
+                    a4[j] += we1 * S00;
+                    a5[j] += we1 * S01;
+                    a6[j] += we1 * S10;
+                    a7[j] += we1 * S11;
+                } else if (!((smin >= 0 && emax <= 0) || (smax <= 0 && emin >= 0))) {
+                    const double dz = u[j + 1] - u[j];
+                    const double P10 = (S10 - S00) / dg, P01 = (S01 - S00) / dz;
+                    const double P11 = (S11 - S10 - S01 + S00) / (dg * dz);
+                    const double E1 = (e1v - e0) / dz;
+                    double c6[6] = {w * e0 * S00, w * e0 * P10, w * (e0 * P01 + E1 * S00),
+                                    w * (e0 * P11 + E1 * P10), w * E1 * P01, w * E1 * P11};
+                    if (mix_push(mix, i * ncell_u + j, k, c6)) return -1;
+                }
+            }
+        }
+        /* polynomial coefficients from the corner-product sums (x: e0 S, y: e1 S):
+         * e(z) = e0 + (e1 - e0) z/dz, S = S00 + (S10-S00) g/dg + (S01-S00) z/dz + (S11-S10-S01+S00) g z/(dg dz) */
+        const double ig = 1.0 / dg;
+        for (int j = 0; j < ncell_u; ++j) {
+            const double ix = 1.0 / (u[j + 1] - u[j]);
+            const double x00 = acc[j], x01 = acc[ncell_u + j], x10 = acc[2 * ncell_u + j];
+            const double x11 = acc[3 * ncell_u + j], y00 = acc[4 * ncell_u + j];
+            const double y01 = acc[5 * ncell_u + j], y10 = acc[6 * ncell_u + j];
+            const double y11 = acc[7 * ncell_u + j];
+            double *T = X->t->tab + ((size_t)(i * ncell_u + j)) * 6 * nc + k;
+            T[0] = x00;
+            T[nc] = (x10 - x00) * ig;
+            T[2 * nc] = ((x01 - x00) + (y00 - x00)) * ix;
+            T[3 * nc] = ((x11 - x10 - x01 + x00) + (y10 - x10) - (y00 - x00)) * ig * ix;
+            T[4 * nc] = ((y01 - x01) - (y00 - x00)) * ix * ix;
+            T[5 * nc] = ((y11 - x11) - (y10 - x10) - (y01 - x01) + (y00 - x00)) * ig * ix * ix;
+        }
+    }
+    return 0;
+}
+
+/* Build the per-cell polynomial table for a fixed sky state (sun above the horizon). Returns 0 on
+ * success, -1 on allocation failure. */
+static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, const double *cfg_w,
+                       int ncfg, const int64_t *chi, int nc)
+{
+    memset(t, 0, sizeof(*t));
+    const int ns = m->ns, R = m->rank;
+    t->ns = ns;
+    t->sb = m->sb;
+    t->nc = nc;
+    /* merged knots */
+    int nmax = m->nz + (m->emph ? m->ne : 0);
+    t->u = malloc(sizeof(double) * nmax);
+    if (!t->u) return -1;
+    memcpy(t->u, m->zb, sizeof(double) * m->nz);
+    if (m->emph) memcpy(t->u + m->nz, m->eb, sizeof(double) * m->ne);
+    qsort(t->u, nmax, sizeof(double), cmp_double);
+    int nu = 0;
+    for (int j = 0; j < nmax; ++j)
+        if (nu == 0 || t->u[j] > t->u[nu - 1]) t->u[nu++] = t->u[j];
+    t->nu = nu;
+    const int ncell_u = nu - 1, ncell = (ns - 1) * ncell_u;
+
+    /* values of every zenith factor and of the emphasis at the merged knots:
+     * zat[((c * nc + k) * R + r) * nu + j], eat[(c * nc + k) * nu + j] */
+    size_t nzat = (size_t)ncfg * nc * R * nu, neat = (size_t)ncfg * nc * nu;
+    double *zat = malloc(sizeof(double) * nzat);
+    double *eat = malloc(sizeof(double) * neat);
+    ip_t *zl = malloc(sizeof(ip_t) * nu), *el = malloc(sizeof(ip_t) * nu);
+    t->tab = malloc((size_t)ncell * 6 * nc * sizeof(double));
+    t->mix_start = calloc((size_t)ncell + 1, sizeof(int));
+    mixlist_t *rows = calloc((size_t)(ns - 1), sizeof(mixlist_t));
+    int fail = !zat || !eat || !zl || !el || !t->tab || !t->mix_start || !rows;
+    if (!fail) {
+        for (int j = 0; j < nu; ++j) {
+            zl[j] = knot_lookup(t->u[j], m->zb, m->nz);
+            if (m->emph) el[j] = knot_lookup(t->u[j], m->eb, m->ne);
+        }
+        Py_ssize_t q, nq = (Py_ssize_t)ncfg * nc;
+#pragma omp parallel for schedule(static)
+        for (q = 0; q < nq; ++q) {
+            int c = (int)(q / nc), k = (int)(q % nc);
+            size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
+            const float *zen = m->zen + cfg * (size_t)R * m->nz;
+            for (int r = 0; r < R; ++r)
+                for (int j = 0; j < nu; ++j)
+                    zat[((size_t)q * R + r) * nu + j] = pl_eval(zen + (size_t)r * m->nz, zl[j]);
+            for (int j = 0; j < nu; ++j)
+                eat[(size_t)q * nu + j] = m->emph ? pl_eval(m->emph + cfg * (size_t)m->ne, el[j]) : 1.0;
+        }
+        build_ctx_t X = {m, cfg_base, cfg_w, ncfg, nc, nu, ncell_u, chi, t->u, zat, eat, t};
+        int row_fail = 0;
+        int i;
+#pragma omp parallel for schedule(dynamic, 1) reduction(|| : row_fail)
+        for (i = 0; i < ns - 1; ++i) {
+            double *buf = malloc(sizeof(double) * (2 * (size_t)nu + 8 * (size_t)ncell_u));
+            if (!buf || build_row(&X, i, &rows[i], buf, buf + nu, buf + 2 * nu)) row_fail = 1;
+            free(buf);
+        }
+        fail = row_fail;
+    }
+    if (!fail) {
+        /* CSR of the mixed terms by cell */
+        size_t total = 0;
+        for (int i = 0; i < ns - 1; ++i) total += rows[i].n;
+        t->mix_ch = malloc(sizeof(int) * (total ? total : 1));
+        t->mix_coef = malloc(sizeof(double) * 6 * (total ? total : 1));
+        int *fill = calloc((size_t)ncell, sizeof(int));
+        if (!t->mix_ch || !t->mix_coef || !fill) fail = 1;
+        if (!fail) {
+            for (int i = 0; i < ns - 1; ++i)
+                for (int e = 0; e < rows[i].n; ++e) t->mix_start[rows[i].cell[e] + 1]++;
+            for (int c = 0; c < ncell; ++c) t->mix_start[c + 1] += t->mix_start[c];
+            for (int i = 0; i < ns - 1; ++i)
+                for (int e = 0; e < rows[i].n; ++e) {
+                    int cell = rows[i].cell[e];
+                    int pos = t->mix_start[cell] + fill[cell]++;
+                    t->mix_ch[pos] = rows[i].ch[e];
+                    memcpy(t->mix_coef + 6 * (size_t)pos, rows[i].coef + 6 * (size_t)e, 6 * sizeof(double));
+                }
+        }
+        free(fill);
+    }
+    if (rows)
+        for (int i = 0; i < ns - 1; ++i) {
+            free(rows[i].cell);
+            free(rows[i].ch);
+            free(rows[i].coef);
+        }
+    free(rows);
+    free(zat);
+    free(eat);
+    free(zl);
+    free(el);
+    if (fail) {
+        table_free(t);
+        return -1;
+    }
+    return 0;
+}
+
+/* Evaluate one direction from its cell and local offsets. */
+static inline void eval_one(const table_t *t, int cell, double g, double z, double *restrict acc)
+{
+    const int nc = t->nc;
+    const double *restrict T = t->tab + (size_t)cell * 6 * nc;
+    const double gz = g * z, z2 = z * z, gz2 = gz * z;
+    for (int k = 0; k < nc; ++k)
+        acc[k] = T[k] + g * T[nc + k] + z * T[2 * nc + k] + gz * T[3 * nc + k] + z2 * T[4 * nc + k] +
+                 gz2 * T[5 * nc + k];
+    for (int e = t->mix_start[cell]; e < t->mix_start[cell + 1]; ++e) {
+        const double *c6 = t->mix_coef + 6 * (size_t)e;
+        double v = c6[0] + g * c6[1] + z * c6[2] + gz * c6[3] + z2 * c6[4] + gz2 * c6[5];
+        if (v > 0) acc[t->mix_ch[e]] += v;
+    }
+}
+
+static inline void store_row(void *out, Py_ssize_t i, int nc, const double *restrict acc, int is_double,
+                             double sign)
+{
+    if (is_double) {
+        double *restrict o = (double *)out + (size_t)i * nc;
+        for (int k = 0; k < nc; ++k) o[k] = sign * acc[k];
+    } else {
+        float *restrict o = (float *)out + (size_t)i * nc;
+        for (int k = 0; k < nc; ++k) o[k] = (float)(sign * acc[k]);
+    }
+}
+
+/* Pass 1: cell index and local offsets of directions [i0, i1). */
+static void locate_chunk(const table_t *t, const accel_t *ag, const accel_t *az, const geom_t *geo,
+                         const double *dirs, Py_ssize_t i0, Py_ssize_t i1, int *cell, double *gl, double *zl)
+{
+    const int ncell_u = t->nu - 1;
+    for (Py_ssize_t i = i0; i < i1; ++i) {
+        angles_t a = compute_angles(dirs + 3 * i, geo, 0, 0);
+        int ig = accel_cell(ag, a.gamma, &gl[i]);
+        int iz = accel_cell(az, a.zero, &zl[i]);
+        cell[i] = ig * ncell_u + iz;
+    }
+}
+
+/* Pass 2: evaluate the directions listed in order[p0, p1) (sorted by cell, so each cell's
+ * coefficients are read from memory once rather than once per direction). */
+HOT static void eval_sorted(const table_t *t, const int *order, Py_ssize_t p0, Py_ssize_t p1, const int *cell,
+                            const double *gl, const double *zl, void *out, int is_double, double sign,
+                            double *restrict acc)
+{
+    for (Py_ssize_t p = p0; p < p1; ++p) {
+        Py_ssize_t i = order ? order[p] : p;
+        eval_one(t, cell[i], gl[i], zl[i], acc);
+        store_row(out, i, t->nc, acc, is_double, sign);
+    }
+}
+
+static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, Py_ssize_t n, void *out,
+                      int is_double, double sign)
+{
+    accel_t ag, az;
+    const int ncell = (t->ns - 1) * (t->nu - 1);
+    int *cell = malloc(sizeof(int) * (n ? n : 1));
+    double *gl = malloc(sizeof(double) * (n ? n : 1)), *zl = malloc(sizeof(double) * (n ? n : 1));
+    int sort = n > 4 * (Py_ssize_t)ncell;
+    int *order = sort ? malloc(sizeof(int) * n) : NULL;
+    int *count = sort ? calloc((size_t)ncell + 1, sizeof(int)) : NULL;
+    int fail = !cell || !gl || !zl || (sort && (!order || !count)) || n > INT32_MAX;
+    if (!fail && accel_init(&ag, t->sb, t->ns)) fail = 1;
+    if (!fail && accel_init(&az, t->u, t->nu)) {
+        free(ag.start);
+        fail = 1;
+    }
+    if (fail) {
+        free(cell), free(gl), free(zl), free(order), free(count);
+        return -1;
+    }
+    const Py_ssize_t chunk = 256;
+    Py_ssize_t nchunks = (n + chunk - 1) / chunk, c;
+#pragma omp parallel for schedule(static)
+    for (c = 0; c < nchunks; ++c) {
+        Py_ssize_t i0 = c * chunk, i1 = i0 + chunk < n ? i0 + chunk : n;
+        locate_chunk(t, &ag, &az, geo, dirs, i0, i1, cell, gl, zl);
+    }
+    if (sort) { /* counting sort by cell */
+        for (Py_ssize_t i = 0; i < n; ++i) count[cell[i] + 1]++;
+        for (int k = 0; k < ncell; ++k) count[k + 1] += count[k];
+        for (Py_ssize_t i = 0; i < n; ++i) order[count[cell[i]]++] = (int)i;
+    }
+#pragma omp parallel reduction(|| : fail)
+    {
+        double *acc = malloc(sizeof(double) * (t->nc > 0 ? t->nc : 1));
+        if (!acc) fail = 1;
+#pragma omp for schedule(static)
+        for (c = 0; c < nchunks; ++c) {
+            if (!acc) continue;
+            Py_ssize_t p0 = c * chunk, p1 = p0 + chunk < n ? p0 + chunk : n;
+            eval_sorted(t, order, p0, p1, cell, gl, zl, out, is_double, sign, acc);
+        }
+        free(acc);
+    }
+    free(ag.start);
+    free(az.start);
+    free(cell), free(gl), free(zl), free(order), free(count);
+    return fail ? -1 : 0;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* transmittance                                                                              */
+
+static double ray_circle(double dx, double dy, double y0, double rc)
+{
+    double qa = dx * dx + dy * dy;
+    double qb = 2.0 * y0 * dy;
+    double qc = y0 * y0 - rc * rc;
+    double disc = qb * qb - 4.0 * qa * qc;
+    if (disc <= 0) return -1.0;
+    disc = sqrt(disc);
+    double den = fmax(2.0 * qa, DBL_EPSILON_);
+    double d1 = (-qb + disc) / den, d2 = (-qb - disc) / den;
+    if (d1 > 0 && d2 > 0) return fmin(d1, d2);
+    return fmax(d1, d2);
+}
+
+static inline ip_t trans_param(double v, int n, double p)
+{
+    ip_t r;
+    int i = (int)(v * n);
+    if (i > n - 1) i = n - 1;
+    if (i < 0) i = 0;
+    r.idx = i;
+    r.f = 0.0;
+    if (i < n - 1) {
+        double c1 = pow((double)i / n, p), c2 = pow((double)(i + 1) / n, p);
+        double f = (pow(v, p) - c1) / (c2 - c1);
+        r.f = f < 0 ? 0 : (f > 1 ? 1 : f);
+    }
+    return r;
+}
+
+typedef struct {
+    const float *U; /* [nAltT][dDim][aDim][rank] */
+    const float *V; /* [nVisT][nAltT][nch][rank] */
+    int ddim, adim, nalt, rank, nch;
+} trans_t;
+
+static inline double trans_uv(const trans_t *T, int ivis, int ialt, int ch, int a, int d)
+{
+    if (a >= T->adim || d >= T->ddim) return 0.0;
+    const float *u = T->U + (((size_t)ialt * T->ddim + d) * T->adim + a) * T->rank;
+    const float *v = T->V + (((size_t)ivis * T->nalt + ialt) * T->nch + ch) * T->rank;
+    double s = 0.0;
+    for (int r = 0; r < T->rank; ++r) s += (double)u[r] * (double)v[r];
+    return s;
+}
+
+static inline double trans_reconstruct(const trans_t *T, int ivis, int ialt, int ch, ip_t ap, ip_t dp)
+{
+    double t00 = trans_uv(T, ivis, ialt, ch, ap.idx, dp.idx);
+    double t01 = trans_uv(T, ivis, ialt, ch, ap.idx, dp.idx + 1);
+    double t10 = trans_uv(T, ivis, ialt, ch, ap.idx + 1, dp.idx);
+    double t11 = trans_uv(T, ivis, ialt, ch, ap.idx + 1, dp.idx + 1);
+    double lo = t00, hi = t10;
+    if (dp.f > 0) {
+        lo = (1 - dp.f) * t00 + dp.f * t01;
+        hi = (1 - dp.f) * t10 + dp.f * t11;
+    }
+    lo = lo > 0 ? lo : 0;
+    hi = hi > 0 ? hi : 0;
+    if (ap.f > 0) return (1 - ap.f) * lo + ap.f * hi;
+    return lo;
+}
+
+/* theta: uncorrected view zenith angle [rad]; h: altitude parameter [m]; dist [m] */
+static inline void trans_location(double theta, double h, double dist, int adim, int ddim, ip_t *ap, ip_t *dp)
+{
+    const double R = PLANET_RADIUS, top = PLANET_RADIUS + ATMOSPHERE_WIDTH;
+    double dx = sin(theta), dy = cos(theta), y0 = R + h;
+    double t;
+    if (h < 0.3) {
+        t = theta <= 0.5 * M_PI ? ray_circle(dx, dy, y0, top) : 0.0;
+    } else {
+        t = ray_circle(dx, dy, y0, R);
+        if (t < 0) t = ray_circle(dx, dy, y0, top);
+    }
+    if (t < 0) t = 0;
+    if (t > dist) t = dist;
+    double px = dx * t, py = dy * t + y0;
+    double rho = sqrt(px * px + py * py);
+    double alt = rho - R;
+    alt = alt < 0 ? 0 : (alt > ATMOSPHERE_WIDTH ? ATMOSPHERE_WIDTH : alt);
+    double aparam = pow(alt / ATMOSPHERE_WIDTH, 1.0 / 3.0);
+    double dd = acos(clamp_unit(py / rho)) * R;
+    double dparam = sqrt(sqrt(dd / DIST_TO_EDGE));
+    if (dparam > 1) dparam = 1;
+    *ap = trans_param(aparam, adim, 3.0);
+    *dp = trans_param(dparam, ddim, 4.0);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* buffer plumbing                                                                            */
+
+typedef struct {
+    Py_buffer b;
+    int held;
+} buf_t;
+
+static int get_buf(PyObject *o, buf_t *bb, int writable, const char *name, Py_ssize_t itemsize)
+{
+    bb->held = 0;
+    if (o == Py_None) {
+        bb->b.buf = NULL;
+        bb->b.len = 0;
+        return 0;
+    }
+    if (PyObject_GetBuffer(o, &bb->b, (writable ? PyBUF_WRITABLE : 0) | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
+        return -1;
+    bb->held = 1;
+    if (bb->b.itemsize != itemsize) {
+        PyErr_Format(PyExc_TypeError, "%s: expected itemsize %zd, got %zd", name, itemsize, bb->b.itemsize);
+        return -1;
+    }
+    return 0;
+}
+
+static void rel_buf(buf_t *bb)
+{
+    if (bb->held) PyBuffer_Release(&bb->b);
+    bb->held = 0;
+}
+
+#define NBUF 12
+
+static void set_threads(int nthreads)
+{
+#ifdef WIDESKY_OPENMP
+    if (nthreads > 0) omp_set_num_threads(nthreads);
+#else
+    (void)nthreads;
+#endif
+}
+
+/* radiance(sun, zen, emph|None, sb, zb, eb|None, rank, nch, cfg_base, cfg_w, chi, dirs, state, out,
+ *          method, nthreads)
+ * state = (observer altitude [m], solar elevation [rad], solar azimuth [rad, from +x toward +y]).
+ * method: 0 auto, 1 direct, 2 table. emph None -> polarisation (no clamp, output negated).
+ * Returns the method used (1 or 2). */
+static PyObject *py_radiance(PyObject *self, PyObject *args)
+{
+    PyObject *o[14];
+    int rank, nch, method, nthreads;
+    double alt, el, az;
+    if (!PyArg_ParseTuple(args, "OOOOOOiiOOOO(ddd)Oii", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &rank,
+                          &nch, &o[6], &o[7], &o[8], &o[9], &alt, &el, &az, &o[10], &method, &nthreads))
+        return NULL;
+    buf_t b[11];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[11] = {4, 4, 4, 8, 8, 8, 8, 8, 8, 8, 0};
+    const int wr[11] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+    const char *names[11] = {"sun", "zen", "emph", "sun_breaks", "zen_breaks", "emph_breaks",
+                             "cfg_base", "cfg_w", "channels", "dirs", "out"};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 11; ++i) {
+        if (i == 10) {
+            if (PyObject_GetBuffer(o[10], &b[10].b, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
+                goto done;
+            b[10].held = 1;
+            if (b[10].b.itemsize != 4 && b[10].b.itemsize != 8) {
+                PyErr_SetString(PyExc_TypeError, "out must be float32 or float64");
+                goto done;
+            }
+            continue;
+        }
+        if (get_buf(o[i], &b[i], wr[i], names[i], isz[i]) < 0) goto done;
+    }
+    {
+        int ns = (int)(b[3].b.len / 8), nz = (int)(b[4].b.len / 8), ne = (int)(b[5].b.len / 8);
+        int ncfg = (int)(b[6].b.len / 8), nc = (int)(b[8].b.len / 8);
+        Py_ssize_t n = b[9].b.len / 24;
+        int is_double = b[10].b.itemsize == 8;
+        comp_t m = {(const float *)b[0].b.buf, (const float *)b[1].b.buf,
+                    b[2].held ? (const float *)b[2].b.buf : NULL,
+                    (const double *)b[3].b.buf, (const double *)b[4].b.buf,
+                    b[5].held ? (const double *)b[5].b.buf : NULL, ns, nz, ne, rank,
+                    b[2].held ? 1 : 0, nch};
+        if (ns < 2 || nz < 2 || (m.emph && ne < 2) || b[7].b.len / 8 != ncfg ||
+            b[10].b.len / b[10].b.itemsize != n * (Py_ssize_t)nc) {
+            PyErr_SetString(PyExc_ValueError, "radiance kernel: inconsistent array sizes");
+            goto done;
+        }
+        geom_t geo;
+        geom_init(&geo, alt, el, az);
+        double sign = m.emph ? 1.0 : -1.0;
+        int use_table = method == 2 || (method == 0 && n * (Py_ssize_t)nc >= 20000);
+        if (m.emph && geo.use_shadow) use_table = 0;
+        int err = 0;
+        Py_BEGIN_ALLOW_THREADS
+        set_threads(nthreads);
+        if (use_table) {
+            table_t t;
+            err = table_build(&t, &m, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                              (const int64_t *)b[8].b.buf, nc);
+            if (!err) {
+                err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, sign);
+                table_free(&t);
+            }
+        } else {
+            radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                            (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
+                            is_double, sign);
+        }
+        Py_END_ALLOW_THREADS
+        if (err) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        ret = PyLong_FromLong(use_table ? 2 : 1);
+    }
+done:
+    for (int i = 0; i < 11; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* transmittance(U, V, ddim, adim, nalt, rank, nch, pair_vis, pair_alt, pair_w, chi, dirs, altitude,
+ *               distance, out, nthreads): squared interpolated sqrt-transmittance.
+ * dirs: view directions (only their zenith angle matters); altitude: the altitude parameter [m]
+ * (observer altitude + safety altitude); distance [m] (inf = to the top of the atmosphere). */
+static PyObject *py_transmittance(PyObject *self, PyObject *args)
+{
+    PyObject *o[8];
+    int ddim, adim, nalt, rank, nch, nthreads;
+    double h, dist;
+    if (!PyArg_ParseTuple(args, "OOiiiiiOOOOOddOi", &o[0], &o[1], &ddim, &adim, &nalt, &rank, &nch, &o[2],
+                          &o[3], &o[4], &o[5], &o[6], &h, &dist, &o[7], &nthreads))
+        return NULL;
+    buf_t b[8];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[7] = {4, 4, 8, 8, 8, 8, 8};
+    const char *names[7] = {"U", "V", "pair_vis", "pair_alt", "pair_w", "channels", "dirs"};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 7; ++i)
+        if (get_buf(o[i], &b[i], 0, names[i], isz[i]) < 0) goto done;
+    if (PyObject_GetBuffer(o[7], &b[7].b, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) goto done;
+    b[7].held = 1;
+    {
+        int np_ = (int)(b[2].b.len / 8), nc = (int)(b[5].b.len / 8);
+        Py_ssize_t n = b[6].b.len / 24;
+        int is_double = b[7].b.itemsize == 8;
+        if ((b[7].b.itemsize != 4 && b[7].b.itemsize != 8) || b[7].b.len / b[7].b.itemsize != n * (Py_ssize_t)nc ||
+            b[3].b.len / 8 != np_ || b[4].b.len / 8 != np_) {
+            PyErr_SetString(PyExc_ValueError, "transmittance kernel: inconsistent array sizes");
+            goto done;
+        }
+        trans_t T = {(const float *)b[0].b.buf, (const float *)b[1].b.buf, ddim, adim, nalt, rank, nch};
+        const int64_t *pv = b[2].b.buf, *pa = b[3].b.buf, *chi = b[5].b.buf;
+        const double *pw = b[4].b.buf, *dirs = b[6].b.buf;
+        void *out = b[7].b.buf;
+        Py_BEGIN_ALLOW_THREADS
+        set_threads(nthreads);
+        Py_ssize_t i;
+#pragma omp parallel for schedule(static)
+        for (i = 0; i < n; ++i) {
+            const double *v = dirs + 3 * i;
+            double nv = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            if (nv < DBL_EPSILON_) nv = DBL_EPSILON_;
+            double theta = acos(clamp_unit(v[2] / nv));
+            ip_t ap, dp;
+            trans_location(theta, h, dist, adim, ddim, &ap, &dp);
+            for (int k = 0; k < nc; ++k) {
+                double s = 0.0;
+                for (int p = 0; p < np_; ++p)
+                    s += pw[p] * trans_reconstruct(&T, (int)pv[p], (int)pa[p], (int)chi[k], ap, dp);
+                put(out, (size_t)i * nc + k, s * s, is_double);
+            }
+        }
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 8; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* baseline: a straight port of the reference loop, one direction and one channel per call     */
+
+typedef struct {
+    const double *vis, *alb, *alt, *ele;
+    int nvis, nalb, nalt, nele;
+} grids_t;
+
+static double ref_interpolate(const comp_t *m, const grids_t *G, const ip_t *lv, size_t base_off[4],
+                              int level, size_t cfg_off, int ch, ip_t g, ip_t a, ip_t z)
+{
+    /* levels: 0 visibility, 1 albedo, 2 altitude, 3 elevation */
+    if (level == 4) return eval_config(m, cfg_off * m->nch + ch, g, a, z);
+    const int sizes[4] = {G->nvis, G->nalb, G->nalt, G->nele};
+    int lo = lv[level].idx, hi = lo + 1 < sizes[level] ? lo + 1 : sizes[level] - 1;
+    double rl = ref_interpolate(m, G, lv, base_off, level + 1, cfg_off + lo * base_off[level], ch, g, a, z);
+    if (lv[level].f < 1e-6) return rl;
+    double rh = ref_interpolate(m, G, lv, base_off, level + 1, cfg_off + hi * base_off[level], ch, g, a, z);
+    return (1 - lv[level].f) * rl + lv[level].f * rh;
+}
+
+/* reference_loop(sun, zen, emph, sb, zb, eb, rank, nch, vis, alb, alt, ele, dirs, state(alt, el, az,
+ *                visibility, albedo), channels, out) -- single-threaded baseline */
+static PyObject *py_reference_loop(PyObject *self, PyObject *args)
+{
+    PyObject *o[13];
+    int rank, nch;
+    double alt, el, az, vis, alb;
+    if (!PyArg_ParseTuple(args, "OOOOOOiiOOOOO(ddddd)OO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &rank, &nch,
+                          &o[6], &o[7], &o[8], &o[9], &o[10], &alt, &el, &az, &vis, &alb, &o[11], &o[12]))
+        return NULL;
+    buf_t b[13];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[12] = {4, 4, 4, 8, 8, 8, 8, 8, 8, 8, 8, 8};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 12; ++i)
+        if (get_buf(o[i], &b[i], 0, "arg", isz[i]) < 0) goto done;
+    if (get_buf(o[12], &b[12], 1, "out", 8) < 0) goto done;
+    {
+        comp_t m = {b[0].b.buf, b[1].b.buf, b[2].b.buf, b[3].b.buf, b[4].b.buf, b[5].b.buf,
+                    (int)(b[3].b.len / 8), (int)(b[4].b.len / 8), (int)(b[5].b.len / 8), rank, 1, nch};
+        grids_t G = {b[6].b.buf, b[7].b.buf, b[8].b.buf, b[9].b.buf, (int)(b[6].b.len / 8),
+                     (int)(b[7].b.len / 8), (int)(b[8].b.len / 8), (int)(b[9].b.len / 8)};
+        const double *dirs = b[10].b.buf;
+        const int64_t *chi = b[11].b.buf;
+        int nc = (int)(b[11].b.len / 8);
+        Py_ssize_t n = b[10].b.len / 24;
+        double *out = b[12].b.buf;
+        if (b[12].b.len / 8 != n * nc) {
+            PyErr_SetString(PyExc_ValueError, "reference_loop: inconsistent sizes");
+            goto done;
+        }
+        size_t off[4];
+        off[3] = 1;
+        off[2] = (size_t)G.nele;
+        off[1] = off[2] * G.nalt;
+        off[0] = off[1] * G.nalb;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < n; ++i) {
+            /* computeParameters per direction */
+            geom_t geo;
+            geom_init(&geo, alt, el, az);
+            angles_t a = compute_angles(dirs + 3 * i, &geo, 1, 1);
+            double elevation = 0.5 * M_PI - acos(clamp_unit(geo.s[2]));
+            double altitude = geo.d - PLANET_RADIUS;
+            if (altitude < 0) altitude = 0;
+            for (int k = 0; k < nc; ++k) {
+                /* skyRadiance(params, channel): everything looked up anew per call */
+                ip_t g = knot_lookup(a.gamma, m.sb, m.ns);
+                ip_t al = knot_lookup(elevation < 0 ? a.shadow : a.zero, m.zb, m.nz);
+                ip_t z = knot_lookup(a.zero, m.eb, m.ne);
+                ip_t lv[4];
+                lv[0] = knot_lookup(vis, G.vis, G.nvis);
+                lv[1] = knot_lookup(alb, G.alb, G.nalb);
+                lv[2] = knot_lookup(altitude, G.alt, G.nalt);
+                lv[3] = knot_lookup(elevation * 180.0 / M_PI, G.ele, G.nele);
+                out[(size_t)i * nc + k] = ref_interpolate(&m, &G, lv, off, 0, 0, (int)chi[k], g, al, z);
+            }
+        }
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 13; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+static PyObject *py_has_openmp(PyObject *self, PyObject *args)
+{
+#ifdef WIDESKY_OPENMP
+    return PyLong_FromLong(omp_get_max_threads());
+#else
+    return PyLong_FromLong(0);
+#endif
+}
+
+static PyMethodDef methods[] = {
+    {"radiance", py_radiance, METH_VARARGS, "Sky radiance or polarisation kernel (see skymodel.evaluate)."},
+    {"transmittance", py_transmittance, METH_VARARGS, "Transmittance kernel (see skymodel.evaluate)."},
+    {"reference_loop", py_reference_loop, METH_VARARGS,
+     "Baseline: straight port of the reference loop, one direction and channel per call, one thread."},
+    {"openmp_threads", py_has_openmp, METH_NOARGS, "Maximum OpenMP threads (0 when built without OpenMP)."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, "_core",
+                                    "Hot kernels of the widesky Prague Sky Model evaluator.", -1, methods};
+
+PyMODINIT_FUNC PyInit__core(void) { return PyModule_Create(&moddef); }

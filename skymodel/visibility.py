@@ -17,12 +17,15 @@ import numpy as np
 KOSCHMIEDER_CONSTANT = 3.912
 """ln(1/0.02): visibility V [km] times ground extinction [km-1] at the 2 % contrast threshold."""
 
-RAYLEIGH_EXTINCTION_550_KM = 0.01160
-"""Sea-level Rayleigh extinction coefficient at 550 nm [km-1] (Bodhaine et al. 1999 cross-section
-times the US-standard sea-level number density)."""
+RAYLEIGH_EXTINCTION_550_KM = 0.011488
+"""Sea-level Rayleigh extinction coefficient at 550 nm [km-1]: the Bodhaine et al. (1999) cross-section
+4.5105e-27 cm2 (360 ppm CO2) times the number density 2.546899e19 cm-3 (288.15 K, 1013.25 hPa), as
+computed by :func:`skymodel.build.rayleigh.rayleigh_extinction_sea_level_km` (a test keeps them equal)."""
 
 DEFAULT_AEROSOL_SCALE_HEIGHT_KM = 1.5
-"""Scale height of the exponential aerosol extinction profile [km] used by the generator."""
+"""Scale height of the exponential aerosol extinction profile [km] used by the generator. The generator's
+profile is exponential from the ground to 100 km, renormalised so that its layer optical depths sum to
+exactly :func:`aod550_from_visibility` (see docs/atmosphere-and-solver.md, 'Aerosol profile')."""
 
 
 def aerosol_extinction_550(visibility):

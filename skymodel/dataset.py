@@ -1,0 +1,476 @@
+"""Reader for Prague Sky Model dataset files (``.dat``), every variant.
+
+The layout is documented in ``shared/spec/psm-dataset-format.md`` (our own words for the format of
+Wilkie et al. 2021 / Vevoda et al. 2022): radiance metadata, radiance coefficients (half floats with
+a per-rank zenith scale), transmittance (U, V factors of sqrt(T)) and optional polarisation.
+
+Opening is cheap: the file is memory-mapped and only its header is parsed and validated (every count
+is checked against the file size before anything is allocated). The coefficients of the selected
+visibilities, albedos and channels are decoded on first use and kept as ``float32`` (what the
+reference keeps in memory); :attr:`SkyModel.resident_bytes` reports their size.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["DatasetError", "SkyModel", "load_dataset", "default_dataset_path"]
+
+DATA_DIR = Path(__file__).resolve().parent / "data"
+
+
+def default_dataset_path() -> Path:
+    """Path of the embedded default dataset shipped inside the package."""
+    return DATA_DIR / "default.dat"
+
+
+class DatasetError(ValueError):
+    """A dataset file is missing, truncated, corrupted or inconsistent.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    field : str or None
+        The field being read or checked (names as in the format description).
+    offset : int or None
+        Byte offset of that field in the file [bytes].
+    """
+
+    def __init__(self, path, field, offset, problem):
+        self.path, self.field, self.offset, self.problem = str(path), field, offset, problem
+        where = f" field '{field}'" if field else ""
+        at = f" at byte offset {offset}" if offset is not None else ""
+        super().__init__(f"{path}:{where}{at}: {problem}")
+
+
+class _Cursor:
+    """Sequential little-endian reader over a memory map with bounds checks."""
+
+    def __init__(self, buf, path):
+        self.buf, self.path, self.pos, self.size = buf, path, 0, len(buf)
+
+    def error(self, field, problem, offset=None):
+        return DatasetError(self.path, field, self.pos if offset is None else offset, problem)
+
+    def need(self, field, nbytes):
+        if nbytes > self.size - self.pos:
+            raise self.error(field, f"file truncated: needs {nbytes} bytes, {self.size - self.pos} left "
+                                    f"(file size {self.size})")
+
+    def i32(self, field, minimum=None):
+        self.need(field, 4)
+        v = int(np.frombuffer(self.buf, "<i4", 1, self.pos)[0])
+        if minimum is not None and v < minimum:
+            raise self.error(field, f"value {v} must be >= {minimum}")
+        self.pos += 4
+        return v
+
+    def array(self, field, dtype, count, ascending=False):
+        dt = np.dtype(dtype)
+        self.need(field, count * dt.itemsize)
+        a = np.frombuffer(self.buf, dt, count, self.pos).astype(np.float64)
+        if not np.all(np.isfinite(a)):
+            raise self.error(field, "non-finite value")
+        if ascending and count > 1 and not np.all(np.diff(a) > 0):
+            raise self.error(field, f"values must be strictly ascending, got {a[:8]}...")
+        self.pos += count * dt.itemsize
+        return a
+
+    def counted(self, field, dtype="<f8", minimum=1, ascending=True):
+        start = self.pos
+        n = self.i32(f"n({field})", minimum)
+        itemsize = np.dtype(dtype).itemsize
+        if n > (self.size - self.pos) // itemsize:
+            raise self.error(f"n({field})", f"count {n} exceeds what the file can hold", start)
+        return self.array(field, dtype, n, ascending)
+
+
+def _bracket(grid, query, what):
+    """Grid indices needed to evaluate ``query`` (a value or a (lo, hi) range) by interpolation."""
+    grid = np.asarray(grid)
+    if query is None:
+        return np.arange(len(grid))
+    lo, hi = (query, query) if np.ndim(query) == 0 else (min(query), max(query))
+    lo, hi = float(lo), float(hi)
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise ValueError(f"{what}={query!r} must be finite")
+    i0 = int(np.clip(np.searchsorted(grid, lo, side="right") - 1, 0, len(grid) - 1))
+    i1 = int(np.clip(np.searchsorted(grid, hi, side="left"), 0, len(grid) - 1))
+    return np.arange(i0, max(i0, i1) + 1)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    rad_offset: int
+    block_dtype: np.dtype
+    trans_offset: int
+    pol_offset: int | None
+    pol_block_dtype: np.dtype | None
+
+
+class SkyModel:
+    """A loaded (memory-mapped) Prague Sky Model dataset and the selection of it a run uses.
+
+    Use :func:`load_dataset` to create one. Grid attributes describe the *selected* part:
+
+    Attributes
+    ----------
+    path : pathlib.Path
+    visibilities : ndarray  [km]
+    albedos : ndarray  [1]
+    altitudes : ndarray  [m]
+    elevations : ndarray  [deg] solar elevation grid
+    wavelengths : ndarray  [nm] centres of the selected channels
+    channel_edges : ndarray  [nm] lower edges of the selected channels plus the upper edge of the last
+    channel_index : ndarray  indices of the selected channels in the file
+    channel_start, channel_width : float  [nm] the file's channel grid
+    rank : int  radiance rank
+    sun_breaks, zenith_breaks, emph_breaks : ndarray  [rad] knots of the radiance factors
+    has_polarisation : bool
+    metadata : dict  the JSON sidecar (``<file>.json``) if present, else {}
+    """
+
+    def __init__(self, path, *, visibility=None, albedo=None, channels=None, wavelength_range=None,
+                 polarisation=True):
+        path = Path(path)
+        self.path = path
+        if not path.exists():
+            raise DatasetError(path, None, None, "no such file")
+        if path.is_dir():
+            raise DatasetError(path, None, None, "is a directory, not a dataset file")
+        size = path.stat().st_size
+        if size == 0:
+            raise DatasetError(path, "nVis", 0, "file is empty")
+        self.file_size = size
+        self._mm = np.memmap(path, dtype=np.uint8, mode="r")
+        self._parse(self._mm, path, polarisation)
+        self._select(visibility, albedo, channels, wavelength_range)
+        self._decoded = {}
+        sidecar = path.with_suffix(path.suffix + ".json")
+        if not sidecar.exists():
+            sidecar = path.with_suffix(".json")
+        self.metadata = json.loads(sidecar.read_text()) if sidecar.exists() else {}
+
+    # ------------------------------------------------------------------ parsing
+    def _parse(self, buf, path, want_pol):
+        c = _Cursor(buf, path)
+        self.file_visibilities = c.counted("visibilities")
+        self.file_albedos = c.counted("albedos")
+        self.file_altitudes = c.counted("altitudes")
+        self.file_elevations = c.counted("elevations")
+        if np.any(self.file_visibilities <= 0):
+            raise c.error("visibilities", "visibilities must be > 0 km", 4)
+        self.n_channels_file = c.i32("channels", 1)
+        self.channel_start = float(c.array("channelStart", "<f8", 1)[0])
+        self.channel_width = float(c.array("channelWidth", "<f8", 1)[0])
+        if self.channel_start < 0:
+            raise c.error("channelStart", f"{self.channel_start} nm must be >= 0", c.pos - 16)
+        if not self.channel_width > 0:
+            raise c.error("channelWidth", f"{self.channel_width} nm must be > 0", c.pos - 8)
+        self.rank = c.i32("rankRad", 1)
+        self.sun_breaks = c.counted("sunBreaks", minimum=2)
+        self.zenith_breaks = c.counted("zenithBreaks", minimum=2)
+        self.emph_breaks = c.counted("emphBreaks", minimum=2)
+        ns, nz, ne, rank = len(self.sun_breaks), len(self.zenith_breaks), len(self.emph_breaks), self.rank
+        block_bytes = rank * (2 * ns + 8 + 2 * nz) + 2 * ne
+        n_cfg = (len(self.file_visibilities) * len(self.file_albedos) * len(self.file_altitudes)
+                 * len(self.file_elevations) * self.n_channels_file)
+        c.need("radiance coefficients", n_cfg * block_bytes)
+        rank_dt = np.dtype([("sun", "<f2", (ns,)), ("scale", "<f8"), ("zen", "<f2", (nz,))])
+        block_dt = np.dtype([("r", rank_dt, (rank,)), ("emph", "<f2", (ne,))])
+        assert block_dt.itemsize == block_bytes
+        rad_offset = c.pos
+        c.pos += n_cfg * block_bytes
+        trans_offset = c.pos
+        self.trans_d_dim = c.i32("dDim", 1)
+        self.trans_a_dim = c.i32("aDim", 1)
+        n_vis_t = c.i32("nVisT", 1)
+        n_alt_t = c.i32("nAltT", 1)
+        self.trans_rank = c.i32("rankT", 1)
+        self.trans_altitudes = c.array("altitudesT", "<f4", n_alt_t, ascending=True)
+        self.trans_visibilities = c.array("visibilitiesT", "<f4", n_vis_t, ascending=True)
+        nu = n_alt_t * self.trans_d_dim * self.trans_a_dim * self.trans_rank
+        nv = n_vis_t * n_alt_t * self.n_channels_file * self.trans_rank
+        c.need("U", 4 * nu)
+        u_off = c.pos
+        c.pos += 4 * nu
+        c.need("V", 4 * nv)
+        v_off = c.pos
+        c.pos += 4 * nv
+        self._trans_u_off, self._trans_v_off, self._n_alt_t, self._n_vis_t = u_off, v_off, n_alt_t, n_vis_t
+        pol_offset = pol_dt = None
+        self.has_polarisation = False
+        remaining = c.size - c.pos
+        if remaining:
+            pol_offset = c.pos
+            self.pol_rank = c.i32("rankPol", 1)
+            self.pol_sun_breaks = c.counted("polSunBreaks", minimum=1)
+            self.pol_zenith_breaks = c.counted("polZenithBreaks", minimum=1)
+            nps, npz = len(self.pol_sun_breaks), len(self.pol_zenith_breaks)
+            pol_dt = np.dtype([("r", [("sun", "<f4", (nps,)), ("zen", "<f4", (npz,))], (self.pol_rank,))])
+            c.need("polarisation coefficients", n_cfg * pol_dt.itemsize)
+            self._pol_blocks_offset = c.pos
+            c.pos += n_cfg * pol_dt.itemsize
+            if c.pos != c.size:
+                raise c.error("end of file", f"{c.size - c.pos} unexpected trailing bytes after the "
+                                             "polarisation section")
+            self.has_polarisation = bool(want_pol)
+        self._layout = _Layout(rad_offset, block_dt, trans_offset, pol_offset, pol_dt)
+
+    # ------------------------------------------------------------------ selection
+    def _select(self, visibility, albedo, channels, wavelength_range):
+        self._vis_idx = _bracket(self.file_visibilities, visibility, "visibility")
+        self._alb_idx = _bracket(self.file_albedos, albedo, "albedo")
+        nch = self.n_channels_file
+        lower = self.channel_start + self.channel_width * np.arange(nch)
+        if channels is not None and wavelength_range is not None:
+            raise ValueError("give either channels or wavelength_range, not both")
+        if channels is not None:
+            idx = np.unique(np.asarray(channels, dtype=np.int64).ravel())
+            if idx.size == 0 or idx.min() < 0 or idx.max() >= nch:
+                raise ValueError(f"channels={channels!r} outside the dataset's channel indices [0, {nch - 1}]")
+        elif wavelength_range is not None:
+            lo, hi = float(min(wavelength_range)), float(max(wavelength_range))
+            idx = np.nonzero((lower + self.channel_width > lo) & (lower <= hi))[0]
+            if idx.size == 0:
+                raise ValueError(f"wavelength_range={wavelength_range!r} nm selects no channel of the dataset "
+                                 f"[{lower[0]}, {lower[-1] + self.channel_width}) nm")
+        else:
+            idx = np.arange(nch)
+        self.channel_index = idx.astype(np.int64)
+        self.visibilities = self.file_visibilities[self._vis_idx]
+        self.albedos = self.file_albedos[self._alb_idx]
+        self.altitudes = self.file_altitudes
+        self.elevations = self.file_elevations
+        self.channel_lower = lower[idx]
+        self.wavelengths = self.channel_lower + 0.5 * self.channel_width
+        self.channel_edges = np.append(self.channel_lower, self.channel_lower[-1] + self.channel_width)
+
+    # ------------------------------------------------------------------ public properties
+    @property
+    def n_channels(self) -> int:
+        """Number of selected channels."""
+        return int(self.channel_index.size)
+
+    @property
+    def visibility_range(self):
+        """(min, max) of the selected visibility grid [km]."""
+        return float(self.visibilities[0]), float(self.visibilities[-1])
+
+    @property
+    def albedo_range(self):
+        """(min, max) of the selected albedo grid [1]."""
+        return float(self.albedos[0]), float(self.albedos[-1])
+
+    @property
+    def elevation_range(self):
+        """(min, max) of the solar elevation grid [deg]."""
+        return float(self.elevations[0]), float(self.elevations[-1])
+
+    @property
+    def altitude_range(self):
+        """(min, max) of the observer altitude grid [m]."""
+        return float(self.altitudes[0]), float(self.altitudes[-1])
+
+    @property
+    def wavelength_range(self):
+        """(lower edge, upper edge) of the file's channels [nm]."""
+        return self.channel_start, self.channel_start + self.n_channels_file * self.channel_width
+
+    @property
+    def is_synthetic(self) -> bool:
+        """True when the sidecar marks the dataset as synthetic (not a physical sky)."""
+        return bool(self.metadata.get("synthetic", False))
+
+    @property
+    def resident_bytes(self) -> int:
+        """Bytes of decoded coefficients held in memory now [bytes]."""
+        return int(sum(a.nbytes for a in self._decoded.values()))
+
+    def selection_bytes(self) -> int:
+        """Bytes the decoded coefficients of the current selection occupy once loaded [bytes]."""
+        n_cfg = len(self._vis_idx) * len(self._alb_idx) * len(self.altitudes) * len(self.elevations) * self.n_channels
+        ns, nz, ne = len(self.sun_breaks), len(self.zenith_breaks), len(self.emph_breaks)
+        total = n_cfg * 4 * (self.rank * (ns + nz) + ne)
+        total += 4 * (self._n_alt_t * self.trans_d_dim * self.trans_a_dim * self.trans_rank
+                      + self._n_vis_t * self._n_alt_t * self.n_channels * self.trans_rank)
+        if self.has_polarisation:
+            total += n_cfg * 4 * self.pol_rank * (len(self.pol_sun_breaks) + len(self.pol_zenith_breaks))
+        return int(total)
+
+    # ------------------------------------------------------------------ decoding
+    def _blocks(self, dtype, offset):
+        nc = self.n_channels_file
+        shape = (len(self.file_visibilities), len(self.file_albedos), len(self.file_altitudes),
+                 len(self.file_elevations), nc)
+        allb = np.frombuffer(self._mm, dtype, int(np.prod(shape)), offset).reshape(shape)
+        v, a, ch = self._vis_idx, self._alb_idx, self.channel_index
+        sel = allb[v[0]:v[-1] + 1][:, a[0]:a[-1] + 1]
+        if ch.size != nc:
+            sel = sel[..., ch]
+        return sel
+
+    def radiance_coefficients(self):
+        """Decoded radiance factors of the selection, as the reference keeps them (float32).
+
+        Returns
+        -------
+        sun : ndarray, shape (nVis, nAlb, nAlt, nEle, nCh, rank, nSun)
+        zen : ndarray, shape (nVis, nAlb, nAlt, nEle, nCh, rank, nZen)  (already divided by zenithScale)
+        emph : ndarray, shape (nVis, nAlb, nAlt, nEle, nCh, nEmph)
+        """
+        if "sun" not in self._decoded:
+            blk = self._blocks(self._layout.block_dtype, self._layout.rad_offset)
+            r = blk["r"]
+            scale = r["scale"]
+            bad = ~np.isfinite(scale) | (scale == 0)
+            if bad.any():
+                raise DatasetError(self.path, "zenithScale", self._block_offset(np.argwhere(bad)[0][:5]),
+                                   f"{int(bad.sum())} zero or non-finite zenith scales")
+            sun = np.ascontiguousarray(r["sun"].astype(np.float32))
+            zen = np.ascontiguousarray((r["zen"].astype(np.float64) / scale[..., None]).astype(np.float32))
+            emph = np.ascontiguousarray(blk["emph"].astype(np.float32))
+            for name, arr in (("sunStored", sun), ("zenStored", zen), ("emphStored", emph)):
+                if not np.isfinite(arr).all():
+                    pos = np.argwhere(~np.isfinite(arr))[0]
+                    raise DatasetError(self.path, name, self._block_offset(pos[:5]),
+                                       "non-finite radiance coefficient (inf or NaN half float, or overflow)")
+            self._decoded.update(sun=sun, zen=zen, emph=emph)
+        return self._decoded["sun"], self._decoded["zen"], self._decoded["emph"]
+
+    def _block_offset(self, sel_index):
+        """File byte offset of the radiance block at a position of the selection."""
+        iv, ia, ialt, ie, ich = (int(x) for x in sel_index)
+        cfg = ((((self._vis_idx[iv] * len(self.file_albedos) + self._alb_idx[ia]) * len(self.file_altitudes)
+                 + ialt) * len(self.file_elevations) + ie) * self.n_channels_file + self.channel_index[ich])
+        return int(self._layout.rad_offset + cfg * self._layout.block_dtype.itemsize)
+
+    def transmittance_coefficients(self):
+        """Transmittance factors (float32).
+
+        Returns
+        -------
+        U : ndarray, shape (nAltT, dDim, aDim, rankT)
+        V : ndarray, shape (nVisT, nAltT, nCh_selected, rankT)
+        """
+        if "U" not in self._decoded:
+            d, a, r = self.trans_d_dim, self.trans_a_dim, self.trans_rank
+            U = np.frombuffer(self._mm, "<f4", self._n_alt_t * d * a * r, self._trans_u_off)
+            V = np.frombuffer(self._mm, "<f4", self._n_vis_t * self._n_alt_t * self.n_channels_file * r,
+                              self._trans_v_off)
+            U = np.array(U, dtype=np.float32).reshape(self._n_alt_t, d, a, r)
+            V = np.array(V, dtype=np.float32).reshape(self._n_vis_t, self._n_alt_t, self.n_channels_file, r)
+            V = np.ascontiguousarray(V[:, :, self.channel_index])
+            for name, arr, off in (("U", U, self._trans_u_off), ("V", V, self._trans_v_off)):
+                if not np.isfinite(arr).all():
+                    raise DatasetError(self.path, name, off, "non-finite transmittance coefficient")
+            self._decoded.update(U=U, V=V)
+        return self._decoded["U"], self._decoded["V"]
+
+    def polarisation_coefficients(self):
+        """Polarisation factors (float32): psun (..., rankPol, nPSun), pzen (..., rankPol, nPZen).
+
+        Raises
+        ------
+        ValueError
+            If the dataset has no polarisation section (e.g. the ground-level dataset).
+        """
+        if not self.has_polarisation:
+            raise ValueError(f"{self.path.name} has no polarisation data (no polarisation section in the file)")
+        if len(self.pol_sun_breaks) < 2 or len(self.pol_zenith_breaks) < 2:
+            raise DatasetError(self.path, "polSunBreaks", self._layout.pol_offset,
+                               "polarisation needs at least 2 knots per factor to evaluate")
+        if "psun" not in self._decoded:
+            blk = self._blocks(self._layout.pol_block_dtype, self._pol_blocks_offset)
+            psun = np.ascontiguousarray(blk["r"]["sun"].astype(np.float32))
+            pzen = np.ascontiguousarray(blk["r"]["zen"].astype(np.float32))
+            if not (np.isfinite(psun).all() and np.isfinite(pzen).all()):
+                raise DatasetError(self.path, "polarisation coefficients", self._pol_blocks_offset,
+                                   "non-finite value")
+            self._decoded.update(psun=psun, pzen=pzen)
+        return self._decoded["psun"], self._decoded["pzen"]
+
+    def load(self):
+        """Decode everything the selection needs now (instead of on first evaluation); returns self."""
+        self.radiance_coefficients()
+        self.transmittance_coefficients()
+        if self.has_polarisation:
+            self.polarisation_coefficients()
+        return self
+
+    def describe(self) -> str:
+        """Human-readable summary: grids, channels, sections and sizes."""
+        def rng(a, unit):
+            return f"{len(a)} values {a[0]:g} .. {a[-1]:g} {unit}" if len(a) > 1 else f"{a[0]:g} {unit}"
+        lines = [
+            f"dataset        {self.path}",
+            f"file size      {self.file_size / 1e6:.1f} MB",
+        ]
+        if self.is_synthetic:
+            lines.append("NOTE           synthetic dataset (not a physical sky): for testing and demos only")
+        if self.metadata.get("description"):
+            lines.append(f"description    {self.metadata['description']}")
+        lines += [
+            f"visibility     {rng(self.file_visibilities, 'km')}",
+            f"albedo         {rng(self.file_albedos, '')}",
+            f"altitude       {rng(self.file_altitudes, 'm')}",
+            f"solar elev.    {rng(self.file_elevations, 'deg')}",
+            f"channels       {self.n_channels_file} x {self.channel_width:g} nm from {self.channel_start:g} nm "
+            f"({self.wavelength_range[0]:g}-{self.wavelength_range[1]:g} nm)",
+            f"radiance       rank {self.rank}, knots sun {len(self.sun_breaks)} / zenith {len(self.zenith_breaks)}"
+            f" / emphasis {len(self.emph_breaks)}",
+            f"transmittance  rank {self.trans_rank}, {self.trans_d_dim} distance x {self.trans_a_dim} altitude "
+            f"samples, {self._n_vis_t} visibilities, {self._n_alt_t} altitudes",
+            "polarisation   " + (f"rank {self.pol_rank}, knots sun {len(self.pol_sun_breaks)} / zenith "
+                                 f"{len(self.pol_zenith_breaks)}" if self._layout.pol_offset is not None else "none"),
+            f"selection      {len(self.visibilities)} visibilities, {len(self.albedos)} albedos, "
+            f"{self.n_channels} channels: {self.selection_bytes() / 1e6:.1f} MB when decoded",
+            f"resident       {self.resident_bytes / 1e6:.1f} MB decoded now",
+        ]
+        return "\n".join(lines)
+
+    def __repr__(self):
+        return (f"SkyModel({str(self.path)!r}, visibilities={len(self.visibilities)}, albedos={len(self.albedos)}, "
+                f"channels={self.n_channels}, polarisation={self.has_polarisation})")
+
+
+def load_dataset(path=None, *, visibility=None, albedo=None, channels=None, wavelength_range=None,
+                 polarisation=True) -> SkyModel:
+    """Open a Prague Sky Model dataset (memory-mapped; decoded on first use).
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        Dataset file (official full / ground-level / SWIR files or one written by widesky). Default:
+        the environment variable ``WIDESKY_DATASET`` if set, else the embedded default dataset.
+    visibility : float or (float, float), optional
+        Load only the visibility slabs needed for this visibility [km] or range of visibilities [km]
+        (the bracketing grid points). Default: all.
+    albedo : float or (float, float), optional
+        Same for the ground albedo [1].
+    channels : sequence of int, optional
+        Indices of the file's channels to load.
+    wavelength_range : (float, float), optional
+        Load the channels overlapping this range [nm].
+    polarisation : bool
+        Set False to ignore the polarisation section.
+
+    Returns
+    -------
+    SkyModel
+
+    Raises
+    ------
+    DatasetError
+        Missing, truncated, corrupted or inconsistent file (names the field and byte offset).
+    """
+    if path is None:
+        path = os.environ.get("WIDESKY_DATASET") or default_dataset_path()
+    return SkyModel(path, visibility=visibility, albedo=albedo, channels=channels,
+                    wavelength_range=wavelength_range, polarisation=polarisation)
