@@ -1,0 +1,110 @@
+"""``widesky sky ...``: render the sky model and describe datasets."""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+
+def register(sub):
+    sky = sub.add_parser("sky", help="render the sky model, describe a dataset")
+    ssub = sky.add_subparsers(dest="sky_command", metavar="SUBCOMMAND")
+    ssub.required = True
+
+    r = ssub.add_parser("render", help="fisheye render of sky radiance, sun radiance, polarisation or "
+                                       "transmittance (PNG and spectral OpenEXR)")
+    r.add_argument("--dataset", default=None, help="dataset file (default: the embedded default dataset)")
+    r.add_argument("--elevation", type=float, default=30.0, help="solar elevation [deg] (default 30)")
+    r.add_argument("--azimuth", type=float, default=180.0,
+                   help="solar azimuth [deg], clockwise from north (default 180, south)")
+    r.add_argument("--visibility", type=float, default=50.0, help="ground-level visibility [km] (default 50)")
+    r.add_argument("--albedo", type=float, default=0.3, help="ground albedo [1] (default 0.3)")
+    r.add_argument("--altitude", type=float, default=0.0, help="observer altitude [m] (default 0)")
+    r.add_argument("--quantity", choices=["sky", "sun", "polarisation", "transmittance"], default="sky",
+                   help="what to render (default sky radiance)")
+    r.add_argument("--channel", default="rgb",
+                   help="'rgb' (sRGB composite of the visible channels; the EXR keeps every channel), a "
+                        "channel index, or a wavelength such as 550nm")
+    r.add_argument("--view", choices=["up", "side"], default="up", help="up-facing or side-facing fisheye")
+    r.add_argument("--view-azimuth", type=float, default=180.0,
+                   help="azimuth the side view looks towards [deg] (default 180)")
+    r.add_argument("--resolution", type=int, default=512, help="image size [pixels] (default 512)")
+    r.add_argument("--exposure", type=float, default=0.0, help="exposure adjustment [EV] for the PNG")
+    r.add_argument("--output", "-o", default="sky.png",
+                   help="output file, .png or .exr (default sky.png; a .png also gets a spectral .exr beside it "
+                        "unless --no-exr)")
+    r.add_argument("--no-exr", action="store_true", help="with a .png output, do not write the .exr")
+    r.set_defaults(func=_render)
+
+    i = ssub.add_parser("info", help="describe a dataset: grids, channels, sections, sizes")
+    i.add_argument("dataset", nargs="?", default=None, help="dataset file (default: the embedded default)")
+    i.add_argument("--load", action="store_true", help="decode the coefficients and report the resident size")
+    i.set_defaults(func=_info)
+
+
+def _parse_channel(model, text):
+    text = str(text).strip().lower()
+    if text == "rgb":
+        return None, None
+    if text.endswith("nm"):
+        return None, [float(text[:-2])]
+    try:
+        return [int(text)], None
+    except ValueError:
+        raise ValueError(f"--channel {text!r}: expected 'rgb', an index or a wavelength like 550nm") from None
+
+
+def _render(args):
+    import skymodel
+    from .render import render_sky, write_exr, write_png
+
+    model = skymodel.load_dataset(args.dataset)
+    if model.is_synthetic:
+        print(f"NOTE: {model.path.name} is a SYNTHETIC dataset (structure of the Prague Sky Model, not a physical "
+              "sky); point --dataset at a real one for physical values.", file=sys.stderr)
+    channels, wavelengths = _parse_channel(model, args.channel)
+    t0 = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", skymodel.SkyStateClampedWarning)
+        r = render_sky(model, sun_elevation=args.elevation, sun_azimuth=args.azimuth, visibility=args.visibility,
+                       albedo=args.albedo, altitude=args.altitude, quantity=args.quantity, channels=channels,
+                       wavelengths=wavelengths, view=args.view, view_azimuth=args.view_azimuth,
+                       resolution=args.resolution)
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
+    dt = time.perf_counter() - t0
+    out = Path(args.output)
+    written = []
+    if out.suffix.lower() == ".exr":
+        written.append(write_exr(out, r))
+    elif out.suffix.lower() == ".png":
+        written.append(write_png(out, r, composite=channels is None and wavelengths is None and r.values.shape[-1] > 1
+                                 and args.quantity in ("sky", "sun"), exposure=args.exposure))
+        if not args.no_exr:
+            written.append(write_exr(out.with_suffix(".exr"), r))
+    else:
+        raise ValueError(f"--output {out}: expected a .png or .exr file name")
+    n_px = int(r.mask.sum())
+    print(f"{args.quantity} {args.view}-facing {args.resolution}x{args.resolution}, {r.values.shape[-1]} channel(s) "
+          f"{r.wavelengths[0]:g}-{r.wavelengths[-1]:g} nm, sun elevation {args.elevation:g} deg azimuth "
+          f"{args.azimuth:g} deg, visibility {args.visibility:g} km, albedo {args.albedo:g}: {n_px} directions "
+          f"in {dt:.3f} s")
+    for p in written:
+        print(f"wrote {p}")
+    return 0
+
+
+def _info(args):
+    import skymodel
+
+    model = skymodel.load_dataset(args.dataset)
+    if args.load:
+        t0 = time.perf_counter()
+        model.load()
+        print(f"(decoded in {time.perf_counter() - t0:.2f} s)")
+    print(model.describe())
+    return 0

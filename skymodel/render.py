@@ -1,0 +1,218 @@
+"""Fisheye renders of the sky model: up-facing and side-facing, one channel or an sRGB composite.
+
+Mapping: stereographic, as the reference renderer: a pixel at distance rho from the image centre (1 at
+the rim) looks at an angle ``theta = 2 atan(rho)`` from the view axis, so the rim is 90 degrees off
+axis. Up-facing images look at the zenith with north at the top and east on the LEFT (the sky seen from
+below, as on a sky chart); side-facing images look horizontally towards ``view_azimuth`` with the zenith
+at the top. Pixels outside the disc are 0.
+
+Outputs: multi-channel OpenEXR in the spectral layout of Fichet, Pacanowski and Wilkie (2021), "An
+OpenEXR Layout for Spectral Images", JCGT 10(3): one emissive channel ``S0.<wavelength>nm`` per band
+centre (a comma as the decimal mark), the ``spectralLayoutVersion`` and ``emissiveUnits`` attributes,
+and an RGB preview (``R``, ``G``, ``B``); and 8-bit PNG.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .colour import channel_xyz_weights, srgb_encode, xyz_to_linear_srgb
+from .dataset import SkyModel
+from .evaluate import (channel_indices, polarisation, sky_radiance, sun_radiance, transmittance)
+
+__all__ = ["QUANTITIES", "Render", "fisheye_directions", "render_sky", "write_exr", "write_png"]
+
+QUANTITIES = {
+    "sky": ("sky radiance", "W m-2 sr-1 nm-1"),
+    "sun": ("sun radiance", "W m-2 sr-1 nm-1"),
+    "polarisation": ("degree of polarisation", "1"),
+    "transmittance": ("transmittance to the top of the atmosphere", "1"),
+}
+
+
+def fisheye_directions(resolution, view="up", view_azimuth=180.0):
+    """View directions of a square stereographic fisheye image.
+
+    Parameters
+    ----------
+    resolution : int
+        Image width and height [pixels].
+    view : {"up", "side"}
+    view_azimuth : float
+        Azimuth the side view looks towards [deg, clockwise from north].
+
+    Returns
+    -------
+    directions : ndarray (resolution, resolution, 3)  east-north-up unit vectors (0 outside the disc)
+    mask : ndarray (resolution, resolution) bool  pixels inside the disc
+    """
+    n = int(resolution)
+    if n < 1 or n > 20000:
+        raise ValueError(f"resolution={resolution} outside [1, 20000] pixels")
+    c = (np.arange(n) + 0.5) / n * 2.0 - 1.0
+    x, y = np.meshgrid(c, -c)  # x to the right, y up in the image
+    rho = np.hypot(x, y)
+    mask = rho <= 1.0
+    theta = 2.0 * np.arctan(rho)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ux = np.where(rho > 0, x / rho, 0.0)
+        uy = np.where(rho > 0, y / rho, 0.0)
+    st, ct = np.sin(theta), np.cos(theta)
+    if view == "up":
+        axis, right, up = np.array([0, 0, 1.0]), np.array([-1.0, 0, 0]), np.array([0, 1.0, 0])
+    elif view == "side":
+        a = np.radians(view_azimuth)
+        axis = np.array([np.sin(a), np.cos(a), 0.0])
+        right = np.array([np.cos(a), -np.sin(a), 0.0])
+        up = np.array([0, 0, 1.0])
+    else:
+        raise ValueError(f"view={view!r}: expected 'up' or 'side'")
+    d = ct[..., None] * axis + st[..., None] * (ux[..., None] * right + uy[..., None] * up)
+    d[~mask] = 0.0
+    return d, mask
+
+
+@dataclass
+class Render:
+    """A rendered fisheye: ``values`` (H, W, C) in the quantity's unit, per channel ``wavelengths``
+    [nm] (band centres), the disc ``mask``, and the metadata of the render."""
+
+    values: np.ndarray
+    mask: np.ndarray
+    wavelengths: np.ndarray
+    channel_lower: np.ndarray
+    channel_width: float
+    quantity: str
+    meta: dict = field(default_factory=dict)
+
+    def rgb_linear(self):
+        """Linear sRGB (H, W, 3) of the visible channels (CIE 1931 weighting of each band), in the
+        radiance unit integrated over wavelength [W m-2 sr-1]."""
+        w = channel_xyz_weights(self.channel_lower, self.channel_width)
+        return xyz_to_linear_srgb(self.values @ w)
+
+    def luminance_like(self):
+        """CIE Y-weighted sum over the channels (H, W)."""
+        w = channel_xyz_weights(self.channel_lower, self.channel_width)[:, 1]
+        return self.values @ w
+
+
+def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibility=50.0, albedo=0.3,
+               altitude=0.0, quantity="sky", channels=None, wavelengths=None, view="up", view_azimuth=180.0,
+               resolution=512, threads=0) -> Render:
+    """Evaluate a fisheye image of a quantity.
+
+    Parameters
+    ----------
+    model : SkyModel
+    sun_elevation, sun_azimuth : float  [deg] (azimuth clockwise from north)
+    visibility : float  [km]
+    albedo : float  [1]
+    altitude : float  [m]
+    quantity : {"sky", "sun", "polarisation", "transmittance"}
+    channels, wavelengths : optional
+        Channel indices of the model or point wavelengths [nm]; default all loaded channels.
+    view, view_azimuth, resolution : see :func:`fisheye_directions`.
+
+    Returns
+    -------
+    Render
+    """
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity={quantity!r}: expected one of {sorted(QUANTITIES)}")
+    dirs, mask = fisheye_directions(resolution, view, view_azimuth)
+    chi = channel_indices(model, channels, wavelengths)
+    inside = dirs[mask]
+    state = (sun_elevation, sun_azimuth, visibility, albedo, altitude)
+    if quantity == "sky":
+        vals = sky_radiance(model, inside, *state, channels=chi, dtype=np.float32, threads=threads)
+    elif quantity == "sun":
+        vals = sun_radiance(model, inside, *state, channels=chi, threads=threads).astype(np.float32)
+    elif quantity == "polarisation":
+        vals = polarisation(model, inside, *state, channels=chi, dtype=np.float32, threads=threads)
+    else:
+        vals = transmittance(model, inside, *state, channels=chi, dtype=np.float32, threads=threads)
+    img = np.zeros(mask.shape + (chi.size,), np.float32)
+    img[mask] = vals
+    lower = model.channel_lower[chi]
+    meta = dict(quantity=quantity, sun_elevation=sun_elevation, sun_azimuth=sun_azimuth, visibility=visibility,
+                albedo=albedo, altitude=altitude, view=view, view_azimuth=view_azimuth,
+                dataset=str(model.path), synthetic=model.is_synthetic)
+    return Render(img, mask, lower + 0.5 * model.channel_width, lower, model.channel_width, quantity, meta)
+
+
+def _exposure_scale(values, mask, exposure):
+    v = values[mask]
+    v = v[np.isfinite(v) & (v > 0)]
+    ref = np.percentile(v, 99.0) if v.size else 1.0
+    return (2.0 ** exposure) / (ref if ref > 0 else 1.0)
+
+
+def _display(r: Render, composite, exposure):
+    """8-bit display image (H, W, 3)."""
+    if composite:
+        rgb = r.rgb_linear()
+        if not np.any(rgb[r.mask] > 0):
+            raise ValueError("the selected channels have no visible (380-780 nm) contribution: use a single channel")
+        y = r.luminance_like()
+        out = srgb_encode(rgb * _exposure_scale(y, r.mask, exposure))
+    else:
+        v = r.values[..., 0].astype(float)
+        if r.quantity == "polarisation":
+            g = np.clip(0.5 + 0.5 * v * 2.0 ** exposure, 0, 1)
+        else:
+            g = srgb_encode(v * _exposure_scale(v, r.mask, exposure))
+        out = np.repeat(g[..., None], 3, axis=-1)
+    out[~r.mask] = 0.0
+    return (np.round(out * 255.0)).astype(np.uint8)
+
+
+def write_png(path, r: Render, *, composite=None, exposure=0.0):
+    """Write an 8-bit PNG: an sRGB composite of the visible channels (``composite`` True, the default when
+    the render has more than one channel), else the single channel in grey. ``exposure`` [EV] scales
+    relative to the 99th percentile of the disc (polarisation: grey 0.5 is 0, mapped linearly)."""
+    from PIL import Image
+
+    if composite is None:
+        composite = r.values.shape[-1] > 1
+    if not composite and r.values.shape[-1] != 1:
+        raise ValueError("a single-channel PNG needs a render of exactly one channel")
+    Image.fromarray(_display(r, composite, exposure)).save(Path(path))
+    return Path(path)
+
+
+def write_exr(path, r: Render, *, preview_exposure=0.0):
+    """Write a multi-channel OpenEXR (float32) in the Fichet et al. 2021 spectral layout: ``S0.<nm>``
+    channels at the band centres, ``spectralLayoutVersion`` 1.0, ``emissiveUnits``, an RGB preview, and
+    ``widesky.*`` attributes describing the quantity, its unit and the sky state."""
+    import OpenEXR
+
+    channels = {}
+    for k, wl in enumerate(r.wavelengths):
+        name = "S0." + f"{wl:.6f}".replace(".", ",") + "nm"
+        channels[name] = np.ascontiguousarray(r.values[..., k], dtype=np.float32)
+    if r.values.shape[-1] > 1 and r.quantity in ("sky", "sun"):
+        rgb = r.rgb_linear()
+    else:
+        rgb = np.repeat(r.values[..., :1].astype(float), 3, axis=-1)
+    for i, c in enumerate("RGB"):
+        channels[c] = np.ascontiguousarray(rgb[..., i], dtype=np.float32)
+    name, unit = QUANTITIES[r.quantity]
+    header = {
+        "compression": OpenEXR.ZIP_COMPRESSION,
+        "type": OpenEXR.scanlineimage,
+        "spectralLayoutVersion": "1.0",
+        "emissiveUnits": "W.m^-2.sr^-1",
+        "widesky.quantity": name,
+        "widesky.units": unit + (" (spectral density per nm; S0 channels sample it at the band centres)"
+                                 if "nm-1" in unit else ""),
+        "widesky.channelWidth_nm": f"{r.channel_width:g}",
+    }
+    for k, v in r.meta.items():
+        header[f"widesky.{k}"] = str(v)
+    with OpenEXR.File(header, channels) as f:
+        f.write(str(path))
+    return Path(path)
