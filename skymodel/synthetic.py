@@ -59,10 +59,12 @@ def synthetic_contents(*, visibilities=(20.0, 60.0, 131.8), albedos=(0.0, 0.5, 1
     sun[..., 0, :] = 0.75 * (1.0 + np.cos(g) ** 2)
     airm = 1.0 / np.maximum(np.cos(np.minimum(z, np.pi / 2)), 0.08)
     zen[..., 0, :] = (base * tau_r)[..., None] * (1.0 - np.exp(-0.3 * airm))[None] * 4.0
-    # rank 1: aerosol aureole
-    width = 0.08 + 0.25 * (V / 131.8)
-    sun[..., 1, :] = np.exp(-g[None, None, None, None, None, :] / width[..., None])
-    zen[..., 1, :] = (base * tau_a)[..., None] * np.exp(-0.2 * airm)[None] * 3.0
+    if rank == 1:  # a single separable term: Rayleigh and aerosol brightness share the phase factor
+        zen[..., 0, :] += (base * tau_a)[..., None] * np.exp(-0.2 * airm)[None] * 3.0
+    else:  # rank 1: aerosol aureole
+        width = 0.08 + 0.25 * (V / 131.8)
+        sun[..., 1, :] = np.exp(-g[None, None, None, None, None, :] / width[..., None])
+        zen[..., 1, :] = (base * tau_a)[..., None] * np.exp(-0.2 * airm)[None] * 3.0
     for r in range(2, rank):
         # small smooth corrections (a few % of the leading terms): the sky stays positive
         phase = rng.uniform(0, np.pi)
