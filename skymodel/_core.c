@@ -38,6 +38,8 @@
 #define ATMOSPHERE_WIDTH 100000.0
 #define DIST_TO_EDGE 1571524.413613
 #define DBL_EPSILON_ 2.220446049250313e-16
+/* below this much work (inner iterations) a parallel region costs more than it saves */
+#define PAR_MIN_WORK 65536
 
 /* ------------------------------------------------------------------------------------------ */
 /* small helpers                                                                              */
@@ -192,7 +194,7 @@ static void radiance_direct(const comp_t *m, const geom_t *geo, const int64_t *c
                             const double *dirs, Py_ssize_t n, void *out, int is_double, double sign)
 {
     Py_ssize_t i;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n * (Py_ssize_t)nc * ncfg >= PAR_MIN_WORK)
     for (i = 0; i < n; ++i) {
         angles_t a = compute_angles(dirs + 3 * i, geo, 0, m->emph != NULL && geo->use_shadow);
         ip_t gp = knot_lookup(a.gamma, m->sb, m->ns);
@@ -479,7 +481,7 @@ static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, con
             if (m->emph) el[j] = knot_lookup(t->u[j], m->eb, m->ne);
         }
         Py_ssize_t q, nq = (Py_ssize_t)ncfg * nc;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nq * R * nu >= PAR_MIN_WORK)
         for (q = 0; q < nq; ++q) {
             int c = (int)(q / nc), k = (int)(q % nc);
             size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
@@ -493,7 +495,7 @@ static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, con
         build_ctx_t X = {m, cfg_base, cfg_w, ncfg, nc, nu, ncell_u, chi, t->u, zat, eat, t};
         int row_fail = 0;
         int i;
-#pragma omp parallel for schedule(dynamic, 1) reduction(|| : row_fail)
+#pragma omp parallel for schedule(dynamic, 1) reduction(|| : row_fail) if ((Py_ssize_t)ns * nc * ncfg * R * nu >= PAR_MIN_WORK)
         for (i = 0; i < ns - 1; ++i) {
             double *buf = malloc(sizeof(double) * (2 * (size_t)nu + 8 * (size_t)ncell_u));
             if (!buf || build_row(&X, i, &rows[i], buf, buf + nu, buf + 2 * nu)) row_fail = 1;
@@ -617,7 +619,7 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
     }
     const Py_ssize_t chunk = 256;
     Py_ssize_t nchunks = (n + chunk - 1) / chunk, c;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= PAR_MIN_WORK / 64)
     for (c = 0; c < nchunks; ++c) {
         Py_ssize_t i0 = c * chunk, i1 = i0 + chunk < n ? i0 + chunk : n;
         locate_chunk(t, &ag, &az, geo, dirs, i0, i1, cell, gl, zl);
@@ -627,7 +629,7 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
         for (int k = 0; k < ncell; ++k) count[k + 1] += count[k];
         for (Py_ssize_t i = 0; i < n; ++i) order[count[cell[i]]++] = (int)i;
     }
-#pragma omp parallel reduction(|| : fail)
+#pragma omp parallel reduction(|| : fail) if (n * (Py_ssize_t)t->nc >= PAR_MIN_WORK / 8)
     {
         double *acc = malloc(sizeof(double) * (t->nc > 0 ? t->nc : 1));
         if (!acc) fail = 1;
@@ -898,7 +900,7 @@ static PyObject *py_transmittance(PyObject *self, PyObject *args)
         Py_BEGIN_ALLOW_THREADS
         set_threads(nthreads);
         Py_ssize_t i;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n * (Py_ssize_t)nc * np_ >= PAR_MIN_WORK / 8)
         for (i = 0; i < n; ++i) {
             const double *v = dirs + 3 * i;
             double nv = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);

@@ -213,8 +213,8 @@ class SkyModel:
             self.pol_sun_breaks = c.counted("polSunBreaks", minimum=1)
             self.pol_zenith_breaks = c.counted("polZenithBreaks", minimum=1)
             nps, npz = len(self.pol_sun_breaks), len(self.pol_zenith_breaks)
+            c.need("polarisation coefficients", n_cfg * self.pol_rank * 4 * (nps + npz))
             pol_dt = np.dtype([("r", [("sun", "<f4", (nps,)), ("zen", "<f4", (npz,))], (self.pol_rank,))])
-            c.need("polarisation coefficients", n_cfg * pol_dt.itemsize)
             self._pol_blocks_offset = c.pos
             c.pos += n_cfg * pol_dt.itemsize
             if c.pos != c.size:

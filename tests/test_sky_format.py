@@ -1,0 +1,212 @@
+"""The dataset format: layout, decoding, selection, and bad files.
+
+Layout reference: shared/spec/psm-dataset-format.md section 6 gives the byte offsets of a small synthetic
+file (2 vis x 2 albedo x 1 alt x 3 elev x 2 channels, rank 2, 7/7/6 knots, transmittance 4x3 rank 2,
+polarisation rank 2 with 5/5 knots); our writer must produce exactly that layout.
+"""
+
+import struct
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import skymodel
+from skymodel import DatasetError
+from skymodel.synthetic import synthetic_contents, write_synthetic_dataset
+from skymodel.writer import write_dataset
+
+SPEC_SMALL = dict(visibilities=(20, 60), albedos=(0, 1), altitudes=(0,), elevations=(0, 30, 90), n_channels=2,
+                  rank=2, n_sun=7, n_zen=7, n_emph=6, trans_dims=(4, 3), trans_rank=2, polarisation=True,
+                  pol_rank=2, n_pol_sun=5, n_pol_zen=5)
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    return write_synthetic_dataset(tmp_path_factory.mktemp("fmt") / "small.dat", **SPEC_SMALL)
+
+
+def test_byte_layout_matches_the_spec_example(small):
+    b = small.read_bytes()
+    assert len(b) == 4464  # spec: EOF at 4464
+    i32 = lambda off: struct.unpack_from("<i", b, off)[0]  # noqa: E731
+    assert i32(0) == 2 and i32(20) == 2 and i32(40) == 1 and i32(52) == 3  # grid counts at their offsets
+    assert i32(80) == 2 and i32(100) == 2  # channels, rankRad
+    assert i32(104) == 7 and i32(164) == 7 and i32(224) == 6  # break counts
+    assert struct.unpack_from("<5i", b, 2292) == (4, 3, 2, 1, 2)  # dDim, aDim, nVisT, nAltT, rankT
+    assert i32(2452) == 2 and i32(2456) == 5 and i32(2500) == 5  # rankPol, polSun, polZenith counts
+
+
+def test_half_decoding_and_zenith_scale(tmp_path):
+    """Decoding follows the reference: sun and emphasis are half floats, the zenith vector is
+    float32(double(half) / zenithScale); the writer picks the scale so the zenith fits the half range."""
+    c = synthetic_contents(**{**SPEC_SMALL, "polarisation": False})
+    path = write_dataset(tmp_path / "h.dat", c, balance=False)
+    m = skymodel.load_dataset(path)
+    sun, zen, emph = m.radiance_coefficients()
+    np.testing.assert_array_equal(sun, c.sun.astype(np.float16).astype(np.float32))
+    np.testing.assert_array_equal(emph, c.emph.astype(np.float16).astype(np.float32))
+    scale = 1.0 / np.abs(c.zen).max(axis=-1, keepdims=True)
+    expect = ((c.zen * scale).astype(np.float16).astype(np.float64) / scale).astype(np.float32)
+    np.testing.assert_array_equal(zen, expect)
+    # half precision: relative 2^-11 of the largest element of each vector
+    np.testing.assert_allclose(zen, c.zen, rtol=0, atol=float(np.abs(c.zen).max()) * 2.0 ** -11)
+
+
+def test_subset_loading_gives_identical_values(tmp_path):
+    path = write_synthetic_dataset(tmp_path / "s.dat", visibilities=(20, 40, 80, 131.8), albedos=(0, 0.5, 1),
+                                   n_channels=8, rank=3, n_sun=10, n_zen=10, n_emph=6)
+    full = skymodel.load_dataset(path)
+    dirs = skymodel.directions_from_angles([0, 30, 60, 85], [0, 90, 180, 270])
+    ref = skymodel.sky_radiance(full, dirs, 25.0, 160.0, 55.0, 0.7)
+    part = skymodel.load_dataset(path, visibility=55.0, albedo=0.7)
+    assert part.visibilities.tolist() == [40, 80] and part.albedos.tolist() == [0.5, 1.0]
+    np.testing.assert_array_equal(skymodel.sky_radiance(part, dirs, 25.0, 160.0, 55.0, 0.7), ref)
+    exact = skymodel.load_dataset(path, visibility=80.0)
+    assert exact.visibilities.tolist() == [80]
+    rng = skymodel.load_dataset(path, visibility=(30, 90))
+    assert rng.visibilities.tolist() == [20, 40, 80, 131.8][0:4]
+    ch = skymodel.load_dataset(path, wavelength_range=(330, 420))
+    assert ch.channel_index.tolist() == [1, 2, 3]
+    np.testing.assert_array_equal(skymodel.sky_radiance(ch, dirs, 25.0, 160.0, 55.0, 0.7), ref[:, 1:4])
+    ch.load()
+    full.load()
+    assert 0 < ch.resident_bytes < full.resident_bytes
+    assert ch.resident_bytes == ch.selection_bytes()
+    by_index = skymodel.load_dataset(path, channels=[0, 7])
+    np.testing.assert_array_equal(skymodel.sky_radiance(by_index, dirs, 25.0, 160.0, 55.0, 0.7, wavelengths=[579.0]),
+                                  ref[:, 7:8])
+    with pytest.raises(ValueError, match="not loaded"):
+        skymodel.sky_radiance(by_index, dirs, 25.0, 160.0, 55.0, 0.7, wavelengths=[400.0])
+
+
+def test_open_is_lazy(small):
+    m = skymodel.load_dataset(small)
+    assert m.resident_bytes == 0
+    assert "synthetic" in m.describe()
+    m.load()
+    assert m.resident_bytes > 0
+
+
+# ---------------------------------------------------------------- bad files
+def test_missing_empty_and_directory(tmp_path):
+    with pytest.raises(DatasetError, match="no such file"):
+        skymodel.load_dataset(tmp_path / "nope.dat")
+    (tmp_path / "empty.dat").write_bytes(b"")
+    with pytest.raises(DatasetError, match="empty"):
+        skymodel.load_dataset(tmp_path / "empty.dat")
+    with pytest.raises(DatasetError, match="directory"):
+        skymodel.load_dataset(tmp_path)
+
+
+def test_truncation_names_field_and_offset(small, tmp_path):
+    b = small.read_bytes()
+    cases = {10: "visibilities", 102: "rankRad", 2300: "nVisT", 2400: "U", 2440: "V", 4000: "polarisation"}
+    for cut, field in cases.items():
+        p = tmp_path / f"cut{cut}.dat"
+        p.write_bytes(b[:cut])
+        with pytest.raises(DatasetError) as e:
+            skymodel.load_dataset(p).load()
+        assert field in e.value.field and e.value.offset is not None, (cut, e.value)
+    p = tmp_path / "cut_radiance.dat"
+    p.write_bytes(b[:1000])
+    with pytest.raises(DatasetError, match="radiance coefficients.*truncated"):
+        skymodel.load_dataset(p)
+
+
+def test_count_inflation_does_not_allocate(small, tmp_path):
+    b = bytearray(small.read_bytes())
+    for off, field in ((0, "n(visibilities)"), (80, "channels"), (100, "rankRad"), (104, "n(sunBreaks)"),
+                       (2292, "U"), (2304, "rankT"), (2452, "polarisation")):
+        bad = bytearray(b)
+        struct.pack_into("<i", bad, off, 2_000_000_000)
+        p = tmp_path / "inflated.dat"
+        p.write_bytes(bytes(bad))
+        with pytest.raises(DatasetError) as e:
+            skymodel.load_dataset(p).load()
+        assert "truncated" in str(e.value) or "exceeds" in str(e.value), str(e.value)
+
+
+def test_hostile_values(small, tmp_path):
+    b = bytearray(small.read_bytes())
+    cases = [
+        (lambda x: struct.pack_into("<i", x, 0, 0), "must be >= 1"),              # zero visibilities
+        (lambda x: struct.pack_into("<i", x, 104, 1), "must be >= 2"),            # one sun break
+        (lambda x: struct.pack_into("<d", x, 4, float("nan")), "non-finite"),     # NaN visibility
+        (lambda x: struct.pack_into("<d", x, 12, 1.0), "ascending|> 0"),         # descending grid
+        (lambda x: struct.pack_into("<d", x, 92, -40.0), "channelWidth"),         # negative width
+        (lambda x: x.extend(b"\0\0"), "trailing"),                                # trailing garbage
+    ]
+    for mutate, msg in cases:
+        bad = bytearray(b)
+        mutate(bad)
+        p = tmp_path / "hostile.dat"
+        p.write_bytes(bytes(bad))
+        with pytest.raises(DatasetError, match=msg):
+            skymodel.load_dataset(p).load()
+    # a zero zenith scale (division) and an infinite half: found on decode, with the block's offset
+    bad = bytearray(b)
+    struct.pack_into("<d", bad, 276 + 14, 0.0)  # first block: sun[7] halves (14 B), then zenithScale
+    p = tmp_path / "scale.dat"
+    p.write_bytes(bytes(bad))
+    with pytest.raises(DatasetError, match="zenithScale") as e:
+        skymodel.load_dataset(p).load()
+    assert e.value.offset == 276
+
+
+MUTATION_SCRIPT = r"""
+import sys, struct, warnings
+import numpy as np
+import skymodel
+from skymodel import DatasetError
+src, work, seed, n = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+base = open(src, "rb").read()
+rng = np.random.default_rng(seed)
+dirs = skymodel.directions_from_angles([0, 45, 89, 120], [0, 90, 180, 270])
+counts = {"rejected": 0, "loaded": 0}
+warnings.simplefilter("ignore")
+for i in range(n):
+    b = bytearray(base)
+    kind = i % 4
+    if kind == 0:                          # truncation anywhere
+        b = b[: int(rng.integers(0, len(b)))]
+    elif kind == 1:                        # bit flips
+        for _ in range(int(rng.integers(1, 6))):
+            pos = int(rng.integers(0, len(b)))
+            b[pos] ^= 1 << int(rng.integers(0, 8))
+    elif kind == 2:                        # an i32 field set to a hostile count
+        off = int(rng.choice([0, 20, 40, 52, 80, 100, 104, 164, 224, 2292, 2296, 2300, 2304, 2308, 2452, 2456, 2500]))
+        struct.pack_into("<i", b, off, int(rng.choice([0, -1, 1, 2, 3, 255, 65536, 2**31 - 1])))
+    else:                                  # random bytes over a stretch
+        pos = int(rng.integers(0, len(b) - 8))
+        b[pos:pos + 8] = rng.integers(0, 256, 8, dtype=np.uint8).tobytes()
+    p = f"{work}/m{i % 16}.dat"
+    open(p, "wb").write(bytes(b))
+    try:
+        m = skymodel.load_dataset(p)
+        m.load()
+        skymodel.sky_radiance(m, dirs, 20.0, 180.0, 40.0, 0.5)
+        skymodel.sky_radiance(m, dirs, 20.0, 180.0, 40.0, 0.5, method="table")
+        skymodel.sky_radiance(m, dirs, -2.0, 180.0, 40.0, 0.5)
+        skymodel.transmittance(m, dirs, 20.0, 180.0, 40.0, 0.5)
+        if m.has_polarisation:
+            skymodel.polarisation(m, dirs, 20.0, 180.0, 40.0, 0.5)
+        counts["loaded"] += 1
+    except (DatasetError, ValueError) as e:
+        counts["rejected"] += 1
+print(counts["rejected"], counts["loaded"])
+"""
+
+
+def test_seeded_mutations_never_crash(small, tmp_path):
+    """Thousands of truncated, bit-flipped, count-inflated and scrambled files: every one is either
+    rejected with DatasetError/ValueError or loads and evaluates; the process never crashes (run in a
+    subprocess so a segfault or abort would show as a failed exit code), hangs or exhausts memory."""
+    n = 3000
+    proc = subprocess.run([sys.executable, "-c", MUTATION_SCRIPT, str(small), str(tmp_path), "2026", str(n)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rejected, loaded = (int(x) for x in proc.stdout.split())
+    assert rejected + loaded == n
+    assert rejected > n // 4 and loaded > 100  # both outcomes are exercised
