@@ -1,0 +1,108 @@
+"""Renderer, colour and the ``widesky sky`` command line."""
+
+import re
+
+import numpy as np
+import pytest
+
+import skymodel
+from skymodel.cli import main
+from skymodel.colour import channel_xyz_weights, cie1931_xyz, srgb_encode
+from skymodel.render import fisheye_directions, render_sky, write_exr, write_png
+
+# The channel-name pattern of the spectral OpenEXR layout (Fichet, Pacanowski, Wilkie 2021, JCGT 10(3),
+# section 3: Stokes component, wavelength with a comma as decimal mark, unit)
+SPECTRAL_CHANNEL = re.compile(r"^S([0-3])\.(\d*,?\d*([Ee][+-]?\d+)?)(Y|Z|E|P|T|G|M|k|h|da|d|c|m|u|n|p|f|a|z|y)?(m|Hz)$")
+
+
+def test_stereographic_mapping():
+    d, mask = fisheye_directions(201)
+    c = d[100, 100]
+    np.testing.assert_allclose(c, [0, 0, 1], atol=1e-12)  # centre looks at the zenith
+    # stereographic: a pixel at radius rho looks 2 atan(rho) from the axis
+    for col in (150, 180, 200):
+        rho = ((col + 0.5) / 201 * 2 - 1)
+        theta = np.degrees(np.arccos(d[100, col, 2]))
+        assert theta == pytest.approx(np.degrees(2 * np.arctan(rho)), abs=1e-9)
+    assert d[0, 100, 1] > 0.99  # top of the image: north, at the horizon
+    assert d[100, 0, 0] > 0.99  # left: east (the sky seen from below)
+    assert not mask[0, 0] and mask.mean() == pytest.approx(np.pi / 4, abs=0.01)
+    s, m2 = fisheye_directions(101, view="side", view_azimuth=90.0)
+    np.testing.assert_allclose(s[50, 50], [1, 0, 0], atol=1e-12)  # looking east
+    assert s[0, 50, 2] > 0.99  # zenith at the top
+
+
+def test_cie1931_fit_against_tabulated_values():
+    """CIE 1931 2-degree observer, tabulated (CIE 015:2018 table): y(555) = 1.0000, x(600) = 1.0622,
+    z(450) = 1.7721, x(450) = 0.3362; the Wyman-Sloan-Shirley fit is within 3 % of these peaks."""
+    xyz = cie1931_xyz([555.0, 600.0, 450.0])
+    assert xyz[0, 1] == pytest.approx(1.0, rel=0.03)
+    assert xyz[1, 0] == pytest.approx(1.0622, rel=0.03)
+    assert xyz[2, 2] == pytest.approx(1.7721, rel=0.03)
+    assert xyz[2, 0] == pytest.approx(0.3362, rel=0.05)
+    # the integral of y over the visible is 106.86 nm (CIE, 1 nm table 360-830 nm)
+    w = channel_xyz_weights(np.arange(360.0, 830.0, 40.0), 40.0)
+    assert w[:, 1].sum() == pytest.approx(106.86, rel=0.01)
+    assert float(srgb_encode(0.0031308)) == pytest.approx(0.04045, rel=1e-3)
+    assert float(srgb_encode(2.0)) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_render_and_files(tmp_path):
+    model = skymodel.load_dataset()
+    r = render_sky(model, sun_elevation=25.0, sun_azimuth=180.0, visibility=40.0, albedo=0.2, resolution=64)
+    assert r.values.shape == (64, 64, model.n_channels) and r.values.dtype == np.float32
+    assert np.all(r.values[~r.mask] == 0) and np.all(r.values[r.mask] >= 0)
+    # the render equals a direct evaluation of the same directions
+    d, mask = fisheye_directions(64)
+    direct = skymodel.sky_radiance(model, d[mask][:50], 25.0, 180.0, 40.0, 0.2)
+    np.testing.assert_allclose(r.values[mask][:50], direct, rtol=1e-6)
+    png = write_png(tmp_path / "a.png", r)
+    from PIL import Image
+
+    img = np.asarray(Image.open(png))
+    assert img.shape == (64, 64, 3) and img[r.mask].max() > 100 and img[~r.mask].max() == 0
+    exr = write_exr(tmp_path / "a.exr", r)
+    import OpenEXR
+
+    with OpenEXR.File(str(exr), separate_channels=True) as f:
+        header = dict(f.header())
+        channels = {k: v.pixels.copy() for k, v in f.channels().items()}
+    names = [n for n in channels if n.startswith("S")]
+    assert len(names) == model.n_channels
+    assert all(SPECTRAL_CHANNEL.match(n) for n in names)
+    assert header["spectralLayoutVersion"] == "1.0" and header["emissiveUnits"] == "W.m^-2.sr^-1"
+    assert {"R", "G", "B"} <= set(channels)
+    k = int(np.argmin(np.abs(model.wavelengths - 550)))
+    wl_text = f"{model.wavelengths[k]:.6f}".replace(".", ",")
+    np.testing.assert_array_equal(channels[f"S0.{wl_text}nm"], r.values[..., k])
+
+
+def test_render_quantities():
+    model = skymodel.load_dataset()
+    kw = dict(sun_elevation=40.0, sun_azimuth=120.0, visibility=60.0, albedo=0.5, resolution=48)
+    t = render_sky(model, quantity="transmittance", wavelengths=[550.0], **kw)
+    assert np.all((t.values[t.mask] >= 0) & (t.values[t.mask] <= 1))
+    p = render_sky(model, quantity="polarisation", channels=[5], **kw)
+    assert np.isfinite(p.values).all()
+    s = render_sky(model, quantity="sun", **{**kw, "resolution": 2000})  # fine enough to resolve the disc
+    hit = s.values[..., 10] > 0
+    assert 1 <= hit.sum() < 50  # a 0.53 deg disc covers a handful of pixels at this resolution
+    with pytest.raises(ValueError, match="quantity"):
+        render_sky(model, quantity="nonsense", **kw)
+
+
+def test_cli_render_and_info(tmp_path, capsys):
+    out = tmp_path / "sky.png"
+    assert main(["sky", "render", "--resolution", "40", "--elevation", "12", "--output", str(out)]) == 0
+    assert out.exists() and out.with_suffix(".exr").exists()
+    captured = capsys.readouterr()
+    assert "SYNTHETIC" in captured.err and "wrote" in captured.out
+    assert main(["sky", "render", "--resolution", "32", "--channel", "550nm", "--quantity", "transmittance",
+                 "--view", "side", "--output", str(tmp_path / "t.exr")]) == 0
+    assert main(["sky", "info", "--load"]) == 0
+    info = capsys.readouterr().out
+    assert "55 x 40 nm from 280 nm" in info and "resident" in info
+    # errors are reported, not raised
+    assert main(["sky", "render", "--channel", "3000nm", "--output", str(tmp_path / "x.png")]) == 2
+    assert "outside the dataset's range" in capsys.readouterr().err
+    assert main(["sky", "info", str(tmp_path / "missing.dat")]) == 2
