@@ -227,10 +227,38 @@ typedef struct {
     int nc;
 } table_t;
 
+/* The table (megabytes) is reused across calls: fresh pages would cost a page fault and a kernel
+ * zeroing each, which is as much as the evaluation itself. One cached block; a concurrent caller
+ * (another Python thread, the GIL being released) simply allocates its own. */
+static double *ws_block = NULL;
+static size_t ws_cap = 0;
+static int ws_busy = 0;
+
+static double *ws_acquire(size_t n)
+{
+    if (__atomic_exchange_n(&ws_busy, 1, __ATOMIC_ACQUIRE)) return malloc(n * sizeof(double));
+    if (ws_cap < n) {
+        free(ws_block);
+        ws_block = malloc(n * sizeof(double));
+        ws_cap = ws_block ? n : 0;
+    }
+    if (!ws_block) __atomic_store_n(&ws_busy, 0, __ATOMIC_RELEASE);
+    return ws_block;
+}
+
+static void ws_release(double *p)
+{
+    if (p == NULL) return;
+    if (p == ws_block)
+        __atomic_store_n(&ws_busy, 0, __ATOMIC_RELEASE);
+    else
+        free(p);
+}
+
 static void table_free(table_t *t)
 {
     free(t->u);
-    free(t->tab);
+    ws_release(t->tab);
     free(t->mix_start);
     free(t->mix_ch);
     free(t->mix_coef);
@@ -471,7 +499,7 @@ static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, con
     double *zat = malloc(sizeof(double) * nzat);
     double *eat = malloc(sizeof(double) * neat);
     ip_t *zl = malloc(sizeof(ip_t) * nu), *el = malloc(sizeof(ip_t) * nu);
-    t->tab = malloc((size_t)ncell * 6 * nc * sizeof(double));
+    t->tab = ws_acquire((size_t)ncell * 6 * nc);
     t->mix_start = calloc((size_t)ncell + 1, sizeof(int));
     mixlist_t *rows = calloc((size_t)(ns - 1), sizeof(mixlist_t));
     int fail = !zat || !eat || !zl || !el || !t->tab || !t->mix_start || !rows;
@@ -571,28 +599,19 @@ static inline void store_row(void *out, Py_ssize_t i, int nc, const double *rest
     }
 }
 
-/* Pass 1: cell index and local offsets of directions [i0, i1). */
-static void locate_chunk(const table_t *t, const accel_t *ag, const accel_t *az, const geom_t *geo,
-                         const double *dirs, Py_ssize_t i0, Py_ssize_t i1, int *cell, double *gl, double *zl)
+/* Evaluate directions [i0, i1) in their given order (an image's order keeps neighbouring directions,
+ * which mostly share a cell, together). */
+HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *az, const geom_t *geo,
+                           const double *dirs, Py_ssize_t i0, Py_ssize_t i1, void *out, int is_double,
+                           double sign, double *restrict acc)
 {
     const int ncell_u = t->nu - 1;
     for (Py_ssize_t i = i0; i < i1; ++i) {
         angles_t a = compute_angles(dirs + 3 * i, geo, 0, 0);
-        int ig = accel_cell(ag, a.gamma, &gl[i]);
-        int iz = accel_cell(az, a.zero, &zl[i]);
-        cell[i] = ig * ncell_u + iz;
-    }
-}
-
-/* Pass 2: evaluate the directions listed in order[p0, p1) (sorted by cell, so each cell's
- * coefficients are read from memory once rather than once per direction). */
-HOT static void eval_sorted(const table_t *t, const int *order, Py_ssize_t p0, Py_ssize_t p1, const int *cell,
-                            const double *gl, const double *zl, void *out, int is_double, double sign,
-                            double *restrict acc)
-{
-    for (Py_ssize_t p = p0; p < p1; ++p) {
-        Py_ssize_t i = order ? order[p] : p;
-        eval_one(t, cell[i], gl[i], zl[i], acc);
+        double g, z;
+        int ig = accel_cell(ag, a.gamma, &g);
+        int iz = accel_cell(az, a.zero, &z);
+        eval_one(t, ig * ncell_u + iz, g, z, acc);
         store_row(out, i, t->nc, acc, is_double, sign);
     }
 }
@@ -601,34 +620,14 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
                       int is_double, double sign)
 {
     accel_t ag, az;
-    const int ncell = (t->ns - 1) * (t->nu - 1);
-    int *cell = malloc(sizeof(int) * (n ? n : 1));
-    double *gl = malloc(sizeof(double) * (n ? n : 1)), *zl = malloc(sizeof(double) * (n ? n : 1));
-    int sort = n > 4 * (Py_ssize_t)ncell;
-    int *order = sort ? malloc(sizeof(int) * n) : NULL;
-    int *count = sort ? calloc((size_t)ncell + 1, sizeof(int)) : NULL;
-    int fail = !cell || !gl || !zl || (sort && (!order || !count)) || n > INT32_MAX;
-    if (!fail && accel_init(&ag, t->sb, t->ns)) fail = 1;
-    if (!fail && accel_init(&az, t->u, t->nu)) {
+    if (accel_init(&ag, t->sb, t->ns)) return -1;
+    if (accel_init(&az, t->u, t->nu)) {
         free(ag.start);
-        fail = 1;
-    }
-    if (fail) {
-        free(cell), free(gl), free(zl), free(order), free(count);
         return -1;
     }
     const Py_ssize_t chunk = 256;
     Py_ssize_t nchunks = (n + chunk - 1) / chunk, c;
-#pragma omp parallel for schedule(static) if (n >= PAR_MIN_WORK / 64)
-    for (c = 0; c < nchunks; ++c) {
-        Py_ssize_t i0 = c * chunk, i1 = i0 + chunk < n ? i0 + chunk : n;
-        locate_chunk(t, &ag, &az, geo, dirs, i0, i1, cell, gl, zl);
-    }
-    if (sort) { /* counting sort by cell */
-        for (Py_ssize_t i = 0; i < n; ++i) count[cell[i] + 1]++;
-        for (int k = 0; k < ncell; ++k) count[k + 1] += count[k];
-        for (Py_ssize_t i = 0; i < n; ++i) order[count[cell[i]]++] = (int)i;
-    }
+    int fail = 0;
 #pragma omp parallel reduction(|| : fail) if (n * (Py_ssize_t)t->nc >= PAR_MIN_WORK / 8)
     {
         double *acc = malloc(sizeof(double) * (t->nc > 0 ? t->nc : 1));
@@ -636,14 +635,13 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
 #pragma omp for schedule(static)
         for (c = 0; c < nchunks; ++c) {
             if (!acc) continue;
-            Py_ssize_t p0 = c * chunk, p1 = p0 + chunk < n ? p0 + chunk : n;
-            eval_sorted(t, order, p0, p1, cell, gl, zl, out, is_double, sign, acc);
+            Py_ssize_t i0 = c * chunk, i1 = i0 + chunk < n ? i0 + chunk : n;
+            eval_chunk(t, &ag, &az, geo, dirs, i0, i1, out, is_double, sign, acc);
         }
         free(acc);
     }
     free(ag.start);
     free(az.start);
-    free(cell), free(gl), free(zl), free(order), free(count);
     return fail ? -1 : 0;
 }
 
