@@ -223,6 +223,7 @@ typedef struct {
     double *tab;     /* [(ns-1)*(nu-1)][6][nc] */
     int *mix_start;  /* [ncell + 1] */
     int *mix_ch;     /* [nmix] */
+    Py_ssize_t nmix;
     double *mix_coef;/* [nmix][6] */
     int nc;
 } table_t;
@@ -535,6 +536,7 @@ static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, con
         /* CSR of the mixed terms by cell */
         size_t total = 0;
         for (int i = 0; i < ns - 1; ++i) total += rows[i].n;
+        t->nmix = (Py_ssize_t)total;
         t->mix_ch = malloc(sizeof(int) * (total ? total : 1));
         t->mix_coef = malloc(sizeof(double) * 6 * (total ? total : 1));
         int *fill = calloc((size_t)ncell, sizeof(int));
@@ -784,7 +786,7 @@ static void set_threads(int nthreads)
  *          method, nthreads)
  * state = (observer altitude [m], solar elevation [rad], solar azimuth [rad, from +x toward +y]).
  * method: 0 auto, 1 direct, 2 table. emph None -> polarisation (no clamp, output negated).
- * Returns the method used (1 or 2). */
+ * Returns (method used: 1 direct or 2 table, number of cell terms kept separately for the clamp). */
 static PyObject *py_radiance(PyObject *self, PyObject *args)
 {
     PyObject *o[14];
@@ -834,6 +836,7 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
         int use_table = method == 2 || (method == 0 && n * (Py_ssize_t)nc >= 20000);
         if (m.emph && geo.use_shadow) use_table = 0;
         int err = 0;
+        Py_ssize_t nmix = 0;
         Py_BEGIN_ALLOW_THREADS
         set_threads(nthreads);
         if (use_table) {
@@ -841,6 +844,7 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
             err = table_build(&t, &m, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                               (const int64_t *)b[8].b.buf, nc);
             if (!err) {
+                nmix = t.nmix;
                 err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, sign);
                 table_free(&t);
             }
@@ -854,7 +858,7 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
             PyErr_NoMemory();
             goto done;
         }
-        ret = PyLong_FromLong(use_table ? 2 : 1);
+        ret = Py_BuildValue("in", use_table ? 2 : 1, nmix);
     }
 done:
     for (int i = 0; i < 11; ++i) rel_buf(&b[i]);

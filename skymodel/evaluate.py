@@ -134,10 +134,13 @@ def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, 
     dirs = np.asarray(directions, dtype=np.float64)
     if dirs.ndim < 1 or dirs.shape[-1] != 3:
         raise ValueError(f"directions must have shape (..., 3), got {dirs.shape}")
-    if not np.isfinite(dirs).all():
-        raise ValueError("directions contain non-finite values")
-    if np.any(np.einsum("...i,...i->...", dirs, dirs) == 0):
-        raise ValueError("directions contain a zero vector")
+    flat = np.ascontiguousarray(dirs.reshape(-1, 3))
+    n2 = np.einsum("ij,ij->i", flat, flat)  # one pass: catches NaN, inf and zero vectors
+    bad = ~(np.isfinite(n2) & (n2 > 0))
+    if bad.any():
+        v = flat[np.argmax(bad)]
+        what = "a zero vector" if np.all(v == 0) else f"a non-finite (or overflowing) vector {v}"
+        raise ValueError(f"directions contain {what}")
     state = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in
                                   (sun_elevation, sun_azimuth, visibility, albedo, altitude)))
     names = ("sun_elevation [deg]", "sun_azimuth [deg]", "visibility [km]", "albedo", "altitude [m]")
@@ -148,7 +151,7 @@ def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, 
         raise ValueError(f"visibility must be > 0 km, got {state[2][state[2] <= 0].ravel()[0]}")
     if np.any(state[4] < 0):
         raise ValueError(f"altitude must be >= 0 m (above the ground), got {state[4][state[4] < 0].ravel()[0]}")
-    return np.ascontiguousarray(dirs.reshape(-1, 3)), dirs.shape[:-1], state
+    return flat, dirs.shape[:-1], state
 
 
 def _check_clamp(model: SkyModel, el, vis, alb, alt, quantity):

@@ -1,0 +1,108 @@
+"""Benchmark: opening a SWIR-sized (about 550 MB) dataset and loading only what a run needs.
+
+Writes (once, into a cache directory) a file with the layout of a large dataset: 10 visibilities x 3
+albedos x 45 elevations x 55 channels, radiance rank 12 with 90/90/60 knots, polarisation rank 8 with
+45/45 knots. Then measures, each in a fresh process so resident memory is attributable:
+  open     load_dataset(path): memory-map and validate the header
+  one vis  load_dataset(path, visibility=50).load(): decode the two bracketing visibility slabs
+  all      load_dataset(path).load(): decode everything
+and the resident set size (VmRSS) after each.
+
+    python benchmarks/bench_open.py
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+CHILD = r"""
+import sys, time, json
+import numpy as np
+def rss():
+    for line in open("/proc/self/status"):
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) * 1024
+import skymodel
+path, mode = sys.argv[1], sys.argv[2]
+before = rss()
+t0 = time.perf_counter()
+if mode == "open":
+    m = skymodel.load_dataset(path)
+elif mode == "onevis":
+    m = skymodel.load_dataset(path, visibility=50.0).load()
+else:
+    m = skymodel.load_dataset(path).load()
+dt = time.perf_counter() - t0
+print(json.dumps({"seconds": dt, "rss_growth_MB": (rss() - before) / 1e6, "resident_MB": m.resident_bytes / 1e6}))
+"""
+
+
+def big_dataset(cache: Path) -> Path:
+    """Write one visibility slab of a synthetic model, then assemble the 10-visibility file by repeating
+    its sections (visibility is the outermost index of every section)."""
+    path = cache / "bench_swir_sized.dat"
+    if path.exists():
+        return path
+    import skymodel
+    from skymodel.synthetic import synthetic_contents
+    from skymodel.writer import write_dataset
+
+    nvis = 10
+    vis = np.linspace(20, 131.8, nvis)
+    elev = np.concatenate([[-4.2, -2.0, 0.0], np.geomspace(0.5, 90.0, 42)])
+    c = synthetic_contents(visibilities=vis[:1], albedos=(0, 0.5, 1), elevations=elev, n_channels=55, rank=12,
+                           n_sun=90, n_zen=90, n_emph=60, polarisation=True, pol_rank=8, n_pol_sun=45,
+                           n_pol_zen=45, seed=7)
+    small = cache / "bench_swir_one_vis.dat"
+    write_dataset(small, c)
+    m = skymodel.load_dataset(small)
+    lay = m._layout
+    b = small.read_bytes()
+    v_off, u_off = m._trans_v_off, m._trans_u_off
+    with open(path, "wb") as f:
+        f.write(np.int32(nvis).tobytes() + np.asarray(vis, "<f8").tobytes())
+        f.write(b[12:lay.rad_offset])                        # the rest of the radiance metadata
+        f.write(b[lay.rad_offset:lay.trans_offset] * nvis)   # radiance blocks
+        t = b[lay.trans_offset:]
+        f.write(t[:8] + np.int32(nvis).tobytes() + t[12:20])  # dDim, aDim, nVisT, nAltT, rankT
+        f.write(b[lay.trans_offset + 20:lay.trans_offset + 20 + 4 * m._n_alt_t])
+        f.write(np.asarray(vis, "<f4").tobytes())
+        f.write(b[u_off:v_off])                              # U
+        f.write(b[v_off:lay.pol_offset] * nvis)              # V
+        hdr_end = m._pol_blocks_offset
+        f.write(b[lay.pol_offset:hdr_end])
+        f.write(b[hdr_end:] * nvis)                          # polarisation blocks
+    del m
+    small.unlink()
+    return path
+
+
+def main():
+    cache = Path(os.environ.get("WIDESKY_BENCH_CACHE", tempfile.gettempdir()))
+    t0 = time.perf_counter()
+    path = big_dataset(cache)
+    print(f"dataset {path} ({path.stat().st_size / 1e6:.0f} MB, written/reused in {time.perf_counter() - t0:.1f} s)")
+    res = {"file_MB": path.stat().st_size / 1e6}
+    for mode in ("open", "onevis", "all"):
+        runs = []
+        for _ in range(3):
+            out = subprocess.run([sys.executable, "-c", CHILD, str(path), mode], capture_output=True, text=True,
+                                 check=True)
+            runs.append(json.loads(out.stdout))
+        best = min(runs, key=lambda r: r["seconds"])
+        res[mode] = best
+        print(f"{mode:7s} {best['seconds'] * 1e3:9.1f} ms   RSS growth {best['rss_growth_MB']:7.1f} MB   "
+              f"decoded {best['resident_MB']:7.1f} MB")
+    return res
+
+
+if __name__ == "__main__":
+    main()
