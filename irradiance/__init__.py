@@ -1,1 +1,30 @@
 """widesky.irradiance: solar position, sites, weather, sky states and per-face spectral irradiance."""
+
+from .location import (LABELS, Location, Site, daytime_steps, ensure_tz_aware, fixed_offset_tz,
+                       infer_step, sun_times, time_range)
+from .measured import (MeasuredScaling, blend_toward_isotropic, clearness_index,
+                       isotropic_blend_weight, measured_scale_factors)
+from .skystate import (DEFAULT_GROUPING, PSM_RANGES, GroupingSteps, SkyGroups, SkyRanges,
+                       group_sky_states, sky_ranges, sky_states)
+from .solarposition import (SOLAR_CONSTANT, SpaResult, delta_t_estimate, dni_extra, julian_day,
+                            solar_position, spa)
+from .weather import (WEATHER_COLUMNS, WeatherData, WeatherFileError, read_epw, read_tmy3,
+                      read_weather, read_weather_csv, write_epw)
+
+__all__ = [
+    # solar position
+    "spa", "solar_position", "SpaResult", "julian_day", "delta_t_estimate", "dni_extra",
+    "SOLAR_CONSTANT",
+    # sites and time
+    "Site", "Location", "LABELS", "ensure_tz_aware", "fixed_offset_tz", "infer_step", "sun_times",
+    "time_range", "daytime_steps",
+    # weather
+    "WeatherData", "WeatherFileError", "read_epw", "read_tmy3", "read_weather_csv", "read_weather",
+    "write_epw", "WEATHER_COLUMNS",
+    # sky states
+    "SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "GroupingSteps", "DEFAULT_GROUPING",
+    "SkyGroups", "group_sky_states",
+    # measured weather on the clear-sky model
+    "MeasuredScaling", "measured_scale_factors", "clearness_index", "isotropic_blend_weight",
+    "blend_toward_isotropic",
+]

@@ -1,0 +1,128 @@
+"""``widesky sun``: solar position and per-step sky states from the command line.
+
+Examples::
+
+    widesky sun position --lat 39.742476 --lon -105.1786 --altitude 1830.14 \\
+        --time "2003-10-17 12:30:30" --tz -7 --pressure 82000 --temperature 11 --delta-t 67
+    widesky sun position --lat 52.3 --lon 4.77 --start 2021-06-21 --end 2021-06-22 --step 1h \\
+        --tz Europe/Amsterdam
+    widesky sun skystates path/to/weather.epw
+    widesky sun skystates sample            # the shipped synthetic sample file
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+SAMPLE_WEATHER = Path(__file__).resolve().parent / "data" / "sample_golden_june.epw"
+
+
+def register(subparsers) -> None:
+    """Add the ``sun`` command group to the ``widesky`` parser."""
+    p = subparsers.add_parser("sun", help="solar position (NREL SPA) and per-step sky states",
+                              description="Solar position (NREL SPA) and per-step sky states.")
+    sub = p.add_subparsers(dest="sun_command", metavar="SUBCOMMAND")
+    sub.required = True
+
+    pos = sub.add_parser("position", help="solar position at given times (CSV to stdout)")
+    pos.add_argument("--lat", type=float, required=True, help="latitude [deg], north positive")
+    pos.add_argument("--lon", type=float, required=True, help="longitude [deg], east positive")
+    pos.add_argument("--altitude", type=float, default=0.0, help="altitude above sea level [m]")
+    pos.add_argument("--time", action="append", default=[],
+                     help="ISO timestamp (repeatable); naive ones are taken in --tz")
+    pos.add_argument("--start", help="period start (with --end and --step)")
+    pos.add_argument("--end", help="period end (exclusive)")
+    pos.add_argument("--step", default="1h", help="period step, e.g. 1h or 15min")
+    pos.add_argument("--label", default="center", choices=("left", "right", "center"),
+                     help="what period timestamps label; the sun is taken mid-interval")
+    pos.add_argument("--tz", default=None,
+                     help="time zone of naive times: IANA name or hours east of UTC (e.g. -7)")
+    pos.add_argument("--pressure", type=float, default=None,
+                     help="air pressure for refraction [Pa] (default: standard at --altitude)")
+    pos.add_argument("--temperature", type=float, default=12.0, help="air temperature [degC]")
+    pos.add_argument("--delta-t", type=float, default=None, help="TT - UT [s] (default: estimated)")
+    pos.set_defaults(func=_position)
+
+    sky = sub.add_parser("skystates", help="summarise the sky state of every step of a weather file")
+    sky.add_argument("weather", help="EPW, TMY3 or CSV weather file, or 'sample' for the shipped one")
+    sky.add_argument("--coerce-year", type=int, default=None, help="replace the file's years")
+    sky.add_argument("--default-visibility", type=float, default=50.0, help="[km]")
+    sky.add_argument("--default-albedo", type=float, default=0.2, help="[1]")
+    sky.add_argument("--elevation-step", type=float, default=0.25, help="grouping step [deg]")
+    sky.add_argument("--azimuth-step", type=float, default=1.0,
+                     help="grouping step [deg]; 0 leaves azimuth out of the key")
+    sky.add_argument("--visibility-step", type=float, default=0.02, help="relative grouping step [1]")
+    sky.add_argument("--albedo-step", type=float, default=0.01, help="grouping step [1]")
+    sky.add_argument("--site-altitude", action="store_true",
+                     help="use the site's elevation as the observer altitude (default: on the ground, 0 m)")
+    sky.add_argument("--csv", default=None, help="also write the per-step states to this CSV file")
+    sky.set_defaults(func=_skystates)
+
+
+def _tz_arg(tz):
+    if tz is None:
+        return None
+    try:
+        return float(tz)
+    except ValueError:
+        return tz
+
+
+def _position(args) -> int:
+    from .location import Site, time_range
+
+    site = Site(args.lat, args.lon, args.altitude, tz=_tz_arg(args.tz) or "UTC")
+    if args.time and args.start:
+        raise ValueError("give either --time or --start/--end, not both")
+    if args.time:
+        times = pd.DatetimeIndex([pd.Timestamp(t) for t in args.time])
+        label = "center"
+        if times.tz is None and args.tz is None:
+            raise ValueError("--time values are naive: give --tz (e.g. --tz -7 or --tz Europe/Paris)")
+    elif args.start and args.end:
+        times = time_range(args.start, args.end, args.step, site.tz, args.label)
+        label = args.label
+    else:
+        raise ValueError("give --time, or --start and --end")
+    sp = site.solar_position(times, label=label, step=args.step if label != "center" else None,
+                             pressure=args.pressure, temperature=args.temperature,
+                             delta_t=args.delta_t)
+    sp.index.name = "time"
+    sp.to_csv(sys.stdout, float_format="%.6f")
+    return 0
+
+
+def _skystates(args) -> int:
+    from .skystate import GroupingSteps, group_sky_states, sky_states
+    from .weather import read_weather
+
+    path = SAMPLE_WEATHER if args.weather == "sample" else Path(args.weather)
+    kwargs = {} if args.coerce_year is None else {"coerce_year": args.coerce_year}
+    w = read_weather(path, **kwargs)
+    sp = w.solar_position()
+    altitude = w.site.altitude if args.site_altitude else 0.0
+    states = sky_states(sp, w, altitude=altitude, default_visibility=args.default_visibility,
+                        default_albedo=args.default_albedo)
+    steps = GroupingSteps(elevation=args.elevation_step,
+                          azimuth=args.azimuth_step if args.azimuth_step > 0 else None,
+                          visibility=args.visibility_step, albedo=args.albedo_step)
+    g = group_sky_states(states, steps)
+    print(w.summary())
+    n = len(states)
+    print(f"steps: {n}; sky evaluated (sun above the model's minimum elevation): {g.n_evaluated}; "
+          f"with beam: {int(states['has_beam'].sum())}")
+    src = states.loc[~states["below_min"], "visibility_source"].value_counts()
+    print("visibility source (evaluated steps): " + ", ".join(f"{k}={v}" for k, v in src.items()))
+    flags = [c for c in states.columns if c.endswith("_clamped")]
+    ev = ~states["below_min"]
+    print("clamped to the model's range (evaluated steps): "
+          + ", ".join(f"{c[:-8]}={int(states.loc[ev, c].sum())}" for c in flags))
+    print(f"grouping {steps}: {g.n_groups} distinct skies for {g.n_evaluated} steps "
+          f"(reduction {g.reduction:.2f}x)")
+    if args.csv:
+        states.to_csv(args.csv)
+        print(f"wrote {args.csv}")
+    return 0

@@ -1,0 +1,1 @@
+"""Package data of widesky.irradiance: a synthetic public-domain sample weather file."""
