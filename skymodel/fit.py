@@ -1,0 +1,205 @@
+"""Fitting sky radiance and transmittance into the Prague Sky Model's form.
+
+Radiance of one configuration and channel (Vevoda et al. 2022, section 3.3):
+
+    R(view) = emph(zero) * sum_r sun_r(gamma) * zen_r(alpha)
+
+with every factor piecewise linear on its knots (``alpha`` is the altitude-corrected zenith angle
+``zero`` when the sun is up, the shadow angle otherwise). We fit it by alternation:
+
+1. with the emphasis fixed, the rank sum is a bilinear function ``phi(gamma)^T M psi(alpha)`` of a
+   knot-value matrix M (nSun x nZen); M is the regularised least-squares solution on the samples (a sparse
+   problem: each sample touches four entries of M; a small second-difference penalty fills knot cells no
+   sample reaches), truncated to rank R by SVD;
+2. with the rank sum fixed, the emphasis values are a small linear least-squares problem;
+
+repeated a few times. Transmittance: ``sqrt(T)`` sampled on the format's (distance, altitude) grid for
+every (visibility, altitude, channel) is factored by a truncated SVD into U . V.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg, sparse
+
+__all__ = ["hat_weights", "fit_radiance", "RadianceFit", "fit_transmittance"]
+
+
+def hat_weights(x, knots):
+    """Piecewise-linear interpolation weights with the reference's clamping: (index, w_lo, w_hi) such
+    that f(x) = w_lo * c[index] + w_hi * c[index + 1] (index <= n - 2)."""
+    k = np.asarray(knots, float)
+    x = np.clip(np.asarray(x, float), k[0], k[-1])
+    i = np.clip(np.searchsorted(k, x, side="right") - 1, 0, len(k) - 2)
+    f = (x - k[i]) / (k[i + 1] - k[i])
+    return i, 1.0 - f, f
+
+
+def _design(i, wl, wh, n):
+    """Dense (m, n) matrix of the hat functions at the samples."""
+    m = len(i)
+    A = np.zeros((m, n))
+    A[np.arange(m), i] = wl
+    A[np.arange(m), i + 1] += wh
+    return A
+
+
+def _regulariser_banded(ns, nz, band):
+    """Banded upper storage of the smoothness penalty on M (row-major vec, i * nz + j): first differences
+    along the sun-angle axis (keeps the bandwidth at nz + 1) and second differences along the zenith axis."""
+    N = ns * nz
+    ab = np.zeros((band + 1, N))
+    # first differences along i: (x[i+1, j] - x[i, j])^2 -> diagonal +1 / +1, off-diagonal (distance nz) -1
+    diag = np.zeros(N)
+    for i in range(ns - 1):
+        diag[i * nz:(i + 1) * nz] += 1
+        diag[(i + 1) * nz:(i + 2) * nz] += 1
+        ab[band - nz, (i + 1) * nz:(i + 2) * nz] += -1.0
+    # second differences along j: D^T D per row i
+    Dz = _second_difference(nz)
+    DtD = Dz.T @ Dz
+    for d in range(min(3, nz)):
+        dd = np.diagonal(DtD, d)
+        for i in range(ns):
+            ab[band - d, i * nz + d:(i + 1) * nz] += dd
+    ab[band] += diag
+    return ab
+
+
+def _second_difference(n):
+    D = np.zeros((max(n - 2, 0), n))
+    for r in range(n - 2):
+        D[r, r:r + 3] = (1.0, -2.0, 1.0)
+    return D
+
+
+@dataclass
+class RadianceFit:
+    """Fitted factors of one configuration and channel: ``sun`` (R, nSun), ``zen`` (R, nZen), ``emph``
+    (nEmph,), and the fit's normalised mean absolute error on its samples [1]."""
+
+    sun: np.ndarray
+    zen: np.ndarray
+    emph: np.ndarray
+    nmae: float
+
+    def evaluate(self, gamma, alpha, zero, sun_breaks, zen_breaks, emph_breaks):
+        """The fitted radiance at angles [rad] (the reference's form, clamped at 0)."""
+        ig, gl, gh = hat_weights(gamma, sun_breaks)
+        ia, al, ah = hat_weights(alpha, zen_breaks)
+        iz, zl, zh = hat_weights(zero, emph_breaks)
+        s = self.sun[:, ig] * gl + self.sun[:, ig + 1] * gh
+        z = self.zen[:, ia] * al + self.zen[:, ia + 1] * ah
+        e = self.emph[iz] * zl + self.emph[iz + 1] * zh
+        return np.maximum(e * np.sum(s * z, axis=0), 0.0)
+
+
+def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks, rank, *, weights=None,
+                 smoothing=1e-6, iterations=2):
+    """Fit one configuration's radiance samples into the PSM form (see module docstring).
+
+    Parameters
+    ----------
+    gamma, alpha, zero : ndarray (m,)
+        Angles of the sample directions [rad]: to the sun, the zenith factor's angle, the emphasis angle.
+    values : ndarray (m,)
+        Radiance at the samples [W m-2 sr-1 nm-1].
+    sun_breaks, zen_breaks, emph_breaks : ndarray
+        Knots [rad], ascending.
+    rank : int
+    weights : ndarray (m,), optional
+        Sample weights (e.g. solid angles [sr]); default uniform.
+    smoothing : float
+        Second-difference penalty on M and the emphasis relative to the data term [1].
+    iterations : int
+        Alternations between the rank sum and the emphasis.
+
+    Returns
+    -------
+    RadianceFit
+    """
+    y = np.asarray(values, float)
+    w = np.ones_like(y) if weights is None else np.asarray(weights, float)
+    ns, nz, ne = len(sun_breaks), len(zen_breaks), len(emph_breaks)
+    ig, gl, gh = hat_weights(gamma, sun_breaks)
+    ia, al, ah = hat_weights(alpha, zen_breaks)
+    iz, zl, zh = hat_weights(zero, emph_breaks)
+    E = _design(iz, zl, zh, ne)        # (m, ne)
+    scale = float(np.sqrt(np.sum(w * y * y) / max(np.sum(w), 1e-300))) or 1.0
+    yn = y / scale
+    N = ns * nz
+    band = nz + 1  # bandwidth of the normal matrix in row-major (i * nz + j) order
+    lam = smoothing * np.sum(w)
+    reg_ab = _regulariser_banded(ns, nz, band)
+    # the four M entries each sample touches and their bilinear weights
+    cols = np.stack([ig * nz + ia, ig * nz + ia + 1, (ig + 1) * nz + ia, (ig + 1) * nz + ia + 1], axis=1)
+    bil = np.stack([gl * al, gl * ah, gh * al, gh * ah], axis=1)
+    lo_k, hi_k = np.triu_indices(4)  # cols are ascending within a row, so k <= l gives c_k <= c_l
+    emph = np.ones(ne)
+    for it in range(iterations):
+        e = emph[iz] * zl + emph[iz + 1] * zh
+        vals = bil * e[:, None]                                   # (m, 4) nonzeros of the design rows
+        # normal matrix in banded upper storage: ab[band + c_k - c_l, c_l] += w v_k v_l
+        ck, cl = cols[:, lo_k], cols[:, hi_k]
+        contrib = (w[:, None] * vals[:, lo_k] * vals[:, hi_k]).ravel()
+        flat = ((band + ck - cl) * N + cl).ravel()
+        ab = np.bincount(flat, contrib, minlength=(band + 1) * N).reshape(band + 1, N)
+        ab = ab + lam * reg_ab
+        ab[band] += 1e-9 * lam + 1e-300
+        rhs = np.bincount(cols.ravel(), (vals * (w * yn)[:, None]).ravel(), minlength=N)
+        M = linalg.solveh_banded(ab, rhs).reshape(ns, nz)
+        U, S, Vt = np.linalg.svd(M, full_matrices=False)
+        r = min(rank, len(S))
+        sun = U[:, :r].T * np.sqrt(S[:r])[:, None]
+        zen = np.sqrt(S[:r])[:, None] * Vt[:r]
+        if r < rank:
+            sun = np.vstack([sun, np.zeros((rank - r, ns))])
+            zen = np.vstack([zen, np.zeros((rank - r, nz))])
+        s_at = sun[:, ig] * gl + sun[:, ig + 1] * gh
+        z_at = zen[:, ia] * al + zen[:, ia + 1] * ah
+        h = np.sum(s_at * z_at, axis=0)
+        if it < iterations - 1:
+            Xe = h[:, None] * E
+            De = _second_difference(ne)
+            Ae = Xe.T @ (w[:, None] * Xe) + lam * 1e-2 * (De.T @ De) + 1e-12 * np.eye(ne)
+            emph_new = np.linalg.solve(Ae, Xe.T @ (w * yn))
+            mean = np.mean(np.abs(emph_new))  # keep the magnitude in the rank sum
+            if not np.isfinite(mean) or mean <= 0:
+                break
+            emph = emph_new / mean
+    fit = np.maximum((E @ emph) * h, 0.0) * scale
+    nmae = float(np.sum(w * np.abs(fit - y)) / max(np.sum(w * np.abs(y)), 1e-300))
+    return RadianceFit(sun * scale, zen, emph, nmae)
+
+
+def fit_transmittance(sqrt_t, rank):
+    """Factor ``sqrt(T)`` samples into the format's U . V.
+
+    Parameters
+    ----------
+    sqrt_t : ndarray (nVisT, nAltT, nCh, dDim, aDim)
+        Square root of transmittance [1] on the format's distance x altitude parameter grid.
+    rank : int
+
+    Returns
+    -------
+    U : ndarray (nAltT, dDim, aDim, rank) float32
+    V : ndarray (nVisT, nAltT, nCh, rank) float32
+    max_abs_error : float  largest |U.V - sqrt(T)| after clipping to [0, 1] [1]
+    """
+    x = np.asarray(sqrt_t, float)
+    nv, na, nc, dd, ad = x.shape
+    U = np.zeros((na, dd, ad, rank))
+    V = np.zeros((nv, na, nc, rank))
+    err = 0.0
+    for a in range(na):
+        X = x[:, a].reshape(nv * nc, dd * ad).T  # (grid, vis*ch)
+        u, s, vt = np.linalg.svd(X, full_matrices=False)
+        r = min(rank, len(s))
+        U[a, ..., :r] = (u[:, :r] * s[:r]).reshape(dd, ad, r)
+        V[:, a, :, :r] = vt[:r].T.reshape(nv, nc, r)
+        rec = np.clip(np.einsum("dar,vcr->vcda", U[a], V[:, a]), 0, 1)
+        err = max(err, float(np.abs(rec - x[:, a]).max()))
+    return U.astype(np.float32), V.astype(np.float32), err
