@@ -1,0 +1,535 @@
+"""Per-face spectral plane-of-array irradiance: geometry once, time series as matrix products.
+
+Method (a daylight-coefficient / "3-phase"-style split; Tregenza & Waters 1983, Reinhart & Herkel 2000):
+
+1. :func:`irradiance.raycast.compute_coefficients` casts rays once per scene: per analysis point the
+   visibility-weighted projected solid angle of every sky patch ``D`` (N, P), of the visible ground
+   ``G`` (N,), reflectance-weighted projected solid angles of scene surfaces by orientation bin ``R``
+   (N, B), and sun visibility per daylight step.
+2. :func:`patch_radiance` integrates the sky model over each patch per step: a stratified grid of
+   directions per patch plus, around the sun, a polar quadrature with logarithmically spaced rings (the
+   circumsolar peak), each sample assigned to its patch; the patch radiance is the solid-angle-weighted
+   mean. The sun itself is not in any patch: its direct normal irradiance is traced separately.
+   Channels are contracted with the response vectors right after each sky evaluation.
+3. Per chunk of steps, with ``L`` (P, R) contracted patch radiance, ``E_n`` the contracted direct normal
+   irradiance and ``s`` the sun direction:
+
+   * ``poa_direct = E_n * max(0, n . s) * sun_visible``, where ``E_n`` includes the circumsolar excess
+     (the sky within ``circumsolar_radius`` of the sun above its value at that radius), as the Perez
+     model counts circumsolar light with the beam;
+   * ``poa_sky_diffuse = D @ L``
+   * ground: the Lambertian ground has radiance ``L_g = albedo * (E_n sin(elevation) + H . L) / pi``
+     (unshaded global horizontal irradiance) and adds ``G * L_g``;
+   * one bounce off scene surfaces: each orientation bin ``b`` has the unshaded irradiance
+     ``E_b = E_n max(0, n_b . s) + C_b . L + L_g * pi (1 - cos tilt_b) / 2`` and adds ``R @ E_b / pi``;
+   * ``poa_ground_diffuse`` is the sum of both reflected terms (pvlib's name for light reflected from
+     the surroundings), ``poa_global = poa_direct + poa_sky_diffuse + poa_ground_diffuse``.
+
+Documented approximations: a reflecting point (ground included) gets the irradiance of an unshaded
+surface of its orientation bin times its open fraction (the share of its cosine-weighted hemisphere
+that escapes the scene, one secondary ray per hit): exact for open and for enclosed reflectors, a proxy
+for the sunlit fraction in between; reflector normals are quantised to 42 bins (about 22 deg); one
+bounce only; the sun is a point.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .patches import SkyPatches, cosine_weights, reinhart
+from .raycast import Coefficients, compute_coefficients
+from .scene import Scene
+from .skies import SkyStates
+
+__all__ = ["IntegratorSettings", "patch_radiance", "poa_irradiance", "POAResult",
+           "circumsolar_quadrature", "PRESETS"]
+
+
+@dataclass(frozen=True)
+class IntegratorSettings:
+    """Resolution of the integrator.
+
+    Attributes
+    ----------
+    mf : int
+        Reinhart subdivision of the sky (1 = Tregenza 145 patches, 2 = 577, 4 = 2305).
+    rays_per_patch : int
+        ``k``: k x k rays per patch (and per mirrored ground patch) for occlusion.
+    radiance_samples : int
+        ``k``: k x k sky-model directions per patch for the patch radiance.
+    circumsolar_radius : float
+        Radius of the sun-centred polar quadrature [deg].
+    circumsolar_rings : int
+        Log-spaced circles of nodes of that quadrature (from 0.1 deg to the radius).
+    circumsolar_sectors : int
+        Azimuth sectors per ring.
+    time_chunk : int
+        Steps per block of the time-series product (bounds memory).
+    """
+
+    mf: int = 1
+    rays_per_patch: int = 2
+    radiance_samples: int = 2
+    circumsolar_radius: float = 5.0
+    circumsolar_rings: int = 12
+    circumsolar_sectors: int = 12
+    time_chunk: int = 256
+
+    def __post_init__(self):
+        for name in ("mf", "rays_per_patch", "radiance_samples", "circumsolar_rings",
+                     "circumsolar_sectors", "time_chunk"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"{name}={getattr(self, name)} must be >= 1")
+        if not 0.5 <= self.circumsolar_radius <= 45.0:
+            raise ValueError(f"circumsolar_radius={self.circumsolar_radius} deg outside [0.5, 45]")
+
+    @classmethod
+    def for_tolerance(cls, tolerance):
+        """The cheapest preset whose measured annual error is below ``tolerance`` [1] (relative).
+
+        The presets and their errors come from ``docs/irradiance-integrator.md`` (accuracy-vs-speed
+        study against the brute-force reference); valid tolerances are >= the finest preset's error.
+        """
+        tol = float(tolerance)
+        for t, s in PRESETS:
+            if tol >= t:
+                return s
+        raise ValueError(f"tolerance={tolerance} below the finest preset's {PRESETS[-1][0]}; "
+                         "set IntegratorSettings fields directly")
+
+
+# (relative annual error bound, settings), cheapest first; see docs/irradiance-integrator.md
+PRESETS = (
+    (0.05, IntegratorSettings(mf=1, rays_per_patch=1, radiance_samples=1, circumsolar_rings=8,
+                              circumsolar_sectors=8)),
+    (0.01, IntegratorSettings(mf=1, rays_per_patch=2, radiance_samples=2)),
+    (0.005, IntegratorSettings(mf=2, rays_per_patch=2, radiance_samples=2)),
+    (0.002, IntegratorSettings(mf=4, rays_per_patch=2, radiance_samples=2, circumsolar_rings=12,
+                               circumsolar_sectors=16)),
+)
+
+
+def circumsolar_quadrature(radius=10.0, rings=8, sectors=12, inner=0.1):
+    """Nodes of the sun-centred polar quadrature: one at the sun, ``sectors`` on each of ``rings``
+    log-spaced circles from ``inner`` to ``radius`` [deg] (the outer circle is the disc's edge).
+
+    Returns
+    -------
+    edges : numpy.ndarray
+        (rings + 1,) radii [rad], starting with 0 (the sun).
+    r : numpy.ndarray
+        (Q,) angular distance of each node from the sun [rad], Q = 1 + rings * sectors.
+    theta : numpy.ndarray
+        (Q,) position angle [rad].
+    """
+    edges = np.radians(np.concatenate([[0.0], np.geomspace(min(inner, radius / 4), radius, rings)]))
+    t = (np.arange(sectors) + 0.5) * 2 * np.pi / sectors
+    r = np.concatenate([[0.0], np.repeat(edges[1:], sectors)])
+    th = np.concatenate([[0.0], np.tile(t, rings)])
+    return edges, r, th
+
+
+def _radial_weights(edges, lq, sectors, nodes=6):
+    """Node solid angles (T, Q) [sr] of the polar quadrature for radiance profiles ``lq`` (T, Q).
+
+    Between consecutive circles the radiance is interpolated exponentially along each sector (exact
+    for an exponential aureole, linear where a value is not positive) and integrated with
+    Gauss-Legendre in the angular distance; each interval's integral is split between its two
+    nodes in proportion to their interpolation weights, so the weights apply to any channel.
+    """
+    T = lq.shape[0]
+    x, gw = np.polynomial.legendre.leggauss(nodes)
+    u = 0.5 * (x + 1.0)
+    n_r = edges.size - 1
+    centre = lq[:, :1]                                                    # (T, 1)
+    ring = lq[:, 1:].reshape(T, n_r, sectors)
+    inner = np.concatenate([np.broadcast_to(centre[:, :, None], (T, 1, sectors)), ring[:, :-1]], 1)
+    a, b = edges[:-1], edges[1:]                                          # (n_r,)
+    g = a[:, None] + (b - a)[:, None] * u[None, :]                        # (n_r, nodes)
+    jac = (b - a)[:, None] * 0.5 * gw[None, :] * np.sin(g) * (2 * np.pi / sectors)
+    pos = (inner > 0) & (ring > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(pos, ring / np.where(pos, inner, 1.0), 1.0)
+        # interpolated value relative to the linear blend: L(u) = La (Lb/La)^u
+        expo = ratio[..., None] ** u                                      # (T, n_r, S, nodes)
+    lin_a, lin_b = 1.0 - u, u
+    la = np.where(pos, inner, 1.0)[..., None]
+    # exponential profile: int L (1-u) ..., int L u ... divided by La, Lb
+    wa_exp = np.sum(expo * lin_a * jac[None, :, None, :], axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wb_exp = np.sum(expo * lin_b * jac[None, :, None, :], axis=-1) / np.where(pos, ratio, 1.0)
+    wa_lin = np.sum(lin_a * jac, axis=-1)[None, :, None]
+    wb_lin = np.sum(lin_b * jac, axis=-1)[None, :, None]
+    # an exponential through La, Lb splits as (int L(1-u))/La and (int L u)/Lb; normalise so that
+    # wa*La + wb*Lb equals the exponential integral exactly
+    total = np.sum(expo * jac[None, :, None, :], axis=-1) * la[..., 0]
+    part = wa_exp * la[..., 0] + wb_exp * ring
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fix = np.where(part > 0, total / part, 1.0)
+    wa = np.where(pos, wa_exp * fix, wa_lin)
+    wb = np.where(pos, wb_exp * fix, wb_lin)
+    w = np.zeros_like(lq)
+    w[:, 0] = wa[:, 0].sum(axis=1)
+    wr = wb.copy()
+    wr[:, :-1] += wa[:, 1:]
+    w[:, 1:] = wr.reshape(T, -1)
+    return w
+
+
+def _sun_frame(s):
+    """(T, 3) u, v completing the unit vectors s to right-handed frames."""
+    ref = np.where(np.abs(s[:, 2:3]) < 0.9, np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]]))
+    u = np.cross(ref, s)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(s, u)
+
+
+def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, settings=None):
+    """Mean sky radiance over every patch per step, the circumsolar peak split off, channels contracted.
+
+    Inside ``circumsolar_radius`` of the sun the sky is split into ``min(L, L_edge)`` (``L_edge``: the
+    radiance on the disc's edge) and the circumsolar excess ``max(L - L_edge, 0)``. The excess is
+    integrated with a sun-centred polar quadrature (log-spaced circles, exponential interpolation
+    between them) and returned separately, to be traced with the sun, so its steep gradient is not
+    smeared over a patch whose cosine weight and visibility can differ from the sun's. The remaining
+    smooth sky is averaged over each patch from ``k x k`` stratified directions (equal solid angles).
+
+    Parameters
+    ----------
+    sky : sky source
+        See :mod:`irradiance.skies` (``radiance``, ``direct_normal``, ``n_channels``).
+    patches : SkyPatches
+        The sky discretisation.
+    states : SkyStates
+        T sky states.
+    weights : array_like, optional
+        (C, R) contraction matrix applied to the channels; default identity (R = C).
+    settings : IntegratorSettings, optional
+        Sample counts.
+
+    Returns
+    -------
+    radiance : numpy.ndarray
+        (T, P, R) patch-mean radiance contracted with ``weights`` [W m-2 sr-1 nm-1 times the weights'
+        unit].
+    direct_normal : numpy.ndarray
+        (T, R) sun direct normal irradiance contracted with ``weights``.
+    circumsolar : numpy.ndarray
+        (T, R) circumsolar normal irradiance: the sky radiance within ``circumsolar_radius`` of the
+        sun in excess of its value at that radius, integrated over the disc (above the horizon), to be
+        traced like the sun (as the Perez model treats circumsolar light); zero with the sun below the
+        horizon.
+    """
+    settings = settings or IntegratorSettings()
+    C = sky.n_channels
+    W = np.eye(C) if weights is None else np.asarray(weights, dtype=float)
+    if W.shape[0] != C:
+        raise ValueError(f"weights has {W.shape[0]} rows for a sky of {C} channels")
+    P, T = patches.n_patches, len(states)
+    reg_d, reg_w = patches.subsample(settings.radiance_samples)
+    reg_p = np.repeat(np.arange(P), reg_d.shape[1])
+    reg_d, reg_w = reg_d.reshape(-1, 3), reg_w.reshape(-1)
+    edges, r, th = circumsolar_quadrature(settings.circumsolar_radius, settings.circumsolar_rings,
+                                          settings.circumsolar_sectors)
+    cos_rad = np.cos(np.radians(settings.circumsolar_radius))
+    s = states.sun_direction
+    u, v = _sun_frame(s)
+    qd = (np.cos(r)[None, :, None] * s[:, None, :]
+          + (np.sin(r) * np.cos(th))[None, :, None] * u[:, None, :]
+          + (np.sin(r) * np.sin(th))[None, :, None] * v[:, None, :])           # (T, Q, 3)
+    qp = patches.index(qd)
+    above = qp >= 0
+    qd[~above] = (0.0, 0.0, 1.0)
+    qp = np.maximum(qp, 0)
+    inside = (s @ reg_d.T) > cos_rad                                         # (T, n_reg + P)
+    dirs = np.concatenate([np.broadcast_to(reg_d, (T,) + reg_d.shape), qd], axis=1)
+    L = sky.radiance(dirs, states) @ W                                       # (T, Nd, R)
+    R = W.shape[1]
+    nr = reg_p.size
+    Lq = L[:, nr:]
+    Lq[~above] = 0.0
+    # node solid angles from the first response column's radial profile (nodes below the horizon
+    # carry no sky)
+    qwt = _radial_weights(edges, Lq[..., 0], settings.circumsolar_sectors) * above
+    # split the sky inside the disc into min(L, L_edge) (smooth, left to the patches) and the
+    # circumsolar excess (to the sun); L_edge is the mean of the outer circle's nodes above the horizon
+    ns = settings.circumsolar_sectors
+    w_out = above[:, -ns:].astype(float)
+    has_edge = (w_out.sum(axis=1) > 0) & (states.sun_elevation > 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        l_edge = np.einsum("tq,tqr->tr", w_out, Lq[:, -ns:]) / w_out.sum(axis=1)[:, None]
+    l_edge[~has_edge] = np.inf
+    circumsolar = np.einsum("tq,tqr->tr", qwt, np.maximum(Lq - l_edge[:, None, :], 0.0))
+    Lr = L[:, :nr]
+    Lr = np.where(inside[..., None], np.minimum(Lr, l_edge[:, None, :]), Lr)
+    # patch mean of the capped sky from the stratified samples
+    flat = (np.arange(T)[:, None] * P + reg_p[None, :]).ravel()
+    wts = np.broadcast_to(reg_w, (T, nr))
+    den = np.bincount(flat, weights=wts.ravel(), minlength=T * P)
+    wl = (wts[..., None] * Lr).reshape(-1, R)
+    num = np.stack([np.bincount(flat, weights=wl[:, j], minlength=T * P) for j in range(R)], 1)
+    out = (num / den[:, None]).reshape(T, P, R)
+    dni = np.asarray(sky.direct_normal(states), dtype=float) @ W
+    return out, dni, circumsolar
+
+
+@dataclass(eq=False)
+class POAResult:
+    """Plane-of-array irradiance per analysis face and step (arrays shaped (T, F), time first).
+
+    Attributes
+    ----------
+    poa_global, poa_direct, poa_sky_diffuse, poa_ground_diffuse : numpy.ndarray
+        Broadband (channel-integrated, 280-2480 nm for the PSM) irradiance [W m-2];
+        ``poa_ground_diffuse`` holds all reflected light (ground and scene surfaces).
+    effective_irradiance : dict of str to numpy.ndarray
+        Global irradiance weighted by each response: ``sum_c SR_c E_c dlambda_c`` [W m-2].
+    spectral : numpy.ndarray or None
+        (T, F, C) spectral global irradiance [W m-2 nm-1] when requested.
+    wavelengths : numpy.ndarray
+        (C,) channel centres [nm].
+    times : pandas.DatetimeIndex or None
+        The steps.
+    face_area : numpy.ndarray
+        (F,) [m2].
+    face_group : numpy.ndarray
+        (F,) group index.
+    group_names : tuple of str
+    timings : dict
+        Seconds per phase and ray counts.
+    """
+
+    poa_global: np.ndarray
+    poa_direct: np.ndarray
+    poa_sky_diffuse: np.ndarray
+    poa_ground_diffuse: np.ndarray
+    effective_irradiance: dict
+    spectral: object
+    wavelengths: np.ndarray
+    times: object
+    face_area: np.ndarray
+    face_group: np.ndarray
+    group_names: tuple
+    timings: dict = field(default_factory=dict)
+
+    QUANTITIES = ("poa_global", "poa_direct", "poa_sky_diffuse", "poa_ground_diffuse")
+
+    def aggregate(self):
+        """Area-weighted means per face group.
+
+        Returns
+        -------
+        dict
+            ``"area"``: (G,) group areas [m2]; each of ``poa_global``, ``poa_direct``,
+            ``poa_sky_diffuse``, ``poa_ground_diffuse`` and ``effective_irradiance:<name>``: (T, G)
+            area-weighted mean irradiance [W m-2] (multiply by ``area`` for power [W]).
+        """
+        G = len(self.group_names)
+        M = np.zeros((self.face_area.size, G))
+        M[np.arange(self.face_area.size), self.face_group] = self.face_area
+        area = M.sum(axis=0)
+        Mn = M / np.where(area > 0, area, 1.0)
+        out = {"area": area}
+        for q in self.QUANTITIES:
+            out[q] = getattr(self, q) @ Mn
+        for k, v in self.effective_irradiance.items():
+            out[f"effective_irradiance:{k}"] = v @ Mn
+        return out
+
+    def to_dataframe(self, face=0):
+        """pandas DataFrame of one face's series with pvlib column names [W m-2]."""
+        import pandas as pd
+        data = {q: getattr(self, q)[:, face] for q in self.QUANTITIES}
+        for k, v in self.effective_irradiance.items():
+            data[f"effective_irradiance_{k}"] = v[:, face]
+        return pd.DataFrame(data, index=self.times)
+
+
+def _responses(sky, responses):
+    C = sky.n_channels
+    names, rows = ["broadband"], [np.ones(C)]
+    for name, sr in (responses or {}).items():
+        a = np.asarray(sr, dtype=float)
+        if a.shape != (C,) or not np.all(np.isfinite(a)):
+            raise ValueError(f"response {name!r} must be finite with shape ({C},), got {a.shape}")
+        names.append(str(name))
+        rows.append(a)
+    return names, np.array(rows)
+
+
+def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, spectral=False,
+                   settings=None, dni_scale=None, diffuse_scale=None, times=None, n_jobs=None,
+                   executor=None, progress=False, coefficients=None, dtype=np.float32):
+    """Plane-of-array irradiance on every analysis face for a series of sky states.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`irradiance.scene.make_scene`.
+    sky : sky source
+        :class:`irradiance.skies.PragueSky`, :class:`~irradiance.skies.UniformSky` ...
+    states : SkyStates
+        T per-step sky states (sun elevation/azimuth [deg], visibility [km], albedo [1], altitude [m]).
+    responses : dict of str to array_like, optional
+        Response vectors (C,) [1] (cell spectral response, glazing transmittance ...) per channel of
+        the sky; each gives ``effective_irradiance[name]`` [W m-2]. Channels are contracted with them
+        before the large products.
+    spectral : bool
+        Also return the spectral global irradiance (T, F, C) [W m-2 nm-1] (large: T x F x C).
+    settings : IntegratorSettings, optional
+        Resolution; default ``IntegratorSettings()`` (about 1 % annual error, see docs).
+    dni_scale, diffuse_scale : array_like, optional
+        (T,) factors [1] on the sun's direct normal irradiance and on the sky radiance per step (to
+        match measured DNI / DHI); the ground and obstruction light follow.
+    times : pandas.DatetimeIndex, optional
+        Labels kept on the result.
+    n_jobs : int, optional
+        Ray-casting processes (default all cores).
+    executor : concurrent.futures.Executor, optional
+        Runs the ray-casting tasks (e.g. a Dask client's executor).
+    progress : bool
+        Progress bars.
+    coefficients : Coefficients, optional
+        Precomputed for this scene, settings and these states' daylight sun directions.
+    dtype : numpy dtype
+        Output dtype (default float32).
+
+    Returns
+    -------
+    POAResult
+    """
+    t_start = time.perf_counter()
+    settings = settings or IntegratorSettings()
+    T = len(states)
+    names, Rmat = _responses(sky, responses)
+    R = len(names)
+    C = sky.n_channels
+    widths = np.diff(np.asarray(sky.channel_edges, dtype=float))
+    W = (Rmat * widths[None, :]).T                                          # (C, R): W m-2
+    cols = [W]
+    if spectral:
+        cols.append(np.eye(C))
+    ga = scene.ground_albedo
+    spectral_ground = ga is not None and np.ndim(ga) == 1
+    if spectral_ground:
+        if np.shape(ga) != (C,):
+            raise ValueError(f"ground_albedo has {np.shape(ga)[0]} channels, the sky {C}")
+        cols.append(np.asarray(ga)[:, None] * W)
+    Wall = np.concatenate(cols, axis=1)
+    scale_d = np.ones(T) if dni_scale is None else np.broadcast_to(np.asarray(dni_scale, float), (T,))
+    scale_s = (np.ones(T) if diffuse_scale is None
+               else np.broadcast_to(np.asarray(diffuse_scale, float), (T,)))
+    for name, v in (("dni_scale", scale_d), ("diffuse_scale", scale_s)):
+        if np.any(~np.isfinite(v)) or np.any(v < 0):
+            raise ValueError(f"{name} must be finite and >= 0")
+
+    patches = reinhart(settings.mf)
+    el = states.sun_elevation
+    lit = np.nonzero(el > getattr(sky, "min_sun_elevation", 0.0))[0]
+    up = el > 0
+    sun_rank = np.cumsum(up) - 1
+    sun_dirs = states.sun_direction[up]
+    if coefficients is None:
+        coefficients = compute_coefficients(scene, mf=settings.mf,
+                                            rays_per_patch=settings.rays_per_patch,
+                                            sun_directions=sun_dirs, n_jobs=n_jobs,
+                                            executor=executor, progress=progress)
+    cf: Coefficients = coefficients
+    if cf.sky.shape != (scene.n_points, patches.n_patches) or cf.n_sun != sun_dirs.shape[0]:
+        raise ValueError("coefficients do not match this scene, settings and states")
+    t_rays = time.perf_counter()
+
+    F, k, N = scene.n_faces, scene.samples_per_face, scene.n_points
+    P, B = patches.n_patches, cf.bins.shape[0]
+    # one coefficient matrix for all diffuse light: sky patches | reflector bins / pi | ground
+    K_T = np.ascontiguousarray(np.concatenate(
+        [cf.sky, cf.reflect / np.pi, cf.ground[:, None]], axis=1).T.astype(np.float32))  # (P+B+1, N)
+    D_T, Kr_T = np.ascontiguousarray(K_T[:P]), np.ascontiguousarray(K_T[P:])
+    normals = scene.point_normal.astype(np.float32)
+    Hb = patches.vector[:, 2]
+    Cb_up = cosine_weights(patches, cf.bins)                                # (B, P)
+    Cb_lo = cosine_weights(patches, cf.bins, lower=True).sum(axis=1)        # (B,)
+    sun_vis = cf.sun_visibility()                                           # (N, S) bool
+
+    out = {q: np.zeros((T, F), dtype=dtype) for q in POAResult.QUANTITIES}
+    eff = {n: np.zeros((T, F), dtype=dtype) for n in names[1:]}
+    spec = np.zeros((T, F, C), dtype=dtype) if spectral else None
+    t_sky = t_prod = 0.0
+    # steps sorted by sky state, so that sources that share work between equal states (PragueSky
+    # groups equal elevations) see them in the same chunk
+    key_el = np.round(el[lit], 1)
+    lit = lit[np.lexsort((states.albedo[lit], states.visibility[lit], key_el))]
+    chunks = range(0, lit.size, settings.time_chunk)
+    if progress:
+        from tqdm.auto import tqdm
+        chunks = tqdm(chunks, unit="chunk", desc="time series")
+
+    def faces(a):                                  # (..., N) -> (..., F) mean over a face's points
+        return a if k == 1 else a.reshape(a.shape[:-1] + (F, k)).mean(axis=-1)
+
+    for c0 in chunks:
+        idx = np.sort(lit[c0:c0 + settings.time_chunk])
+        st = states.take(idx)
+        t0 = time.perf_counter()
+        Lp, dni, cs = patch_radiance(sky, patches, st, Wall, settings)     # (Tc,P,R'), (Tc,R')
+        dni = dni + cs                             # circumsolar light travels with the sun
+        Lp *= scale_s[idx][:, None, None]
+        dni *= scale_d[idx][:, None]
+        t1 = time.perf_counter()
+        t_sky += t1 - t0
+        Tc = idx.size
+        s = st.sun_direction
+        sin_el = np.maximum(s[:, 2], 0.0)
+        Eg = dni * sin_el[:, None] + np.einsum("tpr,p->tr", Lp, Hb)         # (Tc, R')
+        if spectral_ground:                        # the last R columns are albedo-weighted
+            Lg = Eg[:, -R:] / np.pi
+            Lp, dni, Eg = Lp[..., :-R], dni[:, :-R], Eg[:, :-R]
+            if spectral:
+                Lg = np.concatenate([Lg, np.asarray(ga)[None, :] * Eg[:, R:] / np.pi], axis=1)
+        else:
+            alb = st.albedo if ga is None else np.full(Tc, float(ga))
+            Lg = alb[:, None] * Eg / np.pi                                  # (Tc, R')
+        Rp = Lp.shape[2]                           # R (+ C spectral)
+        cos_b = np.maximum(s @ cf.bins.T, 0.0)                               # (Tc, B)
+        Eb = (dni[:, None, :] * cos_b[:, :, None] + np.einsum("bp,tpr->tbr", Cb_up, Lp)
+              + Cb_lo[None, :, None] * Lg[:, None, :])                       # (Tc, B, R')
+        Xs = np.ascontiguousarray(Lp.transpose(0, 2, 1).reshape(Tc * Rp, P), dtype=np.float32)
+        Xr = np.concatenate([Eb, Lg[:, None, :]], axis=1)                   # (Tc, B+1, R')
+        Xr = np.ascontiguousarray(Xr.transpose(0, 2, 1).reshape(Tc * Rp, -1), dtype=np.float32)
+        sky_all = (Xs @ D_T).reshape(Tc, Rp, N)
+        refl_all = (Xr @ Kr_T).reshape(Tc, Rp, N)
+        out["poa_sky_diffuse"][idx] = faces(sky_all[:, 0])
+        out["poa_ground_diffuse"][idx] = faces(refl_all[:, 0])
+        diffuse = sky_all
+        diffuse += refl_all                                                  # sky + reflected
+        upc = up[idx]
+        beam = np.zeros((Tc, N), dtype=np.float32)
+        if np.any(upc):
+            vis = sun_vis[:, sun_rank[idx[upc]]].T                           # (Tu, N)
+            beam[upc] = np.maximum(s[upc].astype(np.float32) @ normals.T, 0.0) * vis
+        dni32 = dni.astype(np.float32)
+        direct_b = dni32[:, :1] * beam
+        out["poa_direct"][idx] = faces(direct_b)
+        out["poa_global"][idx] = faces(diffuse[:, 0] + direct_b)
+        for j, n in enumerate(names[1:], start=1):
+            eff[n][idx] = faces(diffuse[:, j] + dni32[:, j:j + 1] * beam)
+        if spectral:
+            glob = diffuse[:, R:R + C] + dni32[:, R:R + C, None] * beam[:, None, :]
+            spec[idx] = faces(glob).transpose(0, 2, 1)
+        t_prod += time.perf_counter() - t1
+    invalid = ~scene.face_valid
+    if np.any(invalid):
+        for a in list(out.values()) + list(eff.values()):
+            a[:, invalid] = 0
+        if spec is not None:
+            spec[:, invalid] = 0
+    timings = {"rays": t_rays - t_start,
+               "n_rays": cf.n_rays, "sky": t_sky, "product": t_prod,
+               "total": time.perf_counter() - t_start, "steps": T, "lit_steps": int(lit.size)}
+    return POAResult(effective_irradiance=eff, spectral=spec,
+                     wavelengths=np.asarray(sky.wavelengths, dtype=float), times=times,
+                     face_area=scene.face_area, face_group=scene.face_group,
+                     group_names=scene.group_names, timings=timings, **out)
