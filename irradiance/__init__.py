@@ -10,6 +10,11 @@ from .solarposition import (SOLAR_CONSTANT, SpaResult, delta_t_estimate, dni_ext
                             solar_position, spa)
 from .weather import (WEATHER_COLUMNS, WeatherData, WeatherFileError, read_epw, read_tmy3,
                       read_weather, read_weather_csv, write_epw)
+from .patches import SkyPatches, cosine_weights, reinhart, tregenza
+from .scene import Scene, load_mesh, make_scene
+from .skies import AnalyticSky, PragueSky, SkyStates, UniformSky
+from .raycast import Coefficients, compute_coefficients
+from .integrator import PRESETS, IntegratorSettings, POAResult, patch_radiance, poa_irradiance
 
 __all__ = [
     # solar position
@@ -27,4 +32,8 @@ __all__ = [
     # measured weather on the clear-sky model
     "MeasuredScaling", "measured_scale_factors", "clearness_index", "isotropic_blend_weight",
     "blend_toward_isotropic",
+    # scenes, sky patches, ray casting and per-face irradiance
+    "make_scene", "Scene", "load_mesh", "reinhart", "tregenza", "SkyPatches", "cosine_weights",
+    "SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "compute_coefficients", "Coefficients",
+    "IntegratorSettings", "PRESETS", "patch_radiance", "poa_irradiance", "POAResult",
 ]
