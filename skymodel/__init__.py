@@ -10,13 +10,13 @@ Quick start::
 """
 
 from .dataset import DatasetError, SkyModel, default_dataset_path, load_dataset
-from .evaluate import (SkyStateClampedWarning, channel_indices, directions_from_angles, polarisation,
+from .evaluate import (SkyStateClampedWarning, channel_indices, reference_angles, directions_from_angles, polarisation,
                        sky_radiance, solar_direct_normal, sun_direction, sun_radiance, transmittance)
 from .solar import SUN_RADIUS, SUN_SOLID_ANGLE, extraterrestrial_spectrum
 
 __all__ = [
     "DatasetError", "SkyModel", "load_dataset", "default_dataset_path",
-    "SkyStateClampedWarning", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
+    "SkyStateClampedWarning", "reference_angles", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
     "solar_direct_normal", "sun_direction", "directions_from_angles", "channel_indices",
     "SUN_RADIUS", "SUN_SOLID_ANGLE", "extraterrestrial_spectrum",
 ]

@@ -26,7 +26,7 @@ from . import _core
 from .dataset import SkyModel
 from .solar import SUN_RADIUS, SUN_SOLID_ANGLE, band_average, extraterrestrial_spectrum
 
-__all__ = ["SkyStateClampedWarning", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
+__all__ = ["SkyStateClampedWarning", "reference_angles", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
            "solar_direct_normal", "sun_direction", "directions_from_angles", "channel_indices"]
 
 PLANET_RADIUS = 6378000.0
@@ -178,6 +178,42 @@ def _state_params(el_deg, az_deg, alt):
     sz = np.sin(el)
     elevation_view = 0.5 * np.pi - np.arccos(np.clip(sz, -1.0, 1.0))
     return el, az_math, altitude_param, np.degrees(elevation_view)
+
+
+def reference_angles(directions, sun_elevation, sun_azimuth, altitude=0.0):
+    """The model's angles for view directions, computed as the reference's computeParameters does (and
+    as the C core does): observer at (0, 0, altitude) raised by the 50 m safety altitude, altitude-
+    corrected view direction for ``zero`` and ``shadow``.
+
+    Parameters
+    ----------
+    directions : array_like (..., 3)  east-north-up
+    sun_elevation, sun_azimuth : float  [deg] (azimuth clockwise from north)
+    altitude : float  [m]
+
+    Returns
+    -------
+    dict of ndarray (...) [rad]: ``theta`` (view zenith), ``gamma`` (to the sun), ``shadow``, ``zero``
+    (altitude-corrected view zenith), plus ``elevation`` [rad] and ``altitude`` [m] (the parameters used
+    for the configuration lookup) as floats.
+    """
+    v = np.asarray(directions, float)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    el, az, alt_param, el_view = _state_params(float(sun_elevation), float(sun_azimuth), float(altitude))
+    d = (float(altitude) + PLANET_RADIUS) + SAFETY_ALTITUDE
+    sz = -PLANET_RADIUS + d
+    c = np.sqrt(d * d - PLANET_RADIUS * PLANET_RADIUS) / d
+    oz = -PLANET_RADIUS + (d - c)
+    cv = v.copy()
+    cv[..., 2] = (v[..., 2] + sz) - oz
+    cv /= np.linalg.norm(cv, axis=-1, keepdims=True)
+    s = np.array([np.cos(az) * np.cos(el), np.sin(az) * np.cos(el), np.sin(el)])
+    sig = el + 0.5 * np.pi
+    h = np.array([np.cos(sig) * np.cos(az), np.cos(sig) * np.sin(az), np.sin(sig)])
+    # east-north-up equals the reference frame (x east, y north) with its azimuth measured from +x
+    ang = lambda x: np.arccos(np.clip(x, -1.0, 1.0))  # noqa: E731
+    return dict(theta=ang(v[..., 2]), gamma=ang(v @ s), shadow=ang(cv @ h), zero=ang(cv[..., 2]),
+                elevation=float(np.radians(el_view)), altitude=alt_param)
 
 
 def _output(shape, dtype, out):

@@ -414,3 +414,15 @@ def test_reference_loop_baseline_agrees(datasets):
             warnings.simplefilter("ignore", skymodel.SkyStateClampedWarning)
             ours = skymodel.sky_radiance(m, dirs, el, az, vis, alb, alt)
         np.testing.assert_allclose(out, ours, rtol=1e-12, atol=1e-12 * np.abs(ours).max())
+
+
+def test_reference_angles_match_the_spec_port():
+    dirs = _random_dirs(np.random.default_rng(8), 20)
+    for el, az, alt in ((30.0, 200.0, 0.0), (-2.0, 10.0, 1500.0)):
+        a = skymodel.reference_angles(dirs, el, az, alt)
+        for k, v in enumerate(dirs):
+            p = params(v, alt, np.radians(el), np.radians(90 - az))
+            for name in ("theta", "gamma", "shadow", "zero"):
+                assert a[name][k] == pytest.approx(p[name], abs=1e-12), name
+        assert a["elevation"] == pytest.approx(p["elevation"], abs=1e-15)
+        assert a["altitude"] == pytest.approx(p["altitude"], abs=1e-9)
