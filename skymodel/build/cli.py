@@ -30,7 +30,7 @@ def register(subparsers):
     s.set_defaults(func=_solve)
 
     v = sub.add_parser("validate", help="run the validation cases and print their figures")
-    v.add_argument("--which", default="rayleigh,lowsun,g173,spctrl2,6s",
+    v.add_argument("--which", default="rayleigh,lowsun,g173,spctrl2,6s,lowtran",
                    help="comma list of rayleigh, lowsun, g173, spctrl2, 6s")
     v.add_argument("--figures", default=None, help="directory for build_*.png figures")
     v.add_argument("--json", default=None, help="write the figures as JSON here")

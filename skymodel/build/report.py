@@ -9,7 +9,7 @@ import numpy as np
 from .channels import CHANNEL_CENTERS_NM
 
 
-def run(which=("rayleigh", "lowsun", "g173", "spctrl2", "6s"), figures=None, data_dir=None, processes=None):
+def run(which=("rayleigh", "lowsun", "g173", "spctrl2", "6s", "lowtran"), figures=None, data_dir=None, processes=None):
     """Run the named validations; return a JSON-able dict of their results (and draw figures if asked)."""
     from . import validation as v
 
@@ -53,6 +53,21 @@ def run(which=("rayleigh", "lowsun", "g173", "spctrl2", "6s"), figures=None, dat
         out["sixs"] = {k: s6[k] for k in ("direct_ratio", "diffuse_ratio", "global_ratio")}
         if fig:
             _plot_6s(s6, fig / "build_6s.png")
+    if "lowtran" in which:
+        from .lowtran_check import lowtran_comparison, plot_lowtran
+        from .solar import channel_extraterrestrial
+
+        lt = lowtran_comparison(data_dir=data_dir)
+        et = channel_extraterrestrial("tsis1", data_dir)
+        weak = lt["ours_gas"] >= 0.95
+        out["lowtran"] = {"zenith_deg": lt["zenith_deg"].tolist(),
+                          "integrated_ratio": [float((et * a).sum() / (et * b).sum()) for a, b in
+                                               zip(lt["lowtran"], lt["ours"])],
+                          "weak_absorption_max_dev": [float(np.abs(a[w] / b[w] - 1).max()) for a, b, w in
+                                                      zip(lt["lowtran"], lt["ours"], weak)],
+                          "ratio_total": np.round(lt["lowtran"] / lt["ours"], 4).tolist()}
+        if fig:
+            plot_lowtran(lt, fig / "build_lowtran.png")
     if "gasfit" in which and fig:
         _plot_gasfit(fig / "build_gasfit.png")
     return out
