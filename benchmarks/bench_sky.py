@@ -100,8 +100,8 @@ def main(argv=None):
                 target, o = sub, np.empty((sub.shape[0], C), np.float32)
             else:
                 target, o = dirs, out
-            fn = lambda: skymodel.sky_radiance(m, target, **STATE, method=method, threads=threads,  # noqa: E731
-                                               dtype=np.float32, out=o)
+            def fn(target=target, method=method, threads=threads, o=o):
+                skymodel.sky_radiance(m, target, **STATE, method=method, threads=threads, dtype=np.float32, out=o)
             fn()  # warm-up (first-touch of the output, workspace)
             t, times = median_time(fn, args.repeat)
             rate = target.shape[0] * C / t

@@ -7,8 +7,6 @@ import time
 import warnings
 from pathlib import Path
 
-import numpy as np
-
 
 def register(sub):
     sky = sub.add_parser("sky", help="render the sky model, describe a dataset")

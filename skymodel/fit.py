@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, sparse
+from scipy import linalg
 
 __all__ = ["hat_weights", "fit_radiance", "RadianceFit", "fit_transmittance"]
 

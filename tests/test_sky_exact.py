@@ -197,7 +197,7 @@ def spec_transmittance(m, P, vis, ch, distance=np.inf):
 
     ai, af = grid(ap, m.adim, 3)
     di, df = grid(dp, m.ddim, 4)
-    nat, nvt = len(m.alt_t), len(m.vis_t)
+    nat = len(m.alt_t)
 
     def uv(iv, ia, a, d):
         if a >= m.adim or d >= m.ddim:

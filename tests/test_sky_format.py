@@ -117,8 +117,7 @@ def test_truncation_names_field_and_offset(small, tmp_path):
 
 def test_count_inflation_does_not_allocate(small, tmp_path):
     b = bytearray(small.read_bytes())
-    for off, field in ((0, "n(visibilities)"), (80, "channels"), (100, "rankRad"), (104, "n(sunBreaks)"),
-                       (2292, "U"), (2304, "rankT"), (2452, "polarisation")):
+    for off in (0, 80, 100, 104, 2292, 2304, 2452):  # nVis, channels, rankRad, nSun, dDim, rankT, rankPol
         bad = bytearray(b)
         struct.pack_into("<i", bad, off, 2_000_000_000)
         p = tmp_path / "inflated.dat"
@@ -126,6 +125,7 @@ def test_count_inflation_does_not_allocate(small, tmp_path):
         with pytest.raises(DatasetError) as e:
             skymodel.load_dataset(p).load()
         assert "truncated" in str(e.value) or "exceeds" in str(e.value), str(e.value)
+        assert e.value.field and e.value.offset is not None
 
 
 def test_hostile_values(small, tmp_path):
