@@ -205,7 +205,8 @@ def test_seeded_mutations_never_crash(small, tmp_path):
     subprocess so a segfault or abort would show as a failed exit code), hangs or exhausts memory."""
     n = 3000
     proc = subprocess.run([sys.executable, "-c", MUTATION_SCRIPT, str(small), str(tmp_path), "2026", str(n)],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, timeout=600,
+                          cwd=tmp_path)  # not the repository root, so the installed package is imported
     assert proc.returncode == 0, proc.stderr[-3000:]
     rejected, loaded = (int(x) for x in proc.stdout.split())
     assert rejected + loaded == n
