@@ -1,4 +1,5 @@
-"""``widesky dataset ...``: write synthetic datasets and subsets of datasets."""
+"""``widesky dataset ...``: build the default dataset from the reference solver, compress channels, write synthetic
+datasets."""
 
 from __future__ import annotations
 
@@ -22,6 +23,28 @@ def register(sub):
     s.add_argument("--seed", type=int, default=0)
     s.set_defaults(func=_synthetic)
 
+    b = dsub.add_parser("build", help="build a PSM-format dataset from the reference solver (resumable; needs the "
+                                      "[build] extra and the input data directory)")
+    b.add_argument("config", help="build configuration (JSON or TOML), e.g. skymodel/data/default-dataset.json")
+    b.add_argument("-o", "--output", required=True, help="dataset file to write (+ <file>.json sidecar)")
+    b.add_argument("--processes", type=int, default=2, help="worker processes over sky states (default 2)")
+    b.add_argument("--solve-only", action="store_true", help="only solve (and cache) the sky states")
+    b.add_argument("--no-validation", action="store_true", help="skip the held-out error report")
+    b.add_argument("--data-dir", default=None, help="input data directory (default: see docs/atmosphere-and-solver.md)")
+    b.add_argument("--quiet", action="store_true", help="no progress bars")
+    b.set_defaults(func=_build)
+
+    c = dsub.add_parser("compress", help="greedy channel omission: write the list of channels to keep")
+    c.add_argument("dataset", help="dataset file")
+    c.add_argument("--max-error", type=float, default=0.15, help="largest relative error of an interpolated channel")
+    c.add_argument("--keep-first", type=int, default=12, help="channels always kept (default 12: 280-760 nm)")
+    c.add_argument("--quantile", type=float, default=1.0,
+                   help="error statistic over samples: 1 = maximum (default), 0.99 = 99th percentile")
+    c.add_argument("--directions", type=int, default=400, help="random sky directions per configuration")
+    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("-o", "--output", default=None, help="channel list (JSON); default <dataset>.channels.json")
+    c.set_defaults(func=_compress)
+
 
 def _floats(text):
     return tuple(float(x) for x in text.split(",") if x.strip())
@@ -39,4 +62,44 @@ def _synthetic(args):
                                    elevations=tuple(elev), n_channels=args.channels, rank=args.rank, n_sun=ns,
                                    n_zen=nz, n_emph=ne, polarisation=args.polarisation, seed=args.seed)
     print(load_dataset(path).describe())
+    return 0
+
+
+def _build(args):
+    import time
+
+    from .dataset_build import build_dataset, load_config, solve_all
+
+    def log(msg):
+        print(time.strftime("%H:%M:%S"), msg, flush=True)
+
+    cfg = load_config(args.config)
+    if args.solve_only:
+        n, secs = solve_all(cfg, args.processes, not args.quiet, not args.no_validation, log)
+        log(f"solved {n} states in {secs:.0f} s")
+        return 0
+    meta = build_dataset(cfg, args.output, args.processes, not args.quiet, not args.no_validation, log,
+                         args.data_dir)
+    log(f"wrote {args.output} ({meta['file_bytes'] / 1e6:.1f} MB) in {meta['build_seconds']:.0f} s")
+    if "errors" in meta and "all" in meta["errors"]:
+        e = meta["errors"]["all"]
+        log(f"held-out NMAE, mean over channels and states: {100 * e['nmae_channel_mean']:.2f} %; "
+            f"targets: {e['targets']}")
+    return 0
+
+
+def _compress(args):
+    from .compress import greedy_omission, omission_errors, radiance_samples, write_channel_list
+    from .dataset import load_dataset
+
+    model = load_dataset(args.dataset)
+    y = radiance_samples(model, args.directions, args.seed)
+    kept = greedy_omission(y, model.wavelengths, args.max_error, args.keep_first, quantile=args.quantile)
+    err = omission_errors(y, model.wavelengths, kept, quantile=args.quantile)
+    out = args.output or str(args.dataset) + ".channels.json"
+    write_channel_list(out, kept, model.wavelengths, args.max_error, args.dataset, args.quantile)
+    saved = 1.0 - kept.size / model.n_channels
+    print(f"kept {kept.size} of {model.n_channels} channels (radiance data {100 * saved:.0f} % smaller); "
+          f"largest interpolation error {100 * err.max():.1f} %; wrote {out}")
+    print("kept centres [nm]: " + " ".join(f"{w:g}" for w in model.wavelengths[kept]))
     return 0

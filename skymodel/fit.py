@@ -19,6 +19,7 @@ every (visibility, altitude, channel) is factored by a truncated SVD into U . V.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -97,7 +98,7 @@ class RadianceFit:
 
 
 def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks, rank, *, weights=None,
-                 smoothing=1e-6, iterations=2):
+                 smoothing=1e-6, iterations=2, refine=0):
     """Fit one configuration's radiance samples into the PSM form (see module docstring).
 
     Parameters
@@ -114,7 +115,10 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
     smoothing : float
         Second-difference penalty on M and the emphasis relative to the data term [1].
     iterations : int
-        Alternations between the rank sum and the emphasis.
+        Alternations between the rank sum and the emphasis (the iterate with the lowest weighted absolute error
+        on the samples is kept).
+    refine : int
+        Sweeps of alternating least squares on the sun and zenith factors afterwards (0: none).
 
     Returns
     -------
@@ -138,6 +142,7 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
     bil = np.stack([gl * al, gl * ah, gh * al, gh * ah], axis=1)
     lo_k, hi_k = np.triu_indices(4)  # cols are ascending within a row, so k <= l gives c_k <= c_l
     emph = np.ones(ne)
+    best = None
     for it in range(iterations):
         e = emph[iz] * zl + emph[iz + 1] * zh
         vals = bil * e[:, None]                                   # (m, 4) nonzeros of the design rows
@@ -160,6 +165,10 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
         s_at = sun[:, ig] * gl + sun[:, ig + 1] * gh
         z_at = zen[:, ia] * al + zen[:, ia + 1] * ah
         h = np.sum(s_at * z_at, axis=0)
+        pred = np.maximum((E @ emph) * h, 0.0)
+        err = float(np.sum(w * np.abs(pred - yn)))
+        if best is None or err < best[0]:
+            best = (err, sun, zen, emph.copy())
         if it < iterations - 1:
             Xe = h[:, None] * E
             De = _second_difference(ne)
@@ -169,9 +178,61 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
             if not np.isfinite(mean) or mean <= 0:
                 break
             emph = emph_new / mean
+    _, sun, zen, emph = best  # the alternation is not monotone in the absolute error: keep the best iterate
+    if refine > 0:
+        sun, zen = _refine_factors(sun, zen, (ig, gl, gh), (ia, al, ah), E @ emph, yn, w, lam, refine)
+    s_at = sun[:, ig] * gl + sun[:, ig + 1] * gh
+    z_at = zen[:, ia] * al + zen[:, ia + 1] * ah
+    h = np.sum(s_at * z_at, axis=0)
     fit = np.maximum((E @ emph) * h, 0.0) * scale
     nmae = float(np.sum(w * np.abs(fit - y)) / max(np.sum(w * np.abs(y)), 1e-300))
     return RadianceFit(sun * scale, zen, emph, nmae)
+
+
+def _refine_factors(sun, zen, hs, hz, e, y, w, lam, sweeps):
+    """Alternating weighted least squares on the rank factors with the emphasis ``e`` (per sample) fixed:
+    sun given zen, then zen given sun (each a small dense problem with a second-difference penalty); keeps
+    the result only if it lowers the weighted absolute error."""
+    R, ns = sun.shape
+    nz = zen.shape[1]
+
+    def err(s_, z_):
+        h = np.sum((s_[:, hs[0]] * hs[1] + s_[:, hs[0] + 1] * hs[2]) * (z_[:, hz[0]] * hz[1] + z_[:, hz[0] + 1] * hz[2]), 0)
+        return float(np.sum(w * np.abs(np.maximum(e * h, 0.0) - y)))
+
+    def solve(other, h_other, h_self, n_self):
+        # each design row has 2R non-zeros: assemble the normal matrix from them (sparse outer products)
+        idx, lo, hi = h_self
+        oat = other[:, h_other[0]] * h_other[1] + other[:, h_other[0] + 1] * h_other[2]  # (R, m)
+        K = R * n_self
+        offs = (np.arange(R) * n_self)[None, :]
+        cols = np.concatenate([idx[:, None] + offs, idx[:, None] + 1 + offs], axis=1)      # (m, 2R)
+        c = (e[None, :] * oat).T                                                             # (m, R)
+        vals = np.concatenate([lo[:, None] * c, hi[:, None] * c], axis=1)                  # (m, 2R)
+        flat = (cols[:, :, None] * K + cols[:, None, :]).ravel()
+        N = np.bincount(flat, (w[:, None, None] * vals[:, :, None] * vals[:, None, :]).ravel(),
+                        minlength=K * K).reshape(K, K)
+        rhs = np.bincount(cols.ravel(), (vals * (w * y)[:, None]).ravel(), minlength=K)
+        D = _second_difference(n_self)
+        N += lam * np.kron(np.eye(R), D.T @ D) + 1e-10 * lam * np.eye(K)
+        x = linalg.solve(N, rhs, assume_a="pos")
+        return x.reshape(R, n_self)
+
+    best = (err(sun, zen), sun, zen)
+    for _ in range(sweeps):
+        try:
+            with warnings.catch_warnings():
+                # near-singular when a rank's factor is ~0; the regulariser keeps it solvable and the result is
+                # kept only if it lowers the error
+                warnings.simplefilter("ignore", linalg.LinAlgWarning)
+                sun = solve(zen, hz, hs, ns)
+                zen = solve(sun, hs, hz, nz)
+        except (np.linalg.LinAlgError, ValueError):
+            break
+        ek = err(sun, zen)
+        if ek < best[0]:
+            best = (ek, sun, zen)
+    return best[1], best[2]
 
 
 def fit_transmittance(sqrt_t, rank):
