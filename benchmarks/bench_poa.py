@@ -10,6 +10,7 @@ Baseline, same run: ray casting the sky anew for every hour (what per-hour ray t
 daylight hours, scaled to the year's daylight hours; the ratio is reported.
 
 Run: python benchmarks/bench_poa.py [--faces 20000] [--jobs 2] [--baseline-hours 3]
+     [--mf M --rays-per-patch K --radiance-samples K]  (default: IntegratorSettings())
 """
 
 from __future__ import annotations
@@ -82,12 +83,16 @@ def benchmark_scene(n_faces=20000):
     return analysis, ["pv_rows", "building"], [trimesh.util.concatenate(context)]
 
 
-def sky_source():
-    """The PSM (default dataset, else a synthetic dataset in a temporary file)."""
+def sky_source(path=None):
+    """The PSM (a dataset file, the default dataset, else a synthetic dataset in a temporary file)."""
     import skymodel
     from irradiance.skies import PragueSky
+    if path:
+        m = skymodel.load_dataset(path)
+        return PragueSky(m), f"dataset {path}{' (synthetic)' if m.is_synthetic else ''}"
     try:
-        return PragueSky(skymodel.load_dataset()), "default dataset"
+        m = skymodel.load_dataset()
+        return PragueSky(m), f"default dataset{' (synthetic)' if m.is_synthetic else ''}"
     except Exception:
         from skymodel.synthetic import write_synthetic_dataset
         path = os.path.join(tempfile.mkdtemp(), "synthetic.dat")
@@ -117,6 +122,10 @@ def main(argv=None):
     ap.add_argument("--faces", type=int, default=20000)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--baseline-hours", type=int, default=3)
+    ap.add_argument("--dataset", default=None, help="PSM dataset file (default: the embedded one)")
+    ap.add_argument("--mf", type=int, default=None, help="override IntegratorSettings.mf")
+    ap.add_argument("--rays-per-patch", type=int, default=None, help="override rays_per_patch")
+    ap.add_argument("--radiance-samples", type=int, default=None, help="override radiance_samples")
     args = ap.parse_args(argv)
     from irradiance.integrator import IntegratorSettings, poa_irradiance
     from irradiance.scene import make_scene
@@ -125,13 +134,16 @@ def main(argv=None):
     analysis, groups, context = benchmark_scene(args.faces)
     scene = make_scene(analysis, context, groups=groups, ground_z=0.0)
     times, states = year_states()
-    sky, which = sky_source()
+    sky, which = sky_source(args.dataset)
     resp = responses(sky.wavelengths)
-    settings = IntegratorSettings()
+    over = {k: v for k, v in (("mf", args.mf), ("rays_per_patch", args.rays_per_patch),
+                               ("radiance_samples", args.radiance_samples)) if v is not None}
+    settings = IntegratorSettings(**over)
     t_setup = time.perf_counter() - t0
     print(f"scene: {scene.n_faces} analysis faces, {scene.triangles.shape[0]} triangles; "
           f"{len(states)} hourly steps; sky: PSM {which}, {sky.n_channels} channels -> "
           f"{1 + len(resp)} responses; settings {settings}")
+    print(f"load average before the run: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores")
     t0 = time.perf_counter()
     res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times,
                          n_jobs=args.jobs, progress=sys.stderr.isatty())
@@ -139,10 +151,12 @@ def main(argv=None):
     tm = res.timings
     n_lit = tm["lit_steps"]
     print(f"end to end: {t_total:.1f} s (+ {t_setup:.1f} s building the scene and solar positions)")
-    print(f"  ray casting: {tm['rays']:.1f} s, {tm['n_rays'] / 1e6:.1f} M rays, "
-          f"{tm['n_rays'] / tm['rays'] / 1e6:.2f} M rays/s on {args.jobs} processes")
+    print(f"  ray casting: {tm['rays']:.1f} s wall, {tm['n_rays'] / 1e6:.1f} M rays "
+          f"({tm['sun_bins']} sun-position bins), {tm['n_rays'] / tm['rays'] / 1e6:.2f} M rays/s on "
+          f"{args.jobs} processes (this process evaluated the sky meanwhile)")
     print(f"  sky patch radiance: {tm['sky']:.1f} s for {n_lit} lit steps "
-          f"({1e3 * tm['sky'] / max(n_lit, 1):.2f} ms/step)")
+          f"({1e3 * tm['sky'] / max(n_lit, 1):.2f} ms/step), {tm['sky_during_rays']:.1f} s of it "
+          f"during the ray casting")
     print(f"  products: {tm['product']:.1f} s "
           f"({scene.n_faces * n_lit / max(tm['product'], 1e-9) / 1e6:.1f} M face-steps/s)")
     agg = res.aggregate()
@@ -161,6 +175,7 @@ def main(argv=None):
     t_base = t_hour * n_lit
     print(f"baseline (sky ray-cast anew per hour): {t_hour:.2f} s/hour x {n_lit} lit hours = "
           f"{t_base:.0f} s; ratio baseline / daylight-coefficient method = {t_base / t_total:.1f}x")
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
     return 0
 
 

@@ -13,7 +13,9 @@ from .weather import (WEATHER_COLUMNS, WeatherData, WeatherFileError, read_epw, 
 from .patches import SkyPatches, cosine_weights, reinhart, tregenza
 from .scene import Scene, load_mesh, make_scene
 from .skies import AnalyticSky, PragueSky, SkyStates, UniformSky
-from .raycast import Coefficients, compute_coefficients
+from .raycast import (Coefficients, PendingCoefficients, compute_coefficients, start_coefficients,
+                      sun_bins)
+from .reference import ReferenceResult, reference_poa, validation_scenes
 from .integrator import PRESETS, IntegratorSettings, POAResult, patch_radiance, poa_irradiance
 
 __all__ = [
@@ -35,5 +37,8 @@ __all__ = [
     # scenes, sky patches, ray casting and per-face irradiance
     "make_scene", "Scene", "load_mesh", "reinhart", "tregenza", "SkyPatches", "cosine_weights",
     "SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "compute_coefficients", "Coefficients",
+    "start_coefficients", "PendingCoefficients", "sun_bins",
     "IntegratorSettings", "PRESETS", "patch_radiance", "poa_irradiance", "POAResult",
+    # brute-force reference
+    "reference_poa", "ReferenceResult", "validation_scenes",
 ]

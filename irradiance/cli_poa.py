@@ -34,8 +34,9 @@ def register(subparsers) -> None:
     p.add_argument("--albedo", type=float, default=0.2, help="ground albedo [1]")
     p.add_argument("--ground-z", type=float, default=None, help="ground height [m] (default: lowest vertex)")
     p.add_argument("--dataset", default=None, help="PSM dataset file (default: embedded)")
-    p.add_argument("--tolerance", type=float, default=0.01,
-                   help="target relative annual error [1] (picks a preset, see docs)")
+    p.add_argument("--tolerance", type=float, default=0.02,
+                   help="target relative annual error per face [1]: picks the cheapest preset measured "
+                        "below it (docs/irradiance-integrator.md); 0.02 = the default settings")
     p.add_argument("--samples-per-face", type=int, default=1, help="points per face (1, 4, 9 ...)")
     p.add_argument("--two-sided", action="store_true", help="also analyse the back of every face")
     p.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores)")

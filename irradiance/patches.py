@@ -35,6 +35,16 @@ def direction_from_angles(altitude, azimuth):
     return np.stack(np.broadcast_arrays(ca * np.sin(p), ca * np.cos(p), np.sin(a)), axis=-1)
 
 
+def orthonormal_frame(axes):
+    """(n, 3) unit vectors u, v completing the unit vectors ``axes`` (n, 3) to right-handed frames
+    (u, v, axis); dimensionless."""
+    axes = np.asarray(axes, dtype=float)
+    ref = np.where(np.abs(axes[:, 2:3]) < 0.9, np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]]))
+    u = np.cross(ref, axes)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(axes, u)
+
+
 def angles_from_direction(directions):
     """Altitude [deg] and azimuth clockwise from north in [0, 360) [deg] of ENU vectors (..., 3)."""
     d = np.asarray(directions, dtype=float)

@@ -162,8 +162,8 @@ def test_process_pool_matches_serial():
     a = compute_coefficients(scene, sun_directions=sun, n_jobs=1)
     b = compute_coefficients(scene, sun_directions=sun, n_jobs=2, chunk_size=3)
     np.testing.assert_array_equal(a.sky, b.sky)
-    np.testing.assert_array_equal(a.ground, b.ground)
-    np.testing.assert_array_equal(a.reflect, b.reflect)
+    for name in ("ground_sky", "reflect_sky", "reflect_ground", "ground_sun", "reflect_sun"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     np.testing.assert_array_equal(a.sun_visible, b.sun_visible)
 
 
@@ -189,3 +189,24 @@ def test_bad_input_messages():
                        n_jobs=1)
     with pytest.raises(ValueError, match="tolerance"):
         IntegratorSettings.for_tolerance(1e-6)
+
+
+def test_ground_albedo_paths_agree():
+    """The three ways the ground albedo enters (one value folded into the coefficients, per-step
+    albedos from the sky states, a per-channel albedo) give the same light for the same albedo."""
+    rows = [quad(30.0, 180.0, centre=(0, 2.0 * i, 0.6)) for i in range(3)]
+    wall = trimesh.creation.box(extents=(6, 0.3, 4))
+    wall.apply_translation((0, -3, 2))
+    sky = AnalyticSky()
+    st = SkyStates.create([12.0, 40.0, 65.0], [120.0, 180.0, 230.0], 40.0, [0.1, 0.3, 0.5])
+    per_step = make_scene(rows, context=wall, ground_z=0.0)
+    cf = compute_coefficients(per_step, sun_directions=st.sun_direction, n_jobs=1)
+    a = poa_irradiance(per_step, sky, st, coefficients=cf, n_jobs=1, spectral=True)
+    for t, alb in enumerate([0.1, 0.3, 0.5]):
+        for ga in (alb, np.full(55, alb)):
+            sc = make_scene(rows, context=wall, ground_z=0.0, ground_albedo=ga)
+            b = poa_irradiance(sc, sky, st, coefficients=cf, n_jobs=1, spectral=True)
+            for q in a.QUANTITIES:
+                np.testing.assert_allclose(getattr(b, q)[t], getattr(a, q)[t], rtol=2e-5,
+                                           atol=1e-4, err_msg=q)
+            np.testing.assert_allclose(b.spectral[t], a.spectral[t], rtol=2e-5, atol=1e-6)

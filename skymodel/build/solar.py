@@ -19,7 +19,7 @@ import functools
 
 import numpy as np
 
-from .channels import CHANNEL_EDGES_NM, FINE_WAVELENGTHS_NM, N_CHANNELS
+from .channels import FINE_WAVELENGTHS_NM, N_CHANNELS
 from .paths import data_file
 
 SOURCES = ("tsis1", "g173", "e490", "kurucz")

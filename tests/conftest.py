@@ -1,0 +1,16 @@
+"""Test-session setup shared by all tests.
+
+The public reference data (``../shared/data`` beside the checkout, see docs/data-sources.md) is
+found through ``WIDESKY_DATA_DIR``. The installed package resolves ``../shared/data`` relative to its
+own location, which for a non-editable install is site-packages, so point it at the checkout's
+sibling here when the caller has not chosen a directory. Tests that need the data skip cleanly
+when it is absent.
+"""
+
+import os
+from pathlib import Path
+
+_SIBLING = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+if not os.environ.get("WIDESKY_DATA_DIR") and _SIBLING.is_dir():
+    os.environ["WIDESKY_DATA_DIR"] = str(_SIBLING)
