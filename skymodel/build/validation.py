@@ -156,21 +156,15 @@ def sixs_comparison(result=None, channels=None, processes=2, data_dir=None):
 
 
 def _sixs_aerosol_run(job):
-    from Py6S import AeroProfile, AtmosProfile, Geometry, GroundReflectance, Wavelength
+    from Py6S import AeroProfile, GroundReflectance
 
     from .gases import _sixs
 
     lo, hi, aod550 = job
-    s = _sixs()
-    s.atmos_profile = AtmosProfile.UserWaterAndOzone(1.4164, 0.3438)
+    s = _sixs(lo, hi, 1.4164, 0.3438, G173_ZENITH_DEG)
     s.aero_profile = AeroProfile.PredefinedType(AeroProfile.Continental)
     s.aot550 = aod550
     s.ground_reflectance = GroundReflectance.HomogeneousLambertian(0.2)
-    s.geometry = Geometry.User()
-    s.geometry.solar_z, s.geometry.solar_a, s.geometry.view_z, s.geometry.view_a = G173_ZENITH_DEG, 0.0, 0.0, 0.0
-    s.altitudes.set_sensor_satellite_level()
-    s.altitudes.set_target_sea_level()
-    s.wavelength = Wavelength(lo / 1000.0, hi / 1000.0)
     s.run()
     o = s.outputs
     et = o.int_solar_spectrum / o.int_funct_filt  # W m-2 um-1
