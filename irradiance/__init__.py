@@ -16,7 +16,8 @@ from .skies import AnalyticSky, PragueSky, SkyStates, UniformSky
 from .raycast import (Coefficients, PendingCoefficients, compute_coefficients, start_coefficients,
                       sun_bins)
 from .reference import ReferenceResult, reference_poa, validation_scenes
-from .integrator import PRESETS, IntegratorSettings, POAResult, patch_radiance, poa_irradiance
+from .integrator import (PRESETS, IntegratorSettings, POAResult, measured_scaling, model_irradiance,
+                         patch_radiance, poa_irradiance)
 
 __all__ = [
     # solar position
@@ -39,6 +40,7 @@ __all__ = [
     "SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "compute_coefficients", "Coefficients",
     "start_coefficients", "PendingCoefficients", "sun_bins",
     "IntegratorSettings", "PRESETS", "patch_radiance", "poa_irradiance", "POAResult",
+    "model_irradiance", "measured_scaling",
     # brute-force reference
     "reference_poa", "ReferenceResult", "validation_scenes",
 ]

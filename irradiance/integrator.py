@@ -43,13 +43,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .patches import SkyPatches, orthonormal_frame, reinhart
+from .measured import measured_scale_factors
+from .patches import SkyPatches, cosine_weights, orthonormal_frame, reinhart
 from .raycast import Coefficients, start_coefficients
 from .scene import Scene
 from .skies import SkyStates
 
 __all__ = ["IntegratorSettings", "patch_radiance", "poa_irradiance", "POAResult",
-           "circumsolar_quadrature", "PRESETS"]
+           "circumsolar_quadrature", "PRESETS", "model_irradiance", "measured_scaling"]
 
 
 @dataclass(frozen=True)
@@ -283,6 +284,70 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     return out, dni, circumsolar
 
 
+def model_irradiance(sky, states: SkyStates, settings=None, chunk: int = 256):
+    """Broadband direct normal and diffuse horizontal irradiance of the sky model per step.
+
+    Integrated with the integrator's own quadrature (patch means of ``reinhart(settings.mf)`` times
+    their exact horizontal cosine weights, plus the circumsolar disc at the sun's cosine), so the
+    clear-sky values that :func:`measured_scaling` divides by are the ones
+    :func:`poa_irradiance` reproduces on an unobstructed horizontal face.
+
+    Parameters
+    ----------
+    sky : sky source
+        See :mod:`irradiance.skies`.
+    states : SkyStates
+        T sky states.
+    settings : IntegratorSettings, optional
+        Quadrature; default ``IntegratorSettings()``.
+    chunk : int
+        Steps per sky evaluation (bounds memory).
+
+    Returns
+    -------
+    dni, dhi : numpy.ndarray
+        (T,) [W m-2], summed over the sky's channels; 0 with the sun at or below the sky's lowest
+        elevation.
+    """
+    settings = settings or IntegratorSettings()
+    patches = reinhart(settings.mf)
+    w_h = cosine_weights(patches, np.array([[0.0, 0.0, 1.0]]))[0]                # (P,) [sr]
+    widths = np.asarray(sky.channel_widths, dtype=float)[:, None]              # (C, 1) [nm]
+    T = len(states)
+    dni, dhi = np.zeros(T), np.zeros(T)
+    lit = np.nonzero(states.sun_elevation > getattr(sky, "min_sun_elevation", 0.0))[0]
+    for c0 in range(0, lit.size, max(int(chunk), 1)):
+        idx = lit[c0:c0 + chunk]
+        st = states.take(idx)
+        Lp, dn, cs = patch_radiance(sky, patches, st, widths, settings)
+        dni[idx] = dn[:, 0]
+        dhi[idx] = Lp[..., 0] @ w_h + cs[:, 0] * np.sin(np.radians(st.sun_elevation))
+    return dni, dhi
+
+
+def measured_scaling(sky, states: SkyStates, dni, dhi, settings=None, **kwargs):
+    """Per-step factors that make the clear-sky model reproduce measured DNI and DHI.
+
+    :func:`model_irradiance` gives the model's values, :func:`irradiance.measured_scale_factors`
+    the factors (keyword arguments go to it: floors, cap, ``missing``). Pass ``sun_scale`` and
+    ``sky_scale`` to :func:`poa_irradiance` as ``dni_scale`` and ``diffuse_scale``.
+
+    Parameters
+    ----------
+    dni, dhi : array_like
+        (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN = missing).
+
+    Returns
+    -------
+    scaling : MeasuredScaling
+        Factors [1], guard flags and unmatched irradiance [W m-2] per step.
+    model : tuple of numpy.ndarray
+        (model_dni, model_dhi) [W m-2] the factors divide by.
+    """
+    mdni, mdhi = model_irradiance(sky, states, settings)
+    return measured_scale_factors(mdni, mdhi, dni, dhi, **kwargs), (mdni, mdhi)
+
+
 @dataclass(eq=False)
 class POAResult:
     """Plane-of-array irradiance per analysis face and step (arrays shaped (T, F), time first).
@@ -311,6 +376,9 @@ class POAResult:
         process, ``sky_during_rays`` seconds of it), ``sky`` (all sky-model evaluation),
         ``product``, ``total``; ``n_rays``, ``sun_bins`` (sun rays per point), ``steps``,
         ``lit_steps``.
+    scaling : MeasuredScaling or None
+        With ``measured``: per-step factors, guard flags and unmatched irradiance (night steps:
+        factor 1).
     """
 
     poa_global: np.ndarray
@@ -325,6 +393,7 @@ class POAResult:
     face_group: np.ndarray
     group_names: tuple
     timings: dict = field(default_factory=dict)
+    scaling: object = None
 
     QUANTITIES = ("poa_global", "poa_direct", "poa_sky_diffuse", "poa_ground_diffuse")
 
@@ -388,7 +457,8 @@ def _responses(sky, responses):
 
 
 def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, spectral=False,
-                   settings=None, dni_scale=None, diffuse_scale=None, times=None, n_jobs=None,
+                   settings=None, dni_scale=None, diffuse_scale=None, measured=None, times=None,
+                   n_jobs=None,
                    executor=None, progress=False, coefficients=None, dtype=np.float32):
     """Plane-of-array irradiance on every analysis face for a series of sky states.
 
@@ -413,6 +483,12 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, spec
     dni_scale, diffuse_scale : array_like, optional
         (T,) factors [1] on the sun's direct normal irradiance and on the sky radiance per step (to
         match measured DNI / DHI); the ground and obstruction light follow.
+    measured : tuple of array_like, optional
+        (dni, dhi): (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN =
+        missing: the clear sky is kept). The factors are computed per step from the model's own
+        DNI and DHI with the same quadrature (:func:`model_irradiance`, no second sky
+        evaluation) by :func:`irradiance.measured_scale_factors` and kept in ``result.scaling``.
+        Not together with ``dni_scale``/``diffuse_scale``.
     times : pandas.DatetimeIndex, optional
         Labels kept on the result.
     n_jobs : int, optional
@@ -454,8 +530,17 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, spec
     for name, v in (("dni_scale", scale_d), ("diffuse_scale", scale_s)):
         if np.any(~np.isfinite(v)) or np.any(v < 0):
             raise ValueError(f"{name} must be finite and >= 0")
+    scaling = None
+    if measured is not None:
+        if dni_scale is not None or diffuse_scale is not None:
+            raise ValueError("give measured=(dni, dhi) or dni_scale/diffuse_scale, not both")
+        m_dni, m_dhi = (np.broadcast_to(np.asarray(a, dtype=float), (T,)) for a in measured)
+        measured_scale_factors(np.ones(T), np.ones(T), m_dni, m_dhi)     # validates the inputs
+        scale_d, scale_s = np.ones(T), np.ones(T)
+        model_dni, model_dhi = np.zeros(T), np.zeros(T)
 
     patches = reinhart(settings.mf)
+    w_horizontal = cosine_weights(patches, np.array([[0.0, 0.0, 1.0]]))[0]      # (P,) [sr]
     el = states.sun_elevation
     lit = np.nonzero(el > getattr(sky, "min_sun_elevation", 0.0))[0]
     up = el > 0
@@ -481,9 +566,15 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, spec
         t0 = time.perf_counter()
         st = states.take(idx)
         Lp, dni, cs = patch_radiance(sky, patches, st, Wall, settings)     # (Tc,P,R'), (Tc,R')
-        dni = dni + cs                             # circumsolar light travels with the sun
+        if measured is not None:                   # column 0 is broadband: the model's DNI, DHI
+            model_dni[idx] = dni[:, 0]
+            model_dhi[idx] = Lp[..., 0] @ w_horizontal + cs[:, 0] * np.sin(np.radians(st.sun_elevation))
+            f = measured_scale_factors(model_dni[idx], model_dhi[idx], m_dni[idx], m_dhi[idx],
+                                       missing="clear")
+            scale_d[idx], scale_s[idx] = f.sun_scale, f.sky_scale
+        # circumsolar light travels with the sun but is sky light: it takes the sky's scale
+        dni = dni * scale_d[idx][:, None] + cs * scale_s[idx][:, None]
         Lp *= scale_s[idx][:, None, None]
-        dni *= scale_d[idx][:, None]
         t_sky += time.perf_counter() - t0
         return Lp, dni
 
@@ -638,7 +729,13 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, spec
                "sky_during_rays": t_sky_ahead, "n_rays": cf.n_rays, "sun_bins": cf.n_sun_bins,
                "sky": t_sky, "product": t_prod, "total": time.perf_counter() - t_start,
                "steps": T, "lit_steps": int(lit.size)}
-    return POAResult(effective_irradiance=eff, spectral=spec,
+    if measured is not None:
+        dark = np.ones(T, dtype=bool)
+        dark[lit] = False
+        f = measured_scale_factors(model_dni, model_dhi, m_dni, m_dhi, missing="clear")
+        scaling = f._replace(sun_scale=scale_d, sky_scale=scale_s, sun_guarded=f.sun_guarded & ~dark,
+                             sky_guarded=f.sky_guarded & ~dark)
+    return POAResult(scaling=scaling, effective_irradiance=eff, spectral=spec,
                      wavelengths=np.asarray(sky.wavelengths, dtype=float), times=times,
                      face_area=scene.face_area, face_group=scene.face_group,
                      group_names=scene.group_names, timings=timings, **out)
