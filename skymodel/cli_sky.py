@@ -36,6 +36,8 @@ def register(sub):
                    help="output file, .png or .exr (default sky.png; a .png also gets a spectral .exr beside it "
                         "unless --no-exr)")
     r.add_argument("--no-exr", action="store_true", help="with a .png output, do not write the .exr")
+    r.add_argument("--below-horizon", choices=("auto", "model", "dark"), default="auto",
+                   help="sky below the horizon: 'dark' for ground-level datasets by default (no data there)")
     r.set_defaults(func=_render)
 
     i = ssub.add_parser("info", help="describe a dataset: grids, channels, sections, sizes")
@@ -71,7 +73,7 @@ def _render(args):
         r = render_sky(model, sun_elevation=args.elevation, sun_azimuth=args.azimuth, visibility=args.visibility,
                        albedo=args.albedo, altitude=args.altitude, quantity=args.quantity, channels=channels,
                        wavelengths=wavelengths, view=args.view, view_azimuth=args.view_azimuth,
-                       resolution=args.resolution)
+                       resolution=args.resolution, below_horizon=args.below_horizon)
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
     dt = time.perf_counter() - t0

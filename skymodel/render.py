@@ -102,7 +102,7 @@ class Render:
 
 def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibility=50.0, albedo=0.3,
                altitude=0.0, quantity="sky", channels=None, wavelengths=None, view="up", view_azimuth=180.0,
-               resolution=512, threads=0) -> Render:
+               resolution=512, threads=0, below_horizon="auto") -> Render:
     """Evaluate a fisheye image of a quantity.
 
     Parameters
@@ -116,6 +116,13 @@ def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibi
     channels, wavelengths : optional
         Channel indices of the model or point wavelengths [nm]; default all loaded channels.
     view, view_azimuth, resolution : see :func:`fisheye_directions`.
+    below_horizon : {"auto", "model", "dark"}
+        Sky radiance and polarisation for directions below the horizon: "model" evaluates the model
+        there; "dark" leaves those pixels 0 (and out of the exposure); "auto" (default) is "dark" for
+        a ground-level dataset (a single altitude of 0 m, as widesky's default and the official
+        ground-level dataset), whose fit holds no data below the horizon (the evaluator clamps the
+        view zenith to the last knot, so the horizon's values would be repeated along circles about
+        the sun), and "model" otherwise.
 
     Returns
     -------
@@ -123,7 +130,14 @@ def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibi
     """
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity={quantity!r}: expected one of {sorted(QUANTITIES)}")
+    if below_horizon not in ("auto", "model", "dark"):
+        raise ValueError(f"below_horizon={below_horizon!r}: expected 'auto', 'model' or 'dark'")
     dirs, mask = fisheye_directions(resolution, view, view_azimuth)
+    if below_horizon == "auto":
+        ground_only = len(model.altitudes) == 1 and float(model.altitudes[0]) == 0.0
+        below_horizon = "dark" if ground_only else "model"
+    if below_horizon == "dark" and quantity in ("sky", "polarisation"):
+        mask = mask & (dirs[..., 2] >= 0.0)
     chi = channel_indices(model, channels, wavelengths)
     inside = dirs[mask]
     state = (sun_elevation, sun_azimuth, visibility, albedo, altitude)
@@ -140,6 +154,7 @@ def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibi
     lower = model.channel_lower[chi]
     meta = dict(quantity=quantity, sun_elevation=sun_elevation, sun_azimuth=sun_azimuth, visibility=visibility,
                 albedo=albedo, altitude=altitude, view=view, view_azimuth=view_azimuth,
+                below_horizon=below_horizon,
                 dataset=str(model.path), synthetic=model.is_synthetic)
     return Render(img, mask, lower + 0.5 * model.channel_width, lower, model.channel_width, quantity, meta)
 

@@ -95,6 +95,26 @@ def test_render_quantities(tmp_path):
         render_sky(model, quantity="nonsense", **kw)
 
 
+def test_side_view_below_horizon(tmp_path):
+    """A ground-level dataset holds no sky below the horizon: 'auto' leaves those pixels dark, 'model'
+    evaluates the model there; a dataset with several altitudes keeps the model by default."""
+    model = skymodel.load_dataset()
+    kw = dict(sun_elevation=10.0, sun_azimuth=180.0, visibility=40.0, albedo=0.2, resolution=32, view="side")
+    d, disc = fisheye_directions(32, "side")
+    below = disc & (d[..., 2] < 0)
+    r = render_sky(model, **kw)
+    assert r.meta["below_horizon"] == "dark"
+    assert np.all(r.values[below] == 0) and not np.any(r.mask[below])
+    assert np.all(r.values[disc & (d[..., 2] > 0)].sum(axis=-1) > 0)
+    m = render_sky(model, below_horizon="model", **kw)
+    assert np.all(m.values[below].sum(axis=-1) > 0)
+    multi = skymodel.load_dataset(write_synthetic_dataset(tmp_path / "alt.dat", n_channels=4, rank=2, n_sun=8,
+                                                          n_zen=8, n_emph=6, altitudes=(0.0, 1000.0), seed=2))
+    assert render_sky(multi, **kw).meta["below_horizon"] == "model"
+    with pytest.raises(ValueError, match="below_horizon"):
+        render_sky(model, below_horizon="grey", **kw)
+
+
 def test_cli_render_and_info(tmp_path, capsys):
     out = tmp_path / "sky.png"
     assert main(["sky", "render", "--resolution", "40", "--elevation", "12", "--output", str(out)]) == 0
