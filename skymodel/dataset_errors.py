@@ -15,6 +15,8 @@ evaluator at the same directions and sky state and compared per channel:
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 __all__ = ["evaluate_errors", "summarise", "TILT_DEG", "TARGET_CHANNELS_NM"]
@@ -63,6 +65,9 @@ def evaluate_errors(config, dataset_path) -> list:
         dti_ref, dti_mod = np.sum(w * cos_t * ref, axis=0), np.sum(w * cos_t * mod, axis=0)
         rel = lambda m, r: (m - r) / np.maximum(r, 1e-300)  # noqa: E731
         dni_ref = np.asarray(s["dni"], float)
+        # relative DNI errors only where the beam is not extinguished (deep absorption bands, UV at low sun):
+        # below 1e-4 of the band's extraterrestrial irradiance the ratio is noise
+        dni_err = np.where(dni_ref > 1e-4 * np.asarray(s["et"], float), rel(dni, dni_ref), np.nan)
         mu0 = np.sin(np.radians(ele))
         cos_aoi = max(np.cos(np.radians(90.0 - ele - TILT_DEG)), 0.0)
         ghi_ref, ghi_mod = dni_ref * mu0 + dhi_ref, dni * mu0 + dhi_mod
@@ -72,7 +77,7 @@ def evaluate_errors(config, dataset_path) -> list:
         out.append({"kind": kind, "visibility": vis, "elevation": ele, "albedo": alb, "nmae": nmae,
                     "e_horizontal": rel(dhi_mod, dhi_ref), "e_tilted": rel(dti_mod, dti_ref),
                     "e_global_horizontal": rel(ghi_mod, ghi_ref), "e_global_tilted": rel(gti_mod, gti_ref),
-                    "dni_error": rel(dni, np.asarray(s["dni"], float)), "dhi": dhi_ref, "dti": dti_ref,
+                    "dni_error": dni_err, "dhi": dhi_ref, "dti": dti_ref,
                     "dni": np.asarray(s["dni"], float)})
     return out
 
@@ -97,8 +102,10 @@ def summarise(errors: list, min_dhi_fraction: float = 0.0) -> dict:
         g = {"nmae_mean": nm.mean(0), "nmae_median": np.median(nm, 0), "nmae_p90": np.percentile(nm, 90, 0)}
         for k in ("e_horizontal", "e_tilted", "dni_error", "e_global_horizontal", "e_global_tilted"):
             a = np.abs(np.array([e[k] for e in sel]))
-            g[k + "_median"] = np.median(a, 0)
-            g[k + "_max"] = a.max(0)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)       # all-NaN channels (DNI in deep bands)
+                g[k + "_median"] = np.nanmedian(a, 0)
+                g[k + "_max"] = np.nanmax(a, 0)
         g = {k: np.round(v, 5).tolist() for k, v in g.items()}
         g["nmae_channel_mean"] = round(float(nm.mean()), 5)
         g["targets"] = {
