@@ -174,6 +174,7 @@ def plot(rows, args):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, LogLocator
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), sharey=True)
     colours = {1: "tab:blue", 2: "tab:orange", 4: "tab:green"}
     for ax, name, title, target in ((axes[0], "tilted_plane", "unobstructed tilted plane", 0.01),
@@ -207,6 +208,11 @@ def plot(rows, args):
                 va="bottom", transform=ax.get_yaxis_transform())
         ax.set_xscale("log")
         ax.set_yscale("log")
+        for axis in (ax.xaxis, ax.yaxis):      # plain numbers, not 2 x 10^1
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+        ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0)))
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
         ax.set_title(title)
         ax.set_xlabel(f"CPU time, {args.timing_faces}-face benchmark scene, hourly year, one process [s]")
         ax.grid(True, which="both", alpha=0.3)
