@@ -15,7 +15,7 @@ on a shared machine) on the ``bench_poa.py`` scene with ``--timing-faces`` faces
 responses), one run per setting.
 
 Run: python benchmarks/bench_poa_accuracy.py [--cache DIR] [--timing-faces 2000]
-     [--figure docs/figures/poa_accuracy_speed.png] [--days N]
+     [--figure docs/figures/poa_accuracy_speed.png] [--days N] [--hourly]
 """
 
 from __future__ import annotations
@@ -84,6 +84,30 @@ def reference(name, scene, states, cache, jobs, sky):
     return out, path
 
 
+def hourly(scenes, states, args):
+    """Per-step errors of the default settings against the reference, steps where the reference's
+    poa_global exceeds 50 W m-2: relative error of poa_global, and errors of the sky-diffuse and
+    reflected components as fractions of that step's poa_global (percentiles over steps and points)."""
+    from irradiance.integrator import poa_irradiance
+    from irradiance.skies import PragueSky
+
+    sky = PragueSky()
+    for name, scene in scenes.items():
+        ref, _ = reference(name, scene, states, args.cache, args.jobs, sky)
+        res = poa_irradiance(scene, sky, states, n_jobs=args.jobs)
+        g = ref["poa_global"]
+        ok = g > 50.0
+        rel = (res.poa_global - g)[ok] / g[ok]
+        print(f"{name}: {ok.sum()} point-steps above 50 W m-2")
+        for q, r in (("poa_global (relative)", rel),
+                     ("poa_sky_diffuse (of global)", (res.poa_sky_diffuse - ref["poa_sky_diffuse"])[ok] / g[ok]),
+                     ("poa_ground_diffuse (of global)",
+                      (res.poa_ground_diffuse - ref["poa_ground_diffuse"])[ok] / g[ok])):
+            a = np.abs(r)
+            print(f"  {q:32s} median {100 * np.median(a):.2f} %  p95 {100 * np.percentile(a, 95):.2f} %  "
+                  f"p99 {100 * np.percentile(a, 99):.2f} %  max {100 * a.max():.2f} %  mean {100 * r.mean():+.2f} %")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cache", default=os.path.join(os.path.expanduser("~"), ".cache", "widesky"))
@@ -93,6 +117,8 @@ def main(argv=None):
     ap.add_argument("--figure", default=None, help="write the chart (PNG)")
     ap.add_argument("--no-timing", action="store_true")
     ap.add_argument("--replot", default=None, help="draw the chart from a saved rows file only")
+    ap.add_argument("--hourly", action="store_true",
+                    help="per-step (hourly) errors of the default settings against the reference, then stop")
     args = ap.parse_args(argv)
     if args.replot:
         import json
@@ -108,6 +134,9 @@ def main(argv=None):
 
     times, states = study_states(args.days)
     scenes = validation_scenes()
+    if args.hourly:
+        hourly(scenes, states, args)
+        return 0
     sky = PragueSky()
     print(f"load average at start: {os.getloadavg()[0]:.1f}; {len(states)} steps; dataset "
           f"{sky.model.path} sha1 {dataset_digest(sky.model)}, synthetic: {sky.model.is_synthetic}")

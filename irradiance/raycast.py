@@ -18,13 +18,14 @@ that reach the ground or a scene surface feed one reflection (Lambertian):
   coefficient of patch ``q`` (``reflect_sky``, ``ground_sky``): the reflected sky keeps the sky's
   anisotropy and the reflector's own obstruction; a closed box stays dark. Where a wall's secondary
   ray reaches the ground it samples the ground's (unshaded) radiance (``reflect_ground``).
-* **Reflected sun.** For each band of sun elevation (:data:`SHADE_BANDS`) every reflecting point
-  traces one ray towards a sun-position bin of that band, drawn (deterministically, from the ray's
-  identity) with probability proportional to the bin's number of steps x a clear-sky direct normal
-  irradiance x the cosine of the reflector's binned normal (42 bins); the hits that see the sun carry
-  the reflected sun of that band's steps (``reflect_sun`` per orientation bin, ``ground_sun``): an
-  estimate of each band's sunlit share of the reflectors, so the ground of a street canyon is lit as
-  rarely as it is.
+* **Reflected sun.** The year's sun positions are grouped into shading cells (:func:`shade_cells`:
+  bands of elevation split into azimuth sectors of 30-120 deg). Per cell every reflecting point traces
+  one ray towards a sun-position bin of that cell, drawn (deterministically, from the ray's identity)
+  with probability proportional to the bin's number of steps x a clear-sky direct normal irradiance x
+  the cosine of the reflector's binned normal (42 bins); the hits that see the sun carry the reflected
+  sun of that cell's steps (``reflect_sun`` per orientation bin, ``ground_sun``): an estimate of each
+  cell's sunlit share of the reflectors, so the ground of a street canyon is lit when, and as rarely
+  as, it is.
 
 Adding an occluder never adds light to these estimates: a ray's secondary direction and sampled sun
 bin depend only on its identity, and an occluder can only block them or replace a reflector.
@@ -53,12 +54,15 @@ import numpy as np
 from .patches import cosine_weights, direction_from_angles, orthonormal_frame, reinhart
 
 __all__ = ["Coefficients", "compute_coefficients", "start_coefficients", "PendingCoefficients",
-           "reflector_bins", "cast_rays", "sun_bins", "shade_band", "SHADE_BANDS"]
+           "reflector_bins", "cast_rays", "sun_bins", "shade_band", "shade_cells", "SHADE_BANDS",
+           "SHADE_SECTORS"]
 
 _SCENE_CACHE: dict = {}
 
-#: Sun-elevation band edges [deg] of the reflector sun shading (one sun ray per reflector and band).
-SHADE_BANDS = (0.0, 15.0, 35.0, 90.0)
+#: Sun-elevation band edges [deg] of the reflector shading cells and the azimuth sector width [deg]
+#: of each band (cells are narrower where the sun moves faster across the sky and shadows change most).
+SHADE_BANDS = (0.0, 10.0, 20.0, 35.0, 50.0, 90.0)
+SHADE_SECTORS = (30.0, 30.0, 45.0, 60.0, 120.0)
 
 
 def _clear_dni(elevation):
@@ -76,6 +80,27 @@ def shade_band(elevation):
     el = np.asarray(elevation, dtype=float)
     b = np.searchsorted(np.asarray(SHADE_BANDS), el, side="left") - 1
     return np.where(el > 0, np.clip(b, 0, len(SHADE_BANDS) - 2), -1)
+
+
+def shade_cells(sun_directions):
+    """Reflector shading cell of each sun direction: (n,) index into the occupied cells (-1 at or
+    below the horizon) and their number G.
+
+    A cell is an elevation band of :data:`SHADE_BANDS` times an azimuth sector of that band's
+    :data:`SHADE_SECTORS` width [deg]; cells no direction falls in are dropped, the others numbered
+    in (band, sector) order.
+    """
+    d = np.asarray(sun_directions, dtype=float).reshape(-1, 3)
+    el = np.degrees(np.arcsin(np.clip(d[:, 2], -1.0, 1.0)))
+    az = np.mod(np.degrees(np.arctan2(d[:, 0], d[:, 1])), 360.0)
+    band = shade_band(el)
+    width = np.asarray(SHADE_SECTORS)[np.maximum(band, 0)]
+    raw = np.where(band >= 0, band * 64 + np.floor(az / width).astype(int), -1)
+    up = raw >= 0
+    cells, inv = np.unique(raw[up], return_inverse=True)
+    out = np.full(d.shape[0], -1)
+    out[up] = inv.reshape(-1)
+    return out, int(cells.size)
 
 
 def reflector_bins():
@@ -270,8 +295,8 @@ class Coefficients:
         their reflectance [sr]; times the unshaded ground radiance it gives the ground light that
         walls pass on.
     ground_sun : numpy.ndarray
-        (G, N) per sun-elevation band (:data:`SHADE_BANDS`), the projected solid angle of visible
-        ground times its sampled sunlit share [sr] (for the reflected sun).
+        (G, N) per reflector shading cell (:func:`shade_cells`), the projected solid angle of visible
+        ground times its estimated sunlit share [sr] (for the reflected sun).
     reflect_sun : numpy.ndarray
         (G, N, B) the same for scene surfaces per orientation bin, times their reflectance [sr].
     bins : numpy.ndarray
@@ -284,8 +309,7 @@ class Coefficients:
     sun_index : numpy.ndarray
         (S,) bin of each sun direction given.
     sun_band : numpy.ndarray
-        (S_b,) sun-elevation band of each bin (index into :data:`SHADE_BANDS`, -1 below the
-        horizon).
+        (S_b,) reflector shading cell of each bin (index into the G cells, -1 below the horizon).
     sun_bin : float
         Bin size [deg] (0: one bin per direction).
     n_rays : int
@@ -310,8 +334,8 @@ class Coefficients:
     sun_band: np.ndarray = None
 
     def step_band(self, sun_rank):
-        """(n,) sun-elevation band (:data:`SHADE_BANDS`) of the sun directions ``sun_rank`` given
-        (the band of their bin, as used for the reflector shading)."""
+        """(n,) reflector shading cell of the sun directions ``sun_rank`` given (the cell of their
+        bin)."""
         idx = np.asarray(sun_rank) if self.sun_index is None else self.sun_index[sun_rank]
         return self.sun_band[idx]
 
@@ -345,11 +369,13 @@ def _sample_directions(mf, k):
     return patches, np.concatenate([d, d_lo]), np.concatenate([w, w])  # (2P, K, 3), (2P, K)
 
 
-def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first=0, sun_count=None):
+def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first=0, sun_count=None,
+                sun_cell=None):
     """Coefficients for one chunk of points (runs in a worker process).
 
-    ``sun_dirs`` (S_b, 3) are the sun-position bins' directions and ``sun_count`` (S_b,) their
-    numbers of steps (the weights of the reflector shading samples).
+    ``sun_dirs`` (S_b, 3) are the sun-position bins' directions, ``sun_count`` (S_b,) their
+    numbers of steps (the weights of the reflector shading samples) and ``sun_cell`` (S_b,) their
+    reflector shading cells (default :func:`shade_cells`).
     """
     t0 = time.perf_counter()
     patches, dirs, wcell = _sample_directions(mf, k)
@@ -432,22 +458,26 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
     reflect_ground[buried] = 0.0
 
     B = bins.shape[0]
-    # sun on the reflectors: per elevation band, one ray per reflecting hit towards a sun bin drawn
-    # with probability ~ steps x clear-sky DNI x cos(binned reflector normal, sun)
-    G = len(SHADE_BANDS) - 1
+    # sun on the reflectors: per shading cell, one ray per reflecting hit towards a sun bin of the
+    # cell drawn ~ steps x clear-sky DNI x cos(binned reflector normal, sun), fixed by the ray's
+    # identity; the lit hits carry the cell's reflected sun
+    S = sun_dirs.shape[0]
+    if sun_cell is None:
+        sun_cell, G = shade_cells(sun_dirs)
+    else:
+        sun_cell = np.asarray(sun_cell)
+        G = int(sun_cell.max()) + 1 if sun_cell.size else 0
     ground_sun = np.zeros((G, n))
     reflect_sun = np.zeros((G, n * B))
-    S = sun_dirs.shape[0]
-    if S and ri.size:
+    if S and ri.size and G:
         cnt = np.ones(S) if sun_count is None else np.asarray(sun_count, dtype=float)
         el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
-        band_b = shade_band(el_b)
         r_ob = np.zeros(ri.size, dtype=np.int64)                     # ground: bin 0 (up)
         r_ob[sel_scene] = np.argmax(tn[sel_scene] @ bins.T, axis=1)
         live = (r_share > 0) & (r_rho > 0)
         ident = (r_pt + first) * (2 * P * K) + si[ri]
         for g in range(G):
-            cg = np.nonzero(band_b == g)[0]
+            cg = np.nonzero(sun_cell == g)[0]
             if cg.size == 0:
                 continue
             wq = (cnt[cg] * _clear_dni(el_b[cg]))[None, :] * np.maximum(bins @ sun_dirs[cg].T, 0.0)
@@ -495,7 +525,7 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
         n_rays += pf.size
     return {"sky": sky.astype(np.float32), "ground_sky": ground_sky.astype(np.float32),
             "reflect_sky": reflect_sky.astype(np.float32), "reflect_ground": reflect_ground,
-            "ground_sun": ground_sun, "reflect_sun": reflect_sun,
+            "ground_sun": ground_sun, "reflect_sun": reflect_sun.astype(np.float32),
             "sun": np.packbits(vis, axis=1), "n_rays": n_rays,
             "seconds": time.perf_counter() - t0}
 
@@ -635,8 +665,8 @@ def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, su
             chunk_size = int(max(32, min(chunk_size, -(-n // (2 * workers)))))
     bounds = [(i, min(i + int(chunk_size), n)) for i in range(0, n, int(chunk_size))]
     sun_count = np.bincount(sun_index, minlength=sun_rep.shape[0]).astype(float)
+    sun_band, _ = shade_cells(sun_rep)
     args = [(geom, origins[a:b], normals[a:b], buried[a:b], mf, rays_per_patch, sun_rep, bins, a,
-             sun_count) for a, b in bounds]
-    sun_band = shade_band(np.degrees(np.arcsin(np.clip(sun_rep[:, 2], -1.0, 1.0))))
+             sun_count, sun_band) for a, b in bounds]
     return PendingCoefficients(t0, args, bounds, bins, sun, sun_index, sun_bin, sun_band, n_jobs,
                                executor, progress)

@@ -6,7 +6,8 @@
 * The issue's acceptance test, fast version for CI: default integrator settings against the reference
   on the two validation scenes, annual (here: 12 days spread over the year, hourly) totals of
   poa_global per analysis point: within 1 % for the unobstructed tilted plane and 2 % for the
-  obstructed facade. The reference runs at reduced resolution here (sky grid 1.6 deg, reflector grid
+  obstructed facade; and hourly, the reflected light's error below 10 % of the step's global at the
+  95th percentile. The reference runs at reduced resolution here (sky grid 1.6 deg, reflector grid
   6 deg), measured within 0.2 % of its converged settings on these scenes; the full-year numbers
   with the converged reference are in docs/irradiance-integrator.md
   (``python benchmarks/bench_poa_accuracy.py``). Sky: the embedded default PSM dataset.
@@ -110,3 +111,10 @@ def test_default_settings_against_reference(name, tolerance):
     # the components the two split the same way: reflected light (within 10 % per point)
     er = res.poa_ground_diffuse.sum(0, dtype=np.float64) / ref.poa_ground_diffuse.sum(0) - 1
     assert np.abs(er).max() < 0.10, er
+    # hourly: the reflected light per step, as a fraction of the step's global, where the reference
+    # exceeds 50 W m-2 (95th percentile over point-steps; measured 7.3 % on the facade with the
+    # shading cells, 17.4 % with the earlier three elevation bands; 0.04 % on the plane)
+    g = ref.poa_global
+    ok = g > 50.0
+    hourly = np.abs(res.poa_ground_diffuse - ref.poa_ground_diffuse)[ok] / g[ok]
+    assert np.percentile(hourly, 95) < 0.10, np.percentile(hourly, 95)
