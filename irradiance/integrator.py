@@ -120,11 +120,11 @@ class IntegratorSettings:
 # (the default dataset; the earlier synthetic placeholder, whose sky was harsher), measured, not
 # guaranteed for other scenes.                          default dataset / synthetic placeholder
 PRESETS = (
-    (0.06, IntegratorSettings(mf=1, rays_per_patch=1)),        # 1.74 % / 5.39 %
-    (0.02, IntegratorSettings(mf=1, rays_per_patch=2)),        # 0.94 % / 1.91 % (the default)
-    (0.01, IntegratorSettings(mf=1, rays_per_patch=4)),        # 0.37 % / 0.94 %
-    (0.0075, IntegratorSettings(mf=2, rays_per_patch=2)),      # 0.46 % / 0.71 %
-    (0.006, IntegratorSettings(mf=4, rays_per_patch=2)),       # 0.27 % / 0.55 %
+    (0.06, IntegratorSettings(mf=1, rays_per_patch=1)),        # 1.74 % / 5.37 %
+    (0.02, IntegratorSettings(mf=1, rays_per_patch=2)),        # 0.94 % / 1.93 % (the default)
+    (0.01, IntegratorSettings(mf=1, rays_per_patch=4)),        # 0.37 % / 0.95 %
+    (0.0075, IntegratorSettings(mf=2, rays_per_patch=2)),      # 0.46 % / 0.73 %
+    (0.006, IntegratorSettings(mf=4, rays_per_patch=2)),       # 0.27 % / 0.53 %
 )
 
 
