@@ -284,6 +284,12 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     return out, dni, circumsolar
 
 
+def _horizontal_diffuse(patch_radiance, circumsolar, w_horizontal, sun_elevation):
+    """(T,) diffuse horizontal irradiance [W m-2] from (T, P) broadband patch radiance, (T,)
+    circumsolar normal irradiance, (P,) horizontal cosine weights [sr] and sun elevations [deg]."""
+    return patch_radiance @ w_horizontal + circumsolar * np.sin(np.radians(sun_elevation))
+
+
 def model_irradiance(sky, states: SkyStates, settings=None, chunk: int = 256):
     """Broadband direct normal and diffuse horizontal irradiance of the sky model per step.
 
@@ -321,7 +327,7 @@ def model_irradiance(sky, states: SkyStates, settings=None, chunk: int = 256):
         st = states.take(idx)
         Lp, dn, cs = patch_radiance(sky, patches, st, widths, settings)
         dni[idx] = dn[:, 0]
-        dhi[idx] = Lp[..., 0] @ w_h + cs[:, 0] * np.sin(np.radians(st.sun_elevation))
+        dhi[idx] = _horizontal_diffuse(Lp[..., 0], cs[:, 0], w_h, st.sun_elevation)
     return dni, dhi
 
 
@@ -568,7 +574,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, spec
         Lp, dni, cs = patch_radiance(sky, patches, st, Wall, settings)     # (Tc,P,R'), (Tc,R')
         if measured is not None:                   # column 0 is broadband: the model's DNI, DHI
             model_dni[idx] = dni[:, 0]
-            model_dhi[idx] = Lp[..., 0] @ w_horizontal + cs[:, 0] * np.sin(np.radians(st.sun_elevation))
+            model_dhi[idx] = _horizontal_diffuse(Lp[..., 0], cs[:, 0], w_horizontal, st.sun_elevation)
             f = measured_scale_factors(model_dni[idx], model_dhi[idx], m_dni[idx], m_dhi[idx],
                                        missing="clear")
             scale_d[idx], scale_s[idx] = f.sun_scale, f.sky_scale

@@ -36,7 +36,6 @@ def evaluate_errors(config, dataset_path) -> list:
     nmae [1], e_horizontal, e_tilted (relative sky-diffuse irradiance errors [1], signed), dni_error (relative
     [1], signed), e_global_horizontal, e_global_tilted (relative global irradiance errors [1], signed); solver sky-diffuse irradiances dhi, dti [W m-2 nm-1]. States whose solve is missing are skipped.
     """
-    import warnings
 
     from .dataset import load_dataset
     from .dataset_build import _load, direction_samples, state_file, validation_states
