@@ -1,7 +1,7 @@
 """Fitting error of the default dataset against the reference solver (the paper's Fig. 10 for our dataset).
 
 Evaluates the dataset on the held-out validation states of its build configuration (solved by the build and cached;
-see skymodel.dataset_errors) and draws
+see skymodel.generator.dataset_errors) and draws
 
 - docs/figures/dataset_fit_error.png: per-channel box plot of the normalised mean absolute error of sky radiance
   over the held-out states (held-out directions on grid states, and states between grid points);
@@ -94,8 +94,8 @@ def plots(errors, summary, prefix="docs/figures/dataset_"):
 
 
 if __name__ == "__main__":
-    from skymodel.dataset_build import load_config
-    from skymodel.dataset_errors import evaluate_errors, summarise
+    from skymodel.generator.dataset_build import load_config
+    from skymodel.generator.dataset_errors import evaluate_errors, summarise
 
     ap = argparse.ArgumentParser()
     ap.add_argument("config")

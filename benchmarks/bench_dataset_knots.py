@@ -1,7 +1,7 @@
 """Dataset size against fit error: choose knots and rank by measurement (docs/default-dataset.md, figure
 docs/figures/dataset_size_vs_error.png).
 
-For solved grid states in the build cache (``widesky dataset build`` or skymodel.dataset_build.solve_all must have
+For solved grid states in the build cache (``widesky dataset build`` or skymodel.generator.dataset_build.solve_all must have
 run for the configuration), the fit samples of each state are split at random (seeded) into 75 % fitted and 25 %
 held out; each (knots, rank) setting is fitted on the first part and its solid-angle-weighted normalised mean
 absolute error measured on the held-out part, per channel. The dataset size is that of the configuration's grid
@@ -37,9 +37,9 @@ def block_bytes(ns, nz, ne, rank):
 def run(config_path, n_states=10, albedo=0.3, seed=0, settings=SETTINGS, max_elevation=90.0):
     from dataclasses import replace
 
-    from skymodel.dataset_build import (_load, config_knots, direction_samples, fit_weights, ground_file,
+    from skymodel.generator.dataset_build import (load_state, config_knots, direction_samples, fit_weights, ground_file,
                                         load_config, radiance_with_albedo, state_file)
-    from skymodel.fit import fit_radiance
+    from skymodel.generator.fit import fit_radiance
 
     cfg = load_config(config_path)
     rng = np.random.default_rng(seed)
@@ -55,8 +55,8 @@ def run(config_path, n_states=10, albedo=0.3, seed=0, settings=SETTINGS, max_ele
         sb, zb, eb = config_knots(c2)
         errs, t0, nfit = [], time.perf_counter(), 0
         for v, e in pick:
-            s = _load(state_file(cfg, v, e))
-            g = _load(ground_file(cfg, v))
+            s = load_state(state_file(cfg, v, e))
+            g = load_state(ground_file(cfg, v))
             smp = direction_samples(s["zenith"], s["azimuth"], float(s["solved_elevation"]))
             y = radiance_with_albedo(s, g, albedo).reshape(-1, 55)
             m = len(y)

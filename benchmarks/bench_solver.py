@@ -8,7 +8,7 @@ import argparse
 import os
 import time
 
-from skymodel.build.solver import AtmosphereSpec, SkyState, solve_sky
+from skymodel.generator.solver import AtmosphereSpec, SkyState, solve_sky
 
 
 def main():

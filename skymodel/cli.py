@@ -11,7 +11,7 @@ import sys
 SUBCOMMAND_MODULES = (
     "skymodel.cli_sky",
     "skymodel.cli_dataset",
-    "skymodel.build.cli",
+    "skymodel.generator.cli",
     "irradiance.cli_sun",
     "irradiance.cli_poa",
     "pvsim.cli",

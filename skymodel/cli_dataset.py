@@ -68,7 +68,7 @@ def _synthetic(args):
 def _build(args):
     import time
 
-    from .dataset_build import build_dataset, load_config, solve_all
+    from .generator.dataset_build import build_dataset, load_config, solve_all
 
     def log(msg):
         print(time.strftime("%H:%M:%S"), msg, flush=True)

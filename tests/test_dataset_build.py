@@ -1,4 +1,4 @@
-"""The dataset generator (skymodel.dataset_build): albedo decomposition, transmittance paths, and an end-to-end build
+"""The dataset generator (skymodel.generator.dataset_build): albedo decomposition, transmittance paths, and an end-to-end build
 on a tiny grid with tiny solver settings (4 streams), checked against the solver it was fitted to.
 
 References and tolerances:
@@ -6,7 +6,7 @@ References and tolerances:
   with direct DISORT runs at the same albedo, rtol 2e-3 (the ground response is interpolated in zenith on a 0.5 deg
   table; measured 6e-5 at 16 streams);
 - segment path factors: a straight path from the ground to the top of the atmosphere equals the solver's slant path
-  (skymodel.build.atmosphere.slant_path_factors) to 1e-9 relative;
+  (skymodel.generator.atmosphere.slant_path_factors) to 1e-9 relative;
 - the written file reproduces the fitted factors at the fit samples to half-float precision (rtol 3e-3 of the
   channel's largest value), and skylight (independent reader) gives the same values (rtol 1e-6);
 - the dataset's direct normal irradiance matches the solver's spherical-path direct beam within 2 % in channels
@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import skymodel
-from skymodel.build.paths import has_data
+from skymodel.generator.paths import has_data
 
 pytestmark = pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
 
@@ -35,7 +35,7 @@ TINY = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 1.0], "elevations_deg
 def tiny(tmp_path_factory):
     import os
 
-    from skymodel.dataset_build import build_dataset, load_config
+    from skymodel.generator.dataset_build import build_dataset, load_config
 
     d = tmp_path_factory.mktemp("dsb")
     (d / "tiny.json").write_text(json.dumps(TINY))
@@ -54,7 +54,7 @@ def tiny(tmp_path_factory):
 
 @pytest.mark.slow
 def test_albedo_decomposition_matches_direct_runs(tmp_path, monkeypatch):
-    from skymodel.dataset_build import BuildConfig, radiance_with_albedo, solve_ground, solve_state
+    from skymodel.generator.dataset_build import BuildConfig, radiance_with_albedo, solve_ground, solve_state
 
     monkeypatch.setenv("WIDESKY_CACHE_DIR", str(tmp_path))
     cfg = BuildConfig(n_streams=4, n_moments=8)
@@ -69,8 +69,8 @@ def test_albedo_decomposition_matches_direct_runs(tmp_path, monkeypatch):
 
 
 def test_segment_to_the_top_equals_the_slant_path():
-    from skymodel.build.atmosphere import DEFAULT_LEVELS_KM, slant_path_factors
-    from skymodel.dataset_build import PLANET_RADIUS_M, segment_path_factors
+    from skymodel.generator.atmosphere import DEFAULT_LEVELS_KM, slant_path_factors
+    from skymodel.generator.dataset_build import PLANET_RADIUS_M, segment_path_factors
 
     R = PLANET_RADIUS_M
     top = R + 1000.0 * DEFAULT_LEVELS_KM[-1]
@@ -85,8 +85,8 @@ def test_segment_to_the_top_equals_the_slant_path():
 
 
 def test_segment_below_the_horizon_is_continuous():
-    from skymodel.build.atmosphere import DEFAULT_LEVELS_KM
-    from skymodel.dataset_build import segment_path_factors
+    from skymodel.generator.atmosphere import DEFAULT_LEVELS_KM
+    from skymodel.generator.dataset_build import segment_path_factors
 
     d = np.linspace(0.0, 600e3, 61)
     f = segment_path_factors(DEFAULT_LEVELS_KM, 0.0, np.zeros_like(d), d).sum(axis=1)
@@ -95,7 +95,7 @@ def test_segment_below_the_horizon_is_continuous():
 
 @pytest.mark.slow
 def test_tiny_build_reproduces_its_fit(tiny):
-    from skymodel.dataset_build import _load, config_knots, direction_samples, fit_all, state_file
+    from skymodel.generator.dataset_build import load_state, config_knots, direction_samples, fit_all, state_file
 
     cfg, path, meta = tiny
     m = skymodel.load_dataset(path)
@@ -103,10 +103,10 @@ def test_tiny_build_reproduces_its_fit(tiny):
     fitted = fit_all(cfg, processes=1, progress=False)
     sb, zb, eb = config_knots(cfg)
     v, e, ia = 131.8, 60.0, 1
-    s = _load(state_file(cfg, v, e))
+    s = load_state(state_file(cfg, v, e))
     smp = direction_samples(s["zenith"], s["azimuth"], e)
     ours = skymodel.sky_radiance(m, smp["directions"], e, 180.0, v, cfg.albedos[ia])
-    from skymodel.fit import RadianceFit
+    from skymodel.generator.fit import RadianceFit
     for c in (2, 20, 40):
         f = RadianceFit(fitted["sun"][-1, ia, 0, -1, c], fitted["zen"][-1, ia, 0, -1, c],
                         fitted["emph"][-1, ia, 0, -1, c], 0.0)
@@ -140,14 +140,14 @@ def test_tiny_build_agrees_with_skylight(tiny):
 
 @pytest.mark.slow
 def test_tiny_build_direct_beam_and_error_report(tiny):
-    from skymodel.dataset_build import _load, state_file
+    from skymodel.generator.dataset_build import load_state, state_file
 
     cfg, path, meta = tiny
     m = skymodel.load_dataset(path)
     wl = m.wavelengths
     sel = (wl >= 400) & (wl <= 1300)
     for v, e in ((20.0, 10.0), (131.8, 60.0)):
-        s = _load(state_file(cfg, v, e))
+        s = load_state(state_file(cfg, v, e))
         dni = skymodel.solar_direct_normal(m, e, 180.0, v, 0.0)
         np.testing.assert_allclose(dni[sel], s["dni"][sel], rtol=0.02)
     errs = meta["errors"]

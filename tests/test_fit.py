@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import skymodel
-from skymodel.fit import fit_radiance, fit_transmittance, hat_weights
+from skymodel.generator.fit import fit_radiance, fit_transmittance, hat_weights
 from skymodel.synthetic import write_synthetic_dataset
 
 pytest.importorskip("scipy")

@@ -182,7 +182,7 @@ SWEIGART_RAYLEIGH = (
 
 
 def rayleigh_benchmark(n_streams: int = 16):
-    """Run the Sweigart (1970) Rayleigh cases through :func:`skymodel.build.solver.run_disort`'s DISORT setup.
+    """Run the Sweigart (1970) Rayleigh cases through :func:`skymodel.generator.solver.run_disort`'s DISORT setup.
 
     Returns list of (tau, ssa, model_down, ref_down, model_up, ref_up) with fluxes for beam flux pi.
     """

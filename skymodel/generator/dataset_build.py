@@ -4,7 +4,7 @@ Pipeline (docs/default-dataset.md):
 
 1. **Solve** every (visibility, solar elevation) grid state with a black ground (albedo 0) on a product grid of
    view zeniths x relative azimuths sized for the fit (:func:`fit_directions`); one DISORT run per channel
-   sub-problem (:mod:`skymodel.build.solver`). Per visibility, one extra pair of runs (albedo 0 and 1) gives the
+   sub-problem (:mod:`skymodel.generator.solver`). Per visibility, one extra pair of runs (albedo 0 and 1) gives the
    atmosphere's response to a Lambertian ground, which does not depend on the sun: for a plane-parallel
    atmosphere over a Lambertian ground, per sub-problem k,
 
@@ -13,7 +13,7 @@ Pipeline (docs/default-dataset.md):
    with E_k(0) the black-ground global irradiance, S_k the spherical albedo of the atmosphere and t_k(theta)
    its diffuse transmittance for isotropic illumination from below. Every albedo of the grid then costs no
    solver run (checked against direct runs in tests/test_dataset_build.py).
-2. **Fit** each (visibility, albedo, elevation, channel) into the PSM form with :func:`skymodel.fit.fit_radiance`
+2. **Fit** each (visibility, albedo, elevation, channel) into the PSM form with :func:`skymodel.generator.fit.fit_radiance`
    using the evaluator's own angles (:func:`skymodel.reference_angles`).
 3. **Transmittance**: sqrt(T) of straight paths through the spherical shells on the format's (distance,
    altitude) parameter grid, band-averaged with the solver's k-distribution sub-problems, factored into U . V.
@@ -34,6 +34,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from .cache import cache_root, ground_file, load_state, save_state, state_file, validation_states
 
 __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", "solve_state", "solve_ground",
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
@@ -58,7 +60,7 @@ class BuildConfig:
     visibilities_km [km], albedos [1], elevations_deg [deg] (ascending; values below ``min_solve_elevation_deg``
     are solved at that elevation; values above ``max_fit_elevation_deg`` hold the fit of the highest elevation
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), rank,
-    smoothing [1], iterations, refine (see :func:`skymodel.fit.fit_radiance`); solver settings (n_streams, n_moments); atmosphere (AtmosphereSpec fields);
+    smoothing [1], iterations, refine (see :func:`skymodel.generator.fit.fit_radiance`); solver settings (n_streams, n_moments); atmosphere (AtmosphereSpec fields);
     trans_dims (dDim, aDim), trans_rank; direction grid steps [deg]; validation (counts, seed); seed.
     """
 
@@ -86,11 +88,11 @@ class BuildConfig:
     description: str = "widesky default dataset"
 
     def solver_config(self):
-        from .build.solver import SolverConfig
+        from .solver import SolverConfig
         return SolverConfig(n_streams=int(self.n_streams), n_moments=int(self.n_moments))
 
     def spec(self):
-        from .build.solver import AtmosphereSpec
+        from .solver import AtmosphereSpec
         return AtmosphereSpec(**self.atmosphere)
 
     def solver_key(self) -> str:
@@ -120,14 +122,6 @@ def load_config(path) -> BuildConfig:
     return BuildConfig(**d)
 
 
-def cache_root(config: BuildConfig) -> Path:
-    """Cache folder of the solved states of ``config`` (``$WIDESKY_CACHE_DIR`` or ``~/.cache/widesky``)."""
-    base = Path(os.environ.get("WIDESKY_CACHE_DIR", "~/.cache/widesky")).expanduser()
-    p = base / "dataset-build" / config.solver_key()
-    p.mkdir(parents=True, exist_ok=True)
-    return p
-
-
 # --------------------------------------------------------------------------------------------- directions
 
 AZIMUTHS_DEG = np.array([0.0, 0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0, 9.0, 12.5, 17.0, 22.0, 28.0, 35.0, 42.5, 50.0,
@@ -146,7 +140,7 @@ def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 3.0):
     zeniths every ``zenith_step_deg`` plus the horizon band and zeniths around the sun; azimuths refined near
     the sun (:data:`AZIMUTHS_DEG`).
     """
-    from .build.solver import MAX_VIEW_ZENITH_DEG
+    from .solver import MAX_VIEW_ZENITH_DEG
 
     zs = 90.0 - float(solar_elevation_deg)
     th = np.concatenate([np.arange(0.0, 89.0, zenith_step_deg), [85.5, 87.0, 88.0, 89.0, MAX_VIEW_ZENITH_DEG],
@@ -158,7 +152,7 @@ def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 3.0):
 def validation_directions(solar_elevation_deg: float):
     """Held-out product grid (no zenith or azimuth of :func:`fit_directions` except the horizon limit):
     zenith (T,) [deg], relative azimuth (P,) [deg]; fine enough for hemispherical integrals."""
-    from .build.solver import MAX_VIEW_ZENITH_DEG
+    from .solver import MAX_VIEW_ZENITH_DEG
 
     zs = 90.0 - float(solar_elevation_deg)
     off = np.array([0.375, 0.75, 1.25, 2.0, 3.25, 5.0, 7.5])
@@ -172,7 +166,7 @@ def validation_directions(solar_elevation_deg: float):
 
 def ground_directions():
     """Zeniths [deg] on which the ground response t_k(theta) is tabulated (interpolated elsewhere)."""
-    from .build.solver import MAX_VIEW_ZENITH_DEG
+    from .solver import MAX_VIEW_ZENITH_DEG
 
     return np.unique(np.concatenate([np.arange(0.0, 89.6, 0.5), [89.75, MAX_VIEW_ZENITH_DEG]]))
 
@@ -180,7 +174,7 @@ def ground_directions():
 # --------------------------------------------------------------------------------------------- solving
 
 def _problems(visibility_km, config: BuildConfig, data_dir=None):
-    from .build.solver import SkyState, channel_problems
+    from .solver import SkyState, channel_problems
 
     state = SkyState(45.0, visibility_km=float(visibility_km), ground_albedo=0.0)
     probs, et_ch, atm = channel_problems(state, config.spec(), None, config.solver_config(), data_dir)
@@ -205,8 +199,8 @@ def solve_state(visibility_km: float, solar_elevation_deg: float, config: BuildC
     flux [1]); et (55,) band-mean extraterrestrial irradiance [W m-2 nm-1]; dni, ghi_disort, dhi (55,)
     [W m-2 nm-1] (dni along the spherical-shell path); seconds [s].
     """
-    from .build.atmosphere import slant_path_factors
-    from .build.solver import run_disort
+    from .atmosphere import slant_path_factors
+    from .solver import run_disort
 
     t0 = time.perf_counter()
     cfg = config.solver_config()
@@ -241,7 +235,7 @@ def solve_ground(visibility_km: float, config: BuildConfig, data_dir=None) -> di
     dict with zenith (T,) [deg]; t (list of 55 arrays (K_c, T)) diffuse transmittance for isotropic illumination
     from below [1]; s (list of 55 arrays (K_c,)) spherical albedo [1]; weights (list of 55 (K_c,)); seconds.
     """
-    from .build.solver import run_disort
+    from .solver import run_disort
 
     t0 = time.perf_counter()
     cfg = config.solver_config()
@@ -293,48 +287,12 @@ def radiance_with_albedo(solved: dict, ground: dict, albedo: float) -> np.ndarra
     return out
 
 
-def _save(path: Path, d: dict):
-    flat = {}
-    for k, v in d.items():
-        if isinstance(v, list):
-            flat[f"{k}__n"] = np.array(len(v))
-            for i, x in enumerate(v):
-                flat[f"{k}__{i}"] = np.asarray(x)
-        else:
-            flat[k] = np.asarray(v)
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, **flat)
-    tmp.replace(path)
-
-
-def _load(path: Path) -> dict:
-    with np.load(path) as z:
-        keys = list(z.keys())
-        d = {k: z[k] for k in keys if "__" not in k}
-        for k in keys:
-            if k.endswith("__n"):
-                name = k[:-3]
-                d[name] = [z[f"{name}__{i}"] for i in range(int(z[k]))]
-    return d
-
-
-def state_file(config: BuildConfig, visibility_km: float, elevation_deg: float, kind="fit", albedo=None) -> Path:
-    """Cache file of one solved state [.npz] (validation states carry their albedo in the name)."""
-    tail = "" if albedo is None else f"_a{albedo:.4f}"
-    return cache_root(config) / f"{kind}_v{visibility_km:.4f}_e{elevation_deg:.4f}{tail}.npz"
-
-
-def ground_file(config: BuildConfig, visibility_km: float) -> Path:
-    """Cache file of one visibility's ground response [.npz]."""
-    return cache_root(config) / f"ground_v{visibility_km:.4f}.npz"
-
-
 def _solve_job(job):
     kind, config, vis, ele, extra = job
     if kind == "ground":
         path = ground_file(config, vis)
         if not path.exists():
-            _save(path, solve_ground(vis, config))
+            save_state(path, solve_ground(vis, config))
         return kind, vis, ele, path
     path = state_file(config, vis, ele, kind, extra)
     if not path.exists():
@@ -346,37 +304,16 @@ def _solve_job(job):
             d = solve_state(vis, ele, config, th, ph, albedo=extra)
             d["solved_elevation"] = ele
             d["albedo"] = extra
-        _save(path, d)
+        save_state(path, d)
     return kind, vis, ele, path
 
 
 def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: float, albedo: float):
     """Cached solver radiance of a grid state at ``albedo`` [1]: (zenith (T,) [deg], azimuth (P,) [deg],
     radiance (T, P, 55) [W m-2 sr-1 nm-1], solved elevation [deg])."""
-    s = _load(state_file(config, visibility_km, elevation_deg))
-    g = _load(ground_file(config, visibility_km))
+    s = load_state(state_file(config, visibility_km, elevation_deg))
+    g = load_state(ground_file(config, visibility_km))
     return s["zenith"], s["azimuth"], radiance_with_albedo(s, g, albedo), float(s["solved_elevation"])
-
-
-def validation_states(config: BuildConfig):
-    """Held-out sky states (seeded): list of (kind, visibility [km], elevation [deg], albedo [1]).
-
-    ``on``: grid visibility, elevation and albedo (held-out directions only); ``off``: visibility log-uniform in the
-    grid's range, elevation uniform in [max(2, lowest solved), 88] deg and albedo uniform in [0, 1] (between grid
-    points: the error a user sees)."""
-    rng = np.random.default_rng(config.seed)
-    vis = np.asarray(config.visibilities_km, float)
-    ele = np.asarray(config.elevations_deg, float)
-    alb = np.asarray(config.albedos, float)
-    out = []
-    ele_ok = ele[ele >= max(2.0, config.min_solve_elevation_deg)]
-    for _ in range(int(config.validation_on_grid)):
-        out.append(("on", float(rng.choice(vis)), float(rng.choice(ele_ok)), float(rng.choice(alb))))
-    for _ in range(int(config.validation_off_grid)):
-        v = float(np.exp(rng.uniform(np.log(vis[0]), np.log(vis[-1]))))
-        e = float(rng.uniform(max(2.0, ele_ok[0]), min(88.0, ele[-1])))
-        out.append(("off", round(v, 3), round(e, 3), round(float(rng.uniform(0, 1)), 3)))
-    return out
 
 
 def _pool_map(fn, jobs, processes, progress, desc):
@@ -452,7 +389,7 @@ def direction_samples(zenith_deg, azimuth_deg, solar_elevation_deg):
     :func:`skymodel.reference_angles`, and solid-angle weights (T*P,) [sr] of the grid cells (whole circle:
     each half-circle azimuth counts twice).
     """
-    from .evaluate import directions_from_angles, reference_angles
+    from ..evaluate import directions_from_angles, reference_angles
 
     th = np.asarray(zenith_deg, float)
     ph = np.asarray(azimuth_deg, float)
@@ -524,8 +461,8 @@ def _fit_job(job):
     if path.exists():
         return vis, ele, path
     breaks = config_knots(config)
-    s = _load(state_file(config, vis, ele))
-    g = _load(ground_file(config, vis))
+    s = load_state(state_file(config, vis, ele))
+    g = load_state(ground_file(config, vis))
     samples = direction_samples(s["zenith"], s["azimuth"], float(s["solved_elevation"]))
     out = {k: [] for k in ("sun", "zen", "emph", "nmae")}
     for a in config.albedos:
@@ -534,7 +471,7 @@ def _fit_job(job):
                                                                 config.smoothing, config.iterations,
                                                                 config.refine)):
             out[k].append(v)
-    _save(path, {k: np.stack(v) for k, v in out.items()})
+    save_state(path, {k: np.stack(v) for k, v in out.items()})
     return vis, ele, path
 
 
@@ -550,7 +487,7 @@ def fit_all(config: BuildConfig, processes=2, progress=True, log=None):
     res = {}
     for iv, v in enumerate(config.visibilities_km):
         for ie, e in enumerate(config.elevations_deg):
-            d = _load(fit_file(config, float(v), float(e)))
+            d = load_state(fit_file(config, float(v), float(e)))
             for k in ("sun", "zen", "emph", "nmae"):
                 x = d[k]  # (nAlb, C, ...)
                 if k not in res:
@@ -637,7 +574,7 @@ def transmittance_samples(visibility_km: float, config: BuildConfig, observer_al
 
 
 def fit_transmittance_bounded(sqrt_t, rank):
-    """:func:`skymodel.fit.fit_transmittance` plus one constant basis column and a per-(visibility, channel)
+    """:func:`skymodel.generator.fit.fit_transmittance` plus one constant basis column and a per-(visibility, channel)
     rescale that keep U . V inside [0, 1] at every sample (the format's requirement).
 
     Returns U (nAltT, dDim, aDim, rank + 1), V (nVisT, nAltT, nCh, rank + 1) float32 and the largest
@@ -679,8 +616,8 @@ def _versions() -> dict:
 def extraterrestrial_table(config: BuildConfig, data_dir=None):
     """The solver's extraterrestrial spectrum at 1 nm for the sidecar: wavelength (2202,) [nm] (bin centres
     280.5-2479.5 plus the edges 280 and 2480, holding the end bins' values) and irradiance [W m-2 nm-1]."""
-    from .build.channels import FINE_WAVELENGTHS_NM
-    from .build.solar import extraterrestrial_spectrum
+    from .channels import FINE_WAVELENGTHS_NM
+    from .solar import extraterrestrial_spectrum
 
     _, et = extraterrestrial_spectrum(config.spec().et_source, data_dir)
     wl = np.concatenate([[280.0], FINE_WAVELENGTHS_NM, [2480.0]])
@@ -691,7 +628,7 @@ def extraterrestrial_table(config: BuildConfig, data_dir=None):
 def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, data_dir=None) -> dict:
     """Fit (cached) and write the dataset file ``output`` and its sidecar ``<output>.json``; the grid states must
     be solved already (:func:`solve_all`). Returns the sidecar dict."""
-    from .writer import DatasetContents, write_dataset
+    from ..writer import DatasetContents, write_dataset
 
     t0 = time.perf_counter()
     fitted = fit_all(config, processes, progress, log)
@@ -724,7 +661,7 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
     meta = {
         "synthetic": False,
         "description": config.description,
-        "generator": "skymodel.dataset_build (widesky dataset build)",
+        "generator": "skymodel.generator.dataset_build (widesky dataset build)",
         "config": config.to_dict(),
         "versions": _versions(),
         "solver": {"method": "plane-parallel DISORT (disortpp), Buras-Emde intensity correction",
@@ -753,7 +690,7 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
 def build_dataset(config: BuildConfig, output, processes: int = 2, progress: bool = True, validation: bool = True,
                   log=None, data_dir=None) -> dict:
     """Solve (resumable), fit and write a dataset (see module docstring); returns the sidecar dict, with the
-    held-out error report (:func:`skymodel.dataset_errors.evaluate_errors`) when ``validation``."""
+    held-out error report (:func:`skymodel.generator.dataset_errors.evaluate_errors`) when ``validation``."""
     t0 = time.perf_counter()
     n, secs = solve_all(config, processes, progress, validation, log)
     meta = assemble(config, output, processes, progress, log, data_dir)

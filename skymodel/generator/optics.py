@@ -7,7 +7,7 @@ A 40 nm channel is split into
   bands and the Rayleigh slope are band-averaged correctly (weight: the group's share of the extraterrestrial
   irradiance in the channel; ozone and Rayleigh optical depths: ET-weighted means over the group's bins;
   aerosol properties at the group's ET-weighted mean wavelength);
-- the exponential-sum terms i of water vapour and j of the mixed gases (:mod:`skymodel.build.gases`),
+- the exponential-sum terms i of water vapour and j of the mixed gases (:mod:`skymodel.generator.gases`),
   combined under the random-overlap assumption.
 
 Each sub-problem (g, i, j) has weight w_g w_i w_j (summing to 1) and is one solver run.

@@ -1,6 +1,6 @@
 """Extraterrestrial solar spectrum, band-averaged on the 1 nm grid and per 40 nm channel.
 
-Sources (read from the data directory, see :mod:`skymodel.build.paths`):
+Sources (read from the data directory, see :mod:`skymodel.generator.paths`):
 
 - ``tsis1`` (default): TSIS-1 Hybrid Solar Reference Spectrum v2, 1 nm resolution
   (Coddington et al. 2023, Earth Space Sci. 10, e2022EA002637), ``solar/tsis1_hsrs_v2_1nm_270-2530nm.csv``.

@@ -5,7 +5,7 @@ import pytest
 
 pytest.importorskip("disortpp")
 
-from skymodel.build import validation  # noqa: E402
+from skymodel.generator import validation  # noqa: E402
 
 pytestmark = [pytest.mark.reference, pytest.mark.slow]
 

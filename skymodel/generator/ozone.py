@@ -43,7 +43,7 @@ def ozone_cross_section(temperature_k, data_dir=None) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (L, 2200)
-        Cross-section [cm2 per molecule] on :data:`skymodel.build.channels.FINE_WAVELENGTHS_NM`.
+        Cross-section [cm2 per molecule] on :data:`skymodel.generator.channels.FINE_WAVELENGTHS_NM`.
     """
     c = _coefficients(None if data_dir is None else str(data_dir))
     dt = np.atleast_1d(np.asarray(temperature_k, float))[:, None] - T0

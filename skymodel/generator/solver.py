@@ -6,7 +6,7 @@ global horizontal irradiances plus global irradiance on tilted planes.
 
 Method (see docs/atmosphere-and-solver.md):
 
-- each channel is a weighted set of sub-problems (:mod:`skymodel.build.optics`); each is one DISORT run
+- each channel is a weighted set of sub-problems (:mod:`skymodel.generator.optics`); each is one DISORT run
   (Stamnes et al. 1988; disortpp 1.2.1) with a Lambertian ground, ``n_streams`` streams, delta-M scaling and the
   Buras-Emde / Nakajima-Tanaka single-scattering intensity correction with the full Mie + Rayleigh Legendre
   moments (``intensity_corr_buras``; ``intensity_corr_nakajima`` alone changes nothing in disortpp 1.2.1);
@@ -15,7 +15,7 @@ Method (see docs/atmosphere-and-solver.md):
 - the direct beam uses the band transmittance sum_runs w exp(-sum_l tau_l s_l / dz_l) with the geometric path
   s_l through each spherical shell (no refraction), not DISORT's plane-parallel beam;
 - disortpp's pseudo-spherical mode (``use_spherical_beam``) and ``solve_spectral`` are never used: both give
-  wrong radiances in 1.2.1 (tests/build/test_disortpp_guards.py).
+  wrong radiances in 1.2.1 (tests/generator/test_disortpp_guards.py).
 
 Angles: view zenith [deg] from the zenith (0) to the horizon (90); azimuth [deg] of the viewing direction
 relative to the sun's azimuth (0 = looking toward the sun), symmetric in sign.

@@ -1,7 +1,7 @@
 """Fitting error of a generated dataset against the reference solver on held-out skies (the paper's Fig. 10).
 
-For every validation state of a build configuration (:func:`skymodel.dataset_build.validation_states`; solved on
-held-out directions, :func:`skymodel.dataset_build.validation_directions`) the dataset is evaluated with widesky's
+For every validation state of a build configuration (:func:`skymodel.generator.dataset_build.validation_states`; solved on
+held-out directions, :func:`skymodel.generator.dataset_build.validation_directions`) the dataset is evaluated with widesky's
 evaluator at the same directions and sky state and compared per channel:
 
 - normalised mean absolute error of radiance, ``sum w |model - solver| / sum w solver`` with solid-angle weights
@@ -37,9 +37,10 @@ def evaluate_errors(config, dataset_path) -> list:
     [1], signed), e_global_horizontal, e_global_tilted (relative global irradiance errors [1], signed); solver sky-diffuse irradiances dhi, dti [W m-2 nm-1]. States whose solve is missing are skipped.
     """
 
-    from .dataset import load_dataset
-    from .dataset_build import _load, direction_samples, state_file, validation_states
-    from .evaluate import sky_radiance, solar_direct_normal
+    from ..dataset import load_dataset
+    from .cache import load_state, state_file, validation_states
+    from .dataset_build import direction_samples
+    from ..evaluate import sky_radiance, solar_direct_normal
 
     model = load_dataset(dataset_path)
     out = []
@@ -49,7 +50,7 @@ def evaluate_errors(config, dataset_path) -> list:
         path = state_file(config, vis, ele, "val_" + kind, alb)
         if not path.exists():
             continue
-        s = _load(path)
+        s = load_state(path)
         smp = direction_samples(s["zenith"], s["azimuth"], ele)
         ref = np.asarray(s["radiance"], float).reshape(-1, 55)
         with warnings.catch_warnings():

@@ -18,7 +18,7 @@ with the fewest terms (1 to 4) that reach the tolerance. Inside the solver, term
 optical depth k_i W_l into layer l (W_l the layer's water [cm]); term j of the mixed gases puts k_j N_l / N into it
 (N_l the layer's air column, N the total), so the slant and diffuse paths see the saturation of the band.
 
-Ozone is not taken from 6S: see :mod:`skymodel.build.ozone`. In the output of Py6S the field ``no2`` is N2O.
+Ozone is not taken from 6S: see :mod:`skymodel.generator.ozone`. In the output of Py6S the field ``no2`` is N2O.
 
 The fitted coefficients are a product of this project computed with 6S; they ship with the package as
 ``kdist_6s.json`` and are regenerated with ``widesky build fit-gases``.

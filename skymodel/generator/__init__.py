@@ -1,4 +1,4 @@
-"""skymodel.build: physical clear-sky atmosphere (280-2480 nm) and a reference radiative-transfer solver.
+"""skymodel.generator: physical clear-sky atmosphere (280-2480 nm) and a reference radiative-transfer solver.
 
 The generator side of widesky (optional extra ``[build]``): AFGL atmosphere, Bodhaine Rayleigh, Bogumil ozone,
 6S-fitted exponential sums for H2O and the mixed gases, OPAC aerosols by Mie theory, an extraterrestrial spectrum,

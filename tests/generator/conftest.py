@@ -1,8 +1,8 @@
-"""Shared fixtures of the skymodel.build tests."""
+"""Shared fixtures of the skymodel.generator tests."""
 
 import pytest
 
-from skymodel.build.paths import has_data
+from skymodel.generator.paths import has_data
 
 
 def pytest_collection_modifyitems(config, items):
@@ -11,5 +11,5 @@ def pytest_collection_modifyitems(config, items):
         return
     skip = pytest.mark.skip(reason="input data directory absent (set WIDESKY_DATA_DIR)")
     for it in items:
-        if "reference" in it.keywords and "tests/build" in str(it.fspath):
+        if "reference" in it.keywords and "tests/generator" in str(it.fspath):
             it.add_marker(skip)
