@@ -1,0 +1,731 @@
+/*
+ * widesky skymodel._montecarlo: the hot loop of the Monte Carlo reference solver
+ * (skymodel/generator/montecarlo.py validates every argument and documents the method).
+ *
+ * Backward path tracing of Stokes vectors (I, Q, U, V) from an observer through a layered atmosphere of
+ * homogeneous spherical shells (or plane-parallel slabs), next-event estimation toward the sun at every
+ * scattering and ground vertex, Rayleigh (with depolarisation) and tabulated aerosol scattering matrices,
+ * Lambertian ground. K spectral components share each path (hero wavelengths): the path is sampled with one
+ * component chosen per sample (sample index mod K) and every component's contribution is weighted by the
+ * one-sample multiple-importance balance heuristic f_k / (1/K sum_j p_j) over the path densities of all K.
+ *
+ * Array in, array out, the GIL released, OpenMP over view directions; every direction has its own random
+ * stream (xoshiro256** seeded by splitmix64 from (seed, direction)), so results do not depend on threads.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#ifdef WIDESKY_OPENMP
+#include <omp.h>
+#endif
+
+#define MAXSEG 1024
+#define FOUR_PI 12.566370614359172
+#define ROULETTE 0.05
+
+/* ------------------------------------------------------------------------------------------ */
+/* random numbers                                                                             */
+
+typedef struct {
+    uint64_t s[4];
+} rng_t;
+
+static inline uint64_t splitmix64(uint64_t *x)
+{
+    uint64_t z = (*x += 0x9E3779B97F4A7C15ULL);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    return z ^ (z >> 31);
+}
+
+static void rng_seed(rng_t *r, uint64_t seed, uint64_t stream)
+{
+    uint64_t x = seed ^ (stream * 0xD1B54A32D192ED03ULL + 0x2545F4914F6CDD1DULL);
+    for (int i = 0; i < 4; ++i) r->s[i] = splitmix64(&x);
+}
+
+static inline uint64_t rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+
+static inline double rnd(rng_t *r) /* uniform [0, 1) */
+{
+    uint64_t *s = r->s;
+    uint64_t res = rotl(s[1] * 5, 7) * 9, t = s[1] << 17;
+    s[2] ^= s[0];
+    s[3] ^= s[1];
+    s[1] ^= s[2];
+    s[0] ^= s[3];
+    s[2] ^= t;
+    s[3] = rotl(s[3], 45);
+    return (double)(res >> 11) * 0x1.0p-53;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* vectors                                                                                    */
+
+static inline double dot(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static inline void cross(const double *a, const double *b, double *c)
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static inline void normalize(double *a)
+{
+    double n = sqrt(dot(a, a));
+    a[0] /= n;
+    a[1] /= n;
+    a[2] /= n;
+}
+
+/* any unit vector perpendicular to unit d */
+static inline void perpendicular(const double *d, double *p)
+{
+    double t[3] = {0, 0, 0};
+    t[fabs(d[0]) < 0.6 ? 0 : (fabs(d[1]) < 0.6 ? 1 : 2)] = 1.0;
+    cross(d, t, p);
+    normalize(p);
+}
+
+/* unit vector at cosine mu from unit d, azimuth phi around it */
+static inline void rotate_dir(const double *d, double mu, double phi, double *out)
+{
+    double u[3], v[3];
+    perpendicular(d, u);
+    cross(d, u, v);
+    double s = sqrt(fmax(0.0, 1.0 - mu * mu)), cp = cos(phi), sp = sin(phi);
+    for (int i = 0; i < 3; ++i) out[i] = mu * d[i] + s * (cp * u[i] + sp * v[i]);
+    normalize(out);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* geometry: shells (or slabs) between radii[0..L]                                           */
+
+typedef struct {
+    const double *radii; /* (L+1,) [km] from the planet centre (spherical) or altitude (planar) */
+    int L;
+    int planar;
+} geom_t;
+
+typedef struct {
+    int layer[MAXSEG];
+    double len[MAXSEG];
+    int n;
+    int end; /* -1 ground, +1 top of atmosphere */
+} path_t;
+
+/* Trace the straight ray x + t d (unit d) from layer l to the ground or the top; store segment lengths. */
+static void trace_ray(const geom_t *g, const double *x, const double *d, int l, path_t *p)
+{
+    double pos[3] = {x[0], x[1], x[2]};
+    p->n = 0;
+    p->end = 1;
+    while (p->n < MAXSEG) {
+        double t;
+        int next;
+        if (g->planar) {
+            double z = pos[2];
+            if (d[2] > 0) {
+                t = (g->radii[l + 1] - z) / d[2];
+                next = l + 1;
+            } else if (d[2] < 0) {
+                t = (g->radii[l] - z) / d[2];
+                next = l - 1;
+            } else {
+                t = 1e30;
+                next = g->L; /* horizontal in a slab: exits nowhere; treat as escaping after a huge length */
+            }
+            if (t < 0) t = 0;
+        } else {
+            double b = dot(pos, d), rr = dot(pos, pos);
+            double ro = g->radii[l + 1], ri = g->radii[l];
+            next = l + 1;
+            t = -b + sqrt(fmax(b * b - (rr - ro * ro), 0.0));
+            if (b < 0) {
+                double disc = b * b - (rr - ri * ri);
+                if (disc >= 0) {
+                    t = -b - sqrt(disc);
+                    next = l - 1;
+                }
+            }
+            if (t < 0) t = 0;
+        }
+        p->layer[p->n] = l;
+        p->len[p->n] = t;
+        p->n++;
+        if (next < 0) {
+            p->end = -1;
+            return;
+        }
+        if (next >= g->L) {
+            p->end = 1;
+            return;
+        }
+        for (int i = 0; i < 3; ++i) pos[i] += t * d[i];
+        l = next;
+    }
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* optics                                                                                     */
+
+typedef struct {
+    int K, L, C, G, NA;
+    const double *ext, *sca_r, *sca_a; /* (L, K) [km-1] */
+    const double *ray;                 /* (K, 2) Rayleigh Delta, Delta' (Hansen & Travis 1974 eq. 2.15) */
+    const double *amu;                 /* (NA,) cos(Theta) grid, increasing from -1 to 1 */
+    const double *atab;                /* (G, NA, 4) aerosol P11, P12, P33, P34 (mean of P11 over 4 pi = 1) */
+    const double *acdf;                /* (G, NA) cumulative integral of P11 over mu (ends at 2) */
+    const int32_t *ctab;               /* (K,) aerosol table of each component */
+    const double *albedo;              /* (K,) */
+    const int32_t *cch;                /* (K,) output channel of each component */
+    const double *cw;                  /* (K,) weight of each component in its channel */
+    int polarised;
+} optics_t;
+
+/* Rayleigh scattering matrix elements at cosine mu: P11, P12, P33, P44 (P22 = P11 - (1 - Delta)) */
+static inline void rayleigh_z(double mu, double dl, double dp, double *z)
+{
+    double a = 0.75 * dl;
+    z[0] = a * (1 + mu * mu) + (1 - dl);  /* P11 */
+    z[1] = a * (mu * mu - 1);             /* P12 */
+    z[2] = a * (1 + mu * mu);             /* P22 */
+    z[3] = 1.5 * dl * mu;                 /* P33 */
+    z[4] = 0.0;                           /* P34 */
+    z[5] = 1.5 * dl * dp * mu;            /* P44 */
+}
+
+/* locate mu in the aerosol grid: index i with amu[i] <= mu < amu[i+1] and fraction */
+static inline int grid_find(const double *grid, int n, double mu, double *f)
+{
+    if (mu <= grid[0]) {
+        *f = 0;
+        return 0;
+    }
+    if (mu >= grid[n - 1]) {
+        *f = 1;
+        return n - 2;
+    }
+    int lo = 0, hi = n - 1;
+    while (hi - lo > 1) {
+        int m = (lo + hi) >> 1;
+        if (grid[m] <= mu)
+            lo = m;
+        else
+            hi = m;
+    }
+    *f = (mu - grid[lo]) / (grid[lo + 1] - grid[lo]);
+    return lo;
+}
+
+/* aerosol matrix (P11, P12, P22 = P11, P33, P34, P44 = P33: spheres) of table g at grid cell (i, f) */
+static inline void aerosol_z(const optics_t *o, int g, int i, double f, double *z)
+{
+    const double *a = o->atab + ((size_t)g * o->NA + i) * 4, *b = a + 4;
+    z[0] = a[0] + f * (b[0] - a[0]);
+    z[1] = a[1] + f * (b[1] - a[1]);
+    z[2] = z[0];
+    z[3] = a[2] + f * (b[2] - a[2]);
+    z[4] = a[3] + f * (b[3] - a[3]);
+    z[5] = z[3];
+}
+
+/* sample mu from the piecewise-linear aerosol P11 of table g (exactly the density aerosol_z gives) */
+static double sample_aerosol_mu(const optics_t *o, int g, rng_t *r)
+{
+    const double *cdf = o->acdf + (size_t)g * o->NA;
+    double u = rnd(r) * cdf[o->NA - 1];
+    int lo = 0, hi = o->NA - 1;
+    while (hi - lo > 1) {
+        int m = (lo + hi) >> 1;
+        if (cdf[m] <= u)
+            lo = m;
+        else
+            hi = m;
+    }
+    double x0 = o->amu[lo], h = o->amu[lo + 1] - x0;
+    double p0 = o->atab[((size_t)g * o->NA + lo) * 4], p1 = o->atab[((size_t)g * o->NA + lo + 1) * 4];
+    double m = u - cdf[lo]; /* mass to cover inside the cell: p0 s + (p1 - p0) s^2 / (2 h) = m */
+    double s, a = (p1 - p0) / (2 * h);
+    if (fabs(a) * h < 1e-12 * (fabs(p0) + 1e-300))
+        s = m / p0;
+    else {
+        double disc = p0 * p0 + 4 * a * m;
+        s = 2 * m / (p0 + sqrt(fmax(disc, 0.0)));
+    }
+    if (s < 0) s = 0;
+    if (s > h) s = h;
+    return x0 + s;
+}
+
+static double sample_rayleigh_mu(double dl, rng_t *r)
+{
+    double pmax = 1 + 0.5 * dl;
+    for (;;) {
+        double mu = 2 * rnd(r) - 1;
+        if (rnd(r) * pmax <= 0.75 * dl * (1 + mu * mu) + (1 - dl)) return mu;
+    }
+}
+
+/* Scattering operator of component k in layer l at cosine mu: z6 = (beta_r Z_r + beta_a Z_a) / (4 pi)
+ * [km-1 sr-1] as (P11, P12, P22, P33, P34, P44); returns the direction pdf of component k [sr-1]. */
+static inline double scatter_op(const optics_t *o, int l, int k, double mu, int ai, double af, double *z6)
+{
+    double zr[6], za[6];
+    double br = o->sca_r[(size_t)l * o->K + k], ba = o->sca_a[(size_t)l * o->K + k];
+    rayleigh_z(mu, o->ray[2 * k], o->ray[2 * k + 1], zr);
+    if (ba > 0)
+        aerosol_z(o, o->ctab[k], ai, af, za);
+    else
+        memset(za, 0, sizeof(za));
+    for (int i = 0; i < 6; ++i) z6[i] = (br * zr[i] + ba * za[i]) / FOUR_PI;
+    double bs = br + ba;
+    return bs > 0 ? z6[0] / bs : 0.0;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Stokes algebra: M (4x4, row-major) maps a Stokes vector in the current frame to the observer's frame */
+
+/* cos 2psi, sin 2psi of the rotation from frame (a1, b1 = w x a1) to frame a2 (both perpendicular to w) */
+static inline void rot2(const double *a1, const double *b1, const double *a2, double *c2, double *s2)
+{
+    double c = dot(a1, a2), s = dot(b1, a2), n = c * c + s * s;
+    if (n < 1e-300) {
+        *c2 = 1;
+        *s2 = 0;
+        return;
+    }
+    *c2 = (c * c - s * s) / n;
+    *s2 = 2 * c * s / n;
+}
+
+/* M <- M L(c2, s2) Z, L = [[1,0,0,0],[0,c,s,0],[0,-s,c,0],[0,0,0,1]], Z from z6 (block form), times f */
+static inline void mul_lz(double *M, double c2, double s2, const double *z, double f, int polarised)
+{
+    for (int i = 0; i < 4; ++i) {
+        double *m = M + 4 * i;
+        double a0 = m[0], a1 = m[1] * c2 - m[2] * s2, a2 = m[1] * s2 + m[2] * c2, a3 = m[3];
+        if (polarised) {
+            m[0] = f * (a0 * z[0] + a1 * z[1]);
+            m[1] = f * (a0 * z[1] + a1 * z[2]);
+            m[2] = f * (a2 * z[3] - a3 * z[4]);
+            m[3] = f * (a2 * z[4] + a3 * z[5]);
+        } else {
+            m[0] = f * a0 * z[0];
+            m[1] = m[2] = m[3] = 0;
+        }
+    }
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* one view direction                                                                         */
+
+typedef struct {
+    const geom_t *g;
+    const optics_t *o;
+    const double *sun; /* unit vector toward the sun */
+    double obs_r;      /* observer radius (spherical) or altitude (planar) [km] */
+    int obs_layer;
+    long n_samples;
+    int max_order;
+    uint64_t seed;
+} job_t;
+
+typedef struct {
+    double *M;    /* (K, 16) */
+    double *r;    /* (K,) path density of component k over that of the hero */
+    double *tau;  /* (K,) */
+    double *tot;  /* (K,) */
+    double *acc;  /* (C, 4) per-sample contribution */
+    path_t path, sunp;
+} work_t;
+
+static inline double clamp_exp(double x) { return exp(x > 700 ? 700 : (x < -745 ? -745 : x)); }
+
+/* optical depth of component k along the stored path, up to segment n (whole) and a part of segment n */
+static void path_tau(const optics_t *o, const path_t *p, int nfull, int lpart, double part, double *tau)
+{
+    for (int k = 0; k < o->K; ++k) tau[k] = 0;
+    for (int s = 0; s < nfull; ++s) {
+        const double *e = o->ext + (size_t)p->layer[s] * o->K;
+        for (int k = 0; k < o->K; ++k) tau[k] += p->len[s] * e[k];
+    }
+    if (part > 0) {
+        const double *e = o->ext + (size_t)lpart * o->K;
+        for (int k = 0; k < o->K; ++k) tau[k] += part * e[k];
+    }
+}
+
+/* next-event estimate toward the sun from a scattering vertex (x, layer l) with backward direction d */
+static void nee_scatter(const job_t *jb, work_t *w, const double *x, int l, const double *d, const double *a_cur,
+                        double denom)
+{
+    const optics_t *o = jb->o;
+    trace_ray(jb->g, x, jb->sun, l, &w->sunp);
+    if (w->sunp.end < 0) return;
+    path_tau(o, &w->sunp, w->sunp.n, 0, 0, w->tot);
+    double win[3] = {-jb->sun[0], -jb->sun[1], -jb->sun[2]}, wout[3] = {-d[0], -d[1], -d[2]};
+    double mu = dot(jb->sun, d), n[3], p_out[3], c2 = 1, s2 = 0;
+    cross(win, wout, n);
+    if (dot(n, n) > 1e-24) {
+        normalize(n);
+        cross(n, wout, p_out);
+        rot2(p_out, n, a_cur, &c2, &s2);
+    }
+    int ai = 0;
+    double af = 0;
+    ai = grid_find(o->amu, o->NA, mu, &af);
+    for (int k = 0; k < o->K; ++k) {
+        double z6[6], t = clamp_exp(-w->tot[k]);
+        if (t < 1e-300) continue;
+        scatter_op(o, l, k, mu, ai, af, z6);
+        const double *M = w->M + 16 * k;
+        /* S = M L Z e1: only the first column of L Z is needed: (P11, c2 P12, -s2 P12, 0) */
+        double f = t * o->cw[k] / denom;
+        double col[4] = {z6[0], c2 * z6[1], -s2 * z6[1], 0};
+        if (!o->polarised) col[1] = col[2] = 0;
+        double *acc = w->acc + 4 * o->cch[k];
+        for (int i = 0; i < 4; ++i)
+            acc[i] += f * (M[4 * i] * col[0] + M[4 * i + 1] * col[1] + M[4 * i + 2] * col[2]);
+    }
+}
+
+static void nee_ground(const job_t *jb, work_t *w, const double *x, const double *nrm, double denom)
+{
+    const optics_t *o = jb->o;
+    double cs = dot(nrm, jb->sun);
+    if (cs <= 0) return;
+    trace_ray(jb->g, x, jb->sun, 0, &w->sunp);
+    if (w->sunp.end < 0) return;
+    path_tau(o, &w->sunp, w->sunp.n, 0, 0, w->tot);
+    for (int k = 0; k < o->K; ++k) {
+        double t = clamp_exp(-w->tot[k]);
+        double f = t * o->albedo[k] / M_PI * cs * o->cw[k] / denom;
+        const double *M = w->M + 16 * k;
+        double *acc = w->acc + 4 * o->cch[k];
+        for (int i = 0; i < 4; ++i) acc[i] += f * M[4 * i];
+    }
+}
+
+static void trace_direction(const job_t *jb, work_t *w, const double *view, const double *frame, long dir,
+                            double *sum, double *sumsq)
+{
+    const optics_t *o = jb->o;
+    const geom_t *g = jb->g;
+    const int K = o->K, C = o->C;
+    rng_t rng;
+    rng_seed(&rng, jb->seed, (uint64_t)dir);
+    for (long smp = 0; smp < jb->n_samples; ++smp) {
+        int h = (int)(smp % K);
+        memset(w->acc, 0, sizeof(double) * 4 * C);
+        for (int k = 0; k < K; ++k) {
+            double *M = w->M + 16 * k;
+            memset(M, 0, sizeof(double) * 16);
+            M[0] = M[5] = M[10] = M[15] = 1.0;
+            w->r[k] = 1.0;
+        }
+        double x[3] = {0, 0, jb->obs_r}, d[3] = {view[0], view[1], view[2]}, a_cur[3] = {frame[0], frame[1],
+                                                                                               frame[2]};
+        int l = jb->obs_layer;
+        for (int order = 0; order < jb->max_order; ++order) {
+            trace_ray(g, x, d, l, &w->path);
+            path_t *p = &w->path;
+            path_tau(o, p, p->n, 0, 0, w->tot);
+            double T_h = w->tot[h];
+            int forced = p->end > 0;
+            double target, norm_h = 1.0;
+            if (forced) {
+                /* escaping rays contribute nothing: force the collision, weight by 1 - exp(-T) */
+                double q = -expm1(-T_h);
+                if (q <= 0) break;
+                target = -log1p(-rnd(&rng) * q);
+                norm_h = q;
+            } else {
+                target = -log(1.0 - rnd(&rng));
+            }
+            if (!forced && target >= T_h) {
+                /* reached the ground */
+                double denom = 0;
+                for (int k = 0; k < K; ++k) {
+                    double f = clamp_exp(T_h - w->tot[k]);
+                    w->r[k] *= f;
+                    double *M = w->M + 16 * k;
+                    for (int i = 0; i < 16; ++i) M[i] *= f;
+                    denom += w->r[k];
+                }
+                denom /= K;
+                double dist = 0;
+                for (int s = 0; s < p->n; ++s) dist += p->len[s];
+                for (int i = 0; i < 3; ++i) x[i] += dist * d[i];
+                double nrm[3] = {0, 0, 1};
+                if (!g->planar) {
+                    nrm[0] = x[0];
+                    nrm[1] = x[1];
+                    nrm[2] = x[2];
+                    normalize(nrm);
+                    double rg = g->radii[0]; /* snap onto the ground sphere */
+                    for (int i = 0; i < 3; ++i) x[i] = rg * nrm[i];
+                } else {
+                    x[2] = g->radii[0];
+                }
+                nee_ground(jb, w, x, nrm, denom);
+                /* Lambertian reflection: cosine-weighted direction, M <- albedo M E11 (depolarising) */
+                double mu = sqrt(rnd(&rng)), phi = 2 * M_PI * rnd(&rng);
+                rotate_dir(nrm, mu, phi, d);
+                double tmax = 0;
+                for (int k = 0; k < K; ++k) {
+                    double *M = w->M + 16 * k;
+                    for (int i = 0; i < 4; ++i) {
+                        M[4 * i] *= o->albedo[k];
+                        M[4 * i + 1] = M[4 * i + 2] = M[4 * i + 3] = 0;
+                    }
+                    tmax = fmax(tmax, fabs(M[0]));
+                }
+                perpendicular(d, a_cur);
+                l = 0;
+                if (tmax / denom <= 0) break;
+                if (order >= 2 && tmax / denom < ROULETTE) {
+                    double q = tmax / denom / ROULETTE;
+                    if (rnd(&rng) >= q) break;
+                    for (int k = 0; k < 16 * K; ++k) w->M[k] /= q;
+                }
+                continue;
+            }
+            /* collision inside segment s */
+            int s = 0;
+            double acc_tau = 0, part = 0;
+            for (s = 0; s < p->n; ++s) {
+                double dt = p->len[s] * o->ext[(size_t)p->layer[s] * K + h];
+                if (acc_tau + dt >= target || s == p->n - 1) {
+                    double e = o->ext[(size_t)p->layer[s] * K + h];
+                    part = e > 0 ? (target - acc_tau) / e : 0;
+                    if (part > p->len[s]) part = p->len[s];
+                    if (part < 0) part = 0;
+                    break;
+                }
+                acc_tau += dt;
+            }
+            int lc = p->layer[s];
+            path_tau(o, p, s, lc, part, w->tau);
+            double dist = part;
+            for (int q = 0; q < s; ++q) dist += p->len[q];
+            for (int i = 0; i < 3; ++i) x[i] += dist * d[i];
+            l = lc;
+            const double *ext = o->ext + (size_t)lc * K;
+            double ph = ext[h] / norm_h; /* hero density up to exp(-tau_h), factored out below */
+            double denom = 0;
+            for (int k = 0; k < K; ++k) {
+                double e = clamp_exp(w->tau[h] - w->tau[k]);
+                double pk = ext[k] * e;
+                if (forced) {
+                    double qk = -expm1(-w->tot[k]);
+                    pk = qk > 0 ? pk / qk : 0;
+                }
+                w->r[k] *= pk / ph;
+                double f = e / ph;
+                double *M = w->M + 16 * k;
+                for (int i = 0; i < 16; ++i) M[i] *= f;
+                denom += w->r[k];
+            }
+            denom /= K;
+            nee_scatter(jb, w, x, l, d, a_cur, denom);
+            /* sample the next direction from the hero's phase function */
+            double br = o->sca_r[(size_t)lc * K + h], ba = o->sca_a[(size_t)lc * K + h];
+            if (br + ba <= 0) break;
+            double mu = (rnd(&rng) * (br + ba) < br) ? sample_rayleigh_mu(o->ray[2 * h], &rng)
+                                                     : sample_aerosol_mu(o, o->ctab[h], &rng);
+            double dn[3];
+            rotate_dir(d, mu, 2 * M_PI * rnd(&rng), dn);
+            mu = dot(dn, d);
+            if (mu > 1) mu = 1;
+            if (mu < -1) mu = -1;
+            double win[3] = {-dn[0], -dn[1], -dn[2]}, wout[3] = {-d[0], -d[1], -d[2]}, nv[3], p_out[3], p_in[3];
+            double c2 = 1, s2 = 0;
+            cross(win, wout, nv);
+            if (dot(nv, nv) > 1e-24) {
+                normalize(nv);
+                cross(nv, wout, p_out);
+                cross(nv, win, p_in);
+                rot2(p_out, nv, a_cur, &c2, &s2);
+            } else {
+                /* forward or backward: the scattering plane is arbitrary; keep the current frame */
+                cross(wout, a_cur, nv);
+                p_in[0] = a_cur[0];
+                p_in[1] = a_cur[1];
+                p_in[2] = a_cur[2];
+                if (mu < 0) { /* backscatter reverses the propagation: keep a right-handed (a, w x a) */
+                    p_in[0] = -a_cur[0];
+                    p_in[1] = -a_cur[1];
+                    p_in[2] = -a_cur[2];
+                }
+            }
+            int ai;
+            double af;
+            ai = grid_find(o->amu, o->NA, mu, &af);
+            double z6[6], qh = 0;
+            double zs[6];
+            qh = scatter_op(o, lc, h, mu, ai, af, zs);
+            if (qh <= 0) break;
+            double tmax = 0;
+            denom = 0;
+            for (int k = 0; k < K; ++k) {
+                double qk = scatter_op(o, lc, k, mu, ai, af, z6);
+                w->r[k] *= qk / qh;
+                mul_lz(w->M + 16 * k, c2, s2, z6, 1.0 / qh, o->polarised);
+                denom += w->r[k];
+                tmax = fmax(tmax, fabs(w->M[16 * k]));
+            }
+            denom /= K;
+            d[0] = dn[0];
+            d[1] = dn[1];
+            d[2] = dn[2];
+            a_cur[0] = p_in[0];
+            a_cur[1] = p_in[1];
+            a_cur[2] = p_in[2];
+            if (denom <= 0 || tmax <= 0) break;
+            if (order >= 2 && tmax / denom < ROULETTE) {
+                double q = tmax / denom / ROULETTE;
+                if (rnd(&rng) >= q) break;
+                for (int k = 0; k < 16 * K; ++k) w->M[k] /= q;
+            }
+        }
+        for (int i = 0; i < 4 * C; ++i) {
+            sum[i] += w->acc[i];
+            sumsq[i] += w->acc[i] * w->acc[i];
+        }
+    }
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Python interface                                                                           */
+
+typedef struct {
+    Py_buffer b;
+    int held;
+} buf_t;
+
+static int get_buf(PyObject *o, buf_t *bb, int writable, const char *name, Py_ssize_t itemsize, Py_ssize_t n)
+{
+    if (PyObject_GetBuffer(o, &bb->b, (writable ? PyBUF_WRITABLE : 0) | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
+        return -1;
+    bb->held = 1;
+    if (bb->b.itemsize != itemsize || bb->b.len != n * itemsize) {
+        PyErr_Format(PyExc_ValueError, "%s: expected %zd items of %zd bytes, got %zd bytes of items of %zd", name,
+                     n, itemsize, bb->b.len, bb->b.itemsize);
+        return -1;
+    }
+    return 0;
+}
+
+#define NB 17
+
+/* trace(radii, planar, ext, sca_r, sca_a, ray, amu, atab, acdf, ctab, albedo, cch, cw, n_channels, sun,
+ *       obs_r, obs_layer, views, frames, n_samples, seed, max_order, polarised, nthreads, sum, sumsq)
+ * shapes: radii (L+1,), ext/sca_r/sca_a (L, K), ray (K, 2), amu (NA,), atab (G, NA, 4), acdf (G, NA),
+ * ctab (K,) int32, albedo (K,), cch (K,) int32, cw (K,), sun (3,), views/frames (N, 3),
+ * sum/sumsq (N, C, 4) float64, accumulated in place. */
+static PyObject *py_trace(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *o[NB];
+    int planar, nch, obs_layer, max_order, polarised, nthreads, L, K, G, NA;
+    long nsamp;
+    double obs_r;
+    unsigned long long seed;
+    int N;
+    if (!PyArg_ParseTuple(args, "iiiiiOiOOOOOOOOOOOiOdiOOlKiiiOO", &L, &K, &G, &NA, &planar, &o[0], &nch, &o[1],
+                          &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &N, &o[12],
+                          &obs_r, &obs_layer, &o[13], &o[14], &nsamp, &seed, &max_order, &polarised, &nthreads,
+                          &o[15], &o[16]))
+        return NULL;
+    buf_t b[NB];
+    memset(b, 0, sizeof(b));
+    PyObject *ret = NULL;
+    if (L < 1 || K < 1 || G < 1 || NA < 2 || nch < 1 || N < 0 || nsamp < 1 || obs_layer < 0 || obs_layer >= L ||
+        max_order < 1) {
+        PyErr_SetString(PyExc_ValueError, "montecarlo trace: invalid sizes");
+        return NULL;
+    }
+    const Py_ssize_t n[NB] = {L + 1, (Py_ssize_t)L * K, (Py_ssize_t)L * K, (Py_ssize_t)L * K, 2 * K, NA,
+                              (Py_ssize_t)G * NA * 4, (Py_ssize_t)G * NA, K, K, K, K, 3, 3 * N, 3 * N,
+                              N * nch * 4, N * nch * 4};
+    const Py_ssize_t isz[NB] = {8, 8, 8, 8, 8, 8, 8, 8, 4, 8, 4, 8, 8, 8, 8, 8, 8};
+    const char *names[NB] = {"radii", "ext", "sca_r", "sca_a", "ray", "amu", "atab", "acdf", "ctab", "albedo",
+                             "cch", "cw", "sun", "views", "frames", "sum", "sumsq"};
+    /* argument order in o[]: 0 radii, 1 ext, 2 sca_r, 3 sca_a, 4 ray, 5 amu, 6 atab, 7 acdf, 8 ctab,
+     * 9 albedo, 10 cch, 11 cw, 12 sun, 13 views, 14 frames, 15 sum, 16 sumsq */
+    for (int i = 0; i < NB; ++i)
+        if (get_buf(o[i], &b[i], i >= 15, names[i], isz[i], n[i]) < 0) goto done;
+    {
+        const int32_t *ctab = (const int32_t *)b[8].b.buf, *cch = (const int32_t *)b[10].b.buf;
+        for (int k = 0; k < K; ++k)
+            if (ctab[k] < 0 || ctab[k] >= G || cch[k] < 0 || cch[k] >= nch) {
+                PyErr_SetString(PyExc_ValueError, "montecarlo trace: component table or channel out of range");
+                goto done;
+            }
+        geom_t g = {(const double *)b[0].b.buf, L, planar};
+        optics_t op = {K, L, nch, G, NA, (const double *)b[1].b.buf, (const double *)b[2].b.buf,
+                       (const double *)b[3].b.buf, (const double *)b[4].b.buf, (const double *)b[5].b.buf,
+                       (const double *)b[6].b.buf, (const double *)b[7].b.buf, ctab, (const double *)b[9].b.buf,
+                       cch, (const double *)b[11].b.buf, polarised};
+        job_t jb = {&g, &op, (const double *)b[12].b.buf, obs_r, obs_layer, nsamp, max_order, (uint64_t)seed};
+        const double *views = (const double *)b[13].b.buf, *frames = (const double *)b[14].b.buf;
+        double *sum = (double *)b[15].b.buf, *sumsq = (double *)b[16].b.buf;
+        int err = 0;
+        Py_BEGIN_ALLOW_THREADS
+#ifdef WIDESKY_OPENMP
+        if (nthreads > 0) omp_set_num_threads(nthreads);
+#pragma omp parallel
+#endif
+        {
+            work_t *w = (work_t *)malloc(sizeof(work_t));
+            double *mem = w ? (double *)malloc(sizeof(double) * ((size_t)K * 19 + 4 * (size_t)nch)) : NULL;
+            if (!mem) {
+#ifdef WIDESKY_OPENMP
+#pragma omp atomic write
+#endif
+                err = 1;
+            } else {
+                w->M = mem;
+                w->r = mem + 16 * (size_t)K;
+                w->tau = w->r + K;
+                w->tot = w->tau + K;
+                w->acc = w->tot + K;
+            }
+#ifdef WIDESKY_OPENMP
+#pragma omp for schedule(dynamic, 1)
+#endif
+            for (Py_ssize_t i = 0; i < N; ++i)
+                if (mem)
+                    trace_direction(&jb, w, views + 3 * i, frames + 3 * i, (long)i, sum + (size_t)i * nch * 4,
+                                    sumsq + (size_t)i * nch * 4);
+            free(mem);
+            free(w);
+        }
+        Py_END_ALLOW_THREADS
+        (void)nthreads;
+        if (err) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        Py_INCREF(Py_None);
+        ret = Py_None;
+    }
+done:
+    for (int i = 0; i < NB; ++i)
+        if (b[i].held) PyBuffer_Release(&b[i].b);
+    return ret;
+}
+
+static PyMethodDef methods[] = {
+    {"trace", py_trace, METH_VARARGS, "Backward Monte Carlo tracing of Stokes vectors (see montecarlo.py)."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, "_montecarlo",
+                                    "Monte Carlo reference solver kernel (widesky).", -1, methods};
+
+PyMODINIT_FUNC PyInit__montecarlo(void) { return PyModule_Create(&moddef); }
