@@ -1,0 +1,204 @@
+"""Monte Carlo reference solver: validation reports, spherical correction, convergence and speed.
+
+Subcommands (each prints its numbers; the figure ones write docs/figures/mc_*.png atomically):
+
+- ``cds``: polarised Rayleigh slab (tau 0.5, mu0 0.2, albedo 0 and 0.8) against the corrected Coulson-Dave-Sekera
+  tables of Natraj et al. (2009) at many samples (I, Q, U differences and their standard errors);
+- ``disort``: scalar Monte Carlo (planet radius 1e6 km) against DISORT at high sun: radiances and the
+  hemisphere-averaged radiance (diffuse horizontal irradiance / pi) per channel;
+- ``spherical``: the spherical correction of the diffuse horizontal irradiance per channel, DHI in spherical shells
+  over DHI in plane-parallel slabs (same seeds), at low sun, DISORT over plane-parallel Monte Carlo as the control,
+  and the twilight sky (sun at -2 deg) -> docs/figures/mc_spherical_correction.png;
+- ``convergence``: relative error against samples per direction per channel (a saturated water band included)
+  against a long reference run, with the estimated standard error and paths per second ->
+  docs/figures/mc_convergence.png.
+
+Usage: ``python benchmarks/bench_montecarlo.py {cds,disort,spherical,convergence} [--quick]``.
+Single-threaded kernel (threads=1) unless ``--threads N``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from skymodel.generator.montecarlo import (MonteCarloConfig, hemisphere_directions, rayleigh_slab, solve_sky_mc,
+                                           trace)
+from skymodel.generator.solver import SkyState, solve_sky
+
+FIG = Path(__file__).resolve().parents[1] / "docs" / "figures"
+STATE = dict(aod550=0.2, ground_albedo=0.2)
+
+
+def _save(fig, name):
+    FIG.mkdir(parents=True, exist_ok=True)
+    out = FIG / name
+    tmp = out.with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, out)
+    print(f"wrote {out}")
+
+
+def _cds_reference():
+    import importlib.util
+
+    p = Path(__file__).resolve().parents[1] / "tests" / "generator" / "test_montecarlo_validation.py"
+    spec = importlib.util.spec_from_file_location("mc_validation", p)
+    m = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(m)
+    return m
+
+
+def cds(a):
+    m = _cds_reference()
+    n = 20000 if a.quick else 400000
+    for alb, ref in m.CDS_REFLECTED.items():
+        r = m.run_cds(alb, n, threads=a.threads)
+        st, se = r.stokes[:, 0, :3] * np.pi, r.stderr[:, 0, :3] * np.pi
+        print(f"albedo {alb}: {r.samples} paths per direction, {r.seconds:.1f} s")
+        print("   mu   phi |      I ref   dI/I [%] +- se |      Q ref  dQ/I [%] +- se |      U ref  dU/I [%] +- se")
+        for i, (mu, ph) in enumerate(zip(m.CDS_MU, m.CDS_PHI)):
+            ir, qr, ur = ref[i]
+            mc = st[i] * np.array([1, m.Q_SIGN, 1])
+            print(f" {mu:4.2f} {ph:5.0f} | {ir:10.6f} {100 * (mc[0] / ir - 1):+7.3f} {100 * se[i, 0] / ir:5.3f} | "
+                  f"{qr:10.6f} {100 * (mc[1] - qr) / ir:+7.3f} {100 * se[i, 1] / ir:5.3f} | "
+                  f"{ur:10.6f} {100 * (mc[2] - ur) / ir:+7.3f} {100 * se[i, 2] / ir:5.3f}")
+
+
+def disort(a):
+    n = 4000 if a.quick else 40000
+    nh = 4000 if a.quick else 60000
+    vz, va = [0, 30, 60, 80, 45], [0, 90, 180, 180, 0]
+    hz, ha = hemisphere_directions(nh, 3)
+    for ch in ([5] if a.quick else [2, 5, 14, 27, 40]):
+        st = SkyState(60.0, **STATE)
+        d = solve_sky(st, channels=[ch], processes=1, view_zenith_deg=vz, relative_azimuth_deg=va)
+        cfg = MonteCarloConfig(samples=n, polarised=False, planet_radius_km=1e6, threads=a.threads)
+        m = solve_sky_mc(st, view_zenith_deg=vz, relative_azimuth_deg=va, channels=[ch], config=cfg)
+        h = solve_sky_mc(st, view_zenith_deg=hz, relative_azimuth_deg=ha, channels=[ch],
+                         config=MonteCarloConfig(samples=1, polarised=False, planet_radius_km=1e6, threads=a.threads))
+        dhi = np.pi * h.radiance.mean()
+        sdhi = np.pi * h.radiance.std() / np.sqrt(len(hz))
+        print(f"channel {ch} ({m.wavelength_nm[0]:.0f} nm): radiance MC/DISORT - 1 [%] "
+              + " ".join(f"{100 * x:+.2f}" for x in (m.radiance[:, 0] / d.radiance[:, 0] - 1))
+              + " (se " + " ".join(f"{100 * x:.2f}" for x in m.stderr[:, 0, 0] / m.radiance[:, 0]) + ")"
+              + f"; DHI {100 * (dhi / d.dhi[0] - 1):+.2f} % (se {100 * sdhi / dhi:.2f} %); "
+              f"MC {m.seconds + h.seconds:.1f} s, DISORT {d.seconds:.1f} s")
+
+
+def spherical(a):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    chans = [0, 2, 5, 9, 14, 19, 24, 27, 32, 39, 44, 50] if not a.quick else [2, 14]
+    elevs = [10.0, 4.0, 1.0] if not a.quick else [4.0]
+    nh = 1500 if a.quick else 6000
+    hz, ha = hemisphere_directions(nh, 5)
+    rows = {}
+    t0 = time.perf_counter()
+    for el in elevs:
+        st = SkyState(el, **STATE)
+        d = solve_sky(st, channels=chans, processes=1)
+        sph = solve_sky_mc(st, view_zenith_deg=hz, relative_azimuth_deg=ha, channels=chans,
+                           config=MonteCarloConfig(samples=1, seed=11, threads=a.threads))
+        pp = solve_sky_mc(st, view_zenith_deg=hz, relative_azimuth_deg=ha, channels=chans,
+                          config=MonteCarloConfig(samples=1, seed=11, planet_radius_km=None, threads=a.threads))
+        e_s, e_p = np.pi * sph.radiance.mean(0), np.pi * pp.radiance.mean(0)
+        se = np.sqrt(np.var(sph.radiance / sph.radiance.mean(0) - pp.radiance / pp.radiance.mean(0), axis=0)
+                     / len(hz))
+        rows[el] = (e_s / e_p, se, d.dhi / e_p, e_s, d.dhi)
+        print(f"elevation {el:5.1f} deg: DHI spherical / plane-parallel (MC, same seeds) per channel:")
+        for j, c in enumerate(chans):
+            print(f"   {sph.wavelength_nm[j]:6.0f} nm  sph/pp {e_s[j] / e_p[j]:.4f} +- {se[j]:.4f}   DISORT/pp-MC "
+                  f"{d.dhi[j] / e_p[j]:.4f}   DHI sph {e_s[j]:.4g} W m-2 nm-1")
+    st = SkyState(1.0, **STATE)
+    tw = solve_sky_mc(st, view_zenith_deg=hz, relative_azimuth_deg=ha, channels=chans, solar_elevation_deg=-2.0,
+                      config=MonteCarloConfig(samples=4, seed=13, threads=a.threads))
+    tdhi = np.pi * tw.radiance.mean(0)
+    tse = np.pi * tw.radiance.std(0) / np.sqrt(len(hz))
+    print("twilight, sun at -2 deg: DHI [W m-2 nm-1] " + " ".join(f"{x:.3g}+-{s:.1g}" for x, s in zip(tdhi, tse)))
+    print(f"total {time.perf_counter() - t0:.0f} s")
+    wl = tw.wavelength_nm
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    for el, (ratio, se, ctrl, _, _) in rows.items():
+        l = ax[0].errorbar(wl, ratio, yerr=2 * se, marker="o", ms=4, capsize=2, label=f"MC spherical / MC plane-par., "
+                           f"elev. {el:g} deg")
+        ax[0].plot(wl, ctrl, ls=":", marker="x", color=l[0].get_color(), label=f"DISORT / MC plane-par., {el:g} deg")
+    ax[0].axhline(1.0, color="k", lw=0.8)
+    ax[0].set_xlabel("channel centre [nm]")
+    ax[0].set_ylabel("diffuse horizontal irradiance ratio [1]")
+    ax[0].set_title("Spherical correction of the diffuse sky (error bars 2 se)")
+    ax[0].legend(fontsize=7)
+    ax[1].errorbar(wl, tdhi, yerr=2 * tse, marker="o", ms=4, capsize=2, label="sun at -2 deg (MC spherical)")
+    for el, (_, _, _, e_s, dd) in rows.items():
+        ax[1].plot(wl, e_s, lw=1, label=f"elev. {el:g} deg (MC spherical)")
+    ax[1].set_yscale("log")
+    ax[1].set_xlabel("channel centre [nm]")
+    ax[1].set_ylabel("DHI [W m-2 nm-1]")
+    ax[1].set_title("Diffuse horizontal irradiance, low sun and twilight")
+    ax[1].legend(fontsize=7)
+    fig.suptitle(f"US standard atmosphere, continental average AOD550 0.2, albedo 0.2; {nh} stratified directions",
+                 fontsize=9)
+    fig.tight_layout()
+    _save(fig, "mc_spherical_correction.png")
+
+
+def convergence(a):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    chans = {5: "500 nm", 14: "860 nm", 27: "1380 nm (saturated H2O)", 40: "1900 nm (saturated H2O)"}
+    if a.quick:
+        chans = {5: "500 nm", 27: "1380 nm (saturated H2O)"}
+    st = SkyState(30.0, **STATE)
+    vz = np.array([0.0, 30.0, 60.0, 80.0, 60.0, 85.0])
+    va = np.array([0.0, 90.0, 180.0, 180.0, 10.0, 0.0])
+    n_ref = 16384 if a.quick else 131072
+    ns = [64, 256, 1024, 4096] if a.quick else [64, 256, 1024, 4096, 16384]
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for ch, name in chans.items():
+        cfg = dict(polarised=True, threads=a.threads)
+        ref = solve_sky_mc(st, view_zenith_deg=vz, relative_azimuth_deg=va, channels=[ch],
+                           config=MonteCarloConfig(samples=n_ref, seed=999, **cfg))
+        I0 = ref.radiance[:, 0]
+        err, est = [], []
+        for i, n in enumerate(ns):
+            r = solve_sky_mc(st, view_zenith_deg=vz, relative_azimuth_deg=va, channels=[ch],
+                             config=MonteCarloConfig(samples=n, seed=100 + i, **cfg))
+            err.append(np.sqrt(np.mean((r.radiance[:, 0] / I0 - 1) ** 2)))
+            est.append(np.sqrt(np.mean((r.stderr[:, 0, 0] / I0) ** 2)))
+        pps = ref.samples * len(vz) / ref.seconds
+        l = ax.loglog(ns, err, marker="o", label=f"{name}: rms error ({pps:.0f} paths/s)")
+        ax.loglog(ns, est, ls=":", color=l[0].get_color())
+        print(f"channel {ch} {name}: K={ref.samples and ''}{ref.samples} ref paths/dir, ref se "
+              f"{100 * np.max(ref.stderr[:, 0, 0] / I0):.2f} % max, {pps:.0f} paths/s; rms rel. error vs samples: "
+              + ", ".join(f"{n}: {100 * e:.2f} %" for n, e in zip(ns, err)))
+    ax.loglog(ns, [0.5 / np.sqrt(n) for n in ns], color="k", lw=0.8, ls="--", label="slope -1/2")
+    ax.axhline(0.005, color="grey", lw=0.8)
+    ax.set_xlabel("paths per view direction")
+    ax.set_ylabel("relative error of the radiance I [1]")
+    ax.set_title("Monte Carlo convergence (6 directions, sun at 30 deg; dotted: estimated se)", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, "mc_convergence.png")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("what", choices=["cds", "disort", "spherical", "convergence"])
+    ap.add_argument("--quick", action="store_true", help="few samples (a smoke run)")
+    ap.add_argument("--threads", type=int, default=1, help="kernel OpenMP threads")
+    a = ap.parse_args()
+    {"cds": cds, "disort": disort, "spherical": spherical, "convergence": convergence}[a.what](a)
+
+
+if __name__ == "__main__":
+    main()
