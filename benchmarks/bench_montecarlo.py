@@ -97,8 +97,8 @@ def spherical(a):
     import matplotlib.pyplot as plt
 
     chans = [0, 2, 5, 9, 14, 19, 24, 27, 32, 39, 44, 50] if not a.quick else [2, 14]
-    elevs = [10.0, 4.0, 1.0] if not a.quick else [4.0]
-    nh = 1500 if a.quick else 6000
+    elevs = [10.0, 3.0] if not a.quick else [4.0]
+    nh = 1500 if a.quick else 8000
     hz, ha = hemisphere_directions(nh, 5)
     rows = {}
     t0 = time.perf_counter()
@@ -112,11 +112,12 @@ def spherical(a):
         e_s, e_p = np.pi * sph.radiance.mean(0), np.pi * pp.radiance.mean(0)
         se = np.sqrt(np.var(sph.radiance / sph.radiance.mean(0) - pp.radiance / pp.radiance.mean(0), axis=0)
                      / len(hz))
-        rows[el] = (e_s / e_p, se, d.dhi / e_p, e_s, d.dhi)
+        se_pp = np.pi * pp.radiance.std(0) / np.sqrt(len(hz)) / e_p
+        rows[el] = (e_s / e_p, se, d.dhi / e_p, e_s, d.dhi, se_pp * d.dhi / e_p)
         print(f"elevation {el:5.1f} deg: DHI spherical / plane-parallel (MC, same seeds) per channel:")
         for j, c in enumerate(chans):
             print(f"   {sph.wavelength_nm[j]:6.0f} nm  sph/pp {e_s[j] / e_p[j]:.4f} +- {se[j]:.4f}   DISORT/pp-MC "
-                  f"{d.dhi[j] / e_p[j]:.4f}   DHI sph {e_s[j]:.4g} W m-2 nm-1")
+                  f"{d.dhi[j] / e_p[j]:.4f} +- {se_pp[j] * d.dhi[j] / e_p[j]:.4f}   DHI sph {e_s[j]:.4g} W m-2 nm-1")
     st = SkyState(1.0, **STATE)
     tw = solve_sky_mc(st, view_zenith_deg=hz, relative_azimuth_deg=ha, channels=chans, solar_elevation_deg=-2.0,
                       config=MonteCarloConfig(samples=4, seed=13, threads=a.threads))
@@ -126,17 +127,18 @@ def spherical(a):
     print(f"total {time.perf_counter() - t0:.0f} s")
     wl = tw.wavelength_nm
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
-    for el, (ratio, se, ctrl, _, _) in rows.items():
+    for el, (ratio, se, ctrl, _, _, se_c) in rows.items():
         l = ax[0].errorbar(wl, ratio, yerr=2 * se, marker="o", ms=4, capsize=2, label=f"MC spherical / MC plane-par., "
                            f"elev. {el:g} deg")
-        ax[0].plot(wl, ctrl, ls=":", marker="x", color=l[0].get_color(), label=f"DISORT / MC plane-par., {el:g} deg")
+        ax[0].errorbar(wl + 8, ctrl, yerr=2 * se_c, ls=":", marker="x", capsize=2, color=l[0].get_color(),
+                       label=f"DISORT / MC plane-par., {el:g} deg")
     ax[0].axhline(1.0, color="k", lw=0.8)
     ax[0].set_xlabel("channel centre [nm]")
     ax[0].set_ylabel("diffuse horizontal irradiance ratio [1]")
     ax[0].set_title("Spherical correction of the diffuse sky (error bars 2 se)")
     ax[0].legend(fontsize=7)
     ax[1].errorbar(wl, tdhi, yerr=2 * tse, marker="o", ms=4, capsize=2, label="sun at -2 deg (MC spherical)")
-    for el, (_, _, _, e_s, dd) in rows.items():
+    for el, (_, _, _, e_s, _, _) in rows.items():
         ax[1].plot(wl, e_s, lw=1, label=f"elev. {el:g} deg (MC spherical)")
     ax[1].set_yscale("log")
     ax[1].set_xlabel("channel centre [nm]")

@@ -267,14 +267,16 @@ def trace(components: Components, solar_zenith_deg: float, view_zenith_deg, rela
 
 
 def hemisphere_directions(n: int, seed: int = 0):
-    """Stratified cosine-weighted directions over the upper hemisphere: view zenith, azimuth [deg], (n,) each.
-    The mean of a radiance over them is the diffuse horizontal irradiance divided by pi."""
+    """Cosine-weighted directions over the upper hemisphere by Latin hypercube sampling (n strata in sin^2 of the
+    zenith angle, n in azimuth, paired by a random permutation): view zenith, azimuth [deg], (n,) each.
+    The mean of a radiance over them estimates the diffuse horizontal irradiance divided by pi, without bias."""
+    if int(n) < 1:
+        raise ValueError(f"n={n} must be >= 1")
     rng = np.random.default_rng(seed)
-    k = int(np.ceil(np.sqrt(n)))
-    i = np.arange(n)
-    u1 = ((i % k) + rng.random(n)) / k
-    u2 = ((i // k) % k + rng.random(n)) / k
-    return np.degrees(np.arcsin(np.sqrt(np.clip(u1, 0, 1)))), 360.0 * u2 - 180.0
+    n = int(n)
+    u1 = (rng.permutation(n) + rng.random(n)) / n
+    u2 = (np.arange(n) + rng.random(n)) / n
+    return np.degrees(np.arcsin(np.sqrt(u1))), 360.0 * u2 - 180.0
 
 
 @dataclass
