@@ -9,11 +9,13 @@ Subcommands (each prints its numbers; the figure ones write docs/figures/mc_*.pn
 - ``spherical``: the spherical correction of the diffuse horizontal irradiance per channel, DHI in spherical shells
   over DHI in plane-parallel slabs (same seeds), at low sun, DISORT over plane-parallel Monte Carlo as the control,
   and the twilight sky (sun at -2 deg) -> docs/figures/mc_spherical_correction.png;
+- ``hero``: 4 neighbouring channels sharing paths (hero wavelengths) against one channel per path: time, noise
+  and efficiency;
 - ``convergence``: relative error against samples per direction per channel (a saturated water band included)
   against a long reference run, with the estimated standard error and paths per second ->
   docs/figures/mc_convergence.png.
 
-Usage: ``python benchmarks/bench_montecarlo.py {cds,disort,spherical,convergence} [--quick]``.
+Usage: ``python benchmarks/bench_montecarlo.py {cds,disort,spherical,convergence,hero} [--quick]``.
 Single-threaded kernel (threads=1) unless ``--threads N``.
 """
 
@@ -137,9 +139,9 @@ def spherical(a):
     ax[0].set_ylabel("diffuse horizontal irradiance ratio [1]")
     ax[0].set_title("Spherical correction of the diffuse sky (error bars 2 se)")
     ax[0].legend(fontsize=7)
-    ax[1].errorbar(wl, tdhi, yerr=2 * tse, marker="o", ms=4, capsize=2, label="sun at -2 deg (MC spherical)")
-    for el, (_, _, _, e_s, _, _) in rows.items():
-        ax[1].plot(wl, e_s, lw=1, label=f"elev. {el:g} deg (MC spherical)")
+    ax[1].errorbar(wl, tdhi, yerr=2 * tse, marker="o", ms=4, capsize=2, color="k", label="sun at -2 deg (MC spherical)")
+    for i, (el, (_, _, _, e_s, _, _)) in enumerate(rows.items()):
+        ax[1].plot(wl, e_s, lw=1, color=f"C{i}", label=f"elev. {el:g} deg (MC spherical)")
     ax[1].set_yscale("log")
     ax[1].set_xlabel("channel centre [nm]")
     ax[1].set_ylabel("DHI [W m-2 nm-1]")
@@ -193,13 +195,33 @@ def convergence(a):
     _save(fig, "mc_convergence.png")
 
 
+def hero(a):
+    """Hero wavelengths: 4 neighbouring channels on shared paths vs one channel per path, same samples per
+    direction: wall time, mean relative standard error and the efficiency 1 / (se^2 t), ratio batched / single."""
+    st = SkyState(30.0, **STATE)
+    vz = np.array([0.0, 30.0, 60.0, 80.0, 60.0, 85.0])
+    va = np.array([0.0, 90.0, 180.0, 180.0, 10.0, 0.0])
+    n = 1024 if a.quick else 8192
+    for chans in ([5, 6, 7, 8], [24, 25, 26, 27]):
+        res = {}
+        for nb in (1, 4):
+            r = solve_sky_mc(st, view_zenith_deg=vz, relative_azimuth_deg=va, channels=chans,
+                             config=MonteCarloConfig(samples=n, seed=31, channels_per_batch=nb, threads=a.threads))
+            rel = np.mean(r.stderr[..., 0] / r.radiance, axis=0)
+            res[nb] = (r.seconds, rel)
+            print(f"channels {chans} batch {nb}: {r.seconds:.1f} s, se/I per channel "
+                  + " ".join(f"{100 * x:.2f} %" for x in rel))
+        eff = (res[1][0] * res[1][1] ** 2) / (res[4][0] * res[4][1] ** 2)
+        print("   efficiency batched / single per channel: " + " ".join(f"{x:.2f}" for x in eff))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["cds", "disort", "spherical", "convergence"])
+    ap.add_argument("what", choices=["cds", "disort", "spherical", "convergence", "hero"])
     ap.add_argument("--quick", action="store_true", help="few samples (a smoke run)")
     ap.add_argument("--threads", type=int, default=1, help="kernel OpenMP threads")
     a = ap.parse_args()
-    {"cds": cds, "disort": disort, "spherical": spherical, "convergence": convergence}[a.what](a)
+    {"cds": cds, "disort": disort, "spherical": spherical, "convergence": convergence, "hero": hero}[a.what](a)
 
 
 if __name__ == "__main__":

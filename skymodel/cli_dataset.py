@@ -32,6 +32,8 @@ def register(sub):
     b.add_argument("--no-validation", action="store_true", help="skip the held-out error report")
     b.add_argument("--data-dir", default=None, help="input data directory (default: see docs/atmosphere-and-solver.md)")
     b.add_argument("--quiet", action="store_true", help="no progress bars")
+    b.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the sky states on this Dask scheduler (e.g. tcp://127.0.0.1:8786) instead of processes")
     b.set_defaults(func=_build)
 
     c = dsub.add_parser("compress", help="greedy channel omission: write the list of channels to keep")
@@ -66,6 +68,7 @@ def _synthetic(args):
 
 
 def _build(args):
+    import os
     import time
 
     from .generator.dataset_build import build_dataset, load_config, solve_all
@@ -74,6 +77,10 @@ def _build(args):
         print(time.strftime("%H:%M:%S"), msg, flush=True)
 
     cfg = load_config(args.config)
+    if args.scheduler is not None:
+        from .generator.dask_scheduler import SCHEDULER_ENV, check_address
+
+        os.environ[SCHEDULER_ENV] = check_address(args.scheduler)
     if args.solve_only:
         n, secs = solve_all(cfg, args.processes, not args.quiet, not args.no_validation, log)
         log(f"solved {n} states in {secs:.0f} s")

@@ -317,14 +317,23 @@ def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: flo
 
 
 def _pool_map(fn, jobs, processes, progress, desc):
-    """Map ``fn`` over ``jobs`` on a spawn process pool (one BLAS/OpenMP thread per worker); yields results."""
+    """Map ``fn`` over ``jobs`` on a spawn process pool (one BLAS/OpenMP thread per worker), or on a Dask cluster
+    when one is configured (:mod:`skymodel.generator.dask_scheduler`); yields results."""
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[var] = "1"
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(jobs), desc=desc)
-    if processes <= 1 or len(jobs) <= 1:
+    from .dask_scheduler import dask_map, scheduler_address
+
+    address = scheduler_address()
+    if address and jobs:
+        for r in dask_map(fn, jobs, address):
+            if bar is not None:
+                bar.update()
+            yield r
+    elif processes <= 1 or len(jobs) <= 1:
         for j in jobs:
             r = fn(j)
             if bar is not None:

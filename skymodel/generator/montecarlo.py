@@ -56,7 +56,8 @@ class MonteCarloConfig:
     polarised : trace Stokes vectors (True) or scalar radiance with P11 only (False, DISORT's physics).
     planet_radius_km : [km] radius of the ground sphere; ``None`` = plane-parallel slabs.
     max_order : [1] largest scattering order traced.
-    channels_per_batch : channels whose components share paths (hero wavelengths), >= 1.
+    channels_per_batch : consecutive channels of the request whose components share paths (hero wavelengths), >= 1;
+        4 neighbouring channels are 3-7x more efficient than 1 (`benchmarks/bench_montecarlo.py hero`).
     threads : OpenMP threads of the kernel (0 = the OpenMP default).
     """
 
@@ -65,7 +66,7 @@ class MonteCarloConfig:
     polarised: bool = True
     planet_radius_km: float | None = EARTH_RADIUS_KM
     max_order: int = 500
-    channels_per_batch: int = 1
+    channels_per_batch: int = 4
     threads: int = 1
 
     def __post_init__(self):
