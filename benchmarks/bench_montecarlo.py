@@ -169,27 +169,33 @@ def convergence(a):
     ns = [64, 256, 1024, 4096] if a.quick else [64, 256, 1024, 4096, 16384]
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     for ch, name in chans.items():
-        cfg = dict(polarised=True, threads=a.threads)
+        cfg = dict(polarised=True, threads=a.threads, channels_per_batch=1)
         ref = solve_sky_mc(st, view_zenith_deg=vz, relative_azimuth_deg=va, channels=[ch],
                            config=MonteCarloConfig(samples=n_ref, seed=999, **cfg))
         I0 = ref.radiance[:, 0]
         err, est = [], []
+        reps = 2 if a.quick else 4
         for i, n in enumerate(ns):
-            r = solve_sky_mc(st, view_zenith_deg=vz, relative_azimuth_deg=va, channels=[ch],
-                             config=MonteCarloConfig(samples=n, seed=100 + i, **cfg))
-            err.append(np.sqrt(np.mean((r.radiance[:, 0] / I0 - 1) ** 2)))
-            est.append(np.sqrt(np.mean((r.stderr[:, 0, 0] / I0) ** 2)))
+            e2, s2 = [], []
+            for rep in range(reps):  # independent repetitions: rms over directions x repetitions
+                r = solve_sky_mc(st, view_zenith_deg=vz, relative_azimuth_deg=va, channels=[ch],
+                                 config=MonteCarloConfig(samples=n, seed=100 + 10 * i + rep, **cfg))
+                e2.append((r.radiance[:, 0] / I0 - 1) ** 2)
+                s2.append((r.stderr[:, 0, 0] / I0) ** 2)
+            err.append(np.sqrt(np.mean(e2)))
+            est.append(np.sqrt(np.mean(s2)))
         pps = ref.samples * len(vz) / ref.seconds
         l = ax.loglog(ns, err, marker="o", label=f"{name}: rms error ({pps:.0f} paths/s)")
         ax.loglog(ns, est, ls=":", color=l[0].get_color())
-        print(f"channel {ch} {name}: K={ref.samples and ''}{ref.samples} ref paths/dir, ref se "
+        print(f"channel {ch} {name}: {ref.samples} reference paths per direction, reference se "
               f"{100 * np.max(ref.stderr[:, 0, 0] / I0):.2f} % max, {pps:.0f} paths/s; rms rel. error vs samples: "
               + ", ".join(f"{n}: {100 * e:.2f} %" for n, e in zip(ns, err)))
     ax.loglog(ns, [0.5 / np.sqrt(n) for n in ns], color="k", lw=0.8, ls="--", label="slope -1/2")
     ax.axhline(0.005, color="grey", lw=0.8)
     ax.set_xlabel("paths per view direction")
     ax.set_ylabel("relative error of the radiance I [1]")
-    ax.set_title("Monte Carlo convergence (6 directions, sun at 30 deg; dotted: estimated se)", fontsize=9)
+    ax.set_title("Monte Carlo convergence (6 directions x 4 repetitions, sun at 30 deg; dotted: estimated se)",
+                 fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
     _save(fig, "mc_convergence.png")
