@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 # Packages that contribute subcommands: each module exposes ``register(subparsers)``.
@@ -23,6 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="widesky",
         description="Spectral solar simulation with the wide-spectral-range Prague Sky Model.")
+    parser.add_argument("--version", action="version", version=f"widesky {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in SUBCOMMAND_MODULES:
@@ -36,11 +38,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("widesky")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree that is not installed
+        return "unknown (not installed)"
+
+
 def main(argv=None) -> int:
+    """Run the command line; returns the exit status (2 with a one-line message on bad input)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
+    except BrokenPipeError:
+        # the reader of our output went away (``widesky sun position | head``): stop quietly, as cat does;
+        # point stdout at /dev/null so the interpreter's final flush does not fail again
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except MemoryError:
+        print("widesky: error: out of memory (reduce the problem size)", file=sys.stderr)
+        return 2
     except (ValueError, OSError) as exc:
         print(f"widesky: error: {exc}", file=sys.stderr)
         return 2

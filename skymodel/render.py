@@ -23,7 +23,8 @@ from .colour import channel_xyz_weights, srgb_encode, xyz_to_linear_srgb
 from .dataset import SkyModel
 from .evaluate import (channel_indices, polarisation, sky_radiance, sun_radiance, transmittance)
 
-__all__ = ["QUANTITIES", "Render", "fisheye_directions", "render_sky", "write_exr", "write_png"]
+__all__ = ["QUANTITIES", "Render", "fisheye_directions", "render_sky", "write_exr", "write_png", "render_memory_bytes",
+           "check_render_memory"]
 
 QUANTITIES = {
     "sky": ("sky radiance", "W m-2 sr-1 nm-1"),
@@ -159,6 +160,38 @@ def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibi
     return Render(img, mask, lower + 0.5 * model.channel_width, lower, model.channel_width, quantity, meta)
 
 
+def render_memory_bytes(resolution, n_channels, exr=True) -> int:
+    """Estimated peak memory of a render and its files [bytes]: the float32 image, the directions and
+    mask, the sRGB composite and the 8-bit display image, and (``exr``) the EXR's per-channel copies."""
+    px = int(resolution) ** 2
+    per_px = 4 * n_channels + 8 * 3 + 1 + 8 * 3 * 3 + 3 + (4 * (n_channels + 3) if exr else 0)
+    return px * per_px
+
+
+def available_memory_bytes() -> int | None:
+    """Memory available to a new allocation [bytes]: Linux's MemAvailable, or None where unknown."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def check_render_memory(resolution, n_channels, exr=True, option="resolution"):
+    """Refuse (ValueError naming ``option``) a render whose estimated memory exceeds what is available."""
+    need = render_memory_bytes(resolution, n_channels, exr)
+    avail = available_memory_bytes()
+    if avail is not None and need > avail:
+        per_px = need / int(resolution) ** 2
+        most = int((avail / per_px) ** 0.5)
+        raise ValueError(f"{option} {resolution}: the render of {n_channels} channel(s) needs about {need / 1e9:.1f} GB "
+                         f"of memory, {avail / 1e9:.1f} GB are available; use at most {most} pixels here")
+    return need
+
+
 def _exposure_scale(values, mask, exposure):
     v = values[mask]
     v = v[np.isfinite(v) & (v > 0)]
@@ -195,7 +228,7 @@ def write_png(path, r: Render, *, composite=None, exposure=0.0):
         composite = r.values.shape[-1] > 1
     if not composite and r.values.shape[-1] != 1:
         raise ValueError("a single-channel PNG needs a render of exactly one channel")
-    Image.fromarray(_display(r, composite, exposure)).save(Path(path))
+    Image.fromarray(_display(r, composite, exposure)).save(Path(path), format="PNG", compress_level=1)
     return Path(path)
 
 
