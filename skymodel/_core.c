@@ -189,9 +189,13 @@ static inline void put(void *out, size_t i, double v, int is_double)
 /* ------------------------------------------------------------------------------------------ */
 /* direct path                                                                                */
 
+/* output row of direction i: rows[i] where the caller scatters into an image, else i */
+#define OUT_ROW(rows, i) ((rows) ? (size_t)(rows)[i] : (size_t)(i))
+
 static void radiance_direct(const comp_t *m, const geom_t *geo, const int64_t *cfg_base,
                             const double *cfg_w, int ncfg, const int64_t *chi, int nc,
-                            const double *dirs, Py_ssize_t n, void *out, int is_double, double sign)
+                            const double *dirs, Py_ssize_t n, void *out, int is_double, double sign,
+                            const int64_t *rows)
 {
     Py_ssize_t i;
 #pragma omp parallel for schedule(static) if (n * (Py_ssize_t)nc * ncfg >= PAR_MIN_WORK)
@@ -208,7 +212,7 @@ static void radiance_direct(const comp_t *m, const geom_t *geo, const int64_t *c
                 size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
                 acc += cfg_w[c] * eval_config(m, cfg, gp, ap, zp);
             }
-            put(out, (size_t)i * nc + k, sign * acc, is_double);
+            put(out, OUT_ROW(rows, i) * nc + k, sign * acc, is_double);
         }
     }
 }
@@ -589,7 +593,7 @@ static inline void eval_one(const table_t *t, int cell, double g, double z, doub
     }
 }
 
-static inline void store_row(void *out, Py_ssize_t i, int nc, const double *restrict acc, int is_double,
+static inline void store_row(void *out, size_t i, int nc, const double *restrict acc, int is_double,
                              double sign)
 {
     if (is_double) {
@@ -605,7 +609,7 @@ static inline void store_row(void *out, Py_ssize_t i, int nc, const double *rest
  * which mostly share a cell, together). */
 HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *az, const geom_t *geo,
                            const double *dirs, Py_ssize_t i0, Py_ssize_t i1, void *out, int is_double,
-                           double sign, double *restrict acc)
+                           double sign, double *restrict acc, const int64_t *rows)
 {
     const int ncell_u = t->nu - 1;
     for (Py_ssize_t i = i0; i < i1; ++i) {
@@ -614,12 +618,12 @@ HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *a
         int ig = accel_cell(ag, a.gamma, &g);
         int iz = accel_cell(az, a.zero, &z);
         eval_one(t, ig * ncell_u + iz, g, z, acc);
-        store_row(out, i, t->nc, acc, is_double, sign);
+        store_row(out, OUT_ROW(rows, i), t->nc, acc, is_double, sign);
     }
 }
 
 static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, Py_ssize_t n, void *out,
-                      int is_double, double sign)
+                      int is_double, double sign, const int64_t *rows)
 {
     accel_t ag, az;
     if (accel_init(&ag, t->sb, t->ns)) return -1;
@@ -638,7 +642,7 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
         for (c = 0; c < nchunks; ++c) {
             if (!acc) continue;
             Py_ssize_t i0 = c * chunk, i1 = i0 + chunk < n ? i0 + chunk : n;
-            eval_chunk(t, &ag, &az, geo, dirs, i0, i1, out, is_double, sign, acc);
+            eval_chunk(t, &ag, &az, geo, dirs, i0, i1, out, is_double, sign, acc, rows);
         }
         free(acc);
     }
@@ -783,18 +787,24 @@ static void set_threads(int nthreads)
 }
 
 /* radiance(sun, zen, emph|None, sb, zb, eb|None, rank, nch, cfg_base, cfg_w, chi, dirs, state, out,
- *          method, nthreads)
+ *          method, nthreads[, rows])
+ * rows (int64, one per direction, optional): the output row of each direction (out holds any number of
+ * rows of nc values; rows must be distinct and in range, checked here), for scattering into an image.
  * state = (observer altitude [m], solar elevation [rad], solar azimuth [rad, from +x toward +y]).
  * method: 0 auto, 1 direct, 2 table. emph None -> polarisation (no clamp, output negated).
  * Returns (method used: 1 direct or 2 table, number of cell terms kept separately for the clamp). */
 static PyObject *py_radiance(PyObject *self, PyObject *args)
 {
     PyObject *o[14];
+    PyObject *rows_obj = Py_None;
     int rank, nch, method, nthreads;
     double alt, el, az;
-    if (!PyArg_ParseTuple(args, "OOOOOOiiOOOO(ddd)Oii", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &rank,
-                          &nch, &o[6], &o[7], &o[8], &o[9], &alt, &el, &az, &o[10], &method, &nthreads))
+    if (!PyArg_ParseTuple(args, "OOOOOOiiOOOO(ddd)Oii|O", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &rank,
+                          &nch, &o[6], &o[7], &o[8], &o[9], &alt, &el, &az, &o[10], &method, &nthreads,
+                          &rows_obj))
         return NULL;
+    buf_t rb;
+    memset(&rb, 0, sizeof(rb));
     buf_t b[11];
     memset(b, 0, sizeof(b));
     const Py_ssize_t isz[11] = {4, 4, 4, 8, 8, 8, 8, 8, 8, 8, 0};
@@ -825,8 +835,24 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
                     (const double *)b[3].b.buf, (const double *)b[4].b.buf,
                     b[5].held ? (const double *)b[5].b.buf : NULL, ns, nz, ne, rank,
                     b[2].held ? 1 : 0, nch};
+        const int64_t *rows = NULL;
+        Py_ssize_t out_rows = nc ? b[10].b.len / b[10].b.itemsize / nc : 0;
+        if (get_buf(rows_obj, &rb, 0, "rows", 8) < 0) goto done;
+        if (rb.held) {
+            rows = (const int64_t *)rb.b.buf;
+            if (rb.b.len / 8 != n) {
+                PyErr_SetString(PyExc_ValueError, "radiance kernel: one row per direction");
+                goto done;
+            }
+            for (Py_ssize_t i = 0; i < n; ++i)
+                if (rows[i] < 0 || rows[i] >= out_rows) {
+                    PyErr_SetString(PyExc_ValueError, "radiance kernel: row outside the output");
+                    goto done;
+                }
+        }
         if (ns < 2 || nz < 2 || (m.emph && ne < 2) || b[7].b.len / 8 != ncfg ||
-            b[10].b.len / b[10].b.itemsize != n * (Py_ssize_t)nc) {
+            (rows ? b[10].b.len / b[10].b.itemsize != out_rows * (Py_ssize_t)nc
+                  : b[10].b.len / b[10].b.itemsize != n * (Py_ssize_t)nc)) {
             PyErr_SetString(PyExc_ValueError, "radiance kernel: inconsistent array sizes");
             goto done;
         }
@@ -845,13 +871,13 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
                               (const int64_t *)b[8].b.buf, nc);
             if (!err) {
                 nmix = t.nmix;
-                err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, sign);
+                err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, sign, rows);
                 table_free(&t);
             }
         } else {
             radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                             (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
-                            is_double, sign);
+                            is_double, sign, rows);
         }
         Py_END_ALLOW_THREADS
         if (err) {
@@ -862,6 +888,7 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
     }
 done:
     for (int i = 0; i < 11; ++i) rel_buf(&b[i]);
+    rel_buf(&rb);
     return ret;
 }
 
@@ -1014,6 +1041,167 @@ done:
     return ret;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* renderer helpers                                                                           */
+
+/* pixel centre coordinate of column/row j of an n-pixel image, in [-1, 1] */
+static inline double px_coord(Py_ssize_t j, Py_ssize_t n) { return ((double)j + 0.5) / (double)n * 2.0 - 1.0; }
+
+/* fisheye_counts(n, counts_out int64[n]): pixels of each image row inside the unit disc (x^2 + y^2 <= 1) */
+static PyObject *py_fisheye_counts(PyObject *self, PyObject *args)
+{
+    Py_ssize_t n;
+    PyObject *o;
+    if (!PyArg_ParseTuple(args, "nO", &n, &o)) return NULL;
+    buf_t b;
+    if (get_buf(o, &b, 1, "counts", 8) < 0) return NULL;
+    if (b.b.len / 8 != n) {
+        rel_buf(&b);
+        PyErr_SetString(PyExc_ValueError, "fisheye_counts: counts must have n entries");
+        return NULL;
+    }
+    int64_t *cnt = b.b.buf;
+    for (Py_ssize_t i = 0; i < n; ++i) {
+        double y = -px_coord(i, n);
+        int64_t c = 0;
+        for (Py_ssize_t j = 0; j < n; ++j) {
+            double x = px_coord(j, n);
+            c += x * x + y * y <= 1.0;
+        }
+        cnt[i] = c;
+    }
+    rel_buf(&b);
+    Py_RETURN_NONE;
+}
+
+/* fisheye(n, basis float64[9] (axis, right, up), row_start int64[n+1], dirs float64[m][3], pix int64[m]):
+ * stereographic fisheye directions of the pixels inside the unit disc, row by row (theta = 2 atan(rho):
+ * cos theta = (1 - rho^2) / (1 + rho^2), sin theta = 2 rho / (1 + rho^2)), and their flat pixel index. */
+static PyObject *py_fisheye(PyObject *self, PyObject *args)
+{
+    Py_ssize_t n;
+    PyObject *o[4];
+    if (!PyArg_ParseTuple(args, "nOOOO", &n, &o[0], &o[1], &o[2], &o[3])) return NULL;
+    buf_t b[4];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[4] = {8, 8, 8, 8};
+    const int wr[4] = {0, 0, 1, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 4; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "fisheye", isz[i]) < 0) goto done;
+    {
+        const double *B = b[0].b.buf;
+        const int64_t *start = b[1].b.buf;
+        double *dirs = b[2].b.buf;
+        int64_t *pix = b[3].b.buf;
+        Py_ssize_t m = b[3].b.len / 8;
+        if (b[0].b.len / 8 != 9 || b[1].b.len / 8 != n + 1 || b[2].b.len / 24 != m || start[0] != 0 ||
+            start[n] != m) {
+            PyErr_SetString(PyExc_ValueError, "fisheye: inconsistent sizes");
+            goto done;
+        }
+        for (Py_ssize_t i = 0; i < n; ++i)
+            if (start[i + 1] < start[i]) {
+                PyErr_SetString(PyExc_ValueError, "fisheye: row starts must ascend");
+                goto done;
+            }
+        Py_BEGIN_ALLOW_THREADS
+        Py_ssize_t i;
+#pragma omp parallel for schedule(static) if (n * n >= PAR_MIN_WORK)
+        for (i = 0; i < n; ++i) {
+            double y = -px_coord(i, n);
+            Py_ssize_t k = start[i], end = start[i + 1];
+            for (Py_ssize_t j = 0; j < n && k < end; ++j) {
+                double x = px_coord(j, n), r2 = x * x + y * y;
+                if (!(r2 <= 1.0)) continue;
+                double inv = 1.0 / (1.0 + r2), ct = (1.0 - r2) * inv, sx = 2.0 * x * inv, sy = 2.0 * y * inv;
+                for (int c = 0; c < 3; ++c) dirs[3 * k + c] = ct * B[c] + sx * B[3 + c] + sy * B[6 + c];
+                pix[k++] = (int64_t)(i * n + j);
+            }
+        }
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 4; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* float32 -> IEEE half, round to nearest even (as numpy's astype(float16)); inf and NaN kept. */
+static inline uint16_t f32_to_f16(float f)
+{
+    uint32_t x;
+    memcpy(&x, &f, 4);
+    uint32_t sign = (x >> 16) & 0x8000u, ax = x & 0x7fffffffu;
+    if (ax >= 0x7f800000u) return (uint16_t)(sign | 0x7c00u | (ax > 0x7f800000u ? 0x200u : 0u));
+    if (ax >= 0x477ff000u) return (uint16_t)(sign | 0x7c00u); /* rounds to >= 65520: inf */
+    if (ax < 0x38800000u) {                                   /* below the smallest normal half */
+        if (ax < 0x33000000u) return (uint16_t)sign;          /* below half the smallest subnormal */
+        uint32_t e = ax >> 23, mant = (ax & 0x7fffffu) | 0x800000u;
+        uint32_t shift = 126 - e;                             /* 14..24 */
+        uint32_t h = mant >> shift, rem = mant & ((1u << shift) - 1), halfway = 1u << (shift - 1);
+        if (rem > halfway || (rem == halfway && (h & 1u))) ++h;
+        return (uint16_t)(sign | h);
+    }
+    uint32_t h = ((ax >> 13) - (112u << 10)), rem = ax & 0x1fffu;
+    if (rem > 0x1000u || (rem == 0x1000u && (h & 1u))) ++h;
+    return (uint16_t)(sign | h);
+}
+
+/* planar(values float32[npix][nc], out (float32 or uint16 half)[nc][npix]): channel planes for an image
+ * file, transposed in cache-sized tiles, half floats rounded to nearest even. */
+HOT static void planar_tile(const float *v, void *out, int half, Py_ssize_t npix, int nc, Py_ssize_t p0,
+                            Py_ssize_t p1)
+{
+    for (int k = 0; k < nc; ++k) {
+        if (half) {
+            uint16_t *o = (uint16_t *)out + (size_t)k * npix;
+            for (Py_ssize_t p = p0; p < p1; ++p) o[p] = f32_to_f16(v[(size_t)p * nc + k]);
+        } else {
+            float *o = (float *)out + (size_t)k * npix;
+            for (Py_ssize_t p = p0; p < p1; ++p) o[p] = v[(size_t)p * nc + k];
+        }
+    }
+}
+
+static PyObject *py_planar(PyObject *self, PyObject *args)
+{
+    PyObject *o[2];
+    int nc;
+    if (!PyArg_ParseTuple(args, "OOi", &o[0], &o[1], &nc)) return NULL;
+    buf_t b[2];
+    memset(b, 0, sizeof(b));
+    PyObject *ret = NULL;
+    if (get_buf(o[0], &b[0], 0, "values", 4) < 0) goto done;
+    if (PyObject_GetBuffer(o[1], &b[1].b, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) goto done;
+    b[1].held = 1;
+    {
+        int half = b[1].b.itemsize == 2;
+        Py_ssize_t nv = b[0].b.len / 4;
+        if (nc < 1 || nv % nc || (b[1].b.itemsize != 2 && b[1].b.itemsize != 4) ||
+            b[1].b.len / b[1].b.itemsize != nv) {
+            PyErr_SetString(PyExc_ValueError, "planar: inconsistent sizes or output type");
+            goto done;
+        }
+        Py_ssize_t npix = nv / nc, tile = 2048, ntile = (npix + tile - 1) / tile, t;
+        const float *v = b[0].b.buf;
+        void *out = b[1].b.buf;
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (nv >= PAR_MIN_WORK)
+        for (t = 0; t < ntile; ++t) {
+            Py_ssize_t p0 = t * tile, p1 = p0 + tile < npix ? p0 + tile : npix;
+            planar_tile(v, out, half, npix, nc, p0, p1);
+        }
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 2; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
 static PyObject *py_has_openmp(PyObject *self, PyObject *args)
 {
 #ifdef WIDESKY_OPENMP
@@ -1028,6 +1216,9 @@ static PyMethodDef methods[] = {
     {"transmittance", py_transmittance, METH_VARARGS, "Transmittance kernel (see skymodel.evaluate)."},
     {"reference_loop", py_reference_loop, METH_VARARGS,
      "Baseline: straight port of the reference loop, one direction and channel per call, one thread."},
+    {"fisheye_counts", py_fisheye_counts, METH_VARARGS, "Pixels per image row inside the fisheye disc."},
+    {"fisheye", py_fisheye, METH_VARARGS, "Stereographic fisheye directions of the disc's pixels."},
+    {"planar", py_planar, METH_VARARGS, "Pixel-interleaved float32 to channel planes (float32 or half)."},
     {"openmp_threads", py_has_openmp, METH_NOARGS, "Maximum OpenMP threads (0 when built without OpenMP)."},
     {NULL, NULL, 0, NULL}};
 

@@ -238,7 +238,9 @@ def _report_clamped(flags, msgs, return_clamped, quantity):
 # ---------------------------------------------------------------------------------------------- public API
 
 def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude,
-                        channels, wavelengths, dtype, out, method, threads, return_clamped):
+                        channels, wavelengths, dtype, out, method, threads, return_clamped, rows=None):
+    """Evaluate radiance or polarisation. ``rows`` (private, for the renderer): int64 output row of each
+    direction in ``out`` (shape (n_rows, C), one sky state), so an image is filled without a scatter copy."""
     dirs, dshape, state = _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude,
                                    kind)
     chi_sel = channel_indices(model, channels, wavelengths)
@@ -253,8 +255,15 @@ def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, vis
         rank = model.pol_rank
     S = state[0].shape
     C = chi_sel.size
-    res = _output(S + dshape + (C,), dtype, out)
-    flat = res.reshape((-1, dirs.shape[0] * C)) if res.size else res.reshape(-1, 0)
+    if rows is None:
+        res = _output(S + dshape + (C,), dtype, out)
+        flat = res.reshape((-1, dirs.shape[0] * C)) if res.size else res.reshape(-1, 0)
+    else:
+        if S != () or out is None or out.ndim != 2 or out.shape[1] != C or rows.shape != (dirs.shape[0],):
+            raise ValueError("rows: one sky state, out of shape (n_rows, C) and one row per direction")
+        res = _output(out.shape, dtype, out)
+        flat = res.reshape(1, -1)
+        rows = np.ascontiguousarray(rows, dtype=np.int64)
     method_code = {"auto": 0, "direct": 1, "table": 2}[method]
     flags = np.zeros(S, dtype=bool)
     msgs = []
@@ -268,7 +277,7 @@ def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, vis
         el, az, alt_param, el_view = _state_params(el_deg, az_deg, alt)
         cfg, w = _config_weights(model, vis, alb, alt_param, el_view)
         _core.radiance(sun, zen, emph, breaks[0], breaks[1], breaks[2], rank, nch, cfg, w, chi_sel, dirs,
-                       (alt, el, az), flat[si], method_code, int(threads))
+                       (alt, el, az), flat[si], method_code, int(threads), rows)
     _report_clamped(flags, msgs, return_clamped, kind)
     return (res, flags) if return_clamped else res
 
