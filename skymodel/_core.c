@@ -38,6 +38,8 @@
 #define ATMOSPHERE_WIDTH 100000.0
 #define DIST_TO_EDGE 1571524.413613
 #define DBL_EPSILON_ 2.220446049250313e-16
+/* narrowest cell of the table path [rad]; narrower ones go to the direct path */
+#define TABLE_MIN_CELL 1e-9
 /* below this much work (inner iterations) a parallel region costs more than it saves */
 #define PAR_MIN_WORK 65536
 
@@ -476,7 +478,7 @@ HOT static int build_row(const build_ctx_t *X, int i, mixlist_t *mix, double *re
 }
 
 /* Build the per-cell polynomial table for a fixed sky state (sun above the horizon). Returns 0 on
- * success, -1 on allocation failure. */
+ * success, -1 on allocation failure, 1 when a cell is too narrow (use the direct path). */
 static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, const double *cfg_w,
                        int ncfg, const int64_t *chi, int nc)
 {
@@ -497,6 +499,14 @@ static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, con
         if (nu == 0 || t->u[j] > t->u[nu - 1]) t->u[nu++] = t->u[j];
     t->nu = nu;
     const int ncell_u = nu - 1, ncell = (ns - 1) * ncell_u;
+    /* zenith and emphasis knots closer than TABLE_MIN_CELL make a cell whose polynomial coefficients grow
+     * as 1/width^2 (they may overflow): leave such a sky state to the direct path, which is exact */
+    for (int j = 0; j + 1 < nu; ++j)
+        if (t->u[j + 1] - t->u[j] < TABLE_MIN_CELL) {
+            free(t->u);
+            t->u = NULL;
+            return 1;
+        }
 
     /* values of every zenith factor and of the emphasis at the merged knots:
      * zat[((c * nc + k) * R + r) * nu + j], eat[(c * nc + k) * nu + j] */
@@ -869,7 +879,13 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
             table_t t;
             err = table_build(&t, &m, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                               (const int64_t *)b[8].b.buf, nc);
-            if (!err) {
+            if (err == 1) { /* ill-conditioned cell: the direct path instead */
+                err = 0;
+                use_table = 0;
+                radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                                (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
+                                is_double, sign, rows);
+            } else if (!err) {
                 nmix = t.nmix;
                 err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, sign, rows);
                 table_free(&t);
