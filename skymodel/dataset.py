@@ -205,7 +205,7 @@ class SkyModel:
     """
 
     def __init__(self, path, *, visibility=None, albedo=None, channels=None, wavelength_range=None,
-                 polarisation=True):
+                 polarisation=True, elevation=None):
         path = Path(path)
         self.path = path
         if not path.exists():
@@ -218,7 +218,7 @@ class SkyModel:
         self.file_size = size
         self._mm = np.memmap(path, dtype=np.uint8, mode="r")
         self._parse(self._mm, path, polarisation)
-        self._select(visibility, albedo, channels, wavelength_range)
+        self._select(visibility, albedo, channels, wavelength_range, elevation)
         self._decoded = {}
         sidecar = path.with_suffix(path.suffix + ".json")
         if not sidecar.exists():
@@ -302,9 +302,10 @@ class SkyModel:
         self._layout = _Layout(rad_offset, block_dt, trans_offset, pol_offset, pol_dt)
 
     # ------------------------------------------------------------------ selection
-    def _select(self, visibility, albedo, channels, wavelength_range):
+    def _select(self, visibility, albedo, channels, wavelength_range, elevation=None):
         self._vis_idx = _bracket(self.file_visibilities, visibility, "visibility")
         self._alb_idx = _bracket(self.file_albedos, albedo, "albedo")
+        self._ele_idx = _bracket(self.file_elevations, elevation, "elevation")
         nch = self.n_channels_file
         lower = self.channel_start + self.channel_width * np.arange(nch)
         if channels is not None and wavelength_range is not None:
@@ -325,7 +326,7 @@ class SkyModel:
         self.visibilities = self.file_visibilities[self._vis_idx]
         self.albedos = self.file_albedos[self._alb_idx]
         self.altitudes = self.file_altitudes
-        self.elevations = self.file_elevations
+        self.elevations = self.file_elevations[self._ele_idx]
         self.channel_lower = lower[idx]
         self.wavelengths = self.channel_lower + 0.5 * self.channel_width
         self.channel_edges = np.append(self.channel_lower, self.channel_lower[-1] + self.channel_width)
@@ -384,20 +385,22 @@ class SkyModel:
 
     # ------------------------------------------------------------------ decoding
     def _slab_rows(self, dtype, offset):
-        """Yield (out_index, file_offset, n_rows) for every run of whole configurations the selection
-        needs: per selected (visibility, albedo) pair, the (altitude, elevation) rows in chunks of at most
-        DECODE_CHUNK_BYTES, each row holding every channel of the file."""
+        """Yield ((i, j, row0, n), file_offset, n) for every run of whole configurations the selection
+        needs: per selected (visibility, albedo) pair and altitude, the selected elevations' rows in chunks
+        of at most DECODE_CHUNK_BYTES, each row holding every channel of the file; row0 counts the rows
+        of the selection's (altitude, elevation) plane."""
         nalb, nalt, nele, nch = (len(self.file_albedos), len(self.file_altitudes), len(self.file_elevations),
                                  self.n_channels_file)
-        rows = nalt * nele
+        e0, nsel = int(self._ele_idx[0]), len(self._ele_idx)
         row_bytes = nch * dtype.itemsize
         step = max(1, DECODE_CHUNK_BYTES // row_bytes)
         for i, v in enumerate(self._vis_idx):
             for j, a in enumerate(self._alb_idx):
-                first = (int(v) * nalb + int(a)) * rows
-                for r0 in range(0, rows, step):
-                    n = min(step, rows - r0)
-                    yield (i, j, r0, n), offset + (first + r0) * row_bytes, n
+                for h in range(nalt):
+                    first = ((int(v) * nalb + int(a)) * nalt + h) * nele + e0
+                    for r0 in range(0, nsel, step):
+                        n = min(step, nsel - r0)
+                        yield (i, j, h * nsel + r0, n), offset + (first + r0) * row_bytes, n
 
     def _decode(self, dtype, offset, targets, convert):
         """Decode the selection's blocks chunk by chunk straight into preallocated float32 ``targets``
@@ -427,7 +430,7 @@ class SkyModel:
         return DatasetError(self.path, field, int(off), problem)
 
     def _selection_shape(self):
-        return (len(self._vis_idx), len(self._alb_idx), len(self.file_altitudes) * len(self.file_elevations),
+        return (len(self._vis_idx), len(self._alb_idx), len(self.file_altitudes) * len(self._ele_idx),
                 self.n_channels)
 
     def radiance_coefficients(self):
@@ -473,14 +476,15 @@ class SkyModel:
         return self._decoded["sun"], self._decoded["zen"], self._decoded["emph"]
 
     def _blocks_shape(self):
-        return (len(self._vis_idx), len(self._alb_idx), len(self.file_altitudes), len(self.file_elevations),
+        return (len(self._vis_idx), len(self._alb_idx), len(self.file_altitudes), len(self._ele_idx),
                 self.n_channels)
 
     def _block_offset(self, sel_index):
         """File byte offset of the radiance block at a position of the selection."""
         iv, ia, ialt, ie, ich = (int(x) for x in sel_index)
         cfg = ((((self._vis_idx[iv] * len(self.file_albedos) + self._alb_idx[ia]) * len(self.file_altitudes)
-                 + ialt) * len(self.file_elevations) + ie) * self.n_channels_file + self.channel_index[ich])
+                 + ialt) * len(self.file_elevations) + self._ele_idx[ie]) * self.n_channels_file
+               + self.channel_index[ich])
         return int(self._layout.rad_offset + cfg * self._layout.block_dtype.itemsize)
 
     def transmittance_coefficients(self):
@@ -570,7 +574,7 @@ class SkyModel:
             "polarisation   " + (f"rank {self.pol_rank}, knots sun {len(self.pol_sun_breaks)} / zenith "
                                  f"{len(self.pol_zenith_breaks)}" if self._layout.pol_offset is not None else "none"),
             f"selection      {len(self.visibilities)} visibilities, {len(self.albedos)} albedos, "
-            f"{self.n_channels} channels: {self.selection_bytes() / 1e6:.1f} MB when decoded",
+            f"{len(self.elevations)} elevations, {self.n_channels} channels: {self.selection_bytes() / 1e6:.1f} MB when decoded",
             f"resident       {self.resident_bytes / 1e6:.1f} MB decoded now",
         ]
         return "\n".join(lines)
@@ -581,7 +585,7 @@ class SkyModel:
 
 
 def load_dataset(path=None, *, visibility=None, albedo=None, channels=None, wavelength_range=None,
-                 polarisation=True) -> SkyModel:
+                 polarisation=True, elevation=None) -> SkyModel:
     """Open a Prague Sky Model dataset (memory-mapped; decoded on first use).
 
     Parameters
@@ -594,6 +598,10 @@ def load_dataset(path=None, *, visibility=None, albedo=None, channels=None, wave
         (the bracketing grid points). Default: all.
     albedo : float or (float, float), optional
         Same for the ground albedo [1].
+    elevation : float or (float, float), optional
+        Same for the solar elevation [deg] (the model's grid is in elevation at the view point, which
+        equals the solar elevation for an observer on the ground). With all three given, a single sky
+        state decodes only the (at most) 8 configurations per channel it interpolates between.
     channels : sequence of int, optional
         Indices of the file's channels to load.
     wavelength_range : (float, float), optional
@@ -613,4 +621,4 @@ def load_dataset(path=None, *, visibility=None, albedo=None, channels=None, wave
     if path is None:
         path = os.environ.get("WIDESKY_DATASET") or default_dataset_path()
     return SkyModel(path, visibility=visibility, albedo=albedo, channels=channels,
-                    wavelength_range=wavelength_range, polarisation=polarisation)
+                    wavelength_range=wavelength_range, polarisation=polarisation, elevation=elevation)

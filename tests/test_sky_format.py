@@ -339,3 +339,21 @@ def test_seeded_mutations_never_crash(small, tmp_path):
     rejected, loaded = (int(x) for x in proc.stdout.split())
     assert rejected + loaded == n
     assert rejected > n // 4 and loaded > 100  # both outcomes are exercised
+
+
+def test_single_sky_state_decodes_only_what_it_uses(tmp_path):
+    """visibility, albedo and elevation given: only the bracketing grid points are decoded (2 x 2 x 2
+    configurations per channel here) and the values equal those of the whole file."""
+    path = write_synthetic_dataset(tmp_path / "s.dat", visibilities=(20, 40, 80, 131.8), albedos=(0, 0.5, 1),
+                                   n_channels=5, rank=2, n_sun=8, n_zen=8, n_emph=6, polarisation=True, seed=5)
+    full = skymodel.load_dataset(path).load()
+    one = skymodel.load_dataset(path, visibility=55.0, albedo=0.7, elevation=12.5).load()
+    assert one.visibilities.tolist() == [40, 80] and one.albedos.tolist() == [0.5, 1.0]
+    lo, hi = one.elevations
+    assert lo <= 12.5 <= hi and len(one.elevations) == 2
+    dirs = skymodel.directions_from_angles([0, 30, 60, 85, 100], [0, 90, 180, 270, 45])
+    for f in (skymodel.sky_radiance, skymodel.polarisation, skymodel.transmittance):
+        np.testing.assert_array_equal(f(one, dirs, 12.5, 160.0, 55.0, 0.7), f(full, dirs, 12.5, 160.0, 55.0, 0.7))
+    sun_full = full.radiance_coefficients()[0]
+    assert one.radiance_coefficients()[0].nbytes * len(full.file_elevations) * 4 * 3 == sun_full.nbytes * 2 * 2 * 2
+    assert one.resident_bytes == one.selection_bytes() < full.resident_bytes / 4
