@@ -1218,6 +1218,210 @@ done:
     return ret;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* dataset decoding                                                                           */
+
+static float half_table[65536];
+static void half_table_init(void)
+{
+    for (uint32_t h = 0; h < 65536; ++h) {
+        uint32_t sgn = (h & 0x8000u) << 16, e = (h >> 10) & 0x1fu, m = h & 0x3ffu, x;
+        float f;
+        if (e == 0) {
+            f = (float)m * 5.9604644775390625e-8f; /* m * 2^-24: zero or subnormal, exact */
+            memcpy(&x, &f, 4);
+            x |= sgn;
+        } else if (e == 31) {
+            x = sgn | 0x7f800000u | (m << 13);
+        } else {
+            x = sgn | ((e + 112u) << 23) | (m << 13);
+        }
+        memcpy(&f, &x, 4);
+        half_table[h] = f;
+    }
+}
+
+static inline int finite_f(float f) { return isfinite(f); }
+
+/* decode_radiance(raw, nch_file, chi, rank, ns, nz, ne, sun, zen, emph): radiance blocks of whole
+ * configuration rows (raw: nrows x nch_file blocks of the file's layout) into float32 outputs for the
+ * selected channels chi: sun [nrows][nsel][rank][ns], zen = float32(double(half) / zenithScale),
+ * emph [nrows][nsel][ne]. Returns None, or (code, row, k) of the first bad block: 1 zero or non-finite
+ * zenith scale, 2 non-finite sun, 3 non-finite zenith, 4 non-finite emphasis value. */
+static PyObject *py_decode_radiance(PyObject *self, PyObject *args)
+{
+    PyObject *o[5];
+    int nch, rank, ns, nz, ne;
+    if (!PyArg_ParseTuple(args, "OiOiiiiOOO", &o[0], &nch, &o[1], &rank, &ns, &nz, &ne, &o[2], &o[3], &o[4]))
+        return NULL;
+    buf_t b[5];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[5] = {1, 8, 4, 4, 4};
+    const int wr[5] = {0, 0, 1, 1, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 5; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "decode_radiance", isz[i]) < 0) goto done;
+    {
+        const size_t rank_bytes = 2 * (size_t)ns + 8 + 2 * (size_t)nz;
+        const size_t block = (size_t)rank * rank_bytes + 2 * (size_t)ne;
+        const Py_ssize_t nsel = b[1].b.len / 8;
+        const int64_t *chi = b[1].b.buf;
+        if (nch < 1 || rank < 1 || ns < 1 || nz < 1 || ne < 1 || b[0].b.len % (block * nch)) {
+            PyErr_SetString(PyExc_ValueError, "decode_radiance: inconsistent sizes");
+            goto done;
+        }
+        const Py_ssize_t nrows = b[0].b.len / (block * nch);
+        if (b[2].b.len / 4 != nrows * nsel * rank * ns || b[3].b.len / 4 != nrows * nsel * rank * nz ||
+            b[4].b.len / 4 != nrows * nsel * ne) {
+            PyErr_SetString(PyExc_ValueError, "decode_radiance: output sizes");
+            goto done;
+        }
+        for (Py_ssize_t k = 0; k < nsel; ++k)
+            if (chi[k] < 0 || chi[k] >= nch) {
+                PyErr_SetString(PyExc_ValueError, "decode_radiance: channel index");
+                goto done;
+            }
+        const unsigned char *raw = b[0].b.buf;
+        float *sun = b[2].b.buf, *zen = b[3].b.buf, *emph = b[4].b.buf;
+        Py_ssize_t bad_all = -1, nq = nrows * nsel, q;
+        int code_all = 0;
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (nq * rank * (ns + nz) >= PAR_MIN_WORK)
+        for (q = 0; q < nq; ++q) {
+            Py_ssize_t bad = -1;
+            int code = 0;
+            Py_ssize_t row = q / nsel, k = q % nsel;
+            const unsigned char *blk = raw + ((size_t)row * nch + (size_t)chi[k]) * block;
+            float *so = sun + (size_t)q * rank * ns, *zo = zen + (size_t)q * rank * nz, *eo = emph + (size_t)q * ne;
+            int ok = 1;
+            for (int r = 0; r < rank && bad < 0; ++r) {
+                const unsigned char *p = blk + (size_t)r * rank_bytes;
+                uint16_t h;
+                double scale;
+                memcpy(&scale, p + 2 * (size_t)ns, 8);
+                if (!isfinite(scale) || scale == 0.0) {
+                    bad = q, code = 1;
+                    break;
+                }
+                for (int j = 0; j < ns; ++j) {
+                    memcpy(&h, p + 2 * (size_t)j, 2);
+                    so[(size_t)r * ns + j] = half_table[h];
+                    ok &= finite_f(half_table[h]);
+                }
+                if (!ok) {
+                    bad = q, code = 2;
+                    break;
+                }
+                const unsigned char *pz = p + 2 * (size_t)ns + 8;
+                for (int j = 0; j < nz; ++j) {
+                    memcpy(&h, pz + 2 * (size_t)j, 2);
+                    float v = (float)((double)half_table[h] / scale);
+                    zo[(size_t)r * nz + j] = v;
+                    ok &= finite_f(v);
+                }
+                if (!ok) bad = q, code = 3;
+            }
+            if (bad >= 0) goto next_block;
+            const unsigned char *pe = blk + (size_t)rank * rank_bytes;
+            for (int j = 0; j < ne; ++j) {
+                uint16_t h;
+                memcpy(&h, pe + 2 * (size_t)j, 2);
+                eo[j] = half_table[h];
+                ok &= finite_f(half_table[h]);
+            }
+            if (!ok) bad = q, code = 4;
+        next_block:
+            if (bad >= 0) {
+#pragma omp critical(widesky_decode_bad)
+                if (bad_all < 0 || bad < bad_all) {
+                    bad_all = bad;
+                    code_all = code;
+                }
+            }
+        }
+        Py_END_ALLOW_THREADS
+        Py_ssize_t bad = bad_all;
+        int code = code_all;
+        if (bad >= 0)
+            ret = Py_BuildValue("inn", code, bad / nsel, bad % nsel);
+        else {
+            ret = Py_None;
+            Py_INCREF(ret);
+        }
+    }
+done:
+    for (int i = 0; i < 5; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* decode_polarisation(raw, nch_file, chi, rank, nps, npz, psun, pzen): float32 polarisation blocks of
+ * whole configuration rows into psun [nrows][nsel][rank][nps] and pzen [..][npz]. Returns None or
+ * (row, k) of the first block with a non-finite value. */
+static PyObject *py_decode_polarisation(PyObject *self, PyObject *args)
+{
+    PyObject *o[4];
+    int nch, rank, nps, npz;
+    if (!PyArg_ParseTuple(args, "OiOiiiOO", &o[0], &nch, &o[1], &rank, &nps, &npz, &o[2], &o[3])) return NULL;
+    buf_t b[4];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[4] = {1, 8, 4, 4};
+    const int wr[4] = {0, 0, 1, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 4; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "decode_polarisation", isz[i]) < 0) goto done;
+    {
+        const size_t block = (size_t)rank * 4 * ((size_t)nps + npz);
+        const Py_ssize_t nsel = b[1].b.len / 8;
+        const int64_t *chi = b[1].b.buf;
+        if (nch < 1 || rank < 1 || nps < 1 || npz < 1 || b[0].b.len % (block * nch)) {
+            PyErr_SetString(PyExc_ValueError, "decode_polarisation: inconsistent sizes");
+            goto done;
+        }
+        const Py_ssize_t nrows = b[0].b.len / (block * nch), nq = nrows * nsel;
+        if (b[2].b.len / 4 != nq * rank * nps || b[3].b.len / 4 != nq * rank * npz) {
+            PyErr_SetString(PyExc_ValueError, "decode_polarisation: output sizes");
+            goto done;
+        }
+        for (Py_ssize_t k = 0; k < nsel; ++k)
+            if (chi[k] < 0 || chi[k] >= nch) {
+                PyErr_SetString(PyExc_ValueError, "decode_polarisation: channel index");
+                goto done;
+            }
+        const unsigned char *raw = b[0].b.buf;
+        float *ps = b[2].b.buf, *pz = b[3].b.buf;
+        Py_ssize_t bad_all = -1, q;
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (nq * rank * (nps + npz) >= PAR_MIN_WORK)
+        for (q = 0; q < nq; ++q) {
+            Py_ssize_t row = q / nsel, k = q % nsel;
+            const unsigned char *blk = raw + ((size_t)row * nch + (size_t)chi[k]) * block;
+            int ok = 1;
+            for (int r = 0; r < rank; ++r) {
+                float *so = ps + ((size_t)q * rank + r) * nps, *zo = pz + ((size_t)q * rank + r) * npz;
+                const unsigned char *p = blk + (size_t)r * 4 * ((size_t)nps + npz);
+                memcpy(so, p, 4 * (size_t)nps);
+                memcpy(zo, p + 4 * (size_t)nps, 4 * (size_t)npz);
+                for (int j = 0; j < nps; ++j) ok &= finite_f(so[j]);
+                for (int j = 0; j < npz; ++j) ok &= finite_f(zo[j]);
+            }
+            if (!ok) {
+#pragma omp critical(widesky_decode_bad)
+                if (bad_all < 0 || q < bad_all) bad_all = q;
+            }
+        }
+        Py_END_ALLOW_THREADS
+        if (bad_all >= 0)
+            ret = Py_BuildValue("nn", bad_all / nsel, bad_all % nsel);
+        else {
+            ret = Py_None;
+            Py_INCREF(ret);
+        }
+    }
+done:
+    for (int i = 0; i < 4; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
 static PyObject *py_has_openmp(PyObject *self, PyObject *args)
 {
 #ifdef WIDESKY_OPENMP
@@ -1235,10 +1439,16 @@ static PyMethodDef methods[] = {
     {"fisheye_counts", py_fisheye_counts, METH_VARARGS, "Pixels per image row inside the fisheye disc."},
     {"fisheye", py_fisheye, METH_VARARGS, "Stereographic fisheye directions of the disc's pixels."},
     {"planar", py_planar, METH_VARARGS, "Pixel-interleaved float32 to channel planes (float32 or half)."},
+    {"decode_radiance", py_decode_radiance, METH_VARARGS, "Decode radiance blocks into float32 factors."},
+    {"decode_polarisation", py_decode_polarisation, METH_VARARGS, "Decode polarisation blocks (float32)."},
     {"openmp_threads", py_has_openmp, METH_NOARGS, "Maximum OpenMP threads (0 when built without OpenMP)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, "_core",
                                     "Hot kernels of the widesky Prague Sky Model evaluator.", -1, methods};
 
-PyMODINIT_FUNC PyInit__core(void) { return PyModule_Create(&moddef); }
+PyMODINIT_FUNC PyInit__core(void)
+{
+    half_table_init();
+    return PyModule_Create(&moddef);
+}

@@ -19,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _core
+
 __all__ = ["DatasetError", "SkyModel", "load_dataset", "default_dataset_path"]
 
 DATA_DIR = Path(__file__).resolve().parent / "data"
@@ -402,10 +404,11 @@ class SkyModel:
                         n = min(step, nsel - r0)
                         yield (i, j, h * nsel + r0, n), offset + (first + r0) * row_bytes, n
 
-    def _decode(self, dtype, offset, targets, convert):
+    def _decode(self, dtype, offset, targets, convert, raw=False):
         """Decode the selection's blocks chunk by chunk straight into preallocated float32 ``targets``
         (name -> array of shape (nVisSel, nAlbSel, nAlt * nEle, nChSel, ...)). ``convert(chunk, out_views,
-        file_offset)`` fills the views from a chunk of structured blocks (rows, nChSel)."""
+        file_offset)`` fills the views from a chunk of structured blocks (rows, nChSel), or with ``raw``
+        from the chunk's bytes (rows x every channel of the file)."""
         ch = self.channel_index
         all_ch = ch.size == self.n_channels_file
         buf = bytearray()
@@ -418,10 +421,14 @@ class SkyModel:
                 view = memoryview(buf)[:need]
                 if f.readinto(view) != need:
                     raise DatasetError(self.path, "radiance coefficients", off, "file changed while reading")
+                views = {k: t[i, j, r0:r0 + n] for k, t in targets.items()}
+                if raw:
+                    convert(view, views, off)
+                    continue
                 blk = np.frombuffer(view, dtype).reshape(nrows, self.n_channels_file)
                 if not all_ch:
                     blk = blk[:, ch]
-                convert(blk, {k: t[i, j, r0:r0 + n] for k, t in targets.items()}, off)
+                convert(blk, views, off)
 
     def _chunk_error(self, field, bad, file_offset, itemsize, problem):
         """DatasetError at the first True of ``bad`` (rows, nChSel) of a chunk starting at ``file_offset``."""
@@ -452,25 +459,22 @@ class SkyModel:
             out = dict(sun=np.empty(lead + (rank, ns), np.float32), zen=np.empty(lead + (rank, nz), np.float32),
                        emph=np.empty(lead + (ne,), np.float32))
 
-            def convert(blk, o, off):
-                r = blk["r"]
-                scale = r["scale"]
-                bad = ~np.isfinite(scale) | (scale == 0)
-                if bad.any():
-                    raise self._chunk_error("zenithScale", bad.any(axis=-1), off, dt.itemsize,
-                                            f"{int(bad.sum())} zero or non-finite zenith scales")
-                o["sun"][...] = r["sun"]
-                # the reference's float32(double(half) / zenithScale), row by row to bound the temporary
-                np.divide(r["zen"], scale[..., None], out=o["zen"], dtype=np.float64, casting="same_kind")
-                o["emph"][...] = blk["emph"]
-                for name, arr, tail in (("sunStored", o["sun"], 2), ("zenStored", o["zen"], 2),
-                                        ("emphStored", o["emph"], 1)):
-                    bad = ~np.isfinite(arr).all(axis=tuple(range(-tail, 0)))
-                    if bad.any():
-                        raise self._chunk_error(name, bad, off, dt.itemsize, "non-finite radiance coefficient "
-                                                "(inf or NaN half float, or overflow)")
+            names = {1: ("zenithScale", "zero or non-finite zenith scale"),
+                     2: ("sunStored", "non-finite radiance coefficient (inf or NaN half float)"),
+                     3: ("zenStored", "non-finite radiance coefficient (overflow dividing by zenithScale)"),
+                     4: ("emphStored", "non-finite radiance coefficient (inf or NaN half float)")}
 
-            self._decode(dt, self._layout.rad_offset, out, convert)
+            def convert(raw, o, off):
+                bad = _core.decode_radiance(raw, self.n_channels_file, self.channel_index, rank, ns, nz, ne,
+                                            o["sun"], o["zen"], o["emph"])
+                if bad is not None:
+                    code, row, k = bad
+                    field, problem = names[code]
+                    pos = np.zeros((row + 1, self.n_channels), bool)
+                    pos[row, k] = True
+                    raise self._chunk_error(field, pos, off, dt.itemsize, problem)
+
+            self._decode(dt, self._layout.rad_offset, out, convert, raw=True)
             full = self._blocks_shape()
             self._decoded.update({k: v.reshape(full + v.shape[4:]) for k, v in out.items()})
         return self._decoded["sun"], self._decoded["zen"], self._decoded["emph"]
@@ -528,14 +532,15 @@ class SkyModel:
             rank, nps, npz = self.pol_rank, len(self.pol_sun_breaks), len(self.pol_zenith_breaks)
             out = dict(psun=np.empty(lead + (rank, nps), np.float32), pzen=np.empty(lead + (rank, npz), np.float32))
 
-            def convert(blk, o, off):
-                o["psun"][...] = blk["r"]["sun"]
-                o["pzen"][...] = blk["r"]["zen"]
-                bad = ~(np.isfinite(o["psun"]).all(axis=(-2, -1)) & np.isfinite(o["pzen"]).all(axis=(-2, -1)))
-                if bad.any():
-                    raise self._chunk_error("polarisation coefficients", bad, off, dt.itemsize, "non-finite value")
+            def convert(raw, o, off):
+                bad = _core.decode_polarisation(raw, self.n_channels_file, self.channel_index, rank, nps, npz,
+                                                o["psun"], o["pzen"])
+                if bad is not None:
+                    pos = np.zeros((bad[0] + 1, self.n_channels), bool)
+                    pos[bad] = True
+                    raise self._chunk_error("polarisation coefficients", pos, off, dt.itemsize, "non-finite value")
 
-            self._decode(dt, self._pol_blocks_offset, out, convert)
+            self._decode(dt, self._pol_blocks_offset, out, convert, raw=True)
             full = self._blocks_shape()
             self._decoded.update({k: v.reshape(full + v.shape[4:]) for k, v in out.items()})
         return self._decoded["psun"], self._decoded["pzen"]
