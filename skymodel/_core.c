@@ -662,6 +662,229 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
 }
 
 /* ------------------------------------------------------------------------------------------ */
+/* twilight table path (sun below the horizon)                                                */
+/*
+ * Below the horizon the zenith factor takes the shadow angle and the emphasis the zero angle, so a
+ * configuration's product emph(zero) * sum_r sun_r(gamma) zen_r(shadow) is, inside each cell of
+ * (sun knots) x (zenith knots) x (emphasis knots), the polynomial (e0 + e1 z)(A + B g + C s + D g s) in
+ * the local offsets g, s, z: 8 terms. The three-dimensional table would be large (cells^3), so only the
+ * cells the given directions visit are built: pass 1 finds each direction's cell and offsets, pass 2
+ * builds the visited cells (corner products sum_r sun_r zen_r at every knot pair are precomputed once),
+ * folding the configurations that cannot change sign inside the cell and keeping the others as their own
+ * clamped terms, as the daytime table does; pass 3 evaluates. Exact to rounding, like the daytime table.
+ */
+
+typedef struct {
+    int64_t key;
+    double g, s, z;
+} tw_dir_t;
+
+/* largest number of 3-D cells indexed directly; beyond it the direct path is used */
+#define TW_MAX_CELLS 50000000
+
+static int twilight_eval(const comp_t *m, const geom_t *geo, const int64_t *cfg_base, const double *cfg_w,
+                         int ncfg, const int64_t *chi, int nc, const double *dirs, Py_ssize_t n, void *out,
+                         int is_double, const int64_t *rows, Py_ssize_t *nvisited_out, Py_ssize_t *nmix_out)
+{
+    const int ns = m->ns, nz = m->nz, ne = m->ne, R = m->rank;
+    const int64_t cz = nz - 1, ce = ne - 1, ncell3 = (int64_t)(ns - 1) * cz * ce;
+    if (ncell3 > TW_MAX_CELLS) return 1;
+    for (int j = 0; j + 1 < ns; ++j) if (m->sb[j + 1] - m->sb[j] < TABLE_MIN_CELL) return 1;
+    for (int j = 0; j + 1 < nz; ++j) if (m->zb[j + 1] - m->zb[j] < TABLE_MIN_CELL) return 1;
+    for (int j = 0; j + 1 < ne; ++j) if (m->eb[j + 1] - m->eb[j] < TABLE_MIN_CELL) return 1;
+    const size_t cn = (size_t)ncfg * nc;
+    int fail = 0;
+    accel_t ag, as, ae;
+    memset(&ag, 0, sizeof(ag)), memset(&as, 0, sizeof(as)), memset(&ae, 0, sizeof(ae));
+    double *K = malloc(sizeof(double) * (size_t)ns * nz * cn); /* [i][j][c][k] corner products */
+    double *E = malloc(sizeof(double) * (size_t)ne * cn);      /* [l][c][k] emphasis at its knots */
+    tw_dir_t *d = malloc(sizeof(tw_dir_t) * (n ? n : 1));
+    int32_t *slot = malloc(sizeof(int32_t) * (size_t)ncell3);
+    int64_t *cells = NULL;
+    double *tab = NULL;
+    int *mix_start = NULL, *mix_ch = NULL;
+    double *mix_coef = NULL;
+    mixlist_t *lists = NULL;
+    Py_ssize_t nvis = 0, nmix = 0;
+    if (!K || !E || !d || !slot || accel_init(&ag, m->sb, ns) || accel_init(&as, m->zb, nz) ||
+        accel_init(&ae, m->eb, ne)) {
+        fail = -1;
+        goto out;
+    }
+    {
+        Py_ssize_t q, nq = (Py_ssize_t)cn;
+#pragma omp parallel for schedule(static) if (nq * ns * nz * R >= PAR_MIN_WORK)
+        for (q = 0; q < nq; ++q) {
+            int c = (int)(q / nc), k = (int)(q % nc);
+            size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
+            const float *sun = m->sun + cfg * (size_t)R * ns, *zen = m->zen + cfg * (size_t)R * nz;
+            for (int i = 0; i < ns; ++i)
+                for (int j = 0; j < nz; ++j) {
+                    double acc = 0.0;
+                    for (int r = 0; r < R; ++r) acc += (double)sun[(size_t)r * ns + i] * (double)zen[(size_t)r * nz + j];
+                    K[((size_t)i * nz + j) * cn + q] = acc;
+                }
+            for (int l = 0; l < ne; ++l) E[(size_t)l * cn + q] = (double)m->emph[cfg * (size_t)ne + l];
+        }
+    }
+    {
+        Py_ssize_t i;
+#pragma omp parallel for schedule(static) if (n >= 4096)
+        for (i = 0; i < n; ++i) {
+            angles_t a = compute_angles(dirs + 3 * i, geo, 0, 1);
+            int ig = accel_cell(&ag, a.gamma, &d[i].g);
+            int is = accel_cell(&as, a.shadow, &d[i].s);
+            int iz = accel_cell(&ae, a.zero, &d[i].z);
+            d[i].key = ((int64_t)ig * cz + is) * ce + iz;
+        }
+    }
+    for (int64_t c = 0; c < ncell3; ++c) slot[c] = -1;
+    for (Py_ssize_t i = 0; i < n; ++i)
+        if (slot[d[i].key] < 0) slot[d[i].key] = (int32_t)nvis++;
+    cells = malloc(sizeof(int64_t) * (nvis ? nvis : 1));
+    tab = malloc(sizeof(double) * 8 * (size_t)nc * (nvis ? nvis : 1));
+    mix_start = calloc((size_t)nvis + 1, sizeof(int));
+    if (!cells || !tab || !mix_start) {
+        fail = -1;
+        goto out;
+    }
+    for (int64_t c = 0; c < ncell3; ++c)
+        if (slot[c] >= 0) cells[slot[c]] = c;
+    int nthr = 1;
+#ifdef WIDESKY_OPENMP
+    nthr = omp_get_max_threads();
+#endif
+    lists = calloc((size_t)nthr, sizeof(mixlist_t));
+    if (!lists) {
+        fail = -1;
+        goto out;
+    }
+    {
+        Py_ssize_t v;
+        int bfail = 0;
+#pragma omp parallel for schedule(dynamic, 16) reduction(|| : bfail) if (nvis * (Py_ssize_t)cn >= PAR_MIN_WORK / 4)
+        for (v = 0; v < nvis; ++v) {
+            int tid = 0;
+#ifdef WIDESKY_OPENMP
+            tid = omp_get_thread_num();
+#endif
+            const int64_t key = cells[v];
+            const int iz = (int)(key % ce), is = (int)((key / ce) % cz), ig = (int)(key / (ce * cz));
+            const double dg = m->sb[ig + 1] - m->sb[ig], ds = m->zb[is + 1] - m->zb[is];
+            const double dz = m->eb[iz + 1] - m->eb[iz];
+            const double *K00 = K + ((size_t)ig * nz + is) * cn, *K01 = K + ((size_t)ig * nz + is + 1) * cn;
+            const double *K10 = K + ((size_t)(ig + 1) * nz + is) * cn, *K11 = K + ((size_t)(ig + 1) * nz + is + 1) * cn;
+            const double *E0 = E + (size_t)iz * cn, *E1 = E + (size_t)(iz + 1) * cn;
+            double *T = tab + (size_t)v * 8 * nc;
+            for (int k = 0; k < nc; ++k) {
+                double X00 = 0, X01 = 0, X10 = 0, X11 = 0, Y00 = 0, Y01 = 0, Y10 = 0, Y11 = 0;
+                for (int c = 0; c < ncfg; ++c) {
+                    const size_t q = (size_t)c * nc + k;
+                    const double S00 = K00[q], S01 = K01[q], S10 = K10[q], S11 = K11[q], e0 = E0[q], e1 = E1[q];
+                    const double w = cfg_w[c];
+                    const double smin = fmin(fmin(S00, S01), fmin(S10, S11)), smax = fmax(fmax(S00, S01), fmax(S10, S11));
+                    const double emin = fmin(e0, e1), emax = fmax(e0, e1);
+                    if ((smin >= 0 && emin >= 0) || (smax <= 0 && emax <= 0)) {
+                        const double a = w * e0, b = w * e1;
+                        X00 += a * S00, X01 += a * S01, X10 += a * S10, X11 += a * S11;
+                        Y00 += b * S00, Y01 += b * S01, Y10 += b * S10, Y11 += b * S11;
+                    } else if (!((smin >= 0 && emax <= 0) || (smax <= 0 && emin >= 0))) {
+                        const double a = w * e0, b = w * e1;
+                        const double x00 = a * S00, x01 = a * S01, x10 = a * S10, x11 = a * S11;
+                        const double y00 = b * S00, y01 = b * S01, y10 = b * S10, y11 = b * S11;
+                        double c8[8] = {x00, (x10 - x00) / dg, (x01 - x00) / ds, (x11 - x10 - x01 + x00) / (dg * ds),
+                                        (y00 - x00) / dz, ((y10 - y00) - (x10 - x00)) / (dg * dz),
+                                        ((y01 - y00) - (x01 - x00)) / (ds * dz),
+                                        ((y11 - y10 - y01 + y00) - (x11 - x10 - x01 + x00)) / (dg * ds * dz)};
+                        /* two 6-slot records per mixed term: [cell, ch] + coefficients 0-5, then 6-7 */
+                        double lo6[6] = {c8[0], c8[1], c8[2], c8[3], c8[4], c8[5]};
+                        double hi6[6] = {c8[6], c8[7], 0, 0, 0, 0};
+                        if (mix_push(&lists[tid], (int)v, k, lo6) || mix_push(&lists[tid], (int)v, -1, hi6)) bfail = 1;
+                    }
+                }
+                T[k] = X00;
+                T[nc + k] = (X10 - X00) / dg;
+                T[2 * nc + k] = (X01 - X00) / ds;
+                T[3 * nc + k] = (X11 - X10 - X01 + X00) / (dg * ds);
+                T[4 * nc + k] = (Y00 - X00) / dz;
+                T[5 * nc + k] = ((Y10 - Y00) - (X10 - X00)) / (dg * dz);
+                T[6 * nc + k] = ((Y01 - Y00) - (X01 - X00)) / (ds * dz);
+                T[7 * nc + k] = ((Y11 - Y10 - Y01 + Y00) - (X11 - X10 - X01 + X00)) / (dg * ds * dz);
+            }
+        }
+        if (bfail) {
+            fail = -1;
+            goto out;
+        }
+    }
+    /* mixed terms by cell (CSR); each term is two consecutive records of a list */
+    for (int t = 0; t < nthr; ++t) nmix += lists[t].n / 2;
+    mix_ch = malloc(sizeof(int) * (nmix ? nmix : 1));
+    mix_coef = malloc(sizeof(double) * 8 * (nmix ? nmix : 1));
+    if (!mix_ch || !mix_coef) {
+        fail = -1;
+        goto out;
+    }
+    for (int t = 0; t < nthr; ++t)
+        for (int e = 0; e < lists[t].n; e += 2) mix_start[lists[t].cell[e] + 1]++;
+    for (Py_ssize_t v = 0; v < nvis; ++v) mix_start[v + 1] += mix_start[v];
+    {
+        int *fill = calloc((size_t)nvis + 1, sizeof(int));
+        if (!fill) {
+            fail = -1;
+            goto out;
+        }
+        for (int t = 0; t < nthr; ++t)
+            for (int e = 0; e < lists[t].n; e += 2) {
+                int v = lists[t].cell[e], pos = mix_start[v] + fill[v]++;
+                mix_ch[pos] = lists[t].ch[e];
+                memcpy(mix_coef + 8 * (size_t)pos, lists[t].coef + 6 * (size_t)e, 6 * sizeof(double));
+                memcpy(mix_coef + 8 * (size_t)pos + 6, lists[t].coef + 6 * (size_t)(e + 1), 2 * sizeof(double));
+            }
+        free(fill);
+    }
+    {
+        Py_ssize_t i;
+#pragma omp parallel if (n * (Py_ssize_t)nc >= PAR_MIN_WORK / 8)
+        {
+            double *acc = malloc(sizeof(double) * (nc > 0 ? nc : 1));
+#pragma omp for schedule(static)
+            for (i = 0; i < n; ++i) {
+                if (!acc) continue;
+                const int v = slot[d[i].key];
+                const double g = d[i].g, sv = d[i].s, z = d[i].z, gs = g * sv;
+                const double *restrict T = tab + (size_t)v * 8 * nc;
+                for (int k = 0; k < nc; ++k)
+                    acc[k] = T[k] + g * T[nc + k] + sv * T[2 * nc + k] + gs * T[3 * nc + k] +
+                             z * (T[4 * nc + k] + g * T[5 * nc + k] + sv * T[6 * nc + k] + gs * T[7 * nc + k]);
+                for (int e = mix_start[v]; e < mix_start[v + 1]; ++e) {
+                    const double *c8 = mix_coef + 8 * (size_t)e;
+                    double x = c8[0] + g * c8[1] + sv * c8[2] + gs * c8[3] + z * (c8[4] + g * c8[5] + sv * c8[6] + gs * c8[7]);
+                    if (x > 0) acc[mix_ch[e]] += x;
+                }
+                store_row(out, OUT_ROW(rows, i), nc, acc, is_double, 1.0);
+            }
+            if (!acc) fail = -1;
+            free(acc);
+        }
+    }
+out:
+    *nvisited_out = nvis;
+    *nmix_out = nmix;
+    if (lists) {
+        for (int t = 0; t < nthr; ++t) {
+            free(lists[t].cell);
+            free(lists[t].ch);
+            free(lists[t].coef);
+        }
+        free(lists);
+    }
+    free(ag.start), free(as.start), free(ae.start);
+    free(K), free(E), free(d), free(slot), free(cells), free(tab), free(mix_start), free(mix_ch), free(mix_coef);
+    return fail;
+}
+
+/* ------------------------------------------------------------------------------------------ */
 /* transmittance                                                                              */
 
 static double ray_circle(double dx, double dy, double y0, double rc)
@@ -802,7 +1025,8 @@ static void set_threads(int nthreads)
  * rows of nc values; rows must be distinct and in range, checked here), for scattering into an image.
  * state = (observer altitude [m], solar elevation [rad], solar azimuth [rad, from +x toward +y]).
  * method: 0 auto, 1 direct, 2 table. emph None -> polarisation (no clamp, output negated).
- * Returns (method used: 1 direct or 2 table, number of cell terms kept separately for the clamp). */
+ * Returns (method used: 1 direct, 2 table, 3 twilight table; number of cell terms kept separately for
+ * the clamp; number of 3-D cells built by the twilight table). */
 static PyObject *py_radiance(PyObject *self, PyObject *args)
 {
     PyObject *o[14];
@@ -870,12 +1094,23 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
         geom_init(&geo, alt, el, az);
         double sign = m.emph ? 1.0 : -1.0;
         int use_table = method == 2 || (method == 0 && n * (Py_ssize_t)nc >= 20000);
-        if (m.emph && geo.use_shadow) use_table = 0;
+        int twilight = use_table && m.emph && geo.use_shadow;
         int err = 0;
-        Py_ssize_t nmix = 0;
+        Py_ssize_t nmix = 0, nvisited = 0;
         Py_BEGIN_ALLOW_THREADS
         set_threads(nthreads);
-        if (use_table) {
+        if (twilight) {
+            err = twilight_eval(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                                (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
+                                is_double, rows, &nvisited, &nmix);
+            if (err == 1) { /* too many cells or an ill-conditioned one: the direct path */
+                err = 0;
+                use_table = twilight = 0;
+                radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                                (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
+                                is_double, sign, rows);
+            }
+        } else if (use_table) {
             table_t t;
             err = table_build(&t, &m, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                               (const int64_t *)b[8].b.buf, nc);
@@ -900,7 +1135,7 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
             PyErr_NoMemory();
             goto done;
         }
-        ret = Py_BuildValue("in", use_table ? 2 : 1, nmix);
+        ret = Py_BuildValue("inn", twilight ? 3 : (use_table ? 2 : 1), nmix, nvisited);
     }
 done:
     for (int i = 0; i < 11; ++i) rel_buf(&b[i]);

@@ -29,6 +29,10 @@ from .solar import SUN_RADIUS, SUN_SOLID_ANGLE, band_average, extraterrestrial_s
 __all__ = ["SkyStateClampedWarning", "reference_angles", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
            "solar_direct_normal", "sun_direction", "directions_from_angles", "channel_indices"]
 
+KERNEL_INFO = {}
+"""What the last radiance/polarisation call's kernel did (for benchmarks): ``path`` 1 direct, 2 table,
+3 twilight table; ``mixed_terms`` kept as their own clamped terms; ``cells_built`` by the twilight table."""
+
 PLANET_RADIUS = 6378000.0
 SAFETY_ALTITUDE = 50.0
 
@@ -276,8 +280,9 @@ def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, vis
             msgs += m
         el, az, alt_param, el_view = _state_params(el_deg, az_deg, alt)
         cfg, w = _config_weights(model, vis, alb, alt_param, el_view)
-        _core.radiance(sun, zen, emph, breaks[0], breaks[1], breaks[2], rank, nch, cfg, w, chi_sel, dirs,
-                       (alt, el, az), flat[si], method_code, int(threads), rows)
+        info = _core.radiance(sun, zen, emph, breaks[0], breaks[1], breaks[2], rank, nch, cfg, w, chi_sel, dirs,
+                              (alt, el, az), flat[si], method_code, int(threads), rows)
+    KERNEL_INFO.update(zip(("path", "mixed_terms", "cells_built"), info))
     _report_clamped(flags, msgs, return_clamped, kind)
     return (res, flags) if return_clamped else res
 
