@@ -27,7 +27,8 @@ from .dataset import SkyModel
 from .solar import SUN_RADIUS, SUN_SOLID_ANGLE, band_average, extraterrestrial_spectrum
 
 __all__ = ["SkyStateClampedWarning", "reference_angles", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
-           "solar_direct_normal", "sun_direction", "directions_from_angles", "channel_indices"]
+           "solar_direct_normal", "sun_direction", "direction_from_zenith", "directions_from_angles",
+           "channel_indices"]
 
 KERNEL_INFO = {}
 """What the last radiance/polarisation call's kernel did (for benchmarks): ``path`` 1 direct, 2 table,
@@ -61,9 +62,14 @@ def sun_direction(elevation, azimuth):
     return np.stack([np.cos(e) * np.sin(a), np.cos(e) * np.cos(a), np.sin(e)], axis=-1)
 
 
-def directions_from_angles(zenith, azimuth):
-    """View directions from zenith angle [deg] and azimuth [deg, clockwise from north]; shape (..., 3)."""
+def direction_from_zenith(zenith, azimuth):
+    """Unit view directions (east-north-up) from the zenith angle [deg] (0 = straight up, 90 = horizon)
+    and the azimuth [deg, clockwise from north]; shape broadcast(zenith, azimuth).shape + (3,)."""
     return sun_direction(90.0 - np.asarray(zenith, float), azimuth)
+
+
+directions_from_angles = direction_from_zenith
+"""Former name of :func:`direction_from_zenith` (which says which angle it takes), kept for callers."""
 
 
 def _reference_lookup(q, grid):

@@ -58,7 +58,7 @@ def test_subset_loading_gives_identical_values(tmp_path):
     path = write_synthetic_dataset(tmp_path / "s.dat", visibilities=(20, 40, 80, 131.8), albedos=(0, 0.5, 1),
                                    n_channels=8, rank=3, n_sun=10, n_zen=10, n_emph=6)
     full = skymodel.load_dataset(path)
-    dirs = skymodel.directions_from_angles([0, 30, 60, 85], [0, 90, 180, 270])
+    dirs = skymodel.direction_from_zenith([0, 30, 60, 85], [0, 90, 180, 270])
     ref = skymodel.sky_radiance(full, dirs, 25.0, 160.0, 55.0, 0.7)
     part = skymodel.load_dataset(path, visibility=55.0, albedo=0.7)
     assert part.visibilities.tolist() == [40, 80] and part.albedos.tolist() == [0.5, 1.0]
@@ -269,7 +269,7 @@ from skymodel import DatasetError
 src, work, seed, n = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 base = open(src, "rb").read()
 rng = np.random.default_rng(seed)
-dirs = skymodel.directions_from_angles([0, 45, 89, 120], [0, 90, 180, 270])
+dirs = skymodel.direction_from_zenith([0, 45, 89, 120], [0, 90, 180, 270])
 counts = {"rejected": 0, "loaded": 0}
 warnings.simplefilter("ignore", skymodel.SkyStateClampedWarning)
 warnings.simplefilter("error", RuntimeWarning)   # a numpy warning reaching the user is a failure
@@ -351,7 +351,7 @@ def test_single_sky_state_decodes_only_what_it_uses(tmp_path):
     assert one.visibilities.tolist() == [40, 80] and one.albedos.tolist() == [0.5, 1.0]
     lo, hi = one.elevations
     assert lo <= 12.5 <= hi and len(one.elevations) == 2
-    dirs = skymodel.directions_from_angles([0, 30, 60, 85, 100], [0, 90, 180, 270, 45])
+    dirs = skymodel.direction_from_zenith([0, 30, 60, 85, 100], [0, 90, 180, 270, 45])
     for f in (skymodel.sky_radiance, skymodel.polarisation, skymodel.transmittance):
         np.testing.assert_array_equal(f(one, dirs, 12.5, 160.0, 55.0, 0.7), f(full, dirs, 12.5, 160.0, 55.0, 0.7))
     sun_full = full.radiance_coefficients()[0]
