@@ -93,15 +93,19 @@ def main(argv=None):
     res["render_over_evaluation_cpu"] = res["render_sky_cpu_s"] / res["evaluation_cpu_s"]
 
     with tempfile.TemporaryDirectory() as tmp:
-        evals, cmds = [], []
+        evals, cmds, fast = [], [], []
+        base = [sys.executable, "-m", "skymodel.cli", "sky", "render", "--resolution", str(n)]
         for _ in range(max(3, args.repeat // 2)):
             w, c, out = child([sys.executable, "-c", EVAL_CHILD, str(n)])
             e = json.loads(out)
             evals.append((w, c, e["decode_and_eval_s"], e["import_s"]))
-            w, c, _ = child([sys.executable, "-m", "skymodel.cli", "sky", "render", "--resolution", str(n),
-                             "-o", str(Path(tmp) / "sky.png")])
+            w, c, _ = child(base + ["-o", str(Path(tmp) / "sky.png")])
             cmds.append((w, c))
-        evals, cmds = np.array(evals), np.array(cmds)
+            w, c, _ = child(base + ["--exr-compression", "none", "-o", str(Path(tmp) / "fast.png")])
+            fast.append((w, c))
+        evals, cmds, fast = np.array(evals), np.array(cmds), np.array(fast)
+        res["command_none_wall_s"], res["command_none_cpu_s"] = float(np.median(fast[:, 0])), float(
+            np.median(fast[:, 1]))
         res["eval_process_wall_s"], res["eval_process_cpu_s"] = float(np.median(evals[:, 0])), float(
             np.median(evals[:, 1]))
         res["decode_and_eval_s"] = float(np.median(evals[:, 2]))
@@ -133,6 +137,8 @@ def main(argv=None):
           f"{res['command_cpu_s']:.3f} s) -> {res['command_over_decode_and_eval']:.2f}x decode + evaluation, "
           f"{res['command_over_eval_process']:.2f}x the evaluation process (CPU {res['command_over_eval_process_cpu']:.2f}x); "
           f"EXR {res['exr_MB']:.1f} MB, PNG {res['png_MB']:.2f} MB")
+    print(f"  with --exr-compression none: {res['command_none_wall_s']:.3f} s (CPU {res['command_none_cpu_s']:.3f} s) -> "
+          f"{res['command_none_wall_s'] / res['decode_and_eval_s']:.2f}x decode + evaluation")
     for k, v in res["exr"].items():
         print(f"  write_exr {k:11s} {v['s']:.3f} s  {v['MB']:7.1f} MB")
     if args.json:

@@ -1298,6 +1298,32 @@ done:
 /* pixel centre coordinate of column/row j of an n-pixel image, in [-1, 1] */
 static inline double px_coord(Py_ssize_t j, Py_ssize_t n) { return ((double)j + 0.5) / (double)n * 2.0 - 1.0; }
 
+static inline int in_disc(Py_ssize_t i, Py_ssize_t j, Py_ssize_t n)
+{
+    double x = px_coord(j, n), y = -px_coord(i, n);
+    return x * x + y * y <= 1.0;
+}
+
+/* Columns [j0, j1) of row i inside the unit disc (x^2 + y^2 <= 1 exactly as evaluated per pixel: the set is
+ * contiguous because the computed x is monotone in j). Starts from the analytic chord, then adjusts. */
+static void disc_span(Py_ssize_t i, Py_ssize_t n, Py_ssize_t *j0, Py_ssize_t *j1)
+{
+    double y = -px_coord(i, n), h2 = 1.0 - y * y;
+    double h = h2 > 0 ? sqrt(h2) : 0.0;
+    Py_ssize_t a = (Py_ssize_t)floor((1.0 - h) * 0.5 * n), b = (Py_ssize_t)ceil((1.0 + h) * 0.5 * n);
+    if (a < 0) a = 0;
+    if (a > n) a = n;
+    if (b > n) b = n;
+    if (b < a) b = a;
+    while (a > 0 && in_disc(i, a - 1, n)) --a;
+    while (a < n && !in_disc(i, a, n)) ++a;
+    if (b < a) b = a;
+    while (b < n && in_disc(i, b, n)) ++b;
+    while (b > a && !in_disc(i, b - 1, n)) --b;
+    *j0 = a;
+    *j1 = b;
+}
+
 /* fisheye_counts(n, counts_out int64[n]): pixels of each image row inside the unit disc (x^2 + y^2 <= 1) */
 static PyObject *py_fisheye_counts(PyObject *self, PyObject *args)
 {
@@ -1313,13 +1339,9 @@ static PyObject *py_fisheye_counts(PyObject *self, PyObject *args)
     }
     int64_t *cnt = b.b.buf;
     for (Py_ssize_t i = 0; i < n; ++i) {
-        double y = -px_coord(i, n);
-        int64_t c = 0;
-        for (Py_ssize_t j = 0; j < n; ++j) {
-            double x = px_coord(j, n);
-            c += x * x + y * y <= 1.0;
-        }
-        cnt[i] = c;
+        Py_ssize_t j0, j1;
+        disc_span(i, n, &j0, &j1);
+        cnt[i] = (int64_t)(j1 - j0);
     }
     rel_buf(&b);
     Py_RETURN_NONE;
@@ -1361,10 +1383,11 @@ static PyObject *py_fisheye(PyObject *self, PyObject *args)
 #pragma omp parallel for schedule(static) if (n * n >= PAR_MIN_WORK)
         for (i = 0; i < n; ++i) {
             double y = -px_coord(i, n);
-            Py_ssize_t k = start[i], end = start[i + 1];
-            for (Py_ssize_t j = 0; j < n && k < end; ++j) {
+            Py_ssize_t k = start[i], end = start[i + 1], j0, j1;
+            disc_span(i, n, &j0, &j1);
+            if (j1 - j0 != end - k) j0 = j1; /* counts from another resolution: write nothing */
+            for (Py_ssize_t j = j0; j < j1; ++j) {
                 double x = px_coord(j, n), r2 = x * x + y * y;
-                if (!(r2 <= 1.0)) continue;
                 double inv = 1.0 / (1.0 + r2), ct = (1.0 - r2) * inv, sx = 2.0 * x * inv, sy = 2.0 * y * inv;
                 for (int c = 0; c < 3; ++c) dirs[3 * k + c] = ct * B[c] + sx * B[3 + c] + sy * B[6 + c];
                 pix[k++] = (int64_t)(i * n + j);
@@ -1402,17 +1425,31 @@ static inline uint16_t f32_to_f16(float f)
 
 /* planar(values float32[npix][nc], out (float32 or uint16 half)[nc][npix]): channel planes for an image
  * file, transposed in cache-sized tiles, half floats rounded to nearest even. */
+#if defined(__FLT16_MAX__) && defined(__x86_64__)
+/* the compiler's conversion (IEEE round to nearest even; vcvtps2ph in the x86-64-v3 clone) */
+static inline uint16_t to_half(float f)
+{
+    _Float16 h = (_Float16)f;
+    uint16_t u;
+    memcpy(&u, &h, 2);
+    return u;
+}
+#else
+#define to_half f32_to_f16
+#endif
+
 HOT static void planar_tile(const float *v, void *out, int half, Py_ssize_t npix, int nc, Py_ssize_t p0,
                             Py_ssize_t p1)
 {
-    for (int k = 0; k < nc; ++k) {
-        if (half) {
-            uint16_t *o = (uint16_t *)out + (size_t)k * npix;
-            for (Py_ssize_t p = p0; p < p1; ++p) o[p] = f32_to_f16(v[(size_t)p * nc + k]);
-        } else {
-            float *o = (float *)out + (size_t)k * npix;
-            for (Py_ssize_t p = p0; p < p1; ++p) o[p] = v[(size_t)p * nc + k];
-        }
+    /* pixels in order (sequential reads), one write stream per channel */
+    if (half) {
+        uint16_t *o = (uint16_t *)out;
+        for (Py_ssize_t p = p0; p < p1; ++p)
+            for (int k = 0; k < nc; ++k) o[(size_t)k * npix + p] = to_half(v[(size_t)p * nc + k]);
+    } else {
+        float *o = (float *)out;
+        for (Py_ssize_t p = p0; p < p1; ++p)
+            for (int k = 0; k < nc; ++k) o[(size_t)k * npix + p] = v[(size_t)p * nc + k];
     }
 }
 

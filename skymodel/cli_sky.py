@@ -35,6 +35,12 @@ def register(sub):
                    help="output file, .png or .exr (default sky.png; a .png also gets a spectral .exr beside it "
                         "unless --no-exr)")
     r.add_argument("--no-exr", action="store_true", help="with a .png output, do not write the .exr")
+    r.add_argument("--exr-type", choices=("auto", "half", "float"), default="auto",
+                   help="EXR pixels: 'half' (16-bit, relative error <= 4.9e-4), 'float' (32-bit), 'auto' (default: "
+                        "half where every value fits its range)")
+    r.add_argument("--exr-compression", choices=("rle", "none", "zips", "zip", "piz", "zstd"), default="rle",
+                   help="EXR compression, all lossless (default rle: fast; zip: about 2.5x smaller, slower; none: "
+                        "fastest, largest)")
     r.add_argument("--below-horizon", choices=("auto", "model", "dark"), default="auto",
                    help="sky below the horizon: 'dark' for ground-level datasets by default (no data there)")
     r.set_defaults(func=_render)
@@ -117,7 +123,7 @@ def _render(args):
     with atomic_outputs(*targets) as temps:  # all or nothing: a failed EXR leaves no PNG behind
         for tmp, dest in zip(temps, targets):
             if dest.suffix.lower() == ".exr":
-                write_exr(tmp, r)
+                write_exr(tmp, r, pixel_type=args.exr_type, compression=args.exr_compression)
             else:
                 write_png(tmp, r, composite=channels is None and wavelengths is None and r.values.shape[-1] > 1
                           and args.quantity in ("sky", "sun"), exposure=args.exposure)

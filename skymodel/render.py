@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -227,23 +227,38 @@ def _exposure_scale(values, mask, exposure):
     return (2.0 ** exposure) / (ref if ref > 0 else 1.0)
 
 
+@lru_cache(maxsize=1)
+def _srgb8_table():
+    """sRGB-encoded 8-bit value of each of 65536 linear levels in [0, 1] (16-bit steps of 1.5e-5 keep the
+    result within the rounding of a direct encoding)."""
+    return np.round(srgb_encode(np.arange(65536) / 65535.0) * 255.0).astype(np.uint8)
+
+
+def _encode8(linear):
+    """Linear values (clipped to [0, 1]) to 8-bit sRGB through the 16-bit table."""
+    v = np.clip(np.asarray(linear, np.float32), 0.0, 1.0)
+    v *= np.float32(65535.0)
+    v += np.float32(0.5)
+    return _srgb8_table()[v.astype(np.uint16)]
+
+
 def _display(r: Render, composite, exposure):
     """8-bit display image (H, W, 3)."""
     if composite:
         rgb = r.rgb_linear()
-        if not np.any(rgb[r.mask] > 0):
+        if not rgb.max(initial=0.0) > 0:  # zero outside the disc: the disc's maximum
             raise ValueError("the selected channels have no visible (380-780 nm) contribution: use a single channel")
         y = r.luminance_like()
-        out = srgb_encode(rgb * np.float32(_exposure_scale(y, r.mask, exposure)))
+        out = _encode8(rgb * np.float32(_exposure_scale(y, r.mask, exposure)))
     else:
         v = r.values[..., 0]
         if r.quantity == "polarisation":
-            g = np.clip(0.5 + 0.5 * v * 2.0 ** exposure, 0, 1)
+            g = np.round(np.clip(0.5 + 0.5 * v * 2.0 ** exposure, 0, 1) * 255.0).astype(np.uint8)
         else:
-            g = srgb_encode(v * _exposure_scale(v, r.mask, exposure))
+            g = _encode8(v * np.float32(_exposure_scale(v, r.mask, exposure)))
         out = np.repeat(g[..., None], 3, axis=-1)
-    out[~r.mask] = 0.0
-    return (np.round(out * 255.0)).astype(np.uint8)
+    out[~r.mask] = 0
+    return out
 
 
 def write_png(path, r: Render, *, composite=None, exposure=0.0):
@@ -310,7 +325,7 @@ def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=
         channels[c] = planes[C + i]
     name, unit = QUANTITIES[r.quantity]
     header = {
-        "compression": getattr(OpenEXR, compression.upper() + "_COMPRESSION"),
+        "compression": getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION"),
         "type": OpenEXR.scanlineimage,
         "spectralLayoutVersion": "1.0",
         "emissiveUnits": "W.m^-2.sr^-1",
