@@ -185,6 +185,10 @@ def _check_epw_sequence(path, stamps, years, linenos, step):
         problem = f"duplicates the timestamp {b} of line {la}"
     elif b < a:
         problem = f"timestamp {b} comes before line {la}'s {a}: records must be in time order"
+    elif np.any(later := (np.arange(len(stamps)) > k + 1) & (years == years[k + 1]) & (stamps < b)):
+        j = int(np.flatnonzero(later)[0])
+        problem = (f"timestamp {b} is out of time order: line {int(linenos[j])} later in the file has the earlier "
+                   f"{stamps[j]}")
     else:
         gap = (b - a) // step - 1
         problem = (f"timestamp {b} follows line {la}'s {a} by {b - a}: {gap} record(s) of the {step} step "

@@ -124,11 +124,22 @@ def _compress(args):
     from .compress import greedy_omission, omission_errors, radiance_samples, write_channel_list
     from .dataset import load_dataset
 
+    from .outputs import check_output_path
+
+    out = args.output or str(args.dataset) + ".channels.json"
+    check_output_path(out, "--output")
+    if not 0.0 < args.max_error < 10.0:
+        raise ValueError(f"--max-error {args.max_error!r}: outside the valid range (0, 10)")
+    if not 0.0 < args.quantile <= 1.0:
+        raise ValueError(f"--quantile {args.quantile!r}: outside the valid range (0, 1]")
+    if args.directions < 10:
+        raise ValueError(f"--directions {args.directions}: at least 10")
     model = load_dataset(args.dataset)
+    if not 0 <= args.keep_first <= model.n_channels:
+        raise ValueError(f"--keep-first {args.keep_first}: outside the valid range [0, {model.n_channels}]")
     y = radiance_samples(model, args.directions, args.seed)
     kept = greedy_omission(y, model.wavelengths, args.max_error, args.keep_first, quantile=args.quantile)
     err = omission_errors(y, model.wavelengths, kept, quantile=args.quantile)
-    out = args.output or str(args.dataset) + ".channels.json"
     write_channel_list(out, kept, model.wavelengths, args.max_error, args.dataset, args.quantile)
     saved = 1.0 - kept.size / model.n_channels
     print(f"kept {kept.size} of {model.n_channels} channels (radiance data {100 * saved:.0f} % smaller); "

@@ -152,3 +152,25 @@ def test_sun_position_into_a_closed_pipe():
         err = p.stderr.read().decode()
         assert p.wait(timeout=120) == 0, err
     assert first.startswith(b"time,") and err == ""
+
+
+@pytest.mark.parametrize("args, words", [
+    (["position", "--lat", "52", "--lon", "4", "--start", "2000-01-01", "--end", "2200-01-01", "--step", "1min",
+      "--tz", "0"], ["--start", "positions, at most 10,000,000"]),        # ran 106 s, then MemoryError
+    (["position", "--lat", "52", "--lon", "4", "--start", "2000-01-01", "--end", "2000-01-02", "--step", "0h",
+      "--tz", "0"], ["--step", "positive"]),
+    (["position", "--lat", "100", "--lon", "4", "--time", "2021-01-01T00:00", "--tz", "0"], ["latitude=100"]),
+    (["skystates", "sample", "--elevation-step", "0"], ["--elevation-step", "> 0"]),
+    (["skystates", "sample", "--default-albedo", "2"], ["--default-albedo", "[0, 1]"]),
+])
+def test_sun_bad_options(tmp_path, capsys, args, words):
+    rc, _, err = run_cli(["sun", *args], capsys)
+    assert_clean_error(rc, err, *words)
+
+
+def test_sun_skystates_csv_checked_first_and_written_whole(tmp_path, capsys):
+    rc, _, err = run_cli(["sun", "skystates", "sample", "--csv", str(tmp_path / "no" / "s.csv")], capsys)
+    assert_clean_error(rc, err, "--csv", "does not exist")
+    rc, out, _ = run_cli(["sun", "skystates", "sample", "--csv", str(tmp_path / "s.csv")], capsys)
+    assert rc == 0 and os.listdir(tmp_path) == ["s.csv"]
+    assert (tmp_path / "s.csv").read_text().count("\n") > 300
