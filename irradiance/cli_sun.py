@@ -15,6 +15,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 SAMPLE_WEATHER = Path(__file__).resolve().parent / "data" / "sample_golden_june.epw"
@@ -94,7 +95,10 @@ def _check_period_size(start, end, step):
 def _position(args) -> int:
     from .location import Site, time_range
 
-    site = Site(args.lat, args.lon, args.altitude, tz=_tz_arg(args.tz) or "UTC")
+    try:
+        site = Site(args.lat, args.lon, args.altitude, tz=_tz_arg(args.tz) or "UTC")
+    except ValueError as exc:  # name the options, not only the parameters
+        raise ValueError(f"--lat/--lon/--altitude/--tz: {exc}") from None
     if args.time and args.start:
         raise ValueError("give either --time or --start/--end, not both")
     if args.time:
@@ -108,9 +112,16 @@ def _position(args) -> int:
         label = args.label
     else:
         raise ValueError("give --time, or --start and --end")
-    sp = site.solar_position(times, label=label, step=args.step if label != "center" else None,
-                             pressure=args.pressure, temperature=args.temperature,
-                             delta_t=args.delta_t)
+    for option, value in (("--pressure", args.pressure), ("--temperature", args.temperature),
+                          ("--delta-t", args.delta_t)):
+        if value is not None and not np.isfinite(value):
+            raise ValueError(f"{option} {value!r}: must be a finite number")
+    try:
+        sp = site.solar_position(times, label=label, step=args.step if label != "center" else None,
+                                 pressure=args.pressure, temperature=args.temperature,
+                                 delta_t=args.delta_t)
+    except ValueError as exc:
+        raise ValueError(f"--pressure/--temperature/--delta-t: {exc}") from None
     sp.index.name = "time"
     sp.to_csv(sys.stdout, float_format="%.6f")
     return 0

@@ -159,7 +159,11 @@ def test_sun_position_into_a_closed_pipe():
       "--tz", "0"], ["--start", "positions, at most 10,000,000"]),        # ran 106 s, then MemoryError
     (["position", "--lat", "52", "--lon", "4", "--start", "2000-01-01", "--end", "2000-01-02", "--step", "0h",
       "--tz", "0"], ["--step", "positive"]),
-    (["position", "--lat", "100", "--lon", "4", "--time", "2021-01-01T00:00", "--tz", "0"], ["latitude=100"]),
+    (["position", "--lat", "100", "--lon", "4", "--time", "2021-01-01T00:00", "--tz", "0"], ["--lat", "latitude=100"]),
+    (["position", "--lat", "10", "--lon", "4", "--time", "2021-01-01T00:00", "--tz", "0", "--pressure", "-5"],
+     ["--pressure", "pressure=-5"]),
+    (["position", "--lat", "10", "--lon", "4", "--time", "2021-01-01T00:00", "--tz", "0", "--temperature", "nan"],
+     ["--temperature", "finite"]),
     (["skystates", "sample", "--elevation-step", "0"], ["--elevation-step", "> 0"]),
     (["skystates", "sample", "--default-albedo", "2"], ["--default-albedo", "[0, 1]"]),
 ])
