@@ -10,7 +10,10 @@ Measured in the same run:
   direct    widesky's direct path (angle lookups once per direction, all channels together);
   table     widesky's per-sky-state piecewise-polynomial table (the default for images);
 for 1 and 2 threads, float32 output into a preallocated array (file writing excluded). Median of
-``--repeat`` runs. Ratios are per core (throughput with one thread against the baseline's).
+``--repeat`` runs. Ratios are per core (throughput with one thread against the baseline's). The same for
+the sun 2.5 deg below the horizon (``twilight``: the baseline and the table path, which then builds
+only the 3-D cells the directions visit). CPU times (``time.process_time``) are reported beside the
+wall-clock times: on a shared machine they are the steadier ratio.
 
     python benchmarks/bench_sky.py [--repeat 7] [--resolution 1000] [--json out.json]
 """
@@ -33,6 +36,7 @@ from skymodel.render import fisheye_directions
 from skymodel.synthetic import write_synthetic_dataset
 
 STATE = dict(sun_elevation=33.3, sun_azimuth=150.0, visibility=47.0, albedo=0.37)  # between grid points
+TWILIGHT = dict(STATE, sun_elevation=-2.5)  # sun below the horizon: the shadow angle, the twilight table
 
 
 def dataset(cache: Path) -> Path:
@@ -111,6 +115,35 @@ def main(argv=None):
             if method == "table":
                 res[key + "_image_s"] = t
                 res[key + "_image_s_all_runs"] = times
+    # twilight: the baseline and the twilight table path, wall and CPU time
+    from skymodel.evaluate import KERNEL_INFO
+
+    elt, azt = np.radians(TWILIGHT["sun_elevation"]), np.radians(90.0 - TWILIGHT["sun_azimuth"])
+
+    def baseline_tw():
+        _core.reference_loop(sun, zen, emph, m.sun_breaks, m.zenith_breaks, m.emph_breaks, m.rank, C,
+                             m.visibilities, m.albedos, m.altitudes, m.elevations, sub,
+                             (0.0, elt, azt, TWILIGHT["visibility"], TWILIGHT["albedo"]), np.arange(C), base_out)
+
+    c0 = time.process_time()
+    tbt, _ = median_time(baseline_tw, max(3, args.repeat // 2))
+    cpu_b = (time.process_time() - c0) / max(3, args.repeat // 2)
+    res["twilight_baseline_ns_per_value"] = 1e9 * tbt / (sub.shape[0] * C)
+    res["twilight_baseline_max_rel_diff"] = float(np.max(np.abs(skymodel.sky_radiance(m, sub, **TWILIGHT) - base_out))
+                                                  / np.abs(base_out).max())
+    for threads in (1, 2):
+        fn = lambda threads=threads: skymodel.sky_radiance(m, dirs, **TWILIGHT, method="table", threads=threads,  # noqa: E731
+                                                           dtype=np.float32, out=out)
+        fn()
+        c0 = time.process_time()
+        t, times = median_time(fn, args.repeat)
+        cpu = (time.process_time() - c0) / args.repeat
+        key = f"twilight_table_{threads}t"
+        res[key + "_image_s"] = t
+        res[key + "_speedup_vs_baseline"] = (n * C / t) / (sub.shape[0] * C / tbt) / threads
+        res[key + "_cpu_speedup_vs_baseline"] = (cpu_b / sub.shape[0]) / (cpu / n)
+    res["twilight_cells_built"] = KERNEL_INFO.get("cells_built")
+    res["twilight_mixed_terms"] = KERNEL_INFO.get("mixed_terms")
     # the table precompute alone (per sky state)
     tp, _ = median_time(lambda: skymodel.sky_radiance(m, dirs[:8], **STATE, method="table", threads=2), args.repeat)
     res["table_precompute_2t_s"] = tp
@@ -130,6 +163,12 @@ def main(argv=None):
                   f"{res[k + '_speedup_vs_baseline']:7.1f}x baseline per core{extra}")
     print(f"table precompute per sky state (2 threads): {tp * 1e3:.1f} ms; float64 with fresh output: {tf:.3f} s")
     print(f"agreement with the baseline: max relative difference {res['baseline_max_rel_diff']:.1e}")
+    print(f"twilight (sun {TWILIGHT['sun_elevation']} deg): baseline {res['twilight_baseline_ns_per_value']:.1f} ns/value; "
+          f"table 1 thread {res['twilight_table_1t_image_s']:.3f} s = {res['twilight_table_1t_speedup_vs_baseline']:.1f}x "
+          f"baseline per core (CPU time {res['twilight_table_1t_cpu_speedup_vs_baseline']:.1f}x), 2 threads "
+          f"{res['twilight_table_2t_image_s']:.3f} s = {res['twilight_table_2t_speedup_vs_baseline']:.1f}x per core "
+          f"(CPU {res['twilight_table_2t_cpu_speedup_vs_baseline']:.1f}x); {res['twilight_cells_built']} cells built; "
+          f"max relative difference to the baseline {res['twilight_baseline_max_rel_diff']:.1e}")
     if args.json:
         Path(args.json).write_text(json.dumps(res, indent=1))
     return res

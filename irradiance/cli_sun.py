@@ -15,6 +15,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 SAMPLE_WEATHER = Path(__file__).resolve().parent / "data" / "sample_golden_june.epw"
@@ -71,10 +72,33 @@ def _tz_arg(tz):
         return tz
 
 
+MAX_POSITIONS = 10_000_000
+"""Most solar positions one ``widesky sun position`` computes (about 19 years of minutes; each position
+costs about 1 kB of memory while the NREL SPA runs)."""
+
+
+def _check_period_size(start, end, step):
+    """Refuse a period of more than MAX_POSITIONS steps before computing anything (naming the options)."""
+    try:
+        t0, t1, dt = pd.Timestamp(start), pd.Timestamp(end), pd.to_timedelta(step)
+    except (ValueError, OverflowError) as exc:
+        raise ValueError(f"--start {start!r} / --end {end!r} / --step {step!r}: {exc}") from None
+    if dt <= pd.Timedelta(0):
+        raise ValueError(f"--step {step!r}: must be positive")
+    n = (t1.tz_localize(None) if t1.tzinfo else t1) - (t0.tz_localize(None) if t0.tzinfo else t0)
+    count = n / dt
+    if count > MAX_POSITIONS:
+        raise ValueError(f"--start {start} --end {end} --step {step}: {count:,.0f} positions, at most "
+                         f"{MAX_POSITIONS:,} per command: split the period or use a longer --step")
+
+
 def _position(args) -> int:
     from .location import Site, time_range
 
-    site = Site(args.lat, args.lon, args.altitude, tz=_tz_arg(args.tz) or "UTC")
+    try:
+        site = Site(args.lat, args.lon, args.altitude, tz=_tz_arg(args.tz) or "UTC")
+    except ValueError as exc:  # name the options, not only the parameters
+        raise ValueError(f"--lat/--lon/--altitude/--tz: {exc}") from None
     if args.time and args.start:
         raise ValueError("give either --time or --start/--end, not both")
     if args.time:
@@ -83,13 +107,21 @@ def _position(args) -> int:
         if times.tz is None and args.tz is None:
             raise ValueError("--time values are naive: give --tz (e.g. --tz -7 or --tz Europe/Paris)")
     elif args.start and args.end:
+        _check_period_size(args.start, args.end, args.step)
         times = time_range(args.start, args.end, args.step, site.tz, args.label)
         label = args.label
     else:
         raise ValueError("give --time, or --start and --end")
-    sp = site.solar_position(times, label=label, step=args.step if label != "center" else None,
-                             pressure=args.pressure, temperature=args.temperature,
-                             delta_t=args.delta_t)
+    for option, value in (("--pressure", args.pressure), ("--temperature", args.temperature),
+                          ("--delta-t", args.delta_t)):
+        if value is not None and not np.isfinite(value):
+            raise ValueError(f"{option} {value!r}: must be a finite number")
+    try:
+        sp = site.solar_position(times, label=label, step=args.step if label != "center" else None,
+                                 pressure=args.pressure, temperature=args.temperature,
+                                 delta_t=args.delta_t)
+    except ValueError as exc:
+        raise ValueError(f"--pressure/--temperature/--delta-t: {exc}") from None
     sp.index.name = "time"
     sp.to_csv(sys.stdout, float_format="%.6f")
     return 0
@@ -99,6 +131,19 @@ def _skystates(args) -> int:
     from .skystate import GroupingSteps, group_sky_states, sky_states
     from .weather import read_weather
 
+    if args.csv:
+        from skymodel.outputs import check_output_path
+
+        check_output_path(args.csv, "--csv", (".csv",))
+    for name in ("elevation_step", "visibility_step", "albedo_step"):
+        if not getattr(args, name) > 0:
+            raise ValueError(f"--{name.replace('_', '-')} {getattr(args, name)!r}: must be > 0")
+    if not args.azimuth_step >= 0:
+        raise ValueError(f"--azimuth-step {args.azimuth_step!r}: must be >= 0 (0 leaves azimuth out)")
+    if not 0 < args.default_visibility <= 1e4:
+        raise ValueError(f"--default-visibility {args.default_visibility!r} km outside the valid range (0, 10000] km")
+    if not 0 <= args.default_albedo <= 1:
+        raise ValueError(f"--default-albedo {args.default_albedo!r} outside the valid range [0, 1]")
     path = SAMPLE_WEATHER if args.weather == "sample" else Path(args.weather)
     kwargs = {} if args.coerce_year is None else {"coerce_year": args.coerce_year}
     w = read_weather(path, **kwargs)
@@ -123,6 +168,9 @@ def _skystates(args) -> int:
     print(f"grouping {steps}: {g.n_groups} distinct skies for {g.n_evaluated} steps "
           f"(reduction {g.reduction:.2f}x)")
     if args.csv:
-        states.to_csv(args.csv)
+        from skymodel.outputs import atomic_outputs
+
+        with atomic_outputs(args.csv) as (tmp,):
+            states.to_csv(tmp)
         print(f"wrote {args.csv}")
     return 0

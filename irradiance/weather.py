@@ -164,6 +164,38 @@ _EPW_NFIELDS = 35
 _EPW_ZERO_AS_MISSING = ("precipitable_water", "aod", "albedo")
 
 
+def _check_epw_sequence(path, stamps, years, linenos, step):
+    """Every record must follow the previous one by exactly ``step``: a duplicated, missing or out-of-order
+    record is an error naming its line. A change of the year field (a typical-year file stitches months
+    of different years) is accepted where the calendar continues (month, day, hour and minute one step on)."""
+    if len(stamps) < 2:
+        return
+    ok = np.asarray((stamps[1:] - stamps[:-1]) == step)
+    for k in np.flatnonzero(~ok & (np.diff(years) != 0)):
+        try:  # the previous record taken in the next record's year
+            prev = stamps[k].replace(year=int(years[k + 1]))
+        except ValueError:  # 29 February in a non-leap year
+            continue
+        ok[k] = (stamps[k + 1] - prev) == step
+    if ok.all():
+        return
+    k = int(np.flatnonzero(~ok)[0])
+    a, b, la, lb = stamps[k], stamps[k + 1], int(linenos[k]), int(linenos[k + 1])
+    if b == a:
+        problem = f"duplicates the timestamp {b} of line {la}"
+    elif b < a:
+        problem = f"timestamp {b} comes before line {la}'s {a}: records must be in time order"
+    elif np.any(later := (np.arange(len(stamps)) > k + 1) & (years == years[k + 1]) & (stamps < b)):
+        j = int(np.flatnonzero(later)[0])
+        problem = (f"timestamp {b} is out of time order: line {int(linenos[j])} later in the file has the earlier "
+                   f"{stamps[j]}")
+    else:
+        gap = (b - a) // step - 1
+        problem = (f"timestamp {b} follows line {la}'s {a} by {b - a}: {gap} record(s) of the {step} step "
+                   "missing")
+    raise WeatherFileError(path, lb, f"record {problem}")
+
+
 def read_epw(path, coerce_year=None, zero_as_missing=_EPW_ZERO_AS_MISSING) -> WeatherData:
     """Read an EnergyPlus weather (EPW) file.
 
@@ -258,6 +290,7 @@ def read_epw(path, coerce_year=None, zero_as_missing=_EPW_ZERO_AS_MISSING) -> We
     else:
         offset = pd.to_timedelta(when[:, 3] - 1, unit="h") + pd.to_timedelta(when[:, 4], unit="min")
     stamps = pd.DatetimeIndex(dates) + offset
+    _check_epw_sequence(path, stamps, when[:, 0], linenos, pd.Timedelta(minutes=60 // per_hour))
     missing = {}
     columns = {}
     for j, (_, name, code, scale) in enumerate(_EPW_FIELDS):

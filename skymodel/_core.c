@@ -38,6 +38,8 @@
 #define ATMOSPHERE_WIDTH 100000.0
 #define DIST_TO_EDGE 1571524.413613
 #define DBL_EPSILON_ 2.220446049250313e-16
+/* narrowest cell of the table path [rad]; narrower ones go to the direct path */
+#define TABLE_MIN_CELL 1e-9
 /* below this much work (inner iterations) a parallel region costs more than it saves */
 #define PAR_MIN_WORK 65536
 
@@ -189,9 +191,13 @@ static inline void put(void *out, size_t i, double v, int is_double)
 /* ------------------------------------------------------------------------------------------ */
 /* direct path                                                                                */
 
+/* output row of direction i: rows[i] where the caller scatters into an image, else i */
+#define OUT_ROW(rows, i) ((rows) ? (size_t)(rows)[i] : (size_t)(i))
+
 static void radiance_direct(const comp_t *m, const geom_t *geo, const int64_t *cfg_base,
                             const double *cfg_w, int ncfg, const int64_t *chi, int nc,
-                            const double *dirs, Py_ssize_t n, void *out, int is_double, double sign)
+                            const double *dirs, Py_ssize_t n, void *out, int is_double, double sign,
+                            const int64_t *rows)
 {
     Py_ssize_t i;
 #pragma omp parallel for schedule(static) if (n * (Py_ssize_t)nc * ncfg >= PAR_MIN_WORK)
@@ -208,7 +214,7 @@ static void radiance_direct(const comp_t *m, const geom_t *geo, const int64_t *c
                 size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
                 acc += cfg_w[c] * eval_config(m, cfg, gp, ap, zp);
             }
-            put(out, (size_t)i * nc + k, sign * acc, is_double);
+            put(out, OUT_ROW(rows, i) * nc + k, sign * acc, is_double);
         }
     }
 }
@@ -472,7 +478,7 @@ HOT static int build_row(const build_ctx_t *X, int i, mixlist_t *mix, double *re
 }
 
 /* Build the per-cell polynomial table for a fixed sky state (sun above the horizon). Returns 0 on
- * success, -1 on allocation failure. */
+ * success, -1 on allocation failure, 1 when a cell is too narrow (use the direct path). */
 static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, const double *cfg_w,
                        int ncfg, const int64_t *chi, int nc)
 {
@@ -493,6 +499,14 @@ static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, con
         if (nu == 0 || t->u[j] > t->u[nu - 1]) t->u[nu++] = t->u[j];
     t->nu = nu;
     const int ncell_u = nu - 1, ncell = (ns - 1) * ncell_u;
+    /* zenith and emphasis knots closer than TABLE_MIN_CELL make a cell whose polynomial coefficients grow
+     * as 1/width^2 (they may overflow): leave such a sky state to the direct path, which is exact */
+    for (int j = 0; j + 1 < nu; ++j)
+        if (t->u[j + 1] - t->u[j] < TABLE_MIN_CELL) {
+            free(t->u);
+            t->u = NULL;
+            return 1;
+        }
 
     /* values of every zenith factor and of the emphasis at the merged knots:
      * zat[((c * nc + k) * R + r) * nu + j], eat[(c * nc + k) * nu + j] */
@@ -589,7 +603,7 @@ static inline void eval_one(const table_t *t, int cell, double g, double z, doub
     }
 }
 
-static inline void store_row(void *out, Py_ssize_t i, int nc, const double *restrict acc, int is_double,
+static inline void store_row(void *out, size_t i, int nc, const double *restrict acc, int is_double,
                              double sign)
 {
     if (is_double) {
@@ -605,7 +619,7 @@ static inline void store_row(void *out, Py_ssize_t i, int nc, const double *rest
  * which mostly share a cell, together). */
 HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *az, const geom_t *geo,
                            const double *dirs, Py_ssize_t i0, Py_ssize_t i1, void *out, int is_double,
-                           double sign, double *restrict acc)
+                           double sign, double *restrict acc, const int64_t *rows)
 {
     const int ncell_u = t->nu - 1;
     for (Py_ssize_t i = i0; i < i1; ++i) {
@@ -614,12 +628,12 @@ HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *a
         int ig = accel_cell(ag, a.gamma, &g);
         int iz = accel_cell(az, a.zero, &z);
         eval_one(t, ig * ncell_u + iz, g, z, acc);
-        store_row(out, i, t->nc, acc, is_double, sign);
+        store_row(out, OUT_ROW(rows, i), t->nc, acc, is_double, sign);
     }
 }
 
 static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, Py_ssize_t n, void *out,
-                      int is_double, double sign)
+                      int is_double, double sign, const int64_t *rows)
 {
     accel_t ag, az;
     if (accel_init(&ag, t->sb, t->ns)) return -1;
@@ -638,13 +652,236 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
         for (c = 0; c < nchunks; ++c) {
             if (!acc) continue;
             Py_ssize_t i0 = c * chunk, i1 = i0 + chunk < n ? i0 + chunk : n;
-            eval_chunk(t, &ag, &az, geo, dirs, i0, i1, out, is_double, sign, acc);
+            eval_chunk(t, &ag, &az, geo, dirs, i0, i1, out, is_double, sign, acc, rows);
         }
         free(acc);
     }
     free(ag.start);
     free(az.start);
     return fail ? -1 : 0;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* twilight table path (sun below the horizon)                                                */
+/*
+ * Below the horizon the zenith factor takes the shadow angle and the emphasis the zero angle, so a
+ * configuration's product emph(zero) * sum_r sun_r(gamma) zen_r(shadow) is, inside each cell of
+ * (sun knots) x (zenith knots) x (emphasis knots), the polynomial (e0 + e1 z)(A + B g + C s + D g s) in
+ * the local offsets g, s, z: 8 terms. The three-dimensional table would be large (cells^3), so only the
+ * cells the given directions visit are built: pass 1 finds each direction's cell and offsets, pass 2
+ * builds the visited cells (corner products sum_r sun_r zen_r at every knot pair are precomputed once),
+ * folding the configurations that cannot change sign inside the cell and keeping the others as their own
+ * clamped terms, as the daytime table does; pass 3 evaluates. Exact to rounding, like the daytime table.
+ */
+
+typedef struct {
+    int64_t key;
+    double g, s, z;
+} tw_dir_t;
+
+/* largest number of 3-D cells indexed directly; beyond it the direct path is used */
+#define TW_MAX_CELLS 50000000
+
+static int twilight_eval(const comp_t *m, const geom_t *geo, const int64_t *cfg_base, const double *cfg_w,
+                         int ncfg, const int64_t *chi, int nc, const double *dirs, Py_ssize_t n, void *out,
+                         int is_double, const int64_t *rows, Py_ssize_t *nvisited_out, Py_ssize_t *nmix_out)
+{
+    const int ns = m->ns, nz = m->nz, ne = m->ne, R = m->rank;
+    const int64_t cz = nz - 1, ce = ne - 1, ncell3 = (int64_t)(ns - 1) * cz * ce;
+    if (ncell3 > TW_MAX_CELLS) return 1;
+    for (int j = 0; j + 1 < ns; ++j) if (m->sb[j + 1] - m->sb[j] < TABLE_MIN_CELL) return 1;
+    for (int j = 0; j + 1 < nz; ++j) if (m->zb[j + 1] - m->zb[j] < TABLE_MIN_CELL) return 1;
+    for (int j = 0; j + 1 < ne; ++j) if (m->eb[j + 1] - m->eb[j] < TABLE_MIN_CELL) return 1;
+    const size_t cn = (size_t)ncfg * nc;
+    int fail = 0;
+    accel_t ag, as, ae;
+    memset(&ag, 0, sizeof(ag)), memset(&as, 0, sizeof(as)), memset(&ae, 0, sizeof(ae));
+    double *K = malloc(sizeof(double) * (size_t)ns * nz * cn); /* [i][j][c][k] corner products */
+    double *E = malloc(sizeof(double) * (size_t)ne * cn);      /* [l][c][k] emphasis at its knots */
+    tw_dir_t *d = malloc(sizeof(tw_dir_t) * (n ? n : 1));
+    int32_t *slot = malloc(sizeof(int32_t) * (size_t)ncell3);
+    int64_t *cells = NULL;
+    double *tab = NULL;
+    int *mix_start = NULL, *mix_ch = NULL;
+    double *mix_coef = NULL;
+    mixlist_t *lists = NULL;
+    Py_ssize_t nvis = 0, nmix = 0;
+    if (!K || !E || !d || !slot || accel_init(&ag, m->sb, ns) || accel_init(&as, m->zb, nz) ||
+        accel_init(&ae, m->eb, ne)) {
+        fail = -1;
+        goto out;
+    }
+    {
+        Py_ssize_t q, nq = (Py_ssize_t)cn;
+#pragma omp parallel for schedule(static) if (nq * ns * nz * R >= PAR_MIN_WORK)
+        for (q = 0; q < nq; ++q) {
+            int c = (int)(q / nc), k = (int)(q % nc);
+            size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
+            const float *sun = m->sun + cfg * (size_t)R * ns, *zen = m->zen + cfg * (size_t)R * nz;
+            for (int i = 0; i < ns; ++i)
+                for (int j = 0; j < nz; ++j) {
+                    double acc = 0.0;
+                    for (int r = 0; r < R; ++r) acc += (double)sun[(size_t)r * ns + i] * (double)zen[(size_t)r * nz + j];
+                    K[((size_t)i * nz + j) * cn + q] = acc;
+                }
+            for (int l = 0; l < ne; ++l) E[(size_t)l * cn + q] = (double)m->emph[cfg * (size_t)ne + l];
+        }
+    }
+    {
+        Py_ssize_t i;
+#pragma omp parallel for schedule(static) if (n >= 4096)
+        for (i = 0; i < n; ++i) {
+            angles_t a = compute_angles(dirs + 3 * i, geo, 0, 1);
+            int ig = accel_cell(&ag, a.gamma, &d[i].g);
+            int is = accel_cell(&as, a.shadow, &d[i].s);
+            int iz = accel_cell(&ae, a.zero, &d[i].z);
+            d[i].key = ((int64_t)ig * cz + is) * ce + iz;
+        }
+    }
+    for (int64_t c = 0; c < ncell3; ++c) slot[c] = -1;
+    for (Py_ssize_t i = 0; i < n; ++i)
+        if (slot[d[i].key] < 0) slot[d[i].key] = (int32_t)nvis++;
+    cells = malloc(sizeof(int64_t) * (nvis ? nvis : 1));
+    tab = malloc(sizeof(double) * 8 * (size_t)nc * (nvis ? nvis : 1));
+    mix_start = calloc((size_t)nvis + 1, sizeof(int));
+    if (!cells || !tab || !mix_start) {
+        fail = -1;
+        goto out;
+    }
+    for (int64_t c = 0; c < ncell3; ++c)
+        if (slot[c] >= 0) cells[slot[c]] = c;
+    int nthr = 1;
+#ifdef WIDESKY_OPENMP
+    nthr = omp_get_max_threads();
+#endif
+    lists = calloc((size_t)nthr, sizeof(mixlist_t));
+    if (!lists) {
+        fail = -1;
+        goto out;
+    }
+    {
+        Py_ssize_t v;
+        int bfail = 0;
+#pragma omp parallel for schedule(dynamic, 16) reduction(|| : bfail) if (nvis * (Py_ssize_t)cn >= PAR_MIN_WORK / 4)
+        for (v = 0; v < nvis; ++v) {
+            int tid = 0;
+#ifdef WIDESKY_OPENMP
+            tid = omp_get_thread_num();
+#endif
+            const int64_t key = cells[v];
+            const int iz = (int)(key % ce), is = (int)((key / ce) % cz), ig = (int)(key / (ce * cz));
+            const double dg = m->sb[ig + 1] - m->sb[ig], ds = m->zb[is + 1] - m->zb[is];
+            const double dz = m->eb[iz + 1] - m->eb[iz];
+            const double *K00 = K + ((size_t)ig * nz + is) * cn, *K01 = K + ((size_t)ig * nz + is + 1) * cn;
+            const double *K10 = K + ((size_t)(ig + 1) * nz + is) * cn, *K11 = K + ((size_t)(ig + 1) * nz + is + 1) * cn;
+            const double *E0 = E + (size_t)iz * cn, *E1 = E + (size_t)(iz + 1) * cn;
+            double *T = tab + (size_t)v * 8 * nc;
+            for (int k = 0; k < nc; ++k) {
+                double X00 = 0, X01 = 0, X10 = 0, X11 = 0, Y00 = 0, Y01 = 0, Y10 = 0, Y11 = 0;
+                for (int c = 0; c < ncfg; ++c) {
+                    const size_t q = (size_t)c * nc + k;
+                    const double S00 = K00[q], S01 = K01[q], S10 = K10[q], S11 = K11[q], e0 = E0[q], e1 = E1[q];
+                    const double w = cfg_w[c];
+                    const double smin = fmin(fmin(S00, S01), fmin(S10, S11)), smax = fmax(fmax(S00, S01), fmax(S10, S11));
+                    const double emin = fmin(e0, e1), emax = fmax(e0, e1);
+                    if ((smin >= 0 && emin >= 0) || (smax <= 0 && emax <= 0)) {
+                        const double a = w * e0, b = w * e1;
+                        X00 += a * S00, X01 += a * S01, X10 += a * S10, X11 += a * S11;
+                        Y00 += b * S00, Y01 += b * S01, Y10 += b * S10, Y11 += b * S11;
+                    } else if (!((smin >= 0 && emax <= 0) || (smax <= 0 && emin >= 0))) {
+                        const double a = w * e0, b = w * e1;
+                        const double x00 = a * S00, x01 = a * S01, x10 = a * S10, x11 = a * S11;
+                        const double y00 = b * S00, y01 = b * S01, y10 = b * S10, y11 = b * S11;
+                        double c8[8] = {x00, (x10 - x00) / dg, (x01 - x00) / ds, (x11 - x10 - x01 + x00) / (dg * ds),
+                                        (y00 - x00) / dz, ((y10 - y00) - (x10 - x00)) / (dg * dz),
+                                        ((y01 - y00) - (x01 - x00)) / (ds * dz),
+                                        ((y11 - y10 - y01 + y00) - (x11 - x10 - x01 + x00)) / (dg * ds * dz)};
+                        /* two 6-slot records per mixed term: [cell, ch] + coefficients 0-5, then 6-7 */
+                        double lo6[6] = {c8[0], c8[1], c8[2], c8[3], c8[4], c8[5]};
+                        double hi6[6] = {c8[6], c8[7], 0, 0, 0, 0};
+                        if (mix_push(&lists[tid], (int)v, k, lo6) || mix_push(&lists[tid], (int)v, -1, hi6)) bfail = 1;
+                    }
+                }
+                T[k] = X00;
+                T[nc + k] = (X10 - X00) / dg;
+                T[2 * nc + k] = (X01 - X00) / ds;
+                T[3 * nc + k] = (X11 - X10 - X01 + X00) / (dg * ds);
+                T[4 * nc + k] = (Y00 - X00) / dz;
+                T[5 * nc + k] = ((Y10 - Y00) - (X10 - X00)) / (dg * dz);
+                T[6 * nc + k] = ((Y01 - Y00) - (X01 - X00)) / (ds * dz);
+                T[7 * nc + k] = ((Y11 - Y10 - Y01 + Y00) - (X11 - X10 - X01 + X00)) / (dg * ds * dz);
+            }
+        }
+        if (bfail) {
+            fail = -1;
+            goto out;
+        }
+    }
+    /* mixed terms by cell (CSR); each term is two consecutive records of a list */
+    for (int t = 0; t < nthr; ++t) nmix += lists[t].n / 2;
+    mix_ch = malloc(sizeof(int) * (nmix ? nmix : 1));
+    mix_coef = malloc(sizeof(double) * 8 * (nmix ? nmix : 1));
+    if (!mix_ch || !mix_coef) {
+        fail = -1;
+        goto out;
+    }
+    for (int t = 0; t < nthr; ++t)
+        for (int e = 0; e < lists[t].n; e += 2) mix_start[lists[t].cell[e] + 1]++;
+    for (Py_ssize_t v = 0; v < nvis; ++v) mix_start[v + 1] += mix_start[v];
+    {
+        int *fill = calloc((size_t)nvis + 1, sizeof(int));
+        if (!fill) {
+            fail = -1;
+            goto out;
+        }
+        for (int t = 0; t < nthr; ++t)
+            for (int e = 0; e < lists[t].n; e += 2) {
+                int v = lists[t].cell[e], pos = mix_start[v] + fill[v]++;
+                mix_ch[pos] = lists[t].ch[e];
+                memcpy(mix_coef + 8 * (size_t)pos, lists[t].coef + 6 * (size_t)e, 6 * sizeof(double));
+                memcpy(mix_coef + 8 * (size_t)pos + 6, lists[t].coef + 6 * (size_t)(e + 1), 2 * sizeof(double));
+            }
+        free(fill);
+    }
+    {
+        Py_ssize_t i;
+#pragma omp parallel if (n * (Py_ssize_t)nc >= PAR_MIN_WORK / 8)
+        {
+            double *acc = malloc(sizeof(double) * (nc > 0 ? nc : 1));
+#pragma omp for schedule(static)
+            for (i = 0; i < n; ++i) {
+                if (!acc) continue;
+                const int v = slot[d[i].key];
+                const double g = d[i].g, sv = d[i].s, z = d[i].z, gs = g * sv;
+                const double *restrict T = tab + (size_t)v * 8 * nc;
+                for (int k = 0; k < nc; ++k)
+                    acc[k] = T[k] + g * T[nc + k] + sv * T[2 * nc + k] + gs * T[3 * nc + k] +
+                             z * (T[4 * nc + k] + g * T[5 * nc + k] + sv * T[6 * nc + k] + gs * T[7 * nc + k]);
+                for (int e = mix_start[v]; e < mix_start[v + 1]; ++e) {
+                    const double *c8 = mix_coef + 8 * (size_t)e;
+                    double x = c8[0] + g * c8[1] + sv * c8[2] + gs * c8[3] + z * (c8[4] + g * c8[5] + sv * c8[6] + gs * c8[7]);
+                    if (x > 0) acc[mix_ch[e]] += x;
+                }
+                store_row(out, OUT_ROW(rows, i), nc, acc, is_double, 1.0);
+            }
+            if (!acc) fail = -1;
+            free(acc);
+        }
+    }
+out:
+    *nvisited_out = nvis;
+    *nmix_out = nmix;
+    if (lists) {
+        for (int t = 0; t < nthr; ++t) {
+            free(lists[t].cell);
+            free(lists[t].ch);
+            free(lists[t].coef);
+        }
+        free(lists);
+    }
+    free(ag.start), free(as.start), free(ae.start);
+    free(K), free(E), free(d), free(slot), free(cells), free(tab), free(mix_start), free(mix_ch), free(mix_coef);
+    return fail;
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -783,18 +1020,25 @@ static void set_threads(int nthreads)
 }
 
 /* radiance(sun, zen, emph|None, sb, zb, eb|None, rank, nch, cfg_base, cfg_w, chi, dirs, state, out,
- *          method, nthreads)
+ *          method, nthreads[, rows])
+ * rows (int64, one per direction, optional): the output row of each direction (out holds any number of
+ * rows of nc values; rows must be distinct and in range, checked here), for scattering into an image.
  * state = (observer altitude [m], solar elevation [rad], solar azimuth [rad, from +x toward +y]).
  * method: 0 auto, 1 direct, 2 table. emph None -> polarisation (no clamp, output negated).
- * Returns (method used: 1 direct or 2 table, number of cell terms kept separately for the clamp). */
+ * Returns (method used: 1 direct, 2 table, 3 twilight table; number of cell terms kept separately for
+ * the clamp; number of 3-D cells built by the twilight table). */
 static PyObject *py_radiance(PyObject *self, PyObject *args)
 {
     PyObject *o[14];
+    PyObject *rows_obj = Py_None;
     int rank, nch, method, nthreads;
     double alt, el, az;
-    if (!PyArg_ParseTuple(args, "OOOOOOiiOOOO(ddd)Oii", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &rank,
-                          &nch, &o[6], &o[7], &o[8], &o[9], &alt, &el, &az, &o[10], &method, &nthreads))
+    if (!PyArg_ParseTuple(args, "OOOOOOiiOOOO(ddd)Oii|O", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &rank,
+                          &nch, &o[6], &o[7], &o[8], &o[9], &alt, &el, &az, &o[10], &method, &nthreads,
+                          &rows_obj))
         return NULL;
+    buf_t rb;
+    memset(&rb, 0, sizeof(rb));
     buf_t b[11];
     memset(b, 0, sizeof(b));
     const Py_ssize_t isz[11] = {4, 4, 4, 8, 8, 8, 8, 8, 8, 8, 0};
@@ -825,8 +1069,24 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
                     (const double *)b[3].b.buf, (const double *)b[4].b.buf,
                     b[5].held ? (const double *)b[5].b.buf : NULL, ns, nz, ne, rank,
                     b[2].held ? 1 : 0, nch};
+        const int64_t *rows = NULL;
+        Py_ssize_t out_rows = nc ? b[10].b.len / b[10].b.itemsize / nc : 0;
+        if (get_buf(rows_obj, &rb, 0, "rows", 8) < 0) goto done;
+        if (rb.held) {
+            rows = (const int64_t *)rb.b.buf;
+            if (rb.b.len / 8 != n) {
+                PyErr_SetString(PyExc_ValueError, "radiance kernel: one row per direction");
+                goto done;
+            }
+            for (Py_ssize_t i = 0; i < n; ++i)
+                if (rows[i] < 0 || rows[i] >= out_rows) {
+                    PyErr_SetString(PyExc_ValueError, "radiance kernel: row outside the output");
+                    goto done;
+                }
+        }
         if (ns < 2 || nz < 2 || (m.emph && ne < 2) || b[7].b.len / 8 != ncfg ||
-            b[10].b.len / b[10].b.itemsize != n * (Py_ssize_t)nc) {
+            (rows ? b[10].b.len / b[10].b.itemsize != out_rows * (Py_ssize_t)nc
+                  : b[10].b.len / b[10].b.itemsize != n * (Py_ssize_t)nc)) {
             PyErr_SetString(PyExc_ValueError, "radiance kernel: inconsistent array sizes");
             goto done;
         }
@@ -834,34 +1094,52 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
         geom_init(&geo, alt, el, az);
         double sign = m.emph ? 1.0 : -1.0;
         int use_table = method == 2 || (method == 0 && n * (Py_ssize_t)nc >= 20000);
-        if (m.emph && geo.use_shadow) use_table = 0;
+        int twilight = use_table && m.emph && geo.use_shadow;
         int err = 0;
-        Py_ssize_t nmix = 0;
+        Py_ssize_t nmix = 0, nvisited = 0;
         Py_BEGIN_ALLOW_THREADS
         set_threads(nthreads);
-        if (use_table) {
+        if (twilight) {
+            err = twilight_eval(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                                (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
+                                is_double, rows, &nvisited, &nmix);
+            if (err == 1) { /* too many cells or an ill-conditioned one: the direct path */
+                err = 0;
+                use_table = twilight = 0;
+                radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                                (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
+                                is_double, sign, rows);
+            }
+        } else if (use_table) {
             table_t t;
             err = table_build(&t, &m, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                               (const int64_t *)b[8].b.buf, nc);
-            if (!err) {
+            if (err == 1) { /* ill-conditioned cell: the direct path instead */
+                err = 0;
+                use_table = 0;
+                radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                                (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
+                                is_double, sign, rows);
+            } else if (!err) {
                 nmix = t.nmix;
-                err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, sign);
+                err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, sign, rows);
                 table_free(&t);
             }
         } else {
             radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                             (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
-                            is_double, sign);
+                            is_double, sign, rows);
         }
         Py_END_ALLOW_THREADS
         if (err) {
             PyErr_NoMemory();
             goto done;
         }
-        ret = Py_BuildValue("in", use_table ? 2 : 1, nmix);
+        ret = Py_BuildValue("inn", twilight ? 3 : (use_table ? 2 : 1), nmix, nvisited);
     }
 done:
     for (int i = 0; i < 11; ++i) rel_buf(&b[i]);
+    rel_buf(&rb);
     return ret;
 }
 
@@ -1014,6 +1292,414 @@ done:
     return ret;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* renderer helpers                                                                           */
+
+/* pixel centre coordinate of column/row j of an n-pixel image, in [-1, 1] */
+static inline double px_coord(Py_ssize_t j, Py_ssize_t n) { return ((double)j + 0.5) / (double)n * 2.0 - 1.0; }
+
+static inline int in_disc(Py_ssize_t i, Py_ssize_t j, Py_ssize_t n)
+{
+    double x = px_coord(j, n), y = -px_coord(i, n);
+    return x * x + y * y <= 1.0;
+}
+
+/* Columns [j0, j1) of row i inside the unit disc (x^2 + y^2 <= 1 exactly as evaluated per pixel: the set is
+ * contiguous because the computed x is monotone in j). Starts from the analytic chord, then adjusts. */
+static void disc_span(Py_ssize_t i, Py_ssize_t n, Py_ssize_t *j0, Py_ssize_t *j1)
+{
+    double y = -px_coord(i, n), h2 = 1.0 - y * y;
+    double h = h2 > 0 ? sqrt(h2) : 0.0;
+    Py_ssize_t a = (Py_ssize_t)floor((1.0 - h) * 0.5 * n), b = (Py_ssize_t)ceil((1.0 + h) * 0.5 * n);
+    if (a < 0) a = 0;
+    if (a > n) a = n;
+    if (b > n) b = n;
+    if (b < a) b = a;
+    while (a > 0 && in_disc(i, a - 1, n)) --a;
+    while (a < n && !in_disc(i, a, n)) ++a;
+    if (b < a) b = a;
+    while (b < n && in_disc(i, b, n)) ++b;
+    while (b > a && !in_disc(i, b - 1, n)) --b;
+    *j0 = a;
+    *j1 = b;
+}
+
+/* fisheye_counts(n, counts_out int64[n]): pixels of each image row inside the unit disc (x^2 + y^2 <= 1) */
+static PyObject *py_fisheye_counts(PyObject *self, PyObject *args)
+{
+    Py_ssize_t n;
+    PyObject *o;
+    if (!PyArg_ParseTuple(args, "nO", &n, &o)) return NULL;
+    buf_t b;
+    if (get_buf(o, &b, 1, "counts", 8) < 0) return NULL;
+    if (b.b.len / 8 != n) {
+        rel_buf(&b);
+        PyErr_SetString(PyExc_ValueError, "fisheye_counts: counts must have n entries");
+        return NULL;
+    }
+    int64_t *cnt = b.b.buf;
+    for (Py_ssize_t i = 0; i < n; ++i) {
+        Py_ssize_t j0, j1;
+        disc_span(i, n, &j0, &j1);
+        cnt[i] = (int64_t)(j1 - j0);
+    }
+    rel_buf(&b);
+    Py_RETURN_NONE;
+}
+
+/* fisheye(n, basis float64[9] (axis, right, up), row_start int64[n+1], dirs float64[m][3], pix int64[m]):
+ * stereographic fisheye directions of the pixels inside the unit disc, row by row (theta = 2 atan(rho):
+ * cos theta = (1 - rho^2) / (1 + rho^2), sin theta = 2 rho / (1 + rho^2)), and their flat pixel index. */
+static PyObject *py_fisheye(PyObject *self, PyObject *args)
+{
+    Py_ssize_t n;
+    PyObject *o[4];
+    if (!PyArg_ParseTuple(args, "nOOOO", &n, &o[0], &o[1], &o[2], &o[3])) return NULL;
+    buf_t b[4];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[4] = {8, 8, 8, 8};
+    const int wr[4] = {0, 0, 1, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 4; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "fisheye", isz[i]) < 0) goto done;
+    {
+        const double *B = b[0].b.buf;
+        const int64_t *start = b[1].b.buf;
+        double *dirs = b[2].b.buf;
+        int64_t *pix = b[3].b.buf;
+        Py_ssize_t m = b[3].b.len / 8;
+        if (b[0].b.len / 8 != 9 || b[1].b.len / 8 != n + 1 || b[2].b.len / 24 != m || start[0] != 0 ||
+            start[n] != m) {
+            PyErr_SetString(PyExc_ValueError, "fisheye: inconsistent sizes");
+            goto done;
+        }
+        for (Py_ssize_t i = 0; i < n; ++i)
+            if (start[i + 1] < start[i]) {
+                PyErr_SetString(PyExc_ValueError, "fisheye: row starts must ascend");
+                goto done;
+            }
+        Py_BEGIN_ALLOW_THREADS
+        Py_ssize_t i;
+#pragma omp parallel for schedule(static) if (n * n >= PAR_MIN_WORK)
+        for (i = 0; i < n; ++i) {
+            double y = -px_coord(i, n);
+            Py_ssize_t k = start[i], end = start[i + 1], j0, j1;
+            disc_span(i, n, &j0, &j1);
+            if (j1 - j0 != end - k) j0 = j1; /* counts from another resolution: write nothing */
+            for (Py_ssize_t j = j0; j < j1; ++j) {
+                double x = px_coord(j, n), r2 = x * x + y * y;
+                double inv = 1.0 / (1.0 + r2), ct = (1.0 - r2) * inv, sx = 2.0 * x * inv, sy = 2.0 * y * inv;
+                for (int c = 0; c < 3; ++c) dirs[3 * k + c] = ct * B[c] + sx * B[3 + c] + sy * B[6 + c];
+                pix[k++] = (int64_t)(i * n + j);
+            }
+        }
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 4; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* float32 -> IEEE half, round to nearest even (as numpy's astype(float16)); inf and NaN kept. */
+static inline uint16_t f32_to_f16(float f)
+{
+    uint32_t x;
+    memcpy(&x, &f, 4);
+    uint32_t sign = (x >> 16) & 0x8000u, ax = x & 0x7fffffffu;
+    if (ax >= 0x7f800000u) return (uint16_t)(sign | 0x7c00u | (ax > 0x7f800000u ? 0x200u : 0u));
+    if (ax >= 0x477ff000u) return (uint16_t)(sign | 0x7c00u); /* rounds to >= 65520: inf */
+    if (ax < 0x38800000u) {                                   /* below the smallest normal half */
+        if (ax < 0x33000000u) return (uint16_t)sign;          /* below half the smallest subnormal */
+        uint32_t e = ax >> 23, mant = (ax & 0x7fffffu) | 0x800000u;
+        uint32_t shift = 126 - e;                             /* 14..24 */
+        uint32_t h = mant >> shift, rem = mant & ((1u << shift) - 1), halfway = 1u << (shift - 1);
+        if (rem > halfway || (rem == halfway && (h & 1u))) ++h;
+        return (uint16_t)(sign | h);
+    }
+    uint32_t h = ((ax >> 13) - (112u << 10)), rem = ax & 0x1fffu;
+    if (rem > 0x1000u || (rem == 0x1000u && (h & 1u))) ++h;
+    return (uint16_t)(sign | h);
+}
+
+/* planar(values float32[npix][nc], out (float32 or uint16 half)[nc][npix]): channel planes for an image
+ * file, transposed in cache-sized tiles, half floats rounded to nearest even. */
+#if defined(__FLT16_MAX__) && defined(__x86_64__)
+/* the compiler's conversion (IEEE round to nearest even; vcvtps2ph in the x86-64-v3 clone) */
+static inline uint16_t to_half(float f)
+{
+    _Float16 h = (_Float16)f;
+    uint16_t u;
+    memcpy(&u, &h, 2);
+    return u;
+}
+#else
+#define to_half f32_to_f16
+#endif
+
+HOT static void planar_tile(const float *v, void *out, int half, Py_ssize_t npix, int nc, Py_ssize_t p0,
+                            Py_ssize_t p1)
+{
+    /* pixels in order (sequential reads), one write stream per channel */
+    if (half) {
+        uint16_t *o = (uint16_t *)out;
+        for (Py_ssize_t p = p0; p < p1; ++p)
+            for (int k = 0; k < nc; ++k) o[(size_t)k * npix + p] = to_half(v[(size_t)p * nc + k]);
+    } else {
+        float *o = (float *)out;
+        for (Py_ssize_t p = p0; p < p1; ++p)
+            for (int k = 0; k < nc; ++k) o[(size_t)k * npix + p] = v[(size_t)p * nc + k];
+    }
+}
+
+static PyObject *py_planar(PyObject *self, PyObject *args)
+{
+    PyObject *o[2];
+    int nc;
+    if (!PyArg_ParseTuple(args, "OOi", &o[0], &o[1], &nc)) return NULL;
+    buf_t b[2];
+    memset(b, 0, sizeof(b));
+    PyObject *ret = NULL;
+    if (get_buf(o[0], &b[0], 0, "values", 4) < 0) goto done;
+    if (PyObject_GetBuffer(o[1], &b[1].b, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) goto done;
+    b[1].held = 1;
+    {
+        int half = b[1].b.itemsize == 2;
+        Py_ssize_t nv = b[0].b.len / 4;
+        if (nc < 1 || nv % nc || (b[1].b.itemsize != 2 && b[1].b.itemsize != 4) ||
+            b[1].b.len / b[1].b.itemsize != nv) {
+            PyErr_SetString(PyExc_ValueError, "planar: inconsistent sizes or output type");
+            goto done;
+        }
+        Py_ssize_t npix = nv / nc, tile = 2048, ntile = (npix + tile - 1) / tile, t;
+        const float *v = b[0].b.buf;
+        void *out = b[1].b.buf;
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (nv >= PAR_MIN_WORK)
+        for (t = 0; t < ntile; ++t) {
+            Py_ssize_t p0 = t * tile, p1 = p0 + tile < npix ? p0 + tile : npix;
+            planar_tile(v, out, half, npix, nc, p0, p1);
+        }
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 2; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* dataset decoding                                                                           */
+
+static float half_table[65536];
+static void half_table_init(void)
+{
+    for (uint32_t h = 0; h < 65536; ++h) {
+        uint32_t sgn = (h & 0x8000u) << 16, e = (h >> 10) & 0x1fu, m = h & 0x3ffu, x;
+        float f;
+        if (e == 0) {
+            f = (float)m * 5.9604644775390625e-8f; /* m * 2^-24: zero or subnormal, exact */
+            memcpy(&x, &f, 4);
+            x |= sgn;
+        } else if (e == 31) {
+            x = sgn | 0x7f800000u | (m << 13);
+        } else {
+            x = sgn | ((e + 112u) << 23) | (m << 13);
+        }
+        memcpy(&f, &x, 4);
+        half_table[h] = f;
+    }
+}
+
+static inline int finite_f(float f) { return isfinite(f); }
+
+#if defined(__FLT16_MAX__) && defined(__x86_64__)
+typedef _Float16 half_t; /* the compiler converts (vcvtph2ps in the x86-64-v3 clone, vectorised) */
+#define HALF_TO_FLOAT(p, j) ((float)(p)[j])
+#else
+typedef uint16_t half_t;
+#define HALF_TO_FLOAT(p, j) (half_table[(p)[j]])
+#endif
+
+/* One radiance block: rank x (sun halves, zenithScale, zenith halves), then the emphasis halves. Returns
+ * 0, or the code of the first problem (1 scale, 2 sun, 3 zenith, 4 emphasis). */
+HOT static int decode_block(const unsigned char *blk, int rank, int ns, int nz, int ne, float *restrict so,
+                            float *restrict zo, float *restrict eo)
+{
+    const size_t rank_bytes = 2 * (size_t)ns + 8 + 2 * (size_t)nz;
+    for (int r = 0; r < rank; ++r) {
+        const unsigned char *p = blk + (size_t)r * rank_bytes;
+        double scale;
+        memcpy(&scale, p + 2 * (size_t)ns, 8);
+        if (!isfinite(scale) || scale == 0.0) return 1;
+        const half_t *hs = (const half_t *)p, *hz = (const half_t *)(p + 2 * (size_t)ns + 8);
+        float *restrict s = so + (size_t)r * ns, *restrict z = zo + (size_t)r * nz;
+        int bad = 0;
+        for (int j = 0; j < ns; ++j) {
+            s[j] = HALF_TO_FLOAT(hs, j);
+            bad |= !finite_f(s[j]);
+        }
+        if (bad) return 2;
+        for (int j = 0; j < nz; ++j) {
+            z[j] = (float)((double)HALF_TO_FLOAT(hz, j) / scale);
+            bad |= !finite_f(z[j]);
+        }
+        if (bad) return 3;
+    }
+    const half_t *he = (const half_t *)(blk + (size_t)rank * rank_bytes);
+    int bad = 0;
+    for (int j = 0; j < ne; ++j) {
+        eo[j] = HALF_TO_FLOAT(he, j);
+        bad |= !finite_f(eo[j]);
+    }
+    return bad ? 4 : 0;
+}
+
+/* decode_radiance(raw, nch_file, chi, rank, ns, nz, ne, sun, zen, emph): radiance blocks of whole
+ * configuration rows (raw: nrows x nch_file blocks of the file's layout) into float32 outputs for the
+ * selected channels chi: sun [nrows][nsel][rank][ns], zen = float32(double(half) / zenithScale),
+ * emph [nrows][nsel][ne]. Returns None, or (code, row, k) of the first bad block: 1 zero or non-finite
+ * zenith scale, 2 non-finite sun, 3 non-finite zenith, 4 non-finite emphasis value. */
+static PyObject *py_decode_radiance(PyObject *self, PyObject *args)
+{
+    PyObject *o[5];
+    int nch, rank, ns, nz, ne;
+    if (!PyArg_ParseTuple(args, "OiOiiiiOOO", &o[0], &nch, &o[1], &rank, &ns, &nz, &ne, &o[2], &o[3], &o[4]))
+        return NULL;
+    buf_t b[5];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[5] = {1, 8, 4, 4, 4};
+    const int wr[5] = {0, 0, 1, 1, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 5; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "decode_radiance", isz[i]) < 0) goto done;
+    {
+        const size_t rank_bytes = 2 * (size_t)ns + 8 + 2 * (size_t)nz;
+        const size_t block = (size_t)rank * rank_bytes + 2 * (size_t)ne;
+        const Py_ssize_t nsel = b[1].b.len / 8;
+        const int64_t *chi = b[1].b.buf;
+        if (nch < 1 || rank < 1 || ns < 1 || nz < 1 || ne < 1 || b[0].b.len % (block * nch)) {
+            PyErr_SetString(PyExc_ValueError, "decode_radiance: inconsistent sizes");
+            goto done;
+        }
+        const Py_ssize_t nrows = b[0].b.len / (block * nch);
+        if (b[2].b.len / 4 != nrows * nsel * rank * ns || b[3].b.len / 4 != nrows * nsel * rank * nz ||
+            b[4].b.len / 4 != nrows * nsel * ne) {
+            PyErr_SetString(PyExc_ValueError, "decode_radiance: output sizes");
+            goto done;
+        }
+        for (Py_ssize_t k = 0; k < nsel; ++k)
+            if (chi[k] < 0 || chi[k] >= nch) {
+                PyErr_SetString(PyExc_ValueError, "decode_radiance: channel index");
+                goto done;
+            }
+        const unsigned char *raw = b[0].b.buf;
+        float *sun = b[2].b.buf, *zen = b[3].b.buf, *emph = b[4].b.buf;
+        Py_ssize_t bad_all = -1, nq = nrows * nsel, q;
+        int code_all = 0;
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (nq * rank * (ns + nz) >= PAR_MIN_WORK)
+        for (q = 0; q < nq; ++q) {
+            Py_ssize_t bad = -1;
+            int code = 0;
+            Py_ssize_t row = q / nsel, k = q % nsel;
+            const unsigned char *blk = raw + ((size_t)row * nch + (size_t)chi[k]) * block;
+            code = decode_block(blk, rank, ns, nz, ne, sun + (size_t)q * rank * ns, zen + (size_t)q * rank * nz,
+                                emph + (size_t)q * ne);
+            if (code) bad = q;
+            if (bad >= 0) {
+#pragma omp critical(widesky_decode_bad)
+                if (bad_all < 0 || bad < bad_all) {
+                    bad_all = bad;
+                    code_all = code;
+                }
+            }
+        }
+        Py_END_ALLOW_THREADS
+        Py_ssize_t bad = bad_all;
+        int code = code_all;
+        if (bad >= 0)
+            ret = Py_BuildValue("inn", code, bad / nsel, bad % nsel);
+        else {
+            ret = Py_None;
+            Py_INCREF(ret);
+        }
+    }
+done:
+    for (int i = 0; i < 5; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* decode_polarisation(raw, nch_file, chi, rank, nps, npz, psun, pzen): float32 polarisation blocks of
+ * whole configuration rows into psun [nrows][nsel][rank][nps] and pzen [..][npz]. Returns None or
+ * (row, k) of the first block with a non-finite value. */
+static PyObject *py_decode_polarisation(PyObject *self, PyObject *args)
+{
+    PyObject *o[4];
+    int nch, rank, nps, npz;
+    if (!PyArg_ParseTuple(args, "OiOiiiOO", &o[0], &nch, &o[1], &rank, &nps, &npz, &o[2], &o[3])) return NULL;
+    buf_t b[4];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[4] = {1, 8, 4, 4};
+    const int wr[4] = {0, 0, 1, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 4; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "decode_polarisation", isz[i]) < 0) goto done;
+    {
+        const size_t block = (size_t)rank * 4 * ((size_t)nps + npz);
+        const Py_ssize_t nsel = b[1].b.len / 8;
+        const int64_t *chi = b[1].b.buf;
+        if (nch < 1 || rank < 1 || nps < 1 || npz < 1 || b[0].b.len % (block * nch)) {
+            PyErr_SetString(PyExc_ValueError, "decode_polarisation: inconsistent sizes");
+            goto done;
+        }
+        const Py_ssize_t nrows = b[0].b.len / (block * nch), nq = nrows * nsel;
+        if (b[2].b.len / 4 != nq * rank * nps || b[3].b.len / 4 != nq * rank * npz) {
+            PyErr_SetString(PyExc_ValueError, "decode_polarisation: output sizes");
+            goto done;
+        }
+        for (Py_ssize_t k = 0; k < nsel; ++k)
+            if (chi[k] < 0 || chi[k] >= nch) {
+                PyErr_SetString(PyExc_ValueError, "decode_polarisation: channel index");
+                goto done;
+            }
+        const unsigned char *raw = b[0].b.buf;
+        float *ps = b[2].b.buf, *pz = b[3].b.buf;
+        Py_ssize_t bad_all = -1, q;
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (nq * rank * (nps + npz) >= PAR_MIN_WORK)
+        for (q = 0; q < nq; ++q) {
+            Py_ssize_t row = q / nsel, k = q % nsel;
+            const unsigned char *blk = raw + ((size_t)row * nch + (size_t)chi[k]) * block;
+            int ok = 1;
+            for (int r = 0; r < rank; ++r) {
+                float *so = ps + ((size_t)q * rank + r) * nps, *zo = pz + ((size_t)q * rank + r) * npz;
+                const unsigned char *p = blk + (size_t)r * 4 * ((size_t)nps + npz);
+                memcpy(so, p, 4 * (size_t)nps);
+                memcpy(zo, p + 4 * (size_t)nps, 4 * (size_t)npz);
+                for (int j = 0; j < nps; ++j) ok &= finite_f(so[j]);
+                for (int j = 0; j < npz; ++j) ok &= finite_f(zo[j]);
+            }
+            if (!ok) {
+#pragma omp critical(widesky_decode_bad)
+                if (bad_all < 0 || q < bad_all) bad_all = q;
+            }
+        }
+        Py_END_ALLOW_THREADS
+        if (bad_all >= 0)
+            ret = Py_BuildValue("nn", bad_all / nsel, bad_all % nsel);
+        else {
+            ret = Py_None;
+            Py_INCREF(ret);
+        }
+    }
+done:
+    for (int i = 0; i < 4; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
 static PyObject *py_has_openmp(PyObject *self, PyObject *args)
 {
 #ifdef WIDESKY_OPENMP
@@ -1028,10 +1714,19 @@ static PyMethodDef methods[] = {
     {"transmittance", py_transmittance, METH_VARARGS, "Transmittance kernel (see skymodel.evaluate)."},
     {"reference_loop", py_reference_loop, METH_VARARGS,
      "Baseline: straight port of the reference loop, one direction and channel per call, one thread."},
+    {"fisheye_counts", py_fisheye_counts, METH_VARARGS, "Pixels per image row inside the fisheye disc."},
+    {"fisheye", py_fisheye, METH_VARARGS, "Stereographic fisheye directions of the disc's pixels."},
+    {"planar", py_planar, METH_VARARGS, "Pixel-interleaved float32 to channel planes (float32 or half)."},
+    {"decode_radiance", py_decode_radiance, METH_VARARGS, "Decode radiance blocks into float32 factors."},
+    {"decode_polarisation", py_decode_polarisation, METH_VARARGS, "Decode polarisation blocks (float32)."},
     {"openmp_threads", py_has_openmp, METH_NOARGS, "Maximum OpenMP threads (0 when built without OpenMP)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, "_core",
                                     "Hot kernels of the widesky Prague Sky Model evaluator.", -1, methods};
 
-PyMODINIT_FUNC PyInit__core(void) { return PyModule_Create(&moddef); }
+PyMODINIT_FUNC PyInit__core(void)
+{
+    half_table_init();
+    return PyModule_Create(&moddef);
+}

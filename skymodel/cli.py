@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 # Packages that contribute subcommands: each module exposes ``register(subparsers)``.
@@ -19,13 +20,42 @@ SUBCOMMAND_MODULES = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
+# The module that registers each known command, so that a command imports only its own module (the others
+# pull in pandas, trimesh, ...: seconds of start-up for nothing). Anything else (no command, --help, an
+# unknown name) registers every module.
+COMMAND_MODULES = {
+    "sky": "skymodel.cli_sky",
+    "dataset": "skymodel.cli_dataset",
+    "build": "skymodel.generator.cli",
+    "sun": "irradiance.cli_sun",
+    "poa": "irradiance.cli_poa",
+}
+
+
+def _command(argv):
+    """The first non-option argument (the command), or None."""
+    for a in argv:
+        if not a.startswith("-"):
+            return a
+        if a in ("-h", "--help", "--version"):
+            return None
+    return None
+
+
+def build_parser(argv=None) -> argparse.ArgumentParser:
+    """The ``widesky`` parser; with ``argv`` naming a known command, only that command's module is imported."""
+    cmd = _command(argv) if argv is not None else None
+    if argv and argv[0] == "--version":
+        modules = ()
+    else:
+        modules = (COMMAND_MODULES[cmd],) if cmd in COMMAND_MODULES else SUBCOMMAND_MODULES
     parser = argparse.ArgumentParser(
         prog="widesky",
         description="Spectral solar simulation with the wide-spectral-range Prague Sky Model.")
+    parser.add_argument("--version", action="version", version=f"widesky {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in SUBCOMMAND_MODULES:
+    for name in modules:
         try:
             module = importlib.import_module(name)
         except ModuleNotFoundError as exc:
@@ -36,11 +66,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("widesky")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree that is not installed
+        return "unknown (not installed)"
+
+
 def main(argv=None) -> int:
-    parser = build_parser()
+    """Run the command line; returns the exit status (2 with a one-line message on bad input)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
+    except BrokenPipeError:
+        # the reader of our output went away (``widesky sun position | head``): stop quietly, as cat does;
+        # point stdout at /dev/null so the interpreter's final flush does not fail again
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except MemoryError:
+        print("widesky: error: out of memory (reduce the problem size)", file=sys.stderr)
+        return 2
     except (ValueError, OSError) as exc:
         print(f"widesky: error: {exc}", file=sys.stderr)
         return 2

@@ -15,9 +15,9 @@ def register(sub):
     s.add_argument("--visibilities", default="20,60,131.8", help="comma-separated [km]")
     s.add_argument("--albedos", default="0,0.5,1", help="comma-separated [1]")
     s.add_argument("--altitudes", default="0", help="comma-separated [m]")
-    s.add_argument("--elevations", type=int, default=12, help="number of solar elevations (-4.2..90 deg)")
-    s.add_argument("--channels", type=int, default=55)
-    s.add_argument("--rank", type=int, default=4)
+    s.add_argument("--elevations", type=int, default=12, help="number of solar elevations (-4.2..90 deg), >= 3")
+    s.add_argument("--channels", type=int, default=55, help="40 nm channels from 280 nm (1..55)")
+    s.add_argument("--rank", type=int, default=4, help="radiance rank (1..64)")
     s.add_argument("--knots", default="24,24,16", help="sun,zenith,emphasis knot counts")
     s.add_argument("--polarisation", action="store_true")
     s.add_argument("--seed", type=int, default=0)
@@ -48,19 +48,51 @@ def register(sub):
     c.set_defaults(func=_compress)
 
 
-def _floats(text):
-    return tuple(float(x) for x in text.split(",") if x.strip())
+def _floats(text, option, lo=-np.inf, hi=np.inf, unit=""):
+    """A comma-separated, strictly ascending list of numbers in [lo, hi] for ``option``."""
+    try:
+        vals = tuple(float(x) for x in str(text).split(",") if x.strip())
+    except ValueError:
+        raise ValueError(f"{option} {text!r}: expected comma-separated numbers") from None
+    u = f" {unit}" if unit else ""
+    if not vals:
+        raise ValueError(f"{option} {text!r}: expected at least one value")
+    bad = [v for v in vals if not lo <= v <= hi]
+    if bad:
+        raise ValueError(f"{option} {text!r}: {bad[0]!r}{u} outside the valid range [{lo:g}, {hi:g}]{u}")
+    if any(b <= a for a, b in zip(vals, vals[1:])):
+        raise ValueError(f"{option} {text!r}: values must be strictly ascending")
+    return vals
+
+
+def _count(value, option, lo, hi):
+    if not lo <= value <= hi:
+        raise ValueError(f"{option} {value}: outside the valid range [{lo}, {hi}]")
+    return int(value)
 
 
 def _synthetic(args):
-    from .dataset import load_dataset
+    from .dataset import SPECTRAL_RANGE, load_dataset
+    from .outputs import check_output_path
     from .synthetic import write_synthetic_dataset
 
-    ns, nz, ne = (int(x) for x in args.knots.split(","))
-    n = max(int(args.elevations), 3)
+    # every option is checked before anything is written
+    vis = _floats(args.visibilities, "--visibilities", 1e-3, 1e4, "km")
+    alb = _floats(args.albedos, "--albedos", 0.0, 1.0)
+    alt = _floats(args.altitudes, "--altitudes", 0.0, 1e5, "m")
+    n = _count(args.elevations, "--elevations", 3, 1000)
+    max_ch = int((SPECTRAL_RANGE[1] - 280.0) // 40.0)
+    _count(args.channels, "--channels", 1, max_ch)
+    _count(args.rank, "--rank", 1, 64)
+    try:
+        ns, nz, ne = (int(x) for x in args.knots.split(","))
+    except ValueError:
+        raise ValueError(f"--knots {args.knots!r}: expected three integers sun,zenith,emphasis") from None
+    for k in (ns, nz, ne):
+        _count(k, "--knots (each)", 2, 4096)
+    check_output_path(args.output, "output")
     elev = np.concatenate([[-4.2, 0.0], np.geomspace(1.0, 90.0, n - 2)])
-    path = write_synthetic_dataset(args.output, visibilities=_floats(args.visibilities),
-                                   albedos=_floats(args.albedos), altitudes=_floats(args.altitudes),
+    path = write_synthetic_dataset(args.output, visibilities=vis, albedos=alb, altitudes=alt,
                                    elevations=tuple(elev), n_channels=args.channels, rank=args.rank, n_sun=ns,
                                    n_zen=nz, n_emph=ne, polarisation=args.polarisation, seed=args.seed)
     print(load_dataset(path).describe())
@@ -99,11 +131,22 @@ def _compress(args):
     from .compress import greedy_omission, omission_errors, radiance_samples, write_channel_list
     from .dataset import load_dataset
 
+    from .outputs import check_output_path
+
+    out = args.output or str(args.dataset) + ".channels.json"
+    check_output_path(out, "--output")
+    if not 0.0 < args.max_error < 10.0:
+        raise ValueError(f"--max-error {args.max_error!r}: outside the valid range (0, 10)")
+    if not 0.0 < args.quantile <= 1.0:
+        raise ValueError(f"--quantile {args.quantile!r}: outside the valid range (0, 1]")
+    if args.directions < 10:
+        raise ValueError(f"--directions {args.directions}: at least 10")
     model = load_dataset(args.dataset)
+    if not 0 <= args.keep_first <= model.n_channels:
+        raise ValueError(f"--keep-first {args.keep_first}: outside the valid range [0, {model.n_channels}]")
     y = radiance_samples(model, args.directions, args.seed)
     kept = greedy_omission(y, model.wavelengths, args.max_error, args.keep_first, quantile=args.quantile)
     err = omission_errors(y, model.wavelengths, kept, quantile=args.quantile)
-    out = args.output or str(args.dataset) + ".channels.json"
     write_channel_list(out, kept, model.wavelengths, args.max_error, args.dataset, args.quantile)
     saved = 1.0 - kept.size / model.n_channels
     print(f"kept {kept.size} of {model.n_channels} channels (radiance data {100 * saved:.0f} % smaller); "

@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 import time
 import warnings
-from pathlib import Path
 
 
 def register(sub):
@@ -36,6 +35,12 @@ def register(sub):
                    help="output file, .png or .exr (default sky.png; a .png also gets a spectral .exr beside it "
                         "unless --no-exr)")
     r.add_argument("--no-exr", action="store_true", help="with a .png output, do not write the .exr")
+    r.add_argument("--exr-type", choices=("auto", "half", "float"), default="auto",
+                   help="EXR pixels: 'half' (16-bit, relative error <= 4.9e-4), 'float' (32-bit), 'auto' (default: "
+                        "half where every value fits its range)")
+    r.add_argument("--exr-compression", choices=("rle", "none", "zips", "zip", "piz", "zstd"), default="rle",
+                   help="EXR compression, all lossless (default rle: fast; zip: about 2.5x smaller, slower; none: "
+                        "fastest, largest)")
     r.add_argument("--below-horizon", choices=("auto", "model", "dark"), default="auto",
                    help="sky below the horizon: 'dark' for ground-level datasets by default (no data there)")
     r.set_defaults(func=_render)
@@ -47,26 +52,64 @@ def register(sub):
 
 
 def _parse_channel(model, text):
+    """(channels, wavelengths) for ``--channel``, checked against the model's channels."""
+    from .evaluate import channel_indices
+
     text = str(text).strip().lower()
     if text == "rgb":
         return None, None
-    if text.endswith("nm"):
-        return None, [float(text[:-2])]
     try:
-        return [int(text)], None
-    except ValueError:
-        raise ValueError(f"--channel {text!r}: expected 'rgb', an index or a wavelength like 550nm") from None
+        channels, wavelengths = (None, [float(text[:-2])]) if text.endswith("nm") else ([int(text)], None)
+        channel_indices(model, channels, wavelengths)
+    except ValueError as exc:
+        lo, hi = model.wavelength_range
+        raise ValueError(f"--channel {text!r}: expected 'rgb', a channel index in [0, {model.n_channels - 1}] or a "
+                         f"wavelength in [{lo:g}, {hi:g}) nm like 550nm ({exc})") from None
+    return channels, wavelengths
+
+
+# Physically meaningful ranges of the render options. A value inside its range but outside the dataset's
+# grid is clamped to the dataset's range with a warning (as the reference does); outside it is an error.
+RENDER_RANGES = {
+    "elevation": (-90.0, 90.0, "deg"), "azimuth": (-360.0, 360.0, "deg"), "view_azimuth": (-360.0, 360.0, "deg"),
+    "visibility": (1e-3, 1e4, "km"), "albedo": (0.0, 1.0, ""), "altitude": (0.0, 1e5, "m"),
+    "exposure": (-100.0, 100.0, "EV"),
+}
+MAX_RESOLUTION = 20000
+
+
+def check_range(option, value, lo, hi, unit=""):
+    """Raise ValueError naming ``option`` unless ``lo <= value <= hi`` (NaN fails)."""
+    if not (lo <= value <= hi):
+        raise ValueError(f"{option} {value!r}{' ' + unit if unit else ''} outside the valid range [{lo:g}, {hi:g}]"
+                         + (f" {unit}" if unit else ""))
+    return value
+
+
+def _check_render_args(args):
+    for name, (lo, hi, unit) in RENDER_RANGES.items():
+        check_range("--" + name.replace("_", "-"), getattr(args, name), lo, hi, unit)
+    check_range("--resolution", args.resolution, 1, MAX_RESOLUTION, "pixels")
 
 
 def _render(args):
     import skymodel
-    from .render import render_sky, write_exr, write_png
+    from .outputs import atomic_outputs, check_output_path
+    from .render import check_render_memory, render_sky, write_exr, write_png
 
+    _check_render_args(args)
+    out = check_output_path(args.output, "--output", (".png", ".exr"))
+    targets = [out]
+    if out.suffix.lower() == ".png" and not args.no_exr:
+        targets.append(check_output_path(out.with_suffix(".exr"), "--output (its .exr)"))
     model = skymodel.load_dataset(args.dataset)
     if model.is_synthetic:
         print(f"NOTE: {model.path.name} is a SYNTHETIC dataset (structure of the Prague Sky Model, not a physical "
               "sky); point --dataset at a real one for physical values.", file=sys.stderr)
     channels, wavelengths = _parse_channel(model, args.channel)
+    n_ch = model.n_channels if channels is None and wavelengths is None else 1
+    check_render_memory(args.resolution, n_ch, exr=len(targets) > 1 or out.suffix.lower() == ".exr",
+                        option="--resolution")
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", skymodel.SkyStateClampedWarning)
@@ -77,17 +120,14 @@ def _render(args):
     for w in caught:
         print(f"warning: {w.message}", file=sys.stderr)
     dt = time.perf_counter() - t0
-    out = Path(args.output)
-    written = []
-    if out.suffix.lower() == ".exr":
-        written.append(write_exr(out, r))
-    elif out.suffix.lower() == ".png":
-        written.append(write_png(out, r, composite=channels is None and wavelengths is None and r.values.shape[-1] > 1
-                                 and args.quantity in ("sky", "sun"), exposure=args.exposure))
-        if not args.no_exr:
-            written.append(write_exr(out.with_suffix(".exr"), r))
-    else:
-        raise ValueError(f"--output {out}: expected a .png or .exr file name")
+    with atomic_outputs(*targets) as temps:  # all or nothing: a failed EXR leaves no PNG behind
+        for tmp, dest in zip(temps, targets):
+            if dest.suffix.lower() == ".exr":
+                write_exr(tmp, r, pixel_type=args.exr_type, compression=args.exr_compression)
+            else:
+                write_png(tmp, r, composite=channels is None and wavelengths is None and r.values.shape[-1] > 1
+                          and args.quantity in ("sky", "sun"), exposure=args.exposure)
+    written = targets
     n_px = int(r.mask.sum())
     print(f"{args.quantity} {args.view}-facing {args.resolution}x{args.resolution}, {r.values.shape[-1]} channel(s) "
           f"{r.wavelengths[0]:g}-{r.wavelengths[-1]:g} nm, sun elevation {args.elevation:g} deg azimuth "

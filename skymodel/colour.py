@@ -49,10 +49,13 @@ def channel_xyz_weights(lower, width):
 
 def xyz_to_linear_srgb(xyz):
     """CIE XYZ (..., 3) to linear sRGB (..., 3) (D65)."""
-    return np.asarray(xyz, float) @ _XYZ_TO_SRGB.T
+    xyz = np.asarray(xyz)
+    m = _XYZ_TO_SRGB.T.astype(xyz.dtype) if xyz.dtype == np.float32 else _XYZ_TO_SRGB.T
+    return (xyz if xyz.dtype == np.float32 else xyz.astype(float)) @ m
 
 
 def srgb_encode(linear):
-    """sRGB transfer function on values clipped to [0, 1]; returns floats in [0, 1]."""
-    v = np.clip(np.asarray(linear, float), 0.0, 1.0)
+    """sRGB transfer function on values clipped to [0, 1]; returns floats in [0, 1] (float32 stays float32)."""
+    v = np.asarray(linear)
+    v = np.clip(v if v.dtype == np.float32 else v.astype(float), 0.0, 1.0)
     return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(v, 1.0 / 2.4) - 0.055)

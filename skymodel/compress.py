@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .outputs import atomic_outputs
+
 __all__ = ["greedy_omission", "interpolate_channels", "omission_errors", "radiance_samples", "omission_curve",
            "write_channel_list", "read_channel_list", "load_compressed", "sky_radiance_all_channels"]
 
@@ -152,7 +154,8 @@ def write_channel_list(path, kept, wavelengths, max_error, dataset=None, quantil
          "wavelengths_nm": wl.tolist(), "max_error": float(max_error), "error_quantile": float(quantile), "interpolation": "linear in wavelength",
          "dataset": None if dataset is None else str(dataset)}
     path = Path(path)
-    path.write_text(json.dumps(d, indent=1))
+    with atomic_outputs(path) as (tmp,):
+        tmp.write_text(json.dumps(d, indent=1))
     return path
 
 

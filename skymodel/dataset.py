@@ -19,9 +19,24 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _core
+
 __all__ = ["DatasetError", "SkyModel", "load_dataset", "default_dataset_path"]
 
 DATA_DIR = Path(__file__).resolve().parent / "data"
+
+SPECTRAL_RANGE = (280.0, 2500.0)
+"""Wavelengths a dataset's channels must lie within [nm]: the wide-spectral-range model's 280-2480 nm
+channels and the shipped extraterrestrial spectrum's 280-2500 nm."""
+MIN_CHANNEL_WIDTH = 1.0
+"""Narrowest channel accepted [nm] (the extraterrestrial spectrum is tabulated at 1 nm)."""
+MIN_KNOT_STEP = 1e-6
+"""Smallest spacing of two radiance or polarisation knots [rad] (0.2 arcsec; the solar disc's radius is
+4.7e-3 rad): closer knots make the piecewise-polynomial table ill-conditioned."""
+KNOT_TOLERANCE = 1e-6
+"""Knots are angles in [0, pi] rad; values this far outside are tolerated [rad]."""
+DECODE_CHUNK_BYTES = 8 << 20
+"""Bytes of the file decoded at a time: the decoding's temporary memory is a few times this."""
 
 
 def default_dataset_path() -> Path:
@@ -71,24 +86,36 @@ class _Cursor:
         self.pos += 4
         return v
 
-    def array(self, field, dtype, count, ascending=False):
+    def array(self, field, dtype, count, ascending=False, min_step=None, valid=None):
+        """Read ``count`` values; ``ascending``: strictly ascending with steps of at least ``min_step``
+        (default 1e-9 of the largest magnitude, at least 1e-9); ``valid``: (lo, hi) range of every value."""
         dt = np.dtype(dtype)
         self.need(field, count * dt.itemsize)
         a = np.frombuffer(self.buf, dt, count, self.pos).astype(np.float64)
         if not np.all(np.isfinite(a)):
             raise self.error(field, "non-finite value")
-        if ascending and count > 1 and not np.all(np.diff(a) > 0):
-            raise self.error(field, f"values must be strictly ascending, got {a[:8]}...")
+        if valid is not None and count and (a.min() < valid[0] or a.max() > valid[1]):
+            bad = a[(a < valid[0]) | (a > valid[1])][0]
+            raise self.error(field, f"value {bad!r} outside the valid range [{valid[0]:g}, {valid[1]:g}]")
+        if ascending and count > 1:
+            step = np.diff(a)
+            if not np.all(step > 0):
+                raise self.error(field, f"values must be strictly ascending, got {a[:8]}...")
+            tiny = min_step if min_step is not None else 1e-9 * max(1.0, float(np.abs(a).max()))
+            if step.min() < tiny:
+                i = int(np.argmin(step))
+                raise self.error(field, f"knots {i} and {i + 1} ({a[i]!r}, {a[i + 1]!r}) are {step[i]:.3g} apart: "
+                                        f"ascending values must differ by at least {tiny:.3g}")
         self.pos += count * dt.itemsize
         return a
 
-    def counted(self, field, dtype="<f8", minimum=1, ascending=True):
+    def counted(self, field, dtype="<f8", minimum=1, ascending=True, **kw):
         start = self.pos
         n = self.i32(f"n({field})", minimum)
         itemsize = np.dtype(dtype).itemsize
         if n > (self.size - self.pos) // itemsize:
             raise self.error(f"n({field})", f"count {n} exceeds what the file can hold", start)
-        return self.array(field, dtype, n, ascending)
+        return self.array(field, dtype, n, ascending, **kw)
 
 
 def _bracket(grid, query, what):
@@ -103,6 +130,49 @@ def _bracket(grid, query, what):
     i0 = int(np.clip(np.searchsorted(grid, lo, side="right") - 1, 0, len(grid) - 1))
     i1 = int(np.clip(np.searchsorted(grid, hi, side="left"), 0, len(grid) - 1))
     return np.arange(i0, max(i0, i1) + 1)
+
+
+def _read_sidecar(sidecar: Path, channel_range):
+    """The dataset's JSON sidecar, validated: an object; its ``extraterrestrial`` spectrum (if any) two
+    equally long lists, wavelengths [nm] strictly ascending and covering the channels ``channel_range``
+    [nm], irradiances [W m-2 nm-1] finite, >= 0 and not all zero."""
+    try:
+        meta = json.loads(sidecar.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise DatasetError(sidecar, None, None, f"unreadable JSON sidecar: {exc}") from None
+    if not isinstance(meta, dict):
+        raise DatasetError(sidecar, None, None, f"the sidecar must hold a JSON object, got {type(meta).__name__}")
+    et = meta.get("extraterrestrial")
+    if et is None:
+        return meta
+    if not isinstance(et, dict) or "wavelength" not in et or "irradiance" not in et:
+        raise DatasetError(sidecar, "extraterrestrial", None,
+                           "expected an object with lists 'wavelength' [nm] and 'irradiance' [W m-2 nm-1]")
+    arrays = {}
+    for key in ("wavelength", "irradiance"):
+        try:
+            a = np.asarray(et[key], dtype=np.float64)
+        except (TypeError, ValueError):
+            raise DatasetError(sidecar, f"extraterrestrial.{key}", None, "expected a list of numbers") from None
+        if a.ndim != 1 or a.size < 2:
+            raise DatasetError(sidecar, f"extraterrestrial.{key}", None,
+                               f"expected a list of at least 2 numbers, got shape {a.shape}")
+        if not np.isfinite(a).all():
+            raise DatasetError(sidecar, f"extraterrestrial.{key}", None, "non-finite value")
+        arrays[key] = a
+    wl, e = arrays["wavelength"], arrays["irradiance"]
+    if wl.size != e.size:
+        raise DatasetError(sidecar, "extraterrestrial", None, f"{wl.size} wavelengths but {e.size} irradiances")
+    if not np.all(np.diff(wl) > 0):
+        raise DatasetError(sidecar, "extraterrestrial.wavelength", None, "wavelengths must be strictly ascending")
+    if wl[0] > channel_range[0] or wl[-1] < channel_range[1]:
+        raise DatasetError(sidecar, "extraterrestrial.wavelength", None,
+                           f"spectrum [{wl[0]:g}, {wl[-1]:g}] nm does not cover the dataset's channels "
+                           f"[{channel_range[0]:g}, {channel_range[1]:g}] nm")
+    if e.min() < 0 or not e.max() > 0:
+        raise DatasetError(sidecar, "extraterrestrial.irradiance", None,
+                           f"irradiances must be >= 0 and not all 0 W m-2 nm-1, got [{e.min():g}, {e.max():g}]")
+    return meta
 
 
 @dataclass(frozen=True)
@@ -137,7 +207,7 @@ class SkyModel:
     """
 
     def __init__(self, path, *, visibility=None, albedo=None, channels=None, wavelength_range=None,
-                 polarisation=True):
+                 polarisation=True, elevation=None):
         path = Path(path)
         self.path = path
         if not path.exists():
@@ -150,12 +220,12 @@ class SkyModel:
         self.file_size = size
         self._mm = np.memmap(path, dtype=np.uint8, mode="r")
         self._parse(self._mm, path, polarisation)
-        self._select(visibility, albedo, channels, wavelength_range)
+        self._select(visibility, albedo, channels, wavelength_range, elevation)
         self._decoded = {}
         sidecar = path.with_suffix(path.suffix + ".json")
         if not sidecar.exists():
             sidecar = path.with_suffix(".json")
-        self.metadata = json.loads(sidecar.read_text()) if sidecar.exists() else {}
+        self.metadata = _read_sidecar(sidecar, self.wavelength_range) if sidecar.exists() else {}
 
     # ------------------------------------------------------------------ parsing
     def _parse(self, buf, path, want_pol):
@@ -169,14 +239,23 @@ class SkyModel:
         self.n_channels_file = c.i32("channels", 1)
         self.channel_start = float(c.array("channelStart", "<f8", 1)[0])
         self.channel_width = float(c.array("channelWidth", "<f8", 1)[0])
-        if self.channel_start < 0:
-            raise c.error("channelStart", f"{self.channel_start} nm must be >= 0", c.pos - 16)
-        if not self.channel_width > 0:
-            raise c.error("channelWidth", f"{self.channel_width} nm must be > 0", c.pos - 8)
+        lo, hi = SPECTRAL_RANGE
+        if not lo <= self.channel_start < hi:
+            raise c.error("channelStart", f"{self.channel_start!r} nm outside the model's spectral range "
+                                          f"[{lo:g}, {hi:g}) nm", c.pos - 16)
+        if not MIN_CHANNEL_WIDTH <= self.channel_width <= hi - lo:
+            raise c.error("channelWidth", f"{self.channel_width!r} nm outside [{MIN_CHANNEL_WIDTH:g}, {hi - lo:g}] nm",
+                          c.pos - 8)
+        top = self.channel_start + self.n_channels_file * self.channel_width
+        if top > hi + 1e-6:
+            raise c.error("channels", f"{self.n_channels_file} channels of {self.channel_width:g} nm from "
+                                      f"{self.channel_start:g} nm end at {top:g} nm, beyond the model's spectral "
+                                      f"range [{lo:g}, {hi:g}] nm", c.pos - 20)
         self.rank = c.i32("rankRad", 1)
-        self.sun_breaks = c.counted("sunBreaks", minimum=2)
-        self.zenith_breaks = c.counted("zenithBreaks", minimum=2)
-        self.emph_breaks = c.counted("emphBreaks", minimum=2)
+        knot = dict(minimum=2, min_step=MIN_KNOT_STEP, valid=(-KNOT_TOLERANCE, np.pi + KNOT_TOLERANCE))
+        self.sun_breaks = c.counted("sunBreaks", **knot)
+        self.zenith_breaks = c.counted("zenithBreaks", **knot)
+        self.emph_breaks = c.counted("emphBreaks", **knot)
         ns, nz, ne, rank = len(self.sun_breaks), len(self.zenith_breaks), len(self.emph_breaks), self.rank
         block_bytes = rank * (2 * ns + 8 + 2 * nz) + 2 * ne
         n_cfg = (len(self.file_visibilities) * len(self.file_albedos) * len(self.file_altitudes)
@@ -210,8 +289,9 @@ class SkyModel:
         if remaining:
             pol_offset = c.pos
             self.pol_rank = c.i32("rankPol", 1)
-            self.pol_sun_breaks = c.counted("polSunBreaks", minimum=1)
-            self.pol_zenith_breaks = c.counted("polZenithBreaks", minimum=1)
+            pknot = {**knot, "minimum": 1}
+            self.pol_sun_breaks = c.counted("polSunBreaks", **pknot)
+            self.pol_zenith_breaks = c.counted("polZenithBreaks", **pknot)
             nps, npz = len(self.pol_sun_breaks), len(self.pol_zenith_breaks)
             c.need("polarisation coefficients", n_cfg * self.pol_rank * 4 * (nps + npz))
             pol_dt = np.dtype([("r", [("sun", "<f4", (nps,)), ("zen", "<f4", (npz,))], (self.pol_rank,))])
@@ -224,9 +304,10 @@ class SkyModel:
         self._layout = _Layout(rad_offset, block_dt, trans_offset, pol_offset, pol_dt)
 
     # ------------------------------------------------------------------ selection
-    def _select(self, visibility, albedo, channels, wavelength_range):
+    def _select(self, visibility, albedo, channels, wavelength_range, elevation=None):
         self._vis_idx = _bracket(self.file_visibilities, visibility, "visibility")
         self._alb_idx = _bracket(self.file_albedos, albedo, "albedo")
+        self._ele_idx = _bracket(self.file_elevations, elevation, "elevation")
         nch = self.n_channels_file
         lower = self.channel_start + self.channel_width * np.arange(nch)
         if channels is not None and wavelength_range is not None:
@@ -247,7 +328,7 @@ class SkyModel:
         self.visibilities = self.file_visibilities[self._vis_idx]
         self.albedos = self.file_albedos[self._alb_idx]
         self.altitudes = self.file_altitudes
-        self.elevations = self.file_elevations
+        self.elevations = self.file_elevations[self._ele_idx]
         self.channel_lower = lower[idx]
         self.wavelengths = self.channel_lower + 0.5 * self.channel_width
         self.channel_edges = np.append(self.channel_lower, self.channel_lower[-1] + self.channel_width)
@@ -305,19 +386,65 @@ class SkyModel:
         return int(total)
 
     # ------------------------------------------------------------------ decoding
-    def _blocks(self, dtype, offset):
-        nc = self.n_channels_file
-        shape = (len(self.file_visibilities), len(self.file_albedos), len(self.file_altitudes),
-                 len(self.file_elevations), nc)
-        allb = np.frombuffer(self._mm, dtype, int(np.prod(shape)), offset).reshape(shape)
-        v, a, ch = self._vis_idx, self._alb_idx, self.channel_index
-        sel = allb[v[0]:v[-1] + 1][:, a[0]:a[-1] + 1]
-        if ch.size != nc:
-            sel = sel[..., ch]
-        return sel
+    def _slab_rows(self, dtype, offset):
+        """Yield ((i, j, row0, n), file_offset, n) for every run of whole configurations the selection
+        needs: per selected (visibility, albedo) pair and altitude, the selected elevations' rows in chunks
+        of at most DECODE_CHUNK_BYTES, each row holding every channel of the file; row0 counts the rows
+        of the selection's (altitude, elevation) plane."""
+        nalb, nalt, nele, nch = (len(self.file_albedos), len(self.file_altitudes), len(self.file_elevations),
+                                 self.n_channels_file)
+        e0, nsel = int(self._ele_idx[0]), len(self._ele_idx)
+        row_bytes = nch * dtype.itemsize
+        step = max(1, DECODE_CHUNK_BYTES // row_bytes)
+        for i, v in enumerate(self._vis_idx):
+            for j, a in enumerate(self._alb_idx):
+                for h in range(nalt):
+                    first = ((int(v) * nalb + int(a)) * nalt + h) * nele + e0
+                    for r0 in range(0, nsel, step):
+                        n = min(step, nsel - r0)
+                        yield (i, j, h * nsel + r0, n), offset + (first + r0) * row_bytes, n
+
+    def _decode(self, dtype, offset, targets, convert, raw=False):
+        """Decode the selection's blocks chunk by chunk straight into preallocated float32 ``targets``
+        (name -> array of shape (nVisSel, nAlbSel, nAlt * nEle, nChSel, ...)). ``convert(chunk, out_views,
+        file_offset)`` fills the views from a chunk of structured blocks (rows, nChSel), or with ``raw``
+        from the chunk's bytes (rows x every channel of the file)."""
+        ch = self.channel_index
+        all_ch = ch.size == self.n_channels_file
+        buf = bytearray()
+        with open(self.path, "rb") as f, np.errstate(all="ignore"):
+            for (i, j, r0, n), off, nrows in self._slab_rows(dtype, offset):
+                need = nrows * self.n_channels_file * dtype.itemsize
+                if len(buf) < need:
+                    buf = bytearray(need)
+                f.seek(off)
+                view = memoryview(buf)[:need]
+                if f.readinto(view) != need:
+                    raise DatasetError(self.path, "radiance coefficients", off, "file changed while reading")
+                views = {k: t[i, j, r0:r0 + n] for k, t in targets.items()}
+                if raw:
+                    convert(view, views, off)
+                    continue
+                blk = np.frombuffer(view, dtype).reshape(nrows, self.n_channels_file)
+                if not all_ch:
+                    blk = blk[:, ch]
+                convert(blk, views, off)
+
+    def _chunk_error(self, field, bad, file_offset, itemsize, problem):
+        """DatasetError at the first True of ``bad`` (rows, nChSel) of a chunk starting at ``file_offset``."""
+        r, k = (int(x) for x in np.argwhere(bad)[0][:2])
+        off = file_offset + (r * self.n_channels_file + int(self.channel_index[k])) * itemsize
+        return DatasetError(self.path, field, int(off), problem)
+
+    def _selection_shape(self):
+        return (len(self._vis_idx), len(self._alb_idx), len(self.file_altitudes) * len(self._ele_idx),
+                self.n_channels)
 
     def radiance_coefficients(self):
         """Decoded radiance factors of the selection, as the reference keeps them (float32).
+
+        Decoded in bounded chunks straight into the float32 arrays (the temporary memory is a few times
+        ``DECODE_CHUNK_BYTES``, independent of the dataset's size).
 
         Returns
         -------
@@ -326,29 +453,42 @@ class SkyModel:
         emph : ndarray, shape (nVis, nAlb, nAlt, nEle, nCh, nEmph)
         """
         if "sun" not in self._decoded:
-            blk = self._blocks(self._layout.block_dtype, self._layout.rad_offset)
-            r = blk["r"]
-            scale = r["scale"]
-            bad = ~np.isfinite(scale) | (scale == 0)
-            if bad.any():
-                raise DatasetError(self.path, "zenithScale", self._block_offset(np.argwhere(bad)[0][:5]),
-                                   f"{int(bad.sum())} zero or non-finite zenith scales")
-            sun = np.ascontiguousarray(r["sun"].astype(np.float32))
-            zen = np.ascontiguousarray((r["zen"].astype(np.float64) / scale[..., None]).astype(np.float32))
-            emph = np.ascontiguousarray(blk["emph"].astype(np.float32))
-            for name, arr in (("sunStored", sun), ("zenStored", zen), ("emphStored", emph)):
-                if not np.isfinite(arr).all():
-                    pos = np.argwhere(~np.isfinite(arr))[0]
-                    raise DatasetError(self.path, name, self._block_offset(pos[:5]),
-                                       "non-finite radiance coefficient (inf or NaN half float, or overflow)")
-            self._decoded.update(sun=sun, zen=zen, emph=emph)
+            dt = self._layout.block_dtype
+            rank, ns, nz, ne = self.rank, len(self.sun_breaks), len(self.zenith_breaks), len(self.emph_breaks)
+            lead = self._selection_shape()
+            out = dict(sun=np.empty(lead + (rank, ns), np.float32), zen=np.empty(lead + (rank, nz), np.float32),
+                       emph=np.empty(lead + (ne,), np.float32))
+
+            names = {1: ("zenithScale", "zero or non-finite zenith scale"),
+                     2: ("sunStored", "non-finite radiance coefficient (inf or NaN half float)"),
+                     3: ("zenStored", "non-finite radiance coefficient (overflow dividing by zenithScale)"),
+                     4: ("emphStored", "non-finite radiance coefficient (inf or NaN half float)")}
+
+            def convert(raw, o, off):
+                bad = _core.decode_radiance(raw, self.n_channels_file, self.channel_index, rank, ns, nz, ne,
+                                            o["sun"], o["zen"], o["emph"])
+                if bad is not None:
+                    code, row, k = bad
+                    field, problem = names[code]
+                    pos = np.zeros((row + 1, self.n_channels), bool)
+                    pos[row, k] = True
+                    raise self._chunk_error(field, pos, off, dt.itemsize, problem)
+
+            self._decode(dt, self._layout.rad_offset, out, convert, raw=True)
+            full = self._blocks_shape()
+            self._decoded.update({k: v.reshape(full + v.shape[4:]) for k, v in out.items()})
         return self._decoded["sun"], self._decoded["zen"], self._decoded["emph"]
+
+    def _blocks_shape(self):
+        return (len(self._vis_idx), len(self._alb_idx), len(self.file_altitudes), len(self._ele_idx),
+                self.n_channels)
 
     def _block_offset(self, sel_index):
         """File byte offset of the radiance block at a position of the selection."""
         iv, ia, ialt, ie, ich = (int(x) for x in sel_index)
         cfg = ((((self._vis_idx[iv] * len(self.file_albedos) + self._alb_idx[ia]) * len(self.file_altitudes)
-                 + ialt) * len(self.file_elevations) + ie) * self.n_channels_file + self.channel_index[ich])
+                 + ialt) * len(self.file_elevations) + self._ele_idx[ie]) * self.n_channels_file
+               + self.channel_index[ich])
         return int(self._layout.rad_offset + cfg * self._layout.block_dtype.itemsize)
 
     def transmittance_coefficients(self):
@@ -365,8 +505,8 @@ class SkyModel:
             V = np.frombuffer(self._mm, "<f4", self._n_vis_t * self._n_alt_t * self.n_channels_file * r,
                               self._trans_v_off)
             U = np.array(U, dtype=np.float32).reshape(self._n_alt_t, d, a, r)
-            V = np.array(V, dtype=np.float32).reshape(self._n_vis_t, self._n_alt_t, self.n_channels_file, r)
-            V = np.ascontiguousarray(V[:, :, self.channel_index])
+            V = V.reshape(self._n_vis_t, self._n_alt_t, self.n_channels_file, r)
+            V = np.ascontiguousarray(V[:, :, self.channel_index], dtype=np.float32)
             for name, arr, off in (("U", U, self._trans_u_off), ("V", V, self._trans_v_off)):
                 if not np.isfinite(arr).all():
                     raise DatasetError(self.path, name, off, "non-finite transmittance coefficient")
@@ -387,13 +527,22 @@ class SkyModel:
             raise DatasetError(self.path, "polSunBreaks", self._layout.pol_offset,
                                "polarisation needs at least 2 knots per factor to evaluate")
         if "psun" not in self._decoded:
-            blk = self._blocks(self._layout.pol_block_dtype, self._pol_blocks_offset)
-            psun = np.ascontiguousarray(blk["r"]["sun"].astype(np.float32))
-            pzen = np.ascontiguousarray(blk["r"]["zen"].astype(np.float32))
-            if not (np.isfinite(psun).all() and np.isfinite(pzen).all()):
-                raise DatasetError(self.path, "polarisation coefficients", self._pol_blocks_offset,
-                                   "non-finite value")
-            self._decoded.update(psun=psun, pzen=pzen)
+            dt = self._layout.pol_block_dtype
+            lead = self._selection_shape()
+            rank, nps, npz = self.pol_rank, len(self.pol_sun_breaks), len(self.pol_zenith_breaks)
+            out = dict(psun=np.empty(lead + (rank, nps), np.float32), pzen=np.empty(lead + (rank, npz), np.float32))
+
+            def convert(raw, o, off):
+                bad = _core.decode_polarisation(raw, self.n_channels_file, self.channel_index, rank, nps, npz,
+                                                o["psun"], o["pzen"])
+                if bad is not None:
+                    pos = np.zeros((bad[0] + 1, self.n_channels), bool)
+                    pos[bad] = True
+                    raise self._chunk_error("polarisation coefficients", pos, off, dt.itemsize, "non-finite value")
+
+            self._decode(dt, self._pol_blocks_offset, out, convert, raw=True)
+            full = self._blocks_shape()
+            self._decoded.update({k: v.reshape(full + v.shape[4:]) for k, v in out.items()})
         return self._decoded["psun"], self._decoded["pzen"]
 
     def load(self):
@@ -430,7 +579,7 @@ class SkyModel:
             "polarisation   " + (f"rank {self.pol_rank}, knots sun {len(self.pol_sun_breaks)} / zenith "
                                  f"{len(self.pol_zenith_breaks)}" if self._layout.pol_offset is not None else "none"),
             f"selection      {len(self.visibilities)} visibilities, {len(self.albedos)} albedos, "
-            f"{self.n_channels} channels: {self.selection_bytes() / 1e6:.1f} MB when decoded",
+            f"{len(self.elevations)} elevations, {self.n_channels} channels: {self.selection_bytes() / 1e6:.1f} MB when decoded",
             f"resident       {self.resident_bytes / 1e6:.1f} MB decoded now",
         ]
         return "\n".join(lines)
@@ -441,7 +590,7 @@ class SkyModel:
 
 
 def load_dataset(path=None, *, visibility=None, albedo=None, channels=None, wavelength_range=None,
-                 polarisation=True) -> SkyModel:
+                 polarisation=True, elevation=None) -> SkyModel:
     """Open a Prague Sky Model dataset (memory-mapped; decoded on first use).
 
     Parameters
@@ -454,6 +603,10 @@ def load_dataset(path=None, *, visibility=None, albedo=None, channels=None, wave
         (the bracketing grid points). Default: all.
     albedo : float or (float, float), optional
         Same for the ground albedo [1].
+    elevation : float or (float, float), optional
+        Same for the solar elevation [deg] (the model's grid is in elevation at the view point, which
+        equals the solar elevation for an observer on the ground). With all three given, a single sky
+        state decodes only the (at most) 8 configurations per channel it interpolates between.
     channels : sequence of int, optional
         Indices of the file's channels to load.
     wavelength_range : (float, float), optional
@@ -473,4 +626,4 @@ def load_dataset(path=None, *, visibility=None, albedo=None, channels=None, wave
     if path is None:
         path = os.environ.get("WIDESKY_DATASET") or default_dataset_path()
     return SkyModel(path, visibility=visibility, albedo=albedo, channels=channels,
-                    wavelength_range=wavelength_range, polarisation=polarisation)
+                    wavelength_range=wavelength_range, polarisation=polarisation, elevation=elevation)

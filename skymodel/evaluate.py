@@ -27,7 +27,12 @@ from .dataset import SkyModel
 from .solar import SUN_RADIUS, SUN_SOLID_ANGLE, band_average, extraterrestrial_spectrum
 
 __all__ = ["SkyStateClampedWarning", "reference_angles", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
-           "solar_direct_normal", "sun_direction", "directions_from_angles", "channel_indices"]
+           "solar_direct_normal", "sun_direction", "direction_from_zenith", "directions_from_angles",
+           "channel_indices"]
+
+KERNEL_INFO = {}
+"""What the last radiance/polarisation call's kernel did (for benchmarks): ``path`` 1 direct, 2 table,
+3 twilight table; ``mixed_terms`` kept as their own clamped terms; ``cells_built`` by the twilight table."""
 
 PLANET_RADIUS = 6378000.0
 SAFETY_ALTITUDE = 50.0
@@ -57,9 +62,14 @@ def sun_direction(elevation, azimuth):
     return np.stack([np.cos(e) * np.sin(a), np.cos(e) * np.cos(a), np.sin(e)], axis=-1)
 
 
-def directions_from_angles(zenith, azimuth):
-    """View directions from zenith angle [deg] and azimuth [deg, clockwise from north]; shape (..., 3)."""
+def direction_from_zenith(zenith, azimuth):
+    """Unit view directions (east-north-up) from the zenith angle [deg] (0 = straight up, 90 = horizon)
+    and the azimuth [deg, clockwise from north]; shape broadcast(zenith, azimuth).shape + (3,)."""
     return sun_direction(90.0 - np.asarray(zenith, float), azimuth)
+
+
+directions_from_angles = direction_from_zenith
+"""Former name of :func:`direction_from_zenith` (which says which angle it takes), kept for callers."""
 
 
 def _reference_lookup(q, grid):
@@ -238,7 +248,9 @@ def _report_clamped(flags, msgs, return_clamped, quantity):
 # ---------------------------------------------------------------------------------------------- public API
 
 def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude,
-                        channels, wavelengths, dtype, out, method, threads, return_clamped):
+                        channels, wavelengths, dtype, out, method, threads, return_clamped, rows=None):
+    """Evaluate radiance or polarisation. ``rows`` (private, for the renderer): int64 output row of each
+    direction in ``out`` (shape (n_rows, C), one sky state), so an image is filled without a scatter copy."""
     dirs, dshape, state = _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude,
                                    kind)
     chi_sel = channel_indices(model, channels, wavelengths)
@@ -253,8 +265,15 @@ def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, vis
         rank = model.pol_rank
     S = state[0].shape
     C = chi_sel.size
-    res = _output(S + dshape + (C,), dtype, out)
-    flat = res.reshape((-1, dirs.shape[0] * C)) if res.size else res.reshape(-1, 0)
+    if rows is None:
+        res = _output(S + dshape + (C,), dtype, out)
+        flat = res.reshape((-1, dirs.shape[0] * C)) if res.size else res.reshape(-1, 0)
+    else:
+        if S != () or out is None or out.ndim != 2 or out.shape[1] != C or rows.shape != (dirs.shape[0],):
+            raise ValueError("rows: one sky state, out of shape (n_rows, C) and one row per direction")
+        res = _output(out.shape, dtype, out)
+        flat = res.reshape(1, -1)
+        rows = np.ascontiguousarray(rows, dtype=np.int64)
     method_code = {"auto": 0, "direct": 1, "table": 2}[method]
     flags = np.zeros(S, dtype=bool)
     msgs = []
@@ -267,8 +286,9 @@ def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, vis
             msgs += m
         el, az, alt_param, el_view = _state_params(el_deg, az_deg, alt)
         cfg, w = _config_weights(model, vis, alb, alt_param, el_view)
-        _core.radiance(sun, zen, emph, breaks[0], breaks[1], breaks[2], rank, nch, cfg, w, chi_sel, dirs,
-                       (alt, el, az), flat[si], method_code, int(threads))
+        info = _core.radiance(sun, zen, emph, breaks[0], breaks[1], breaks[2], rank, nch, cfg, w, chi_sel, dirs,
+                              (alt, el, az), flat[si], method_code, int(threads), rows)
+    KERNEL_INFO.update(zip(("path", "mixed_terms", "cells_built"), info))
     _report_clamped(flags, msgs, return_clamped, kind)
     return (res, flags) if return_clamped else res
 

@@ -14,16 +14,21 @@ and an RGB preview (``R``, ``G``, ``B``); and 8-bit PNG.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from . import _core
+
 from .colour import channel_xyz_weights, srgb_encode, xyz_to_linear_srgb
 from .dataset import SkyModel
-from .evaluate import (channel_indices, polarisation, sky_radiance, sun_radiance, transmittance)
+from .evaluate import _evaluate_component, channel_indices, sun_radiance, transmittance
 
-__all__ = ["QUANTITIES", "Render", "fisheye_directions", "render_sky", "write_exr", "write_png"]
+__all__ = ["QUANTITIES", "Render", "fisheye_directions", "fisheye_disc", "render_sky", "write_exr", "write_png", "render_memory_bytes",
+           "check_render_memory"]
 
 QUANTITIES = {
     "sky": ("sky radiance", "W m-2 sr-1 nm-1"),
@@ -31,6 +36,40 @@ QUANTITIES = {
     "polarisation": ("degree of polarisation", "1"),
     "transmittance": ("transmittance to the top of the atmosphere", "1"),
 }
+
+
+def _view_basis(view, view_azimuth):
+    """(axis, right, up) unit vectors of a view, east-north-up."""
+    if view == "up":
+        return np.array([[0, 0, 1.0], [-1.0, 0, 0], [0, 1.0, 0]])
+    if view == "side":
+        a = np.radians(view_azimuth)
+        return np.array([[np.sin(a), np.cos(a), 0.0], [np.cos(a), -np.sin(a), 0.0], [0, 0, 1.0]])
+    raise ValueError(f"view={view!r}: expected 'up' or 'side'")
+
+
+def fisheye_disc(resolution, view="up", view_azimuth=180.0):
+    """View directions of the pixels inside a stereographic fisheye's disc, and their flat pixel index.
+
+    Parameters as :func:`fisheye_directions`.
+
+    Returns
+    -------
+    directions : ndarray (m, 3)  east-north-up unit vectors, row by row
+    pixels : ndarray (m,) int64  flat index (row * resolution + column) of each direction's pixel
+    """
+    n = int(resolution)
+    if n < 1 or n > 20000:
+        raise ValueError(f"resolution={resolution} outside [1, 20000] pixels")
+    basis = np.ascontiguousarray(_view_basis(view, view_azimuth), dtype=np.float64)
+    counts = np.empty(n, np.int64)
+    _core.fisheye_counts(n, counts)
+    start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    m = int(start[-1])
+    dirs = np.empty((m, 3), np.float64)
+    pix = np.empty(m, np.int64)
+    _core.fisheye(n, basis.ravel(), start, dirs, pix)
+    return dirs, pix
 
 
 def fisheye_directions(resolution, view="up", view_azimuth=180.0):
@@ -50,29 +89,12 @@ def fisheye_directions(resolution, view="up", view_azimuth=180.0):
     mask : ndarray (resolution, resolution) bool  pixels inside the disc
     """
     n = int(resolution)
-    if n < 1 or n > 20000:
-        raise ValueError(f"resolution={resolution} outside [1, 20000] pixels")
-    c = (np.arange(n) + 0.5) / n * 2.0 - 1.0
-    x, y = np.meshgrid(c, -c)  # x to the right, y up in the image
-    rho = np.hypot(x, y)
-    mask = rho <= 1.0
-    theta = 2.0 * np.arctan(rho)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ux = np.where(rho > 0, x / rho, 0.0)
-        uy = np.where(rho > 0, y / rho, 0.0)
-    st, ct = np.sin(theta), np.cos(theta)
-    if view == "up":
-        axis, right, up = np.array([0, 0, 1.0]), np.array([-1.0, 0, 0]), np.array([0, 1.0, 0])
-    elif view == "side":
-        a = np.radians(view_azimuth)
-        axis = np.array([np.sin(a), np.cos(a), 0.0])
-        right = np.array([np.cos(a), -np.sin(a), 0.0])
-        up = np.array([0, 0, 1.0])
-    else:
-        raise ValueError(f"view={view!r}: expected 'up' or 'side'")
-    d = ct[..., None] * axis + st[..., None] * (ux[..., None] * right + uy[..., None] * up)
-    d[~mask] = 0.0
-    return d, mask
+    d, pix = fisheye_disc(resolution, view, view_azimuth)
+    out = np.zeros((n * n, 3))
+    out[pix] = d
+    mask = np.zeros(n * n, bool)
+    mask[pix] = True
+    return out.reshape(n, n, 3), mask.reshape(n, n)
 
 
 @dataclass
@@ -88,16 +110,21 @@ class Render:
     quantity: str
     meta: dict = field(default_factory=dict)
 
+    @cached_property
+    def xyz(self):
+        """CIE 1931 tristimulus values (H, W, 3) float32 of the channels, in the radiance unit integrated
+        over wavelength [W m-2 sr-1] (computed once per render)."""
+        w = channel_xyz_weights(self.channel_lower, self.channel_width).astype(np.float32)
+        return self.values @ w
+
     def rgb_linear(self):
         """Linear sRGB (H, W, 3) of the visible channels (CIE 1931 weighting of each band), in the
         radiance unit integrated over wavelength [W m-2 sr-1]."""
-        w = channel_xyz_weights(self.channel_lower, self.channel_width)
-        return xyz_to_linear_srgb(self.values @ w)
+        return xyz_to_linear_srgb(self.xyz)
 
     def luminance_like(self):
         """CIE Y-weighted sum over the channels (H, W)."""
-        w = channel_xyz_weights(self.channel_lower, self.channel_width)[:, 1]
-        return self.values @ w
+        return self.xyz[..., 1]
 
 
 def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibility=50.0, albedo=0.3,
@@ -132,31 +159,65 @@ def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibi
         raise ValueError(f"quantity={quantity!r}: expected one of {sorted(QUANTITIES)}")
     if below_horizon not in ("auto", "model", "dark"):
         raise ValueError(f"below_horizon={below_horizon!r}: expected 'auto', 'model' or 'dark'")
-    dirs, mask = fisheye_directions(resolution, view, view_azimuth)
+    n = int(resolution)
+    inside, pix = fisheye_disc(n, view, view_azimuth)
     if below_horizon == "auto":
         ground_only = len(model.altitudes) == 1 and float(model.altitudes[0]) == 0.0
         below_horizon = "dark" if ground_only else "model"
-    if below_horizon == "dark" and quantity in ("sky", "polarisation"):
-        mask = mask & (dirs[..., 2] >= 0.0)
+    if below_horizon == "dark" and quantity in ("sky", "polarisation") and inside.size and inside[:, 2].min() < 0:
+        keep = inside[:, 2] >= 0.0
+        inside, pix = np.ascontiguousarray(inside[keep]), pix[keep]
     chi = channel_indices(model, channels, wavelengths)
-    inside = dirs[mask]
     state = (sun_elevation, sun_azimuth, visibility, albedo, altitude)
-    if quantity == "sky":
-        vals = sky_radiance(model, inside, *state, channels=chi, dtype=np.float32, threads=threads)
+    img = np.zeros((n * n, chi.size), np.float32)  # pages outside the disc are never touched
+    if quantity in ("sky", "polarisation"):  # the kernel writes each direction's row of the image directly
+        _evaluate_component(model, "radiance" if quantity == "sky" else "polarisation", inside, *state, chi, None,
+                            np.float32, img, "auto", threads, False, rows=pix)
     elif quantity == "sun":
-        vals = sun_radiance(model, inside, *state, channels=chi, threads=threads).astype(np.float32)
-    elif quantity == "polarisation":
-        vals = polarisation(model, inside, *state, channels=chi, dtype=np.float32, threads=threads)
+        img[pix] = sun_radiance(model, inside, *state, channels=chi, threads=threads)
     else:
-        vals = transmittance(model, inside, *state, channels=chi, dtype=np.float32, threads=threads)
-    img = np.zeros(mask.shape + (chi.size,), np.float32)
-    img[mask] = vals
+        img[pix] = transmittance(model, inside, *state, channels=chi, dtype=np.float32, threads=threads)
+    mask = np.zeros(n * n, bool)
+    mask[pix] = True
+    img, mask = img.reshape(n, n, chi.size), mask.reshape(n, n)
     lower = model.channel_lower[chi]
     meta = dict(quantity=quantity, sun_elevation=sun_elevation, sun_azimuth=sun_azimuth, visibility=visibility,
                 albedo=albedo, altitude=altitude, view=view, view_azimuth=view_azimuth,
                 below_horizon=below_horizon,
                 dataset=str(model.path), synthetic=model.is_synthetic)
     return Render(img, mask, lower + 0.5 * model.channel_width, lower, model.channel_width, quantity, meta)
+
+
+def render_memory_bytes(resolution, n_channels, exr=True) -> int:
+    """Estimated peak memory of a render and its files [bytes]: the float32 image, the directions and
+    mask, the sRGB composite and the 8-bit display image, and (``exr``) the EXR's per-channel copies."""
+    px = int(resolution) ** 2
+    per_px = 4 * n_channels + 8 * 3 + 1 + 8 * 3 * 3 + 3 + (4 * (n_channels + 3) if exr else 0)
+    return px * per_px
+
+
+def available_memory_bytes() -> int | None:
+    """Memory available to a new allocation [bytes]: Linux's MemAvailable, or None where unknown."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def check_render_memory(resolution, n_channels, exr=True, option="resolution"):
+    """Refuse (ValueError naming ``option``) a render whose estimated memory exceeds what is available."""
+    need = render_memory_bytes(resolution, n_channels, exr)
+    avail = available_memory_bytes()
+    if avail is not None and need > avail:
+        per_px = need / int(resolution) ** 2
+        most = int((avail / per_px) ** 0.5)
+        raise ValueError(f"{option} {resolution}: the render of {n_channels} channel(s) needs about {need / 1e9:.1f} GB "
+                         f"of memory, {avail / 1e9:.1f} GB are available; use at most {most} pixels here")
+    return need
 
 
 def _exposure_scale(values, mask, exposure):
@@ -166,23 +227,38 @@ def _exposure_scale(values, mask, exposure):
     return (2.0 ** exposure) / (ref if ref > 0 else 1.0)
 
 
+@lru_cache(maxsize=1)
+def _srgb8_table():
+    """sRGB-encoded 8-bit value of each of 65536 linear levels in [0, 1] (16-bit steps of 1.5e-5 keep the
+    result within the rounding of a direct encoding)."""
+    return np.round(srgb_encode(np.arange(65536) / 65535.0) * 255.0).astype(np.uint8)
+
+
+def _encode8(linear):
+    """Linear values (clipped to [0, 1]) to 8-bit sRGB through the 16-bit table."""
+    v = np.clip(np.asarray(linear, np.float32), 0.0, 1.0)
+    v *= np.float32(65535.0)
+    v += np.float32(0.5)
+    return _srgb8_table()[v.astype(np.uint16)]
+
+
 def _display(r: Render, composite, exposure):
     """8-bit display image (H, W, 3)."""
     if composite:
         rgb = r.rgb_linear()
-        if not np.any(rgb[r.mask] > 0):
+        if not rgb.max(initial=0.0) > 0:  # zero outside the disc: the disc's maximum
             raise ValueError("the selected channels have no visible (380-780 nm) contribution: use a single channel")
         y = r.luminance_like()
-        out = srgb_encode(rgb * _exposure_scale(y, r.mask, exposure))
+        out = _encode8(rgb * np.float32(_exposure_scale(y, r.mask, exposure)))
     else:
-        v = r.values[..., 0].astype(float)
+        v = r.values[..., 0]
         if r.quantity == "polarisation":
-            g = np.clip(0.5 + 0.5 * v * 2.0 ** exposure, 0, 1)
+            g = np.round(np.clip(0.5 + 0.5 * v * 2.0 ** exposure, 0, 1) * 255.0).astype(np.uint8)
         else:
-            g = srgb_encode(v * _exposure_scale(v, r.mask, exposure))
+            g = _encode8(v * np.float32(_exposure_scale(v, r.mask, exposure)))
         out = np.repeat(g[..., None], 3, axis=-1)
-    out[~r.mask] = 0.0
-    return (np.round(out * 255.0)).astype(np.uint8)
+    out[~r.mask] = 0
+    return out
 
 
 def write_png(path, r: Render, *, composite=None, exposure=0.0):
@@ -195,29 +271,61 @@ def write_png(path, r: Render, *, composite=None, exposure=0.0):
         composite = r.values.shape[-1] > 1
     if not composite and r.values.shape[-1] != 1:
         raise ValueError("a single-channel PNG needs a render of exactly one channel")
-    Image.fromarray(_display(r, composite, exposure)).save(Path(path))
+    Image.fromarray(_display(r, composite, exposure)).save(Path(path), format="PNG", compress_level=1)
     return Path(path)
 
 
-def write_exr(path, r: Render, *, preview_exposure=0.0):
-    """Write a multi-channel OpenEXR (float32) in the Fichet et al. 2021 spectral layout: ``S0.<nm>``
-    channels at the band centres, ``spectralLayoutVersion`` 1.0, ``emissiveUnits``, an RGB preview, and
-    ``widesky.*`` attributes describing the quantity, its unit and the sky state."""
+HALF_MAX = 65504.0
+HALF_ERROR = ("half float: relative rounding error at most 2^-11 = 4.9e-4 for |value| >= 6.1e-5, absolute at most "
+              "3.0e-8 below (subnormal halves); the dataset's own coefficients are half floats too")
+EXR_COMPRESSIONS = ("none", "rle", "zips", "zip", "piz", "zstd")
+
+
+def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=0):
+    """Write a multi-channel OpenEXR in the Fichet et al. 2021 spectral layout: ``S0.<nm>`` channels at
+    the band centres, ``spectralLayoutVersion`` 1.0, ``emissiveUnits``, an RGB preview, and ``widesky.*``
+    attributes describing the quantity, its unit, the pixel type and its error, and the sky state.
+
+    Parameters
+    ----------
+    pixel_type : {"auto", "half", "float"}
+        "half" stores 16-bit floats (relative error <= 4.9e-4, see ``HALF_ERROR``; half the size and
+        several times faster to write); "auto" (default) uses half when every value is finite and below
+        the half range (65504), else 32-bit float.
+    compression : {"rle", "none", "zips", "zip", "piz", "zstd"}
+        OpenEXR compression (all lossless). "rle" (default) is fast; "zip" makes files about 2.5x
+        smaller and takes about 3x longer to write.
+    threads : int
+        OpenEXR's compression threads (0: one per core).
+    """
     import OpenEXR
 
+    if pixel_type not in ("auto", "half", "float"):
+        raise ValueError(f"pixel_type={pixel_type!r}: expected 'auto', 'half' or 'float'")
+    if compression not in EXR_COMPRESSIONS:
+        raise ValueError(f"compression={compression!r}: expected one of {EXR_COMPRESSIONS}")
+    H, W, C = r.values.shape
+    if r.values.shape[-1] > 1 and r.quantity in ("sky", "sun"):
+        rgb = np.asarray(r.rgb_linear(), np.float32)
+    else:
+        rgb = np.repeat(r.values[..., :1], 3, axis=-1)
+    if pixel_type == "auto":
+        big = max(float(np.abs(r.values).max(initial=0.0)), float(np.abs(rgb).max(initial=0.0)))
+        pixel_type = "half" if np.isfinite(big) and big < HALF_MAX else "float"
+    half = pixel_type == "half"
+    planes = np.empty((C + 3, H, W), np.uint16 if half else np.float32)
+    _core.planar(np.ascontiguousarray(r.values, np.float32), planes[:C], C)
+    _core.planar(np.ascontiguousarray(rgb, np.float32), planes[C:], 3)
+    if half:
+        planes = planes.view(np.float16)
     channels = {}
     for k, wl in enumerate(r.wavelengths):
-        name = "S0." + f"{wl:.6f}".replace(".", ",") + "nm"
-        channels[name] = np.ascontiguousarray(r.values[..., k], dtype=np.float32)
-    if r.values.shape[-1] > 1 and r.quantity in ("sky", "sun"):
-        rgb = r.rgb_linear()
-    else:
-        rgb = np.repeat(r.values[..., :1].astype(float), 3, axis=-1)
+        channels["S0." + f"{wl:.6f}".replace(".", ",") + "nm"] = planes[k]
     for i, c in enumerate("RGB"):
-        channels[c] = np.ascontiguousarray(rgb[..., i], dtype=np.float32)
+        channels[c] = planes[C + i]
     name, unit = QUANTITIES[r.quantity]
     header = {
-        "compression": OpenEXR.ZIP_COMPRESSION,
+        "compression": getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION"),
         "type": OpenEXR.scanlineimage,
         "spectralLayoutVersion": "1.0",
         "emissiveUnits": "W.m^-2.sr^-1",
@@ -225,9 +333,12 @@ def write_exr(path, r: Render, *, preview_exposure=0.0):
         "widesky.units": unit + (" (spectral density per nm; S0 channels sample it at the band centres)"
                                  if "nm-1" in unit else ""),
         "widesky.channelWidth_nm": f"{r.channel_width:g}",
+        "widesky.pixelType": "half" if half else "float",
+        "widesky.pixelError": HALF_ERROR if half else "float32: relative rounding error at most 6e-8",
     }
     for k, v in r.meta.items():
         header[f"widesky.{k}"] = str(v)
+    OpenEXR.set_global_thread_count(int(threads) if threads else (os.cpu_count() or 1))
     with OpenEXR.File(header, channels) as f:
         f.write(str(path))
     return Path(path)

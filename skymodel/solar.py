@@ -32,16 +32,36 @@ _TABLE = Path(__file__).resolve().parent / "data" / "solar_e490_1nm.csv"
 
 
 @lru_cache(maxsize=1)
-def extraterrestrial_spectrum():
-    """The shipped extraterrestrial spectrum.
+def _shipped():
+    data = np.loadtxt(_TABLE, delimiter=",", comments="#")
+    return data[:, 0].copy(), data[:, 1].copy()
+
+
+def extraterrestrial_spectrum(source=None, data_dir=None):
+    """The extraterrestrial solar spectrum at the mean Sun-Earth distance (1 AU): widesky's one function
+    for it, used by the evaluator (sun radiance) and the dataset generator.
+
+    Parameters
+    ----------
+    source : str, optional
+        None (default): the shipped ASTM E-490 table, 1 nm bins centred on 280, 281, ... 2500 nm (no data
+        directory needed). A name of :data:`skymodel.generator.solar.SOURCES` (``'tsis1'``, ``'g173'``,
+        ``'e490'``, ``'kurucz'``): that source read from the input data directory and averaged over
+        1 nm bins from 280 to 2480 nm (centres 280.5 ... 2479.5 nm), as the generator uses it.
+    data_dir : path-like, optional
+        Input data directory for a named source (default: see docs/atmosphere-and-solver.md).
 
     Returns
     -------
-    wavelength : ndarray  [nm], 1 nm steps
-    irradiance : ndarray  [W m-2 nm-1] at the mean Sun-Earth distance
+    wavelength : ndarray  [nm]
+    irradiance : ndarray  [W m-2 nm-1]
     """
-    data = np.loadtxt(_TABLE, delimiter=",", comments="#")
-    return data[:, 0].copy(), data[:, 1].copy()
+    if source is None:
+        wl, e = _shipped()
+        return wl.copy(), e.copy()
+    from .generator.solar import binned_source
+
+    return binned_source(source, data_dir)
 
 
 def band_average(wavelength, irradiance, lower, upper):

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .outputs import atomic_outputs
 from .writer import DatasetContents, write_dataset
 
 __all__ = ["synthetic_contents", "write_synthetic_dataset"]
@@ -116,5 +117,6 @@ def write_synthetic_dataset(path, description="synthetic dataset", **kwargs) -> 
     meta = {"synthetic": True, "description": description,
             "generator": "skymodel.synthetic.synthetic_contents",
             "parameters": {k: (list(v) if isinstance(v, (tuple, list, np.ndarray)) else v) for k, v in kwargs.items()}}
-    path.with_suffix(path.suffix + ".json").write_text(json.dumps(meta, indent=1, default=float))
+    with atomic_outputs(path.with_suffix(path.suffix + ".json")) as (tmp,):
+        tmp.write_text(json.dumps(meta, indent=1, default=float))
     return path

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .outputs import atomic_outputs
+
 __all__ = ["DatasetContents", "write_dataset", "encode_radiance_blocks"]
 
 HALF_MAX = 65504.0
@@ -167,7 +169,6 @@ def write_dataset(path, c: DatasetContents, balance=True) -> Path:
         blocks["r"]["sun"] = c.pol_sun
         blocks["r"]["zen"] = c.pol_zen
         buf.write(blocks.tobytes())
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(buf.getvalue())
-    tmp.replace(path)
+    with atomic_outputs(path) as (tmp,):
+        tmp.write_bytes(buf.getvalue())
     return path

@@ -334,6 +334,40 @@ def test_table_equals_direct_on_dense_image(datasets):
     np.testing.assert_allclose(c, a, rtol=2e-7, atol=1e-7 * np.abs(a).max())
 
 
+@pytest.mark.parametrize("which", ["rough", "full"])
+def test_twilight_table_equals_direct_on_dense_image(datasets, which):
+    """Sun below the horizon (the shadow angle replaces the zero angle in the zenith factor): the twilight
+    table path gives the direct path's values on dense up- and side-facing fisheyes, to the daytime table's
+    tolerance, with the clamp exercised (rough dataset) and every interpolation level (full dataset)."""
+    from skymodel.evaluate import KERNEL_INFO
+    from skymodel.render import fisheye_disc
+
+    m = skymodel.load_dataset(datasets[which])
+    for view, state in (("up", (-2.2, 123.0, 60.0, 0.4)), ("side", (-0.6, 200.0, 30.0, 0.9)),
+                        ("up", (-4.2, 10.0, 131.8, 1.0))):
+        dirs, _ = fisheye_disc(110, view, 150.0)
+        for alt in (0.0, 2500.0) if which == "full" else (0.0,):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", skymodel.SkyStateClampedWarning)
+                a = skymodel.sky_radiance(m, dirs, *state, alt, method="direct")
+                b = skymodel.sky_radiance(m, dirs, *state, alt, method="table")
+            assert KERNEL_INFO["path"] == 3 and KERNEL_INFO["cells_built"] > 10
+            np.testing.assert_allclose(b, a, rtol=1e-11, atol=1e-12 * np.abs(a).max())
+    if which == "rough":
+        assert (a == 0).mean() > 0.01 and KERNEL_INFO["mixed_terms"] > 0  # the clamp is exercised
+    # rows scattered into an image (the renderer's call) give the same values
+    from skymodel.evaluate import _evaluate_component
+
+    img = np.zeros((dirs.shape[0] + 7, m.n_channels))
+    rows = np.arange(dirs.shape[0], dtype=np.int64)[::-1] + 7
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", skymodel.SkyStateClampedWarning)
+        _evaluate_component(m, "radiance", dirs, *state, alt, None, None, np.float64, img, "table", 0, False,
+                            rows=rows)
+    np.testing.assert_array_equal(img[rows], b)
+    assert np.all(img[:7] == 0)
+
+
 def test_broadcasting_shapes_channels_and_wavelengths(datasets):
     m = skymodel.load_dataset(datasets["full"])
     dirs = _random_dirs(np.random.default_rng(4), 12).reshape(3, 4, 3)
@@ -426,3 +460,36 @@ def test_reference_angles_match_the_spec_port():
                 assert a[name][k] == pytest.approx(p[name], abs=1e-12), name
         assert a["elevation"] == pytest.approx(p["elevation"], abs=1e-15)
         assert a["altitude"] == pytest.approx(p["altitude"], abs=1e-9)
+
+
+def test_exact_sun_and_antisolar_directions_are_the_limits(datasets):
+    """The reference takes acos of an unclamped dot product, which rounding can push past 1 exactly at the
+    sun and the antisolar point (NaN there); widesky clamps it, so the value there is the limit of nearby
+    directions (1e-6 rad off: the model is piecewise linear in the angle, so the values differ by the slope
+    times 1e-6 at most; checked loosely at 1e-4 relative)."""
+    m = skymodel.load_dataset(datasets["full"])
+    for el, az in ((30.0, 200.0), (73.3, 41.0), (-2.0, 10.0)):
+        s = skymodel.sun_direction(el, az)
+        side = np.cross(s, [0.0, 0.0, 1.0])
+        side /= np.linalg.norm(side)
+        for centre in (s, -s):
+            d = np.stack([centre, np.cos(1e-6) * centre + np.sin(1e-6) * side])
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", skymodel.SkyStateClampedWarning)
+                for method in ("direct", "table"):
+                    v = skymodel.sky_radiance(m, d, el, az, 40.0, 0.5, 1000.0, method=method)
+                    assert np.isfinite(v).all()
+                    np.testing.assert_allclose(v[0], v[1], rtol=1e-4, atol=1e-12)
+
+
+def test_vertical_ray_to_a_finite_distance_is_the_limit_of_tilted_rays(datasets):
+    """Transmittance to a finite distance along a vertical ray: the distance factor is 0 there, where the
+    reference interpolates toward the wrong altitude entry; widesky's value is the limit as the ray tilts
+    (the distance factor grows linearly with the tilt, so 1e-9 rad off vertical is within 1e-6 of it)."""
+    m = skymodel.load_dataset(datasets["full"])
+    for dist in (800.0, 5000.0, 40000.0):
+        for up in (1.0, -1.0):
+            rays = [[0.0, 0.0, up], [1e-9, 0.0, up], [1e-3, 0.0, up]]
+            t = skymodel.transmittance(m, rays, 30.0, 180.0, 45.5, 0.5, 1000.0, distance=dist)
+            np.testing.assert_allclose(t[0], t[1], rtol=1e-6)
+            assert np.all(t[0] != t[2])  # the tilt matters at all: the check above is not vacuous

@@ -58,7 +58,7 @@ def test_subset_loading_gives_identical_values(tmp_path):
     path = write_synthetic_dataset(tmp_path / "s.dat", visibilities=(20, 40, 80, 131.8), albedos=(0, 0.5, 1),
                                    n_channels=8, rank=3, n_sun=10, n_zen=10, n_emph=6)
     full = skymodel.load_dataset(path)
-    dirs = skymodel.directions_from_angles([0, 30, 60, 85], [0, 90, 180, 270])
+    dirs = skymodel.direction_from_zenith([0, 30, 60, 85], [0, 90, 180, 270])
     ref = skymodel.sky_radiance(full, dirs, 25.0, 160.0, 55.0, 0.7)
     part = skymodel.load_dataset(path, visibility=55.0, albedo=0.7)
     assert part.visibilities.tolist() == [40, 80] and part.albedos.tolist() == [0.5, 1.0]
@@ -124,7 +124,7 @@ def test_count_inflation_does_not_allocate(small, tmp_path):
         p.write_bytes(bytes(bad))
         with pytest.raises(DatasetError) as e:
             skymodel.load_dataset(p).load()
-        assert "truncated" in str(e.value) or "exceeds" in str(e.value), str(e.value)
+        assert any(w in str(e.value) for w in ("truncated", "exceeds", "beyond the model's spectral range")), str(e.value)
         assert e.value.field and e.value.offset is not None
 
 
@@ -155,6 +155,112 @@ def test_hostile_values(small, tmp_path):
     assert e.value.offset == 276
 
 
+def test_hostile_knots_and_channels_rejected_at_open(small, tmp_path):
+    """Files that passed validation before and then divided by zero in the table path, gave NaN or a late
+    ValueError (issue 10): rejected at open, naming the field; no RuntimeWarning escapes (warnings are
+    errors in this suite)."""
+    b = bytearray(small.read_bytes())
+    sun0 = struct.unpack_from("<d", b, 108)[0]  # sunBreaks[0] at 108 (count at 104)
+    cases = [
+        (lambda x: struct.pack_into("<d", x, 116, sun0 + 1e-300), "sunBreaks", "apart"),   # near-equal knots
+        (lambda x: struct.pack_into("<d", x, 116, np.nextafter(sun0, 1.0)), "sunBreaks", "apart"),
+        (lambda x: struct.pack_into("<d", x, 168 + 8, 1e-12), "zenithBreaks", "apart|ascending"),
+        (lambda x: struct.pack_into("<d", x, 228 + 8 * 5, 7.0), "emphBreaks", "outside the valid range"),
+        (lambda x: struct.pack_into("<d", x, 92, 1e-30), "channelWidth", r"\[1, 2220\] nm"),      # tiny width
+        (lambda x: struct.pack_into("<d", x, 84, 100.0), "channelStart", "280"),                 # below 280 nm
+        (lambda x: struct.pack_into("<d", x, 84, 2490.0), "channels", "2500"),                   # beyond 2500 nm
+        (lambda x: struct.pack_into("<d", x, 92, 1500.0), "channels", "beyond"),
+    ]
+    for mutate, field, msg in cases:
+        bad = bytearray(b)
+        mutate(bad)
+        p = tmp_path / "hostile.dat"
+        p.write_bytes(bytes(bad))
+        with pytest.raises(DatasetError, match=msg) as e:
+            skymodel.load_dataset(p)
+        assert e.value.field == field and e.value.offset is not None, e.value
+
+
+def test_overflowing_coefficients_raise_without_warnings(small, tmp_path):
+    """A half float of inf and a tiny zenith scale that overflows float32 on division: a DatasetError at
+    the block's offset, not thousands of RuntimeWarnings first."""
+    b = bytearray(small.read_bytes())
+    bad = bytearray(b)
+    struct.pack_into("<d", bad, 276 + 14, 1e-300)  # zenithScale of the first block: zen / scale overflows
+    p = tmp_path / "overflow.dat"
+    p.write_bytes(bytes(bad))
+    with pytest.raises(DatasetError, match="zenStored") as e:
+        skymodel.load_dataset(p).load()
+    assert e.value.offset == 276
+    bad = bytearray(b)
+    struct.pack_into("<H", bad, 276 + 2, 0x7C00)  # sun[1] of the first block = +inf
+    p.write_bytes(bytes(bad))
+    with pytest.raises(DatasetError, match="sunStored"):
+        skymodel.load_dataset(p).load()
+
+
+@pytest.mark.parametrize("content, field, msg", [
+    ("{not json", None, "unreadable JSON"),
+    ("[1, 2]", None, "JSON object"),
+    ('{"extraterrestrial": []}', "extraterrestrial", "expected an object"),
+    ('{"extraterrestrial": {"wavelength": [], "irradiance": []}}', "extraterrestrial.wavelength", "at least 2"),
+    ('{"extraterrestrial": {"wavelength": [280, 2500], "irradiance": [1, NaN]}}', "extraterrestrial.irradiance",
+     "non-finite"),
+    ('{"extraterrestrial": {"wavelength": [280, 2500], "irradiance": [1, -1]}}', "extraterrestrial.irradiance",
+     ">= 0"),
+    ('{"extraterrestrial": {"wavelength": [280, 2500], "irradiance": [0, 0]}}', "extraterrestrial.irradiance",
+     "not all 0"),
+    ('{"extraterrestrial": {"wavelength": [300, 2500], "irradiance": [1, 1]}}', "extraterrestrial.wavelength",
+     "does not cover"),
+    ('{"extraterrestrial": {"wavelength": [280, 900, 800, 2500], "irradiance": [1, 1, 1, 1]}}',
+     "extraterrestrial.wavelength", "ascending"),
+    ('{"extraterrestrial": {"wavelength": [280, 2500], "irradiance": [1, 1, 1]}}', "extraterrestrial", "2 wavelengths"),
+    ('{"extraterrestrial": {"wavelength": ["a", 2500], "irradiance": [1, 1]}}', "extraterrestrial.wavelength",
+     "numbers"),
+])
+def test_sidecar_is_validated(small, tmp_path, content, field, msg):
+    p = tmp_path / "side.dat"
+    p.write_bytes(small.read_bytes())
+    side = tmp_path / "side.dat.json"
+    side.write_text(content)
+    with pytest.raises(DatasetError, match=msg) as e:
+        skymodel.load_dataset(p)
+    assert e.value.path == str(side) and e.value.field == field
+
+
+def test_a_valid_sidecar_spectrum_is_used(small, tmp_path):
+    p = tmp_path / "side.dat"
+    p.write_bytes(small.read_bytes())
+    (tmp_path / "side.dat.json").write_text('{"extraterrestrial": {"wavelength": [280, 2500], "irradiance": [2, 2]}}')
+    m = skymodel.load_dataset(p)
+    dni = skymodel.solar_direct_normal(m, 60.0, 180.0, 40.0, 0.5)
+    t = skymodel.transmittance(m, skymodel.sun_direction(60.0, 180.0)[None], 60.0, 180.0, 40.0, 0.5)[0]
+    np.testing.assert_allclose(dni, 2.0 * t, rtol=1e-12)  # the flat 2 W m-2 nm-1 spectrum times T
+
+
+def test_chunked_decoding_equals_whole_file_decoding(tmp_path, monkeypatch):
+    """Decoding in chunks (here forced to one configuration row at a time) gives the same arrays as
+    decoding the whole selection at once with numpy (the reference's float32(double(half)/scale))."""
+    import skymodel.dataset as ds
+
+    path = write_synthetic_dataset(tmp_path / "c.dat", visibilities=(20, 40, 131.8), albedos=(0, 0.5, 1),
+                                   n_channels=6, rank=3, n_sun=9, n_zen=8, n_emph=5, polarisation=True, seed=4)
+    m = skymodel.load_dataset(path, visibility=(30, 50), albedo=0.7, channels=[1, 2, 4])
+    lay = m._layout
+    ne = len(m.file_elevations)
+    assert m.visibilities.tolist() == [20, 40, 131.8] and m.albedos.tolist() == [0.5, 1.0]
+    blk = np.frombuffer(path.read_bytes(), lay.block_dtype, 3 * 3 * ne * 6,
+                        lay.rad_offset).reshape(3, 3, 1, ne, 6)[:, 1:3][..., [1, 2, 4]]
+    monkeypatch.setattr(ds, "DECODE_CHUNK_BYTES", 1)
+    sun, zen, emph = m.radiance_coefficients()
+    np.testing.assert_array_equal(sun, blk["r"]["sun"].astype(np.float32))
+    np.testing.assert_array_equal(zen, (blk["r"]["zen"].astype(np.float64)
+                                        / blk["r"]["scale"][..., None]).astype(np.float32))
+    np.testing.assert_array_equal(emph, blk["emph"].astype(np.float32))
+    assert sun.dtype == zen.dtype == emph.dtype == np.float32
+    assert m.resident_bytes == sun.nbytes + zen.nbytes + emph.nbytes
+
+
 MUTATION_SCRIPT = r"""
 import sys, struct, warnings
 import numpy as np
@@ -163,12 +269,15 @@ from skymodel import DatasetError
 src, work, seed, n = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 base = open(src, "rb").read()
 rng = np.random.default_rng(seed)
-dirs = skymodel.directions_from_angles([0, 45, 89, 120], [0, 90, 180, 270])
+dirs = skymodel.direction_from_zenith([0, 45, 89, 120], [0, 90, 180, 270])
 counts = {"rejected": 0, "loaded": 0}
-warnings.simplefilter("ignore")
+warnings.simplefilter("ignore", skymodel.SkyStateClampedWarning)
+warnings.simplefilter("error", RuntimeWarning)   # a numpy warning reaching the user is a failure
+KNOTS = [(104, 7), (164, 7), (224, 6)]            # (count offset, n) of sunBreaks, zenithBreaks, emphBreaks
+F64 = [4, 12, 24, 32, 44, 56, 64, 72, 84, 92]     # header doubles: grids, channelStart, channelWidth
 for i in range(n):
     b = bytearray(base)
-    kind = i % 4
+    kind = i % 7
     if kind == 0:                          # truncation anywhere
         b = b[: int(rng.integers(0, len(b)))]
     elif kind == 1:                        # bit flips
@@ -178,16 +287,33 @@ for i in range(n):
     elif kind == 2:                        # an i32 field set to a hostile count
         off = int(rng.choice([0, 20, 40, 52, 80, 100, 104, 164, 224, 2292, 2296, 2300, 2304, 2308, 2452, 2456, 2500]))
         struct.pack_into("<i", b, off, int(rng.choice([0, -1, 1, 2, 3, 255, 65536, 2**31 - 1])))
-    else:                                  # random bytes over a stretch
+    elif kind == 3:                        # random bytes over a stretch
         pos = int(rng.integers(0, len(b) - 8))
         b[pos:pos + 8] = rng.integers(0, 256, 8, dtype=np.uint8).tobytes()
+    elif kind == 4:                        # a knot moved almost onto its neighbour (still ascending)
+        cnt, nk = KNOTS[int(rng.integers(0, 3))]
+        j = int(rng.integers(0, nk - 1))
+        lo = struct.unpack_from("<d", b, cnt + 4 + 8 * j)[0]
+        step = float(rng.choice([0.0, 10.0 ** -rng.uniform(6, 300)]))
+        struct.pack_into("<d", b, cnt + 4 + 8 * (j + 1), np.nextafter(lo, 9.0) if step == 0 else lo + step)
+    elif kind == 5:                        # channel width or start anywhere, tiny to huge
+        off = int(rng.choice([84, 92]))
+        struct.pack_into("<d", b, off, float(rng.choice([-1, 1])) * 10.0 ** rng.uniform(-30, 5))
+    else:                                  # a header double set to a hostile value
+        struct.pack_into("<d", b, int(rng.choice(F64)), float(rng.choice(
+            [np.nan, np.inf, -np.inf, 1e308, -1e308, 5e-324, -0.0, 1e-30])))
     p = f"{work}/m{i % 16}.dat"
     open(p, "wb").write(bytes(b))
     try:
         m = skymodel.load_dataset(p)
         m.load()
-        skymodel.sky_radiance(m, dirs, 20.0, 180.0, 40.0, 0.5)
-        skymodel.sky_radiance(m, dirs, 20.0, 180.0, 40.0, 0.5, method="table")
+        direct = skymodel.sky_radiance(m, dirs, 20.0, 180.0, 40.0, 0.5, method="direct")
+        table = skymodel.sky_radiance(m, dirs, 20.0, 180.0, 40.0, 0.5, method="table")
+        if np.isfinite(direct).all():      # the table path must agree wherever the direct path is finite
+            scale = np.abs(direct).max(axis=-1, keepdims=True) + 1e-300
+            if not (np.isfinite(table).all() and np.all(np.abs(table - direct) <= 1e-6 * scale)):
+                print("MISMATCH", i, file=sys.stderr)
+                sys.exit(3)
         skymodel.sky_radiance(m, dirs, -2.0, 180.0, 40.0, 0.5)
         skymodel.transmittance(m, dirs, 20.0, 180.0, 40.0, 0.5)
         if m.has_polarisation:
@@ -200,9 +326,11 @@ print(counts["rejected"], counts["loaded"])
 
 
 def test_seeded_mutations_never_crash(small, tmp_path):
-    """Thousands of truncated, bit-flipped, count-inflated and scrambled files: every one is either
-    rejected with DatasetError/ValueError or loads and evaluates; the process never crashes (run in a
-    subprocess so a segfault or abort would show as a failed exit code), hangs or exhausts memory."""
+    """Thousands of truncated, bit-flipped, count-inflated and scrambled files, near-equal knots, hostile
+    channel widths and starts and hostile header doubles: every one is either rejected with
+    DatasetError/ValueError, with no numpy RuntimeWarning first, or loads and evaluates, its table path
+    agreeing with its direct path; the process never crashes (run in a subprocess so a segfault or abort
+    would show as a failed exit code), hangs or exhausts memory."""
     n = 3000
     proc = subprocess.run([sys.executable, "-c", MUTATION_SCRIPT, str(small), str(tmp_path), "2026", str(n)],
                           capture_output=True, text=True, timeout=600,
@@ -211,3 +339,21 @@ def test_seeded_mutations_never_crash(small, tmp_path):
     rejected, loaded = (int(x) for x in proc.stdout.split())
     assert rejected + loaded == n
     assert rejected > n // 4 and loaded > 100  # both outcomes are exercised
+
+
+def test_single_sky_state_decodes_only_what_it_uses(tmp_path):
+    """visibility, albedo and elevation given: only the bracketing grid points are decoded (2 x 2 x 2
+    configurations per channel here) and the values equal those of the whole file."""
+    path = write_synthetic_dataset(tmp_path / "s.dat", visibilities=(20, 40, 80, 131.8), albedos=(0, 0.5, 1),
+                                   n_channels=5, rank=2, n_sun=8, n_zen=8, n_emph=6, polarisation=True, seed=5)
+    full = skymodel.load_dataset(path).load()
+    one = skymodel.load_dataset(path, visibility=55.0, albedo=0.7, elevation=12.5).load()
+    assert one.visibilities.tolist() == [40, 80] and one.albedos.tolist() == [0.5, 1.0]
+    lo, hi = one.elevations
+    assert lo <= 12.5 <= hi and len(one.elevations) == 2
+    dirs = skymodel.direction_from_zenith([0, 30, 60, 85, 100], [0, 90, 180, 270, 45])
+    for f in (skymodel.sky_radiance, skymodel.polarisation, skymodel.transmittance):
+        np.testing.assert_array_equal(f(one, dirs, 12.5, 160.0, 55.0, 0.7), f(full, dirs, 12.5, 160.0, 55.0, 0.7))
+    sun_full = full.radiance_coefficients()[0]
+    assert one.radiance_coefficients()[0].nbytes * len(full.file_elevations) * 4 * 3 == sun_full.nbytes * 2 * 2 * 2
+    assert one.resident_bytes == one.selection_bytes() < full.resident_bytes / 4

@@ -2,6 +2,8 @@
 
 import re
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -75,7 +77,20 @@ def test_render_and_files(tmp_path):
     assert {"R", "G", "B"} <= set(channels)
     k = int(np.argmin(np.abs(model.wavelengths - 550)))
     wl_text = f"{model.wavelengths[k]:.6f}".replace(".", ",")
-    np.testing.assert_array_equal(channels[f"S0.{wl_text}nm"], r.values[..., k])
+    # half floats by default (the values fit their range): exactly numpy's rounding, within the stated error
+    assert header["widesky.pixelType"] == "half" and "4.9e-4" in header["widesky.pixelError"]
+    got = channels[f"S0.{wl_text}nm"]
+    np.testing.assert_array_equal(got, r.values[..., k].astype(np.float16))
+    v = r.values[..., k]
+    assert np.all(np.abs(got.astype(np.float32) - v) <= np.maximum(2.0 ** -11 * np.abs(v), 3.0e-8))
+    exact = write_exr(tmp_path / "f.exr", r, pixel_type="float", compression="zip")
+    with OpenEXR.File(str(exact), separate_channels=True) as f:
+        np.testing.assert_array_equal(f.channels()[f"S0.{wl_text}nm"].pixels, r.values[..., k])
+        assert dict(f.header())["widesky.pixelType"] == "float"
+    # a value beyond the half range makes "auto" keep 32-bit floats
+    big = dataclasses.replace(r, values=r.values * np.float32(1e5))
+    with OpenEXR.File(str(write_exr(tmp_path / "big.exr", big)), separate_channels=True) as f:
+        assert dict(f.header())["widesky.pixelType"] == "float"
 
 
 def test_render_quantities(tmp_path):

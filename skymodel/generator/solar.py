@@ -19,6 +19,7 @@ import functools
 
 import numpy as np
 
+from ..solar import extraterrestrial_spectrum
 from .channels import FINE_WAVELENGTHS_NM, N_CHANNELS
 from .paths import data_file
 
@@ -58,28 +59,16 @@ def _fine(source, data_dir):
     return _bin_average(wl, val, edges)
 
 
-def extraterrestrial_spectrum(source: str = "tsis1", data_dir=None):
-    """Extraterrestrial spectral irradiance averaged over 1 nm bins, 280-2480 nm, at 1 AU.
-
-    Parameters
-    ----------
-    source : str
-        One of ``'tsis1'`` (default), ``'g173'``, ``'e490'``, ``'kurucz'`` (see module docstring).
-    data_dir : path-like, optional
-        Input data directory.
-
-    Returns
-    -------
-    wavelength : numpy.ndarray, shape (2200,)
-        Bin centres [nm].
-    irradiance : numpy.ndarray, shape (2200,)
-        Bin-mean spectral irradiance [W m-2 nm-1].
-    """
+def binned_source(source: str, data_dir=None):
+    """A named source averaged over 1 nm bins 280-2480 nm at 1 AU: (bin centres [nm], shape (2200,),
+    bin-mean irradiance [W m-2 nm-1]). Called through :func:`skymodel.solar.extraterrestrial_spectrum`,
+    the one extraterrestrial-spectrum function."""
     return FINE_WAVELENGTHS_NM.copy(), _fine(source, None if data_dir is None else str(data_dir)).copy()
 
 
 def channel_extraterrestrial(source: str = "tsis1", data_dir=None) -> np.ndarray:
-    """Band-mean extraterrestrial spectral irradiance per channel [W m-2 nm-1], shape (55,), at 1 AU."""
+    """Band-mean extraterrestrial spectral irradiance per channel [W m-2 nm-1], shape (55,), at 1 AU, of a
+    named source (see :func:`skymodel.solar.extraterrestrial_spectrum`)."""
     _, e = extraterrestrial_spectrum(source, data_dir)
     return e.reshape(N_CHANNELS, 40).mean(axis=1)
 

@@ -1,0 +1,73 @@
+"""Output files written atomically, and output paths checked before any work is done.
+
+Every file widesky writes goes to a temporary file in the destination's folder first and is renamed
+over the destination (``os.replace``) only once it is complete, so a failure (a full disk, an error
+half-way, an interrupt) never leaves a half-written file; several files that belong together are
+renamed together at the end.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+__all__ = ["check_output_path", "atomic_outputs"]
+
+
+def check_output_path(path, option="--output", suffixes=None) -> Path:
+    """Check that ``path`` can be written, before the work that produces it starts.
+
+    Raises
+    ------
+    ValueError
+        Naming ``option`` when the path is a folder, its folder does not exist or is not writable, or
+        its suffix is not one of ``suffixes`` (e.g. ``(".png", ".exr")``).
+    """
+    p = Path(path)
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise ValueError(f"{option} {str(path)!r}: expected a file name ending in {' or '.join(suffixes)}")
+    if p.is_dir():
+        raise ValueError(f"{option} {str(path)!r} is a folder: give a file name")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"{option} {str(path)!r}: folder {str(parent)!r} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise ValueError(f"{option} {str(path)!r}: folder {str(parent)!r} is not writable")
+    return p
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+@contextlib.contextmanager
+def atomic_outputs(*paths):
+    """Context manager yielding one temporary path per destination (same folder, ending in the same suffix, so tools that go by the suffix still work); on a
+    normal exit every temporary file is renamed over its destination, on an exception all are removed.
+
+    Example::
+
+        with atomic_outputs("sky.png", "sky.exr") as (png, exr):
+            write_png(png, r)
+            write_exr(exr, r)
+    """
+    dests = [Path(p) for p in paths]
+    temps = []
+    try:
+        for d in dests:
+            fd, name = tempfile.mkstemp(prefix=f".{d.stem}.", suffix=".part" + d.suffix, dir=d.parent or ".")
+            os.close(fd)
+            os.chmod(name, 0o666 & ~_umask())  # as a plain open() would create it, not mkstemp's 0600
+            temps.append(Path(name))
+        yield temps
+        for t, d in zip(temps, dests):
+            os.replace(t, d)
+    except BaseException:
+        for t in temps:
+            with contextlib.suppress(OSError):
+                t.unlink()
+        raise
