@@ -27,7 +27,9 @@ class ClearPlaneSpectra(NamedTuple):
     """Clear-sky spectra of one step series for one plane, all (T, C) [W m-2 nm-1] unless stated.
 
     dni : sun direct normal. dhi : sky diffuse horizontal, circumsolar included.
-    poa_sky : sky diffuse on the plane, circumsolar included (at the sun's cosine).
+    circumsolar : circumsolar normal irradiance, traced with the sun (sky light: it takes the diffuse
+        factor, and the integrator counts it in ``poa_direct``, as the Perez model does).
+    poa_sky : sky diffuse on the plane, circumsolar excluded.
     cos_aoi : (T,) max(0, cos(angle of incidence)) [1]. sin_elevation : (T,) [1].
     overcast_ratio : () plane / horizontal sky diffuse under the CIE overcast sky [1].
     view_ground : () ground view factor ``(1 - cos tilt) / 2`` [1].
@@ -35,6 +37,7 @@ class ClearPlaneSpectra(NamedTuple):
 
     dni: np.ndarray
     dhi: np.ndarray
+    circumsolar: np.ndarray
     poa_sky: np.ndarray
     cos_aoi: np.ndarray
     sin_elevation: np.ndarray
@@ -75,7 +78,7 @@ def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=Non
     w_h = cosine_weights(patches, np.array([[0.0, 0.0, 1.0]]))[0]
     w_p = cosine_weights(patches, normal)[0]
     T, C = len(states), sky.n_channels
-    dni, dhi, psky = np.zeros((T, C)), np.zeros((T, C)), np.zeros((T, C))
+    dni, dhi, psky, circ = (np.zeros((T, C)) for _ in range(4))
     s = states.sun_direction
     cos_aoi = np.where(states.sun_elevation > 0, np.maximum(s @ normal[0], 0.0), 0.0)
     sin_el = np.sin(np.radians(np.maximum(states.sun_elevation, 0.0)))
@@ -89,10 +92,11 @@ def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=Non
         Lp, dn, cs = patch_radiance(sky, patches, states.take(idx), None, settings)
         dni[idx] = dn
         dhi[idx] = np.einsum("p,tpc->tc", w_h, Lp) + cs * sin_el[idx, None]
-        psky[idx] = np.einsum("p,tpc->tc", w_p, Lp) + cs * cos_aoi[idx, None]
+        psky[idx] = np.einsum("p,tpc->tc", w_p, Lp)
+        circ[idx] = cs
     ratio = float(overcast_poa_ratio(w_p, w_h, patches.directions[:, 2]))
     view_ground = 0.5 * (1.0 - np.cos(np.radians(float(surface_tilt))))
-    return ClearPlaneSpectra(dni, dhi, psky, cos_aoi, sin_el, ratio, view_ground)
+    return ClearPlaneSpectra(dni, dhi, circ, psky, cos_aoi, sin_el, ratio, view_ground)
 
 
 def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overcast_dhi=None):
@@ -112,8 +116,9 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
     Returns
     -------
     dict
-        ``poa_direct``, ``poa_sky_diffuse``, ``poa_ground_diffuse``, ``poa_global``, ``ghi``,
-        ``dhi``, ``dni``: (T, C) [W m-2 nm-1].
+        ``poa_direct`` (beam and circumsolar, as the integrator), ``poa_sky_diffuse``,
+        ``poa_ground_diffuse``, ``poa_global``, ``ghi``, ``dhi``, ``dni`` (the sun only): (T, C)
+        [W m-2 nm-1].
     """
     T, C = clear.dni.shape
     fb = np.asarray(dni_scale, dtype=float)
@@ -136,6 +141,6 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
             raise ValueError(f"albedo must be a scalar or have shape ({T},), got {alb.shape}")
         alb = alb[:, None]
     ground = alb * ghi * clear.view_ground
-    direct = dni * clear.cos_aoi[:, None]
+    direct = (dni + fd * clear.circumsolar) * clear.cos_aoi[:, None]
     return {"poa_direct": direct, "poa_sky_diffuse": sky, "poa_ground_diffuse": ground,
             "poa_global": direct + sky + ground, "ghi": ghi, "dhi": dhi, "dni": dni}
