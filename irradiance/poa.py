@@ -201,10 +201,28 @@ class _Sink:
         self.ctx.__exit__(RuntimeError if failed else None, None, None)
 
 
+def _allsky_setup(spectral_model, measured, T, sky, options):
+    """(AllSkyWeather, AllSkyOptions, dataset min visibility [km]) for spectral_model="allsky", else None."""
+    if spectral_model not in ("clear", "allsky"):
+        raise ValueError(f"spectral_model={spectral_model!r} is not one of ('clear', 'allsky')")
+    if spectral_model == "clear":
+        return None
+    if measured is None:
+        raise ValueError("spectral_model='allsky' needs measured=(dni, dhi) or an AllSkyWeather")
+    from .allsky import AllSkyOptions
+    from .allsky_sky import AllSkyWeather
+    wx = measured if isinstance(measured, AllSkyWeather) else AllSkyWeather(*tuple(measured)[:2])
+    wx = AllSkyWeather(*(None if v is None else np.broadcast_to(np.asarray(v, float), (T,)) for v in wx))
+    model = getattr(sky, "model", None)
+    vmin = float(np.min(model.visibility_range)) if model is not None else 20.0
+    return wx, options if options is not None else AllSkyOptions(), vmin
+
+
 def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, settings=None,
                    measured=None, times=None, dni_scale=None, diffuse_scale=None, output=None,
                    spectral=False, n_jobs=None, executor=None, progress=False, coefficients=None,
-                   optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None):
+                   optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None,
+                   spectral_model="clear", allsky_options=None):
     """Plane-of-array irradiance per face, step and response: direct, sky-diffuse and reflected parts.
 
     Parameters
@@ -227,6 +245,14 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         missing: the clear sky is kept); the per-step factors (:func:`irradiance.measured_scale_factors`
         on the model's own DNI/DHI from the same quadrature) are kept in ``result.scaling``. Not
         together with ``dni_scale``/``diffuse_scale``.
+        With ``spectral_model="allsky"`` it may be an :class:`irradiance.AllSkyWeather` (adds GHI,
+        station visibility and dew point).
+    spectral_model : {"clear", "allsky"}
+        With ``measured``: "clear" scales the clear sky's spectral and angular shape to the measured
+        DNI/DHI; "allsky" uses :mod:`irradiance.allsky` (per-step, per-channel factors and CIE
+        overcast light; the same broadband DNI/DHI, docs/all-sky.md).
+    allsky_options : AllSkyOptions, optional
+        Switches of the all-sky model (default all parts on).
     times : pandas.DatetimeIndex, optional
         (T,) labels of the steps (default ``states.times``).
     dni_scale, diffuse_scale : array_like, optional
@@ -283,9 +309,10 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     if measured is not None:
         if dni_scale is not None or diffuse_scale is not None:
             raise ValueError("give measured=(dni, dhi) or dni_scale/diffuse_scale, not both")
-        m_dni, m_dhi = (np.broadcast_to(np.asarray(a, dtype=float), (T,)) for a in measured)
+        m_dni, m_dhi = (np.broadcast_to(np.asarray(a, dtype=float), (T,)) for a in tuple(measured)[:2])
         measured_scale_factors(np.ones(T), np.ones(T), m_dni, m_dhi)     # validates the inputs
         model_dni, model_dhi = np.zeros(T), np.zeros(T)
+    allsky_in = _allsky_setup(spectral_model, measured, T, sky, allsky_options)
     for name, v in (("dni_scale", dni_scale), ("diffuse_scale", diffuse_scale)):
         if v is not None:
             a = np.asarray(v, dtype=float)
@@ -343,6 +370,13 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         nonlocal t_sky
         t0 = time.perf_counter()
         st = states.take(idx)
+        if allsky_in is not None:                  # all-sky model: factors per step and channel
+            from .allsky_sky import allsky_patch_radiance
+            Lp, dni, f, (model_dni[idx], model_dhi[idx]) = allsky_patch_radiance(
+                sky, patches, st, Wall, settings, allsky_in[0].take(idx), allsky_in[1], allsky_in[2])
+            scale_d[idx], scale_s[idx] = f.scaling.sun_scale, f.scaling.sky_scale
+            t_sky += time.perf_counter() - t0
+            return Lp, dni
         Lp, dni, cs = patch_radiance(sky, patches, st, Wall, settings,
                                      sun_scale=None if ch_sun is None else ch_sun[idx],
                                      sky_scale=None if ch_sky is None else ch_sky[idx])

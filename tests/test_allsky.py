@@ -168,3 +168,36 @@ def test_plane_path_matches_the_integrator_and_conserves_energy():
     spec = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo)
     np.testing.assert_allclose(spec["poa_global"] @ w, plain["poa_global"] @ w, rtol=1e-10)
     assert not np.allclose(spec["poa_global"], plain["poa_global"], rtol=1e-3)     # the shape moved
+
+
+@pytest.mark.parametrize("angular", ["clear", "cie_overcast"])
+def test_integrator_allsky_matches_the_plane_path(angular):
+    from irradiance.allsky_sky import AllSkyWeather
+    sky = RedSunSky()
+    states = SkyStates.create([12.0, 30.0, 55.0], [120.0, 180.0, 230.0], 30.0, 0.2)
+    settings = IntegratorSettings(rays_per_patch=4)
+    clear = clear_plane_spectra(sky, states, 40.0, 180.0, settings)
+    w = np.diff(sky.channel_edges)
+    dni, dhi = (clear.dni @ w) * np.array([0.0, 0.5, 0.9]), (clear.dhi @ w) * np.array([3.0, 1.6, 1.0])
+    opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular=angular)
+    f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt)
+    ref = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi)
+    scene = make_scene([_panel(40.0), _panel(0.0, z=150.0)], ground_z=0.0, analysis_reflectance=0.0)
+    res = poa_irradiance(scene, sky, states, measured=AllSkyWeather(dni, dhi), settings=settings,
+                         n_jobs=1, spectral_model="allsky", allsky_options=opt, spectral=True)
+    np.testing.assert_allclose(res.poa_direct[:, 0], ref["poa_direct"] @ w, rtol=1e-4, atol=1e-3)
+    np.testing.assert_allclose(res.poa_sky_diffuse[:, 0], ref["poa_sky_diffuse"] @ w, rtol=1e-2)
+    np.testing.assert_allclose(res.poa_ground_diffuse[:, 0], ref["poa_ground_diffuse"] @ w, rtol=3e-2)
+    # the horizontal face (2 mesh faces per panel: face 2) receives exactly the measured DNI and DHI
+    el = np.radians(states.sun_elevation)
+    np.testing.assert_allclose(res.poa_direct[:, 2] + res.poa_sky_diffuse[:, 2], dni * np.sin(el) + dhi,
+                               rtol=2e-3)
+    np.testing.assert_allclose(res.scaling.sun_scale, dni / (clear.dni @ w), rtol=1e-9)
+    # spectral global on the tilted face follows the all-sky shape
+    g = res.spectral["global"][:, 0, :]
+    np.testing.assert_allclose(g / (g @ w)[:, None], ref["poa_global"] / (ref["poa_global"] @ w)[:, None],
+                               rtol=0.03, atol=1e-6)
+    with pytest.raises(ValueError, match="spectral_model"):
+        poa_irradiance(scene, sky, states, spectral_model="cloudy")
+    with pytest.raises(ValueError, match="needs measured"):
+        poa_irradiance(scene, sky, states, spectral_model="allsky")
