@@ -38,6 +38,10 @@ def register(subparsers) -> None:
                    help="weather file (EPW, TMY3, CSV): site, steps, visibility/AOD, albedo, measured DNI/DHI")
     p.add_argument("--clear-sky", action="store_true",
                    help="with --weather: do not scale the clear sky to the measured DNI/DHI")
+    p.add_argument("--spectral-model", default="clear", choices=("clear", "allsky"),
+                   help="with --weather: 'clear' keeps the clear sky's spectral and angular shape, "
+                        "'allsky' the all-sky model (cloud spectra, CIE overcast light, haze below "
+                        "the dataset's visibility; docs/all-sky.md); the same measured DNI/DHI")
     p.add_argument("--lat", type=float, default=None, help="latitude [deg], north positive")
     p.add_argument("--lon", type=float, default=None, help="longitude [deg], east positive")
     p.add_argument("--site-altitude", type=float, default=0.0, help="site altitude [m]")
@@ -94,6 +98,8 @@ def _check_args(args):
     import math
     if args.jobs is not None and args.jobs < 1:
         raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
+    if args.spectral_model == "allsky" and (args.weather is None or args.clear_sky):
+        raise ValueError("--spectral-model allsky: needs --weather (measured DNI/DHI) and no --clear-sky")
     if args.ground_z is not None and not math.isfinite(args.ground_z):
         raise ValueError(f"--ground-z {args.ground_z}: must be a finite height [m]")
     for name, v, lo, hi in (("--visibility", args.visibility, 0.0, None),
@@ -179,7 +185,13 @@ def _steps(args, sky):
     data = wd.data.loc[states.times]
     if args.clear_sky or not {"dni", "dhi"} <= set(data.columns):
         return states, None, note + ", clear sky"
-    return states, (data["dni"].to_numpy(), data["dhi"].to_numpy()), note + ", scaled to measured DNI/DHI"
+    measured = (data["dni"].to_numpy(), data["dhi"].to_numpy())
+    if args.spectral_model == "allsky":
+        from .allsky_sky import AllSkyWeather
+        col = {c: data[c].to_numpy() if c in data else None for c in ("ghi", "visibility", "temp_dew")}
+        return (states, AllSkyWeather(*measured, **col),
+                note + ", all-sky spectra scaled to measured DNI/DHI")
+    return states, measured, note + ", scaled to measured DNI/DHI"
 
 
 def _write_csv(res, path, group=None):
@@ -237,6 +249,7 @@ def _run(args) -> int:
     res = poa_irradiance(scene, sky, states, responses=responses,
                          settings=IntegratorSettings.for_tolerance(args.tolerance),
                          measured=measured, n_jobs=args.jobs, progress=sys.stderr.isatty(),
+                         spectral_model=args.spectral_model if measured is not None else "clear",
                          output=args.output if kind == "h5" else None,
                          provenance={"command": "widesky poa " + " ".join(sys.argv[2:])})
     if kind == "csv":
