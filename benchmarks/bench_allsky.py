@@ -86,6 +86,18 @@ def g173_channels(edges):
     return np.diff(at) / np.diff(edges)
 
 
+def model_at_g173(sky):
+    """The sky model's own global tilted spectrum at the G173 conditions (solar zenith 48.236 deg, plane
+    tilted 37 deg toward the sun, AOD 0.084 at 500 nm as visibility through Koschmieder with Angstrom
+    1.3, albedo 0.2) [W m-2 nm-1] (C,): the reference that separates the weather's spectral effect from
+    the dataset's own difference to G173 at the reference state."""
+    from skymodel.visibility import aod_at_wavelength, visibility_from_aod550
+    vis = float(visibility_from_aod550(aod_at_wavelength(0.084, 500.0, 550.0, 1.3)))
+    st = ir.SkyStates.create([90.0 - 48.236], [180.0], vis, 0.2)
+    c = clear_plane_spectra(sky, st, 37.0, 180.0)
+    return plane_poa(c, np.ones(1), np.ones(1), 0.2)["poa_global"][0]
+
+
 def ape(spec, wavelength, width, band=(320.0, 1080.0)):
     """Average photon energy [eV] of (..., C) spectra over the channels inside ``band`` (edges, nm)."""
     lam = np.asarray(wavelength)
@@ -125,7 +137,7 @@ VARIANTS = (
 )
 
 
-def run_site(name, sky, sr, g173, prefer="visibility", progress=True, cache=None):
+def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True, cache=None):
     wl, edges = sky.wavelengths, sky.channel_edges
     w = np.diff(edges)
     wd, states, data, vis, kt, st = load_site(DATA / "weather" / SITES[name], sky, prefer)
@@ -144,6 +156,7 @@ def run_site(name, sky, sr, g173, prefer="visibility", progress=True, cache=None
     tdew = data["temp_dew"].to_numpy() if "temp_dew" in data else None
     vmin = float(np.min(sky.model.visibility_range))
     ref = {k: (s * g173 * w).sum() / (g173 * w).sum() for k, s in sr.items()}
+    ref_model = {k: (s * g173_model * w).sum() / (g173_model * w).sum() for k, s in sr.items()}
     rows, times, spectra = [], {}, {}
     for label, opt in VARIANTS:
         t1 = time.perf_counter()
@@ -154,6 +167,7 @@ def run_site(name, sky, sr, g173, prefer="visibility", progress=True, cache=None
         E = poa["poa_global"]
         tot = (E * w).sum()
         se = {k: ((E * s * w).sum() / tot) / ref[k] - 1.0 for k, s in sr.items()}
+        se.update({k + "*": ((E * s * w).sum() / tot) / ref_model[k] - 1.0 for k, s in sr.items()})
         a = ape(E, wl, w)
         over = kt < 0.3
         rows.append((label, se, float(np.nanmedian(a)), float(ape(E[over].sum(0), wl, w)),
@@ -161,7 +175,32 @@ def run_site(name, sky, sr, g173, prefer="visibility", progress=True, cache=None
         spectra[label] = (E, a)
     return {"name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
             "ape_g173": float(ape(g173, wl, w)), "kt": kt, "spectra": spectra, "states": st,
-            "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173}
+            "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt}
+
+
+def transposition_check(name, tilt):
+    """Annual plane-of-array irradiation [kWh m-2] of the same hours by pvlib's transposition models
+    (an independent check of the angular part; pvlib is a test dependency)."""
+    try:
+        import pvlib
+    except ImportError:
+        return {}
+    wd = ir.read_weather(DATA / "weather" / SITES[name])
+    d, sp = wd.data, wd.solar_position()
+    up = (sp["apparent_elevation"] > 0) & (d["ghi"] > 0)
+    d, sp = d[up], sp[up]
+    out = {}
+    for model in ("isotropic", "haydavies", "perez"):
+        kw = {}
+        if model != "isotropic":
+            kw["dni_extra"] = d["dni_extra"]
+        if model == "perez":
+            kw["airmass"] = pvlib.atmosphere.get_relative_airmass(sp["apparent_zenith"])
+        r = pvlib.irradiance.get_total_irradiance(tilt, 180.0 if wd.site.latitude >= 0 else 0.0,
+                                                  sp["apparent_zenith"], sp["azimuth"], d["dni"],
+                                                  d["ghi"], d["dhi"], albedo=0.2, model=model, **kw)
+        out[model] = float(r["poa_global"].sum() / 1000.0)
+    return out
 
 
 def report(res):
@@ -172,6 +211,14 @@ def report(res):
     for label, se, a_med, a_ovc, a_ann, H, _ in res["rows"]:
         print(f"{label:34s} " + " ".join(f"{100 * se[t]:+6.2f}" for t in techs)
               + f"  {100 * (se['a-Si'] - se['CIGS']):6.2f}  {a_med:7.3f}  {a_ovc:7.3f}  {a_ann:7.3f}  {H:8.1f}")
+    print("relative to the sky model's own spectrum at the G173 state (*):")
+    for label, se, *_ in res["rows"]:
+        print(f"{label:34s} " + " ".join(f"{100 * se[t + '*']:+6.2f}" for t in techs)
+              + f"  {100 * (se['a-Si*'] - se['CIGS*']):6.2f}")
+    tr = transposition_check(res["name"], res["tilt"])
+    if tr:
+        print("annual POA of pvlib's transpositions (same hours, albedo 0.2) [kWh m-2]: "
+              + ", ".join(f"{k} {v:.1f}" for k, v in tr.items()))
     if res["name"] == "amsterdam":
         print(f"{'Dirnberger 2015, Freiburg':34s} " + " ".join(f"{DIRNBERGER_FREIBURG[t]:+6.2f}" for t in techs)
               + f"  {DIRNBERGER_FREIBURG['a-Si'] - DIRNBERGER_FREIBURG['CIGS']:6.2f}")
@@ -185,6 +232,14 @@ def report(res):
               f"bounded by the measured beam {h.beam_bounded.mean():.1%}, fog (< 1 km) {h.fog.mean():.1%}, "
               f"sun hidden (not extended) {h.sun_hidden.mean():.1%}; median extra AOD550 where extended "
               f"{np.median(h.delta_aod550[h.extended]) if h.extended.any() else 0:.3f}")
+    for label in ("plain (today)", VARIANTS[-1][0]):
+        _, a = res["spectra"][label]
+        a = a[np.isfinite(a)]
+        hist, edges = np.histogram(a, bins=np.arange(1.5, 2.3, 0.01))
+        half = edges[:-1][hist >= hist.max() / 2]
+        print(f"  hourly APE, {label}: mode {edges[np.argmax(hist)] + 0.005:.3f} eV, median "
+              f"{np.median(a) - res['ape_g173']:+.3f} eV from G173, half width at half maximum "
+              f"{(half.max() - half.min() + 0.01) / 2:.3f} eV")
     kt = res["kt"]
     E0, _ = res["spectra"]["plain (today)"]
     E1, _ = res["spectra"][VARIANTS[-1][0]]
@@ -256,8 +311,8 @@ def figure(results, path):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sites", default="amsterdam", help="amsterdam, all, or a comma list of " + ", ".join(SITES))
-    ap.add_argument("--prefer", default="visibility", choices=("visibility", "aod"),
-                    help="aerosol input of the sky state (the weather's station visibility or its AOD)")
+    ap.add_argument("--prefer", default="aod", choices=("visibility", "aod"),
+                    help="aerosol input of the sky state: the weather file's AOD column where valid (default) or its station visibility")
     ap.add_argument("--figure", default=None, help="write the study figure (PNG)")
     ap.add_argument("--cache", default=None,
                     help="folder to keep the clear-sky spectra in between runs (reused when present)")
@@ -266,11 +321,16 @@ def main(argv=None):
     sky = ir.PragueSky()
     g173 = g173_channels(np.asarray(sky.channel_edges))
     sr = spectral_response(generic_eqe(sky.wavelengths), sky.wavelengths)
+    g173_model = model_at_g173(sky)
+    w = np.diff(sky.channel_edges)
+    print("the sky model at the G173 state against G173 (spectral effect of the model's reference "
+          "spectrum, %): " + ", ".join(f"{k} {100 * (((g173_model * s * w).sum() / (g173_model * w).sum()) / ((g173 * s * w).sum() / (g173 * w).sum()) - 1):+.2f}"
+                                      for k, s in sr.items()) + f"; APE {ape(g173_model, sky.wavelengths, w):.3f} eV")
     results = []
     for n in names:
         if n not in SITES:
             raise SystemExit(f"--sites: {n!r} is not one of {', '.join(SITES)}")
-        res = run_site(n, sky, sr, g173, prefer=args.prefer, cache=args.cache)
+        res = run_site(n, sky, sr, g173, g173_model, prefer=args.prefer, cache=args.cache)
         report(res)
         results.append(res)
     if args.figure:

@@ -42,6 +42,10 @@ def register(subparsers) -> None:
                    help="with --weather: 'clear' keeps the clear sky's spectral and angular shape, "
                         "'allsky' the all-sky model (cloud spectra, CIE overcast light, haze below "
                         "the dataset's visibility; docs/all-sky.md); the same measured DNI/DHI")
+    p.add_argument("--aerosol", default="visibility", choices=("visibility", "aod"),
+                   help="with --weather: the aerosol of each step from the file's station visibility "
+                        "(default) or its aerosol optical depth column where valid (recommended with "
+                        "--spectral-model allsky, docs/all-sky.md)")
     p.add_argument("--lat", type=float, default=None, help="latitude [deg], north positive")
     p.add_argument("--lon", type=float, default=None, help="longitude [deg], east positive")
     p.add_argument("--site-altitude", type=float, default=0.0, help="site altitude [m]")
@@ -180,7 +184,7 @@ def _steps(args, sky):
         return states, None, "clear sky"
     wd = read_weather(args.weather)
     states = sky_states_for(wd, args.start, args.end, model=sky.model,
-                            visibility=args.visibility, albedo=args.albedo)
+                            visibility=args.visibility, albedo=args.albedo, prefer=args.aerosol)
     note = f"weather {args.weather} ({wd.site.latitude:.3f}, {wd.site.longitude:.3f})"
     data = wd.data.loc[states.times]
     if args.clear_sky or not {"dni", "dhi"} <= set(data.columns):
@@ -189,6 +193,8 @@ def _steps(args, sky):
     if args.spectral_model == "allsky":
         from .allsky_sky import AllSkyWeather
         col = {c: data[c].to_numpy() if c in data else None for c in ("ghi", "visibility", "temp_dew")}
+        if args.aerosol == "aod":                  # the haze extension works from station visibility
+            col["visibility"] = None
         return (states, AllSkyWeather(*measured, **col),
                 note + ", all-sky spectra scaled to measured DNI/DHI")
     return states, measured, note + ", scaled to measured DNI/DHI"

@@ -391,7 +391,7 @@ def group_sky_states(states: pd.DataFrame, steps: GroupingSteps = DEFAULT_GROUPI
 
 
 def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visibility=50.0,
-                   albedo=0.2, altitude=0.0, label="left", warn=True):
+                   albedo=0.2, altitude=0.0, label="left", warn=True, prefer="visibility"):
     """Sky states for a site and period (clear sky) or for a weather file: the one path.
 
     Parameters
@@ -416,6 +416,10 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
         Observer altitude above the model's ground [m] (see :func:`sky_states`).
     label : {"left", "right", "center"}
         What a site period's timestamps label (weather files carry their own).
+    prefer : {"visibility", "aod"}
+        Aerosol input from a weather file that has both (:func:`sky_states`); "aod" takes the
+        column's aerosol optical depth where valid (docs/all-sky.md: station visibility mixes in fog,
+        rain and humid near-surface haze).
     warn : bool
         Warn (UserWarning) with the number of steps clamped to the model's ranges.
 
@@ -451,7 +455,7 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
         times = data.index
         sp = wd.site.solar_position(times, wd.label, wd.step)
         weather = data
-    st = sky_states(sp, weather, model=model, altitude=altitude, default_visibility=visibility,
+    st = sky_states(sp, weather, model=model, altitude=altitude, default_visibility=visibility, prefer=prefer,
                     default_albedo=albedo)
     clamped = {"visibility": st["visibility_clamped"].to_numpy(),
                "albedo": st["albedo_clamped"].to_numpy(),
