@@ -227,8 +227,8 @@ def report(res):
     f = res["rows"][-1][6]
     if f.haze is not None:
         h = f.haze
-        low = np.isfinite(res["vis"]) & (res["vis"] < 20)
-        print(f"visibility < 20 km: {low.mean():.1%} of hours; extended {h.extended.mean():.1%}, "
+        low = res["states"]["visibility_clamped"].to_numpy()
+        print(f"sky state clamped at the dataset's lowest visibility: {low.mean():.1%} of hours; extended {h.extended.mean():.1%}, "
               f"bounded by the measured beam {h.beam_bounded.mean():.1%}, fog (< 1 km) {h.fog.mean():.1%}, "
               f"sun hidden (not extended) {h.sun_hidden.mean():.1%}; median extra AOD550 where extended "
               f"{np.median(h.delta_aod550[h.extended]) if h.extended.any() else 0:.3f}")

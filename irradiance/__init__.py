@@ -21,6 +21,8 @@ from .integrator import (PRESETS, IntegratorSettings, measured_scaling, model_ir
 from .response import AngularTable, Response, SpectralAngularTable
 from .result import FaceTable, POAResult
 from .poa import poa_irradiance
+from .allsky import CLEAR_SHAPE, AllSkyFactors, AllSkyOptions, allsky_factors
+from .allsky_sky import AllSkyWeather
 
 __all__ = [
     # solar position
@@ -48,4 +50,6 @@ __all__ = [
     "Response", "AngularTable", "SpectralAngularTable",
     # brute-force reference
     "reference_poa", "ReferenceResult", "validation_scenes",
+    # all-sky spectra under measured weather
+    "AllSkyOptions", "AllSkyFactors", "AllSkyWeather", "allsky_factors", "CLEAR_SHAPE",
 ]

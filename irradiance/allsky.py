@@ -17,19 +17,25 @@ DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
    clear diffuse, ``G`` the clear global horizontal spectrum, and ``t`` the cloud layer's spectral
    transmittance relative to a non-absorbing cloud (:mod:`irradiance.cloud_optics`: liquid-water
    absorption of droplets in a two-stream slab whose optical depth reproduces the measured clear-sky
-   index ``GHI / GHI_clear``). This is the step that the cloud modification factors of SEDES2 (Nann &
-   Riordan 1991) describe empirically: overcast light has the global spectrum's shape (no Rayleigh
-   excess), with deeper water bands.
+   index ``GHI / GHI_clear``, and water vapour along the long in-cloud photon paths). This is the step
+   that the cloud modification factors of SEDES2 (Nann & Riordan 1991) describe empirically: overcast
+   light has the global spectrum's shape (no Rayleigh excess), with deeper water bands. ``G`` is taken
+   at the dataset's state, without the haze correction (haze lies below the cloud).
 4. **The sun through thin cloud** (Ernst et al. 2016, eq. 6): droplets and ice crystals are large
    against the wavelength, so their extinction is spectrally flat (extinction efficiency 2 to within
    3 % over 300-1200 nm for 10 um droplets, Mie, tests/test_allsky_optics.py); the beam keeps the
    (haze-corrected) clear shape, scaled to the measured DNI.
 
+5. **Angular distribution**: the clear part ``(1 - N)`` keeps the clear sky's radiance distribution,
+   the cloud part (``overcast_dhi``) is distributed as the CIE standard overcast sky
+   (:mod:`irradiance.overcast_sky`).
+
 The factors multiply the clear-sky model spectra the integrator evaluates:
 ``dni_scale * dni_clear`` and ``diffuse_scale * sky_radiance`` (circumsolar light takes the diffuse
-factor, as in the integrator), so :func:`irradiance.poa_irradiance` takes them as ``dni_scale`` and
-``diffuse_scale`` of shape (T, C). Every part can be switched off (:class:`AllSkyOptions`), which
-gives back the plain measured scaling when all are off.
+factor, as in the integrator); :func:`irradiance.poa_irradiance` applies them with
+``measured=..., spectral_model="allsky"`` (:mod:`irradiance.allsky_sky`), and with
+``angular="clear"`` they are plain (T, C) ``dni_scale``/``diffuse_scale``. Every part can be
+switched off (:class:`AllSkyOptions`); :data:`CLEAR_SHAPE` gives back the plain measured scaling.
 """
 
 from __future__ import annotations
@@ -42,7 +48,7 @@ import numpy as np
 from .cloud_optics import (DEFAULT_ASYMMETRY, DEFAULT_DROPLET_RADIUS, cloud_optical_depth,
                            cloud_relative_transmittance, cloud_vapour_path, droplet_coalbedo,
                            liquid_water_k, vapour_band_deepening)
-from .haze import HazeCorrection, haze_correction
+from .haze import haze_correction
 from .measured import MeasuredScaling, measured_scale_factors
 
 __all__ = ["AllSkyOptions", "AllSkyFactors", "allsky_factors", "cloud_index", "CLEAR_SHAPE"]
