@@ -264,24 +264,25 @@ def figure(results, path):
     ax = axes[0]
     x = np.arange(len(techs))
     rows = ams["rows"]
-    picks = [rows[0], rows[-1]]
-    bw = 0.27
-    for i, (label, se, *_rest) in enumerate(picks):
-        ax.bar(x + (i - 1) * bw, [100 * se[t] for t in techs], bw, label=f"Amsterdam, {label}")
-    ax.bar(x + bw, [DIRNBERGER_FREIBURG[t] for t in techs], bw, color="k", alpha=0.6,
+    bars = [("plain (today), vs G173", rows[0][1], ""), ("all-sky, vs G173", rows[-1][1], ""),
+            ("all-sky, vs the model at the G173 state", rows[-1][1], "*")]
+    bw = 0.2
+    for i, (label, se, star) in enumerate(bars):
+        ax.bar(x + (i - 1.5) * bw, [100 * se[t + star] for t in techs], bw, label=f"Amsterdam, {label}")
+    ax.bar(x + 1.5 * bw, [DIRNBERGER_FREIBURG[t] for t in techs], bw, color="k", alpha=0.6,
            label="Freiburg, measured (Dirnberger 2015)")
     ax.axhline(0, color="0.5", lw=0.8)
     ax.set_xticks(x, techs)
-    ax.set_ylabel("annual spectral effect vs G173 global tilt [%]")
+    ax.set_ylabel("annual spectral effect [%]")
     ax.set_title("Annual spectral effect, south plane tilted at latitude")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7)
     ax = axes[1]
     bins = np.linspace(1.6, 2.2, 61)
     kt = ams["kt"]
-    for label in (rows[0][0], rows[-1][0]):
+    for label, short in ((rows[0][0], "plain"), (rows[-1][0], "all-sky")):
         _, a = ams["spectra"][label]
-        ax.hist(a[kt < 0.3], bins=bins, histtype="step", lw=1.5, label=f"{label}, kt < 0.3")
-        ax.hist(a[kt >= 0.6], bins=bins, histtype="step", lw=1.0, ls="--", label=f"{label}, kt >= 0.6")
+        ax.hist(a[kt < 0.3], bins=bins, histtype="step", lw=1.5, label=f"{short}, kt < 0.3")
+        ax.hist(a[kt >= 0.6], bins=bins, histtype="step", lw=1.0, ls="--", label=f"{short}, kt >= 0.6")
     ax.axvline(ams["ape_g173"], color="k", lw=1, label="G173 global tilt")
     ax.set_xlabel("average photon energy 340-1060 nm [eV]")
     ax.set_ylabel("hours")
@@ -290,10 +291,10 @@ def figure(results, path):
     ax = axes[2]
     wl = ams["wl"]
     over = np.argmin(np.abs(kt - 0.15) + 10 * (ams["states"]["solar_elevation"].to_numpy() < 25))
-    for label, ls in ((rows[0][0], "-"), (rows[-1][0], "-")):
+    for label, short in ((rows[0][0], "plain (today)"), (rows[-1][0], "all-sky")):
         E, _ = ams["spectra"][label]
         e = E[over]
-        ax.plot(wl, e / (e * ams["w"]).sum() * 1000, ls, label=label)
+        ax.plot(wl, e / (e * ams["w"]).sum() * 1000, label=short)
     g = ams["g173"]
     ax.plot(wl, g / (g * ams["w"]).sum() * 1000, "k:", label="G173 global tilt")
     ax.set_xlim(280, 1400)
