@@ -108,14 +108,14 @@ def ape(spec, wavelength, width, band=(320.0, 1080.0)):
         return e / n
 
 
-def load_site(path, sky, prefer="visibility"):
+def load_site(path, sky, prefer="visibility", stride=1):
     wd = ir.read_weather(path)
     data = wd.data
     sp = wd.site.solar_position(data.index, wd.label, wd.step)
     st = ir.sky_states(sp, data, model=sky.model, prefer=prefer)
     keep = (st["solar_elevation"].to_numpy() > sky.min_sun_elevation) & (data["ghi"].to_numpy() > 0)
     keep &= np.isfinite(data["dni"].to_numpy()) & np.isfinite(data["dhi"].to_numpy())
-    st, data = st[keep], data[keep]
+    st, data = st[keep][::stride], data[keep][::stride]
     states = ir.SkyStates.create(st["solar_elevation"].to_numpy(), st["azimuth"].to_numpy(),
                                  st["visibility"].to_numpy(), st["albedo"].to_numpy())
     raw_vis = data["visibility"].to_numpy() if "visibility" in data else np.full(len(data), np.nan)
@@ -137,13 +137,13 @@ VARIANTS = (
 )
 
 
-def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True, cache=None):
+def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True, cache=None, stride=1):
     wl, edges = sky.wavelengths, sky.channel_edges
     w = np.diff(edges)
-    wd, states, data, vis, kt, st = load_site(DATA / "weather" / SITES[name], sky, prefer)
+    wd, states, data, vis, kt, st = load_site(DATA / "weather" / SITES[name], sky, prefer, stride)
     t0 = time.perf_counter()
     tilt, azimuth = abs(wd.site.latitude), 180.0 if wd.site.latitude >= 0 else 0.0
-    cfile = None if cache is None else Path(cache) / f"allsky_clear_{name}_{prefer}.npz"
+    cfile = None if cache is None else Path(cache) / f"allsky_clear_{name}_{prefer}_{stride}.npz"
     if cfile is not None and cfile.is_file():
         z = np.load(cfile)
         clear = ClearPlaneSpectra(*(z[k] for k in ClearPlaneSpectra._fields))
@@ -315,6 +315,8 @@ def main(argv=None):
     ap.add_argument("--prefer", default="aod", choices=("visibility", "aod"),
                     help="aerosol input of the sky state: the weather file's AOD column where valid (default) or its station visibility")
     ap.add_argument("--figure", default=None, help="write the study figure (PNG)")
+    ap.add_argument("--stride", type=int, default=1,
+                    help="keep every n-th daylight hour (a quicker sample of the year; 1 = all)")
     ap.add_argument("--cache", default=None,
                     help="folder to keep the clear-sky spectra in between runs (reused when present)")
     args = ap.parse_args(argv)
@@ -331,7 +333,8 @@ def main(argv=None):
     for n in names:
         if n not in SITES:
             raise SystemExit(f"--sites: {n!r} is not one of {', '.join(SITES)}")
-        res = run_site(n, sky, sr, g173, g173_model, prefer=args.prefer, cache=args.cache)
+        res = run_site(n, sky, sr, g173, g173_model, prefer=args.prefer, cache=args.cache,
+                       stride=args.stride)
         report(res)
         results.append(res)
     if args.figure:
