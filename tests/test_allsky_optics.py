@@ -12,7 +12,7 @@ References and tolerances:
 * Saturation vapour density at 20 degC: 17.3 g m-3 (Smithsonian meteorological tables), 1 %.
 * Kasten & Young (1989) air mass against pvlib's ``kastenyoung1989``, 1e-9.
 * CIE overcast sky: vertical / horizontal diffuse = 0.3963 (analytic: (pi/6 + 4/9) / (7 pi / 9)),
-  2 % on 145 Tregenza-Reinhart patches and 0.5 % on 2305; the blend keeps the spectral DHI to 1e-12.
+  2 % on 145 Tregenza-Reinhart patches and 0.5 % on 2305.
 * Haze: Koschmieder's extra AOD (3.912/V - 3.912/20) x 1.5 km, 1e-12; the measured beam bound.
 """
 
@@ -24,7 +24,7 @@ from irradiance.cloud_optics import (DEFAULT_ASYMMETRY, US62_WATER_COLUMN, cloud
                                      liquid_water_k, saturation_vapour_density, slab_transmittance,
                                      vapour_band_deepening)
 from irradiance.haze import haze_correction, relative_airmass
-from irradiance.overcast_sky import blend_toward_overcast, cie_overcast_relative, overcast_poa_ratio
+from irradiance.overcast_sky import cie_overcast_relative, overcast_poa_ratio
 from irradiance.patches import cosine_weights, direction_from_angles, reinhart
 from skymodel.generator.paths import has_data
 
@@ -130,23 +130,6 @@ def test_cie_overcast_vertical_ratio(mf, tol):
     exact = (np.pi / 6 + 4 / 9) / (7 * np.pi / 9)
     assert abs(r[0] / exact - 1) < tol and abs(r[1] - 1) < 1e-12
     assert cie_overcast_relative(1.0) == 1.0 and cie_overcast_relative(0.0) == pytest.approx(1 / 3)
-
-
-def test_overcast_blend_keeps_spectral_dhi():
-    p = reinhart(1)
-    rng = np.random.default_rng(3)
-    L = rng.uniform(0.01, 1.0, (3, p.n_patches, 4))
-    cs = rng.uniform(0, 5, (3, 4))
-    el = np.array([10.0, 30.0, 60.0])
-    h = p.vector[:, 2]
-    out, cs2 = blend_toward_overcast(L, np.array([0.0, 0.4, 1.0]), h, p.directions[:, 2], cs, el)
-    dhi = np.einsum("p,tpc->tc", h, L) + cs * np.sin(np.radians(el))[:, None]
-    dhi2 = np.einsum("p,tpc->tc", h, out) + cs2 * np.sin(np.radians(el))[:, None]
-    np.testing.assert_allclose(dhi2, dhi, rtol=1e-12)
-    np.testing.assert_allclose(out[0], L[0])
-    assert np.all(cs2[2] == 0)
-    f = cie_overcast_relative(p.directions[:, 2])
-    np.testing.assert_allclose(out[2] / out[2, :1], np.broadcast_to((f / f[0])[:, None], out[2].shape), rtol=1e-12)
 
 
 def _hazy_inputs():
