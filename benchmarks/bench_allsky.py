@@ -175,10 +175,10 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
         spectra[label] = (E, a)
     return {"name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
             "ape_g173": float(ape(g173, wl, w)), "kt": kt, "spectra": spectra, "states": st,
-            "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt}
+            "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt, "stride": stride}
 
 
-def transposition_check(name, tilt):
+def transposition_check(name, tilt, stride=1):
     """Annual plane-of-array irradiation [kWh m-2] of the same hours by pvlib's transposition models
     (an independent check of the angular part; pvlib is a test dependency)."""
     try:
@@ -187,8 +187,10 @@ def transposition_check(name, tilt):
         return {}
     wd = ir.read_weather(DATA / "weather" / SITES[name])
     d, sp = wd.data, wd.solar_position()
-    up = (sp["apparent_elevation"] > 0) & (d["ghi"] > 0)
-    d, sp = d[up], sp[up]
+    st = ir.sky_states(sp, d)
+    up = (st["solar_elevation"] > ir.PragueSky().min_sun_elevation) & (d["ghi"] > 0)
+    up &= np.isfinite(d["dni"]) & np.isfinite(d["dhi"])
+    d, sp = d[up][::stride], sp[up][::stride]
     out = {}
     for model in ("isotropic", "haydavies", "perez"):
         kw = {}
@@ -215,7 +217,7 @@ def report(res):
     for label, se, *_ in res["rows"]:
         print(f"{label:34s} " + " ".join(f"{100 * se[t + '*']:+6.2f}" for t in techs)
               + f"  {100 * (se['a-Si*'] - se['CIGS*']):6.2f}")
-    tr = transposition_check(res["name"], res["tilt"])
+    tr = transposition_check(res["name"], res["tilt"], res["stride"])
     if tr:
         print("annual POA of pvlib's transpositions (same hours, albedo 0.2) [kWh m-2]: "
               + ", ".join(f"{k} {v:.1f}" for k, v in tr.items()))
