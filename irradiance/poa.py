@@ -158,7 +158,7 @@ def _versions():
 class _Sink:
     """Where the blocks of output steps go: arrays in memory, or the HDF5 file."""
 
-    def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral):
+    def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral, compression=None):
         self.keys, self.T, self.F, self.C = keys, T, F, C
         self.path, self.writer, self.ctx = path, None, None
         self.spectral = spectral
@@ -172,7 +172,8 @@ class _Sink:
         else:
             self.ctx = atomic_h5(path)
             f = self.ctx.__enter__()
-            self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None)
+            self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None,
+                                   compression)
 
     def block(self, b0, b1):
         """dict key -> (b1 - b0, F) zeroed arrays (aoi NaN) to fill for steps b0:b1."""
@@ -204,7 +205,7 @@ class _Sink:
 def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, settings=None,
                    measured=None, times=None, dni_scale=None, diffuse_scale=None, output=None,
                    spectral=False, n_jobs=None, executor=None, progress=False, coefficients=None,
-                   optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None):
+                   optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None, compression=None):
     """Plane-of-array irradiance per face, step and response: direct, sky-diffuse and reflected parts.
 
     Parameters
@@ -253,6 +254,9 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         Extra entries (e.g. the command line) for ``result.provenance``.
     block_steps : int, optional
         Steps per output block (default: a block of about 384 MB).
+    compression : {None, "lzf", "gzip"}
+        Compression of the result file's (T, F) datasets (None: fastest, see
+        :mod:`irradiance.result`).
 
     Returns
     -------
@@ -379,7 +383,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         ctx = _ProductContext(scene, cf, states, lit, J, J_all, col_mat, spectral,
                               spectral_ground, settings.time_chunk)
         sink = _Sink(keys, T, F, C, None if output is None else os.fspath(output), names, units,
-                     faces_tab, spectral)
+                     faces_tab, spectral, compression)
         t_prod = 0.0
         ci = 0
         bar = None
