@@ -182,12 +182,17 @@ class _Sink:
             out = {k: v[b0:b1] for k, v in self.full.items()}
             out["aoi"][:] = np.nan
             return out
-        out = {k: np.zeros((n, self.F), np.float32) for k in self.keys}
-        out["aoi"] = np.full((n, self.F), np.nan, np.float32)
-        out["sun_visible"] = np.zeros((n, self.F), np.float32)
-        if self.spectral:
-            for p in PARTS + ("global",):
-                out[("spectral", p)] = np.zeros((n, self.F, self.C), np.float32)
+        # one set of block buffers, reused (fresh multi-100-MB arrays per block cost seconds of
+        # page faults)
+        if getattr(self, "_buf", None) is None or self._buf_n < n:
+            shape = {k: (n, self.F) for k in [*self.keys, "aoi", "sun_visible"]}
+            if self.spectral:
+                shape.update({("spectral", p): (n, self.F, self.C) for p in PARTS + ("global",)})
+            self._buf = {k: lazy_zeros(v, np.float32) for k, v in shape.items()}
+            self._buf_n = n
+        out = {k: v[:n] for k, v in self._buf.items()}
+        for k, v in out.items():
+            v.fill(np.nan if k == "aoi" else 0.0)
         return out
 
     def flush(self, b0, block):
@@ -390,7 +395,8 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         if progress:
             from tqdm.auto import tqdm
             bar = tqdm(total=len(chunk_plan), unit="chunk", desc="time series")
-        face_n = np.asarray(scene.face_normal, dtype=float)
+        face_nT = np.ascontiguousarray(np.asarray(scene.face_normal, dtype=np.float32).T)
+        sun_dir32 = states.sun_direction.astype(np.float32)
         invalid = ~scene.face_valid
         for bi, (b0, b1) in enumerate(blocks):
             if b1 <= b0:
@@ -398,8 +404,11 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
             block = sink.block(b0, b1)
             upb = np.nonzero(up[b0:b1])[0]
             if upb.size:                           # beam angle of incidence of every face
-                cz = np.clip(states.sun_direction[b0 + upb] @ face_n.T, -1.0, 1.0)
-                block["aoi"][upb] = np.degrees(np.arccos(cz))
+                cz = sun_dir32[b0 + upb] @ face_nT
+                np.clip(cz, -1.0, 1.0, out=cz)
+                np.arccos(cz, out=cz)
+                cz *= np.float32(180.0 / np.pi)
+                block["aoi"][upb] = cz
             while ci < len(chunk_plan) and chunk_plan[ci][0] == bi:
                 idx = chunk_plan[ci][1]
                 Lp, dni = sky_ahead[ci] if ci < len(sky_ahead) else sky_chunk(idx)
@@ -498,6 +507,10 @@ class _ProductContext:
         self.buf_refl = lazy_zeros((rows, N), np.float32)
         self.buf_aux = lazy_zeros((rows, N), np.float32)
         self.buf_tmp = lazy_zeros((tmax, N), np.float32)
+        self.buf_cos = lazy_zeros((tmax, N), np.float32)
+        self.buf_vis = lazy_zeros((tmax, N), np.float32)
+        self.buf_beam = lazy_zeros((tmax, N), np.float32)
+        self.buf_part = [lazy_zeros((tmax, N), np.float32) for _ in range(3)]
 
     def faces(self, a):
         """(..., N) -> (..., F): mean over each face's points."""
@@ -567,13 +580,15 @@ def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank):
                                   dtype=np.float32)
         refl_all[rows] += np.matmul(Xu, ctx.Ksun_T[g], out=ctx.buf_aux[:rows.size * Rp]).reshape(
             rows.size, Rp, N)
-    cos = np.zeros((Tc, N), np.float32)
-    vis = np.zeros((Tc, N), np.float32)
+    cos, vis, beam = ctx.buf_cos[:Tc], ctx.buf_vis[:Tc], ctx.buf_beam[:Tc]
+    cos.fill(0.0)
+    vis.fill(0.0)
     upc = np.nonzero(up[idx])[0]
     if upc.size:
         cos[upc] = s[upc].astype(np.float32) @ ctx.normals_T
         vis[upc] = ctx.sun_vis[ctx.sun_bin_of[sun_rank[idx[upc]]]]
-    beam = np.maximum(cos, 0.0) * vis
+    np.maximum(cos, 0.0, out=beam)
+    beam *= vis
     return {"sky": sky_all, "refl": refl_all, "beam": beam, "cos": cos, "vis": vis,
             "dni": dni.astype(np.float32)}
 
@@ -582,32 +597,37 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
     """Stage 4: each response's direct, sky-diffuse and reflected parts from its columns, the
     optics applied, averaged over each face's points, into ``block`` at ``rows``."""
     sky_all, refl_all, beam, dni = terms["sky"], terms["refl"], terms["beam"], terms["dni"]
+    Tc = beam.shape[0]
     aoi_pt = None
     f = ctx.faces
+    b_dir, b_sky, b_ref = (b[:Tc] for b in ctx.buf_part)
     for i, (name, _w, _unit, r) in enumerate(resp):
         kind = plan.kind[i]
         js = col_of[i]
         if kind != "none" and aoi_pt is None:
-            aoi_pt = np.degrees(np.arccos(np.clip(terms["cos"], -1.0, 1.0)))
+            aoi_pt = np.degrees(np.arccos(np.clip(terms["cos"], 0.0, 1.0)))
         if kind == "none":
             j = js[0]
-            direct = dni[:, j:j + 1] * beam
+            direct = np.multiply(dni[:, j:j + 1], beam, out=b_dir)
             skyd = sky_all[:, j]
             refl = refl_all[:, j]
         elif kind == "angular":
             j = js[0]
-            g = np.asarray(r.angular(np.minimum(aoi_pt, 90.0)), dtype=np.float32)
-            direct = dni[:, j:j + 1] * beam * g
+            g = np.asarray(r.angular(aoi_pt), dtype=np.float32)
+            direct = np.multiply(dni[:, j:j + 1], beam, out=b_dir)
+            direct *= g
             skyd = sky_all[:, j]
-            refl = refl_all[:, j] * ctx.refl_factor[plan.index[i]][None, :]
+            refl = np.multiply(refl_all[:, j], ctx.refl_factor[plan.index[i]][None, :], out=b_ref)
         else:
-            direct = np.zeros_like(beam)
-            skyd = np.zeros_like(beam)
-            refl = np.zeros_like(beam)
+            direct, skyd, refl = b_dir, b_sky, b_ref
+            for b in (direct, skyd, refl):
+                b.fill(0.0)
             eye = np.eye(plan.nodes.size)
             for a, j in enumerate(js):
                 hat = np.interp(aoi_pt, plan.nodes, eye[a]).astype(np.float32)
-                direct += dni[:, j:j + 1] * beam * hat
+                hat *= beam
+                hat *= dni[:, j:j + 1]
+                direct += hat
                 skyd += sky_all[:, j]
                 refl += refl_all[:, j] * ctx.refl_factor[plan.index[i] + a][None, :]
         block[(name, "direct")][rows] = f(direct)
