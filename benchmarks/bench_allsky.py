@@ -1,0 +1,347 @@
+"""All-sky spectra under measured weather: annual spectral effects of PV technologies, before/after.
+
+The study of docs/all-sky.md: a south-facing plane tilted at the site's latitude, an hourly weather
+year from ``../shared/data/weather/`` (or WIDESKY_DATA_DIR), the default dataset's clear sky at each
+step's state, and generic EQE curves. For each technology the annual spectral effect is
+
+    SE = (sum_t sum_c SR_c E_tc dl_c / sum_t sum_c E_tc dl_c) / (same for ASTM G173 global tilt) - 1
+
+over 280-2480 nm (the 55 channels; G173 band-averaged onto them). "plain" is the measured path as
+it is today (clear-sky shape scaled to measured DNI/DHI), "all-sky" the model of irradiance.allsky
+with each part added in turn. Also the average photon energy (APE, 340-1060 nm: the channels with
+centres 340-1060 nm) of hourly plane-of-array spectra, in all and in overcast hours (clearness index
+below 0.3), against G173's.
+
+Usage:  python benchmarks/bench_allsky.py [--sites amsterdam|all] [--figure docs/figures/allsky_spectral_effects.png]
+
+Prints a table per site and the time of each phase (the sky evaluation dominates; the all-sky factors
+cost milliseconds for a year, reported as a ratio to the plain scaling measured in the same run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+import irradiance as ir
+from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors
+from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
+
+DATA = Path(os.environ.get("WIDESKY_DATA_DIR") or Path(__file__).resolve().parents[1].parent / "shared" / "data")
+
+SITES = {
+    "amsterdam": "NLD_Amsterdam062400_IWEC.epw",
+    "chicago": "USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw",
+    "denver": "USA_CO_Denver.Intl.AP.725650_TMY3.epw",
+    "san_francisco": "USA_CA_San.Francisco.Intl.AP.724940_TMY3.epw",
+}
+
+# Dirnberger et al. (2015), Sol. Energy Mater. Sol. Cells 132, 431-442: measured annual spectral
+# effects at Freiburg (Germany) relative to AM1.5G, % (as quoted in issue 16).
+DIRNBERGER_FREIBURG = {"a-Si": 3.4, "CdTe": 2.4, "c-Si": 1.4, "CIGS": 0.6}
+
+HC_EV_NM = 1239.84198  # h c / q [eV nm]
+
+
+def generic_eqe(wavelength):
+    """Generic EQE curves [1] at wavelengths [nm]: plateau x window cutoff x band-gap edge (logistic
+    edges). Shapes, not measured devices: a-Si:H (edge 650 nm, i.e. the 1.75 eV gap with its Urbach
+    tail), CdTe (CdS window 510 nm passing 35 %, gap 1.45 eV -> edge 830 nm), CIGS (CdS window,
+    graded gap about 1.15 eV -> edge 1100 nm), c-Si (the knot points of pvlib's example c-Si spectral
+    response, ../shared/data/pv/, interpolated linearly and converted to EQE)."""
+    lam = np.asarray(wavelength, dtype=float)
+
+    def shape(q0, blue, blue_w, floor, red, red_w):
+        window = floor + (1 - floor) / (1 + np.exp((blue - lam) / blue_w))
+        return q0 * window / (1 + np.exp((lam - red) / red_w))
+
+    eqe = {"a-Si": shape(0.85, 380, 20, 0.0, 650, 30),
+           "CdTe": shape(0.90, 510, 12, 0.35, 830, 12),
+           "CIGS": shape(0.90, 510, 12, 0.40, 1100, 35)}
+    pts = np.loadtxt(DATA / "pv" / "pvlib_example_spectral_response_cSi_points.csv", delimiter=",",
+                     skiprows=2, usecols=(0, 1))
+    sr = np.interp(lam, pts[:, 0], pts[:, 1], left=0.0, right=0.0)        # relative SR [A W-1]
+    q = sr * HC_EV_NM / np.where(lam > 0, lam, 1.0)
+    eqe["c-Si"] = 0.9 * q / q.max()
+    return eqe
+
+
+def spectral_response(eqe, wavelength):
+    """SR [A W-1] = EQE lambda q / (h c)."""
+    return {k: v * np.asarray(wavelength) / HC_EV_NM for k, v in eqe.items()}
+
+
+def g173_channels(edges):
+    """ASTM G173 global tilt band-averaged onto channel edges [nm] -> (C,) [W m-2 nm-1]."""
+    a = np.genfromtxt(DATA / "solar" / "ASTMG173.csv", delimiter=",", skip_header=2)
+    lam, glob = a[:, 0], a[:, 2]
+    fine = np.arange(edges[0], edges[-1] + 1e-9, 0.5)
+    g = np.interp(fine, lam, glob)
+    cum = np.concatenate([[0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(fine))])
+    at = np.interp(edges, fine, cum)
+    return np.diff(at) / np.diff(edges)
+
+
+def model_at_g173(sky):
+    """The sky model's own global tilted spectrum at the G173 conditions (solar zenith 48.236 deg, plane
+    tilted 37 deg toward the sun, AOD 0.084 at 500 nm as visibility through Koschmieder with Angstrom
+    1.3, albedo 0.2) [W m-2 nm-1] (C,): the reference that separates the weather's spectral effect from
+    the dataset's own difference to G173 at the reference state."""
+    from skymodel.visibility import aod_at_wavelength, visibility_from_aod550
+    vis = float(visibility_from_aod550(aod_at_wavelength(0.084, 500.0, 550.0, 1.3)))
+    st = ir.SkyStates.create([90.0 - 48.236], [180.0], vis, 0.2)
+    c = clear_plane_spectra(sky, st, 37.0, 180.0)
+    return plane_poa(c, np.ones(1), np.ones(1), 0.2)["poa_global"][0]
+
+
+def ape(spec, wavelength, width, band=(320.0, 1080.0)):
+    """Average photon energy [eV] of (..., C) spectra over the channels inside ``band`` (edges, nm)."""
+    lam = np.asarray(wavelength)
+    m = (lam - width / 2 >= band[0] - 1e-9) & (lam + width / 2 <= band[1] + 1e-9)
+    e = (spec[..., m] * width[m]).sum(-1)
+    n = (spec[..., m] * width[m] * lam[m] / HC_EV_NM).sum(-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return e / n
+
+
+def load_site(path, sky, prefer="visibility", stride=1):
+    wd = ir.read_weather(path)
+    data = wd.data
+    sp = wd.site.solar_position(data.index, wd.label, wd.step)
+    st = ir.sky_states(sp, data, model=sky.model, prefer=prefer)
+    keep = (st["solar_elevation"].to_numpy() > sky.min_sun_elevation) & (data["ghi"].to_numpy() > 0)
+    keep &= np.isfinite(data["dni"].to_numpy()) & np.isfinite(data["dhi"].to_numpy())
+    st, data = st[keep][::stride], data[keep][::stride]
+    states = ir.SkyStates.create(st["solar_elevation"].to_numpy(), st["azimuth"].to_numpy(),
+                                 st["visibility"].to_numpy(), st["albedo"].to_numpy())
+    raw_vis = data["visibility"].to_numpy() if "visibility" in data else np.full(len(data), np.nan)
+    if prefer == "aod":
+        raw_vis = st["visibility"].to_numpy()
+    kt = ir.clearness_index(data["ghi"].to_numpy(), 90 - st["solar_elevation"].to_numpy(),
+                            data["dni_extra"].to_numpy() if "dni_extra" in data else 1361.0)
+    return wd, states, data, raw_vis, kt, st
+
+
+VARIANTS = (
+    ("plain (today)", CLEAR_SHAPE),
+    ("+ cloud spectrum (Ernst)", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, haze="clamp",
+                                               angular="clear")),
+    ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, haze="clamp")),
+    ("+ cloud liquid water", AllSkyOptions(cloud_vapour=False, haze="clamp")),
+    ("+ cloud water vapour", AllSkyOptions(haze="clamp")),
+    ("+ haze extension (all-sky)", AllSkyOptions()),
+)
+
+
+def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True, cache=None, stride=1):
+    wl, edges = sky.wavelengths, sky.channel_edges
+    w = np.diff(edges)
+    wd, states, data, vis, kt, st = load_site(DATA / "weather" / SITES[name], sky, prefer, stride)
+    t0 = time.perf_counter()
+    tilt, azimuth = abs(wd.site.latitude), 180.0 if wd.site.latitude >= 0 else 0.0
+    cfile = None if cache is None else Path(cache) / f"allsky_clear_{name}_{prefer}_{stride}.npz"
+    if cfile is not None and cfile.is_file():
+        z = np.load(cfile)
+        clear = ClearPlaneSpectra(*(z[k] for k in ClearPlaneSpectra._fields))
+    else:
+        clear = clear_plane_spectra(sky, states, tilt, azimuth, progress=progress)
+        if cfile is not None:
+            np.savez(cfile, **clear._asdict())
+    t_sky = time.perf_counter() - t0
+    dni, dhi, ghi = (data[c].to_numpy() for c in ("dni", "dhi", "ghi"))
+    tdew = data["temp_dew"].to_numpy() if "temp_dew" in data else None
+    vmin = float(np.min(sky.model.visibility_range))
+    ref = {k: (s * g173 * w).sum() / (g173 * w).sum() for k, s in sr.items()}
+    ref_model = {k: (s * g173_model * w).sum() / (g173_model * w).sum() for k, s in sr.items()}
+    rows, times, spectra = [], {}, {}
+    for label, opt in VARIANTS:
+        t1 = time.perf_counter()
+        f = allsky_factors(edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, ghi=ghi,
+                           visibility=vis, temp_dew=tdew, min_visibility=vmin, options=opt)
+        times[label] = time.perf_counter() - t1
+        poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi)
+        E = poa["poa_global"]
+        tot = (E * w).sum()
+        se = {k: ((E * s * w).sum() / tot) / ref[k] - 1.0 for k, s in sr.items()}
+        se.update({k + "*": ((E * s * w).sum() / tot) / ref_model[k] - 1.0 for k, s in sr.items()})
+        a = ape(E, wl, w)
+        over = kt < 0.3
+        rows.append((label, se, float(np.nanmedian(a)), float(ape(E[over].sum(0), wl, w)),
+                     float(ape(E.sum(0), wl, w)), float((E @ w).sum() / 1000.0), f))
+        spectra[label] = (E, a)
+    return {"name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
+            "ape_g173": float(ape(g173, wl, w)), "kt": kt, "spectra": spectra, "states": st,
+            "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt, "stride": stride}
+
+
+def transposition_check(name, tilt, stride=1):
+    """Annual plane-of-array irradiation [kWh m-2] of the same hours by pvlib's transposition models
+    (an independent check of the angular part; pvlib is a test dependency)."""
+    try:
+        import pvlib
+    except ImportError:
+        return {}
+    wd = ir.read_weather(DATA / "weather" / SITES[name])
+    d, sp = wd.data, wd.solar_position()
+    st = ir.sky_states(sp, d)
+    up = (st["solar_elevation"] > ir.PragueSky().min_sun_elevation) & (d["ghi"] > 0)
+    up &= np.isfinite(d["dni"]) & np.isfinite(d["dhi"])
+    d, sp = d[up][::stride], sp[up][::stride]
+    out = {}
+    for model in ("isotropic", "haydavies", "perez"):
+        kw = {}
+        if model != "isotropic":
+            kw["dni_extra"] = d["dni_extra"]
+        if model == "perez":
+            kw["airmass"] = pvlib.atmosphere.get_relative_airmass(sp["apparent_zenith"])
+        r = pvlib.irradiance.get_total_irradiance(tilt, 180.0 if wd.site.latitude >= 0 else 0.0,
+                                                  sp["apparent_zenith"], sp["azimuth"], d["dni"],
+                                                  d["ghi"], d["dhi"], albedo=0.2, model=model, **kw)
+        out[model] = float(r["poa_global"].sum() / 1000.0)
+    return out
+
+
+def report(res):
+    techs = ("a-Si", "CdTe", "c-Si", "CIGS")
+    print(f"\n== {res['name']}: {res['n']} daylight hours, south plane at latitude; APE(G173) "
+          f"{res['ape_g173']:.3f} eV; sky evaluation {res['t_sky']:.1f} s")
+    print(f"{'variant':34s} " + " ".join(f"{t:>6s}" for t in techs) + "  spread  APE med  APE ovc  APE ann  H [kWh m-2]")
+    for label, se, a_med, a_ovc, a_ann, H, _ in res["rows"]:
+        print(f"{label:34s} " + " ".join(f"{100 * se[t]:+6.2f}" for t in techs)
+              + f"  {100 * (se['a-Si'] - se['CIGS']):6.2f}  {a_med:7.3f}  {a_ovc:7.3f}  {a_ann:7.3f}  {H:8.1f}")
+    print("relative to the sky model's own spectrum at the G173 state (*):")
+    for label, se, *_ in res["rows"]:
+        print(f"{label:34s} " + " ".join(f"{100 * se[t + '*']:+6.2f}" for t in techs)
+              + f"  {100 * (se['a-Si*'] - se['CIGS*']):6.2f}")
+    tr = transposition_check(res["name"], res["tilt"], res["stride"])
+    if tr:
+        print("annual POA of pvlib's transpositions (same hours, albedo 0.2) [kWh m-2]: "
+              + ", ".join(f"{k} {v:.1f}" for k, v in tr.items()))
+    if res["name"] == "amsterdam":
+        print(f"{'Dirnberger 2015, Freiburg':34s} " + " ".join(f"{DIRNBERGER_FREIBURG[t]:+6.2f}" for t in techs)
+              + f"  {DIRNBERGER_FREIBURG['a-Si'] - DIRNBERGER_FREIBURG['CIGS']:6.2f}")
+    base = res["times"]["plain (today)"]
+    print("factor time: " + ", ".join(f"{k} {1e3 * v:.1f} ms ({v / base:.1f}x plain)" for k, v in res["times"].items()))
+    f = res["rows"][-1][6]
+    if f.haze is not None:
+        h = f.haze
+        low = res["states"]["visibility_clamped"].to_numpy()
+        print(f"sky state clamped at the dataset's lowest visibility: {low.mean():.1%} of hours; extended {h.extended.mean():.1%}, "
+              f"bounded by the measured beam {h.beam_bounded.mean():.1%}, fog (< 1 km) {h.fog.mean():.1%}, "
+              f"sun hidden (not extended) {h.sun_hidden.mean():.1%}; median extra AOD550 where extended "
+              f"{np.median(h.delta_aod550[h.extended]) if h.extended.any() else 0:.3f}")
+    for label in ("plain (today)", VARIANTS[-1][0]):
+        _, a = res["spectra"][label]
+        a = a[np.isfinite(a)]
+        hist, edges = np.histogram(a, bins=np.arange(1.5, 2.3, 0.01))
+        half = edges[:-1][hist >= hist.max() / 2]
+        print(f"  hourly APE, {label}: mode {edges[np.argmax(hist)] + 0.005:.3f} eV, median "
+              f"{np.median(a) - res['ape_g173']:+.3f} eV from G173, half width at half maximum "
+              f"{(half.max() - half.min() + 0.01) / 2:.3f} eV")
+    kt = res["kt"]
+    E0, _ = res["spectra"]["plain (today)"]
+    E1, _ = res["spectra"][VARIANTS[-1][0]]
+    for lo, hi in ((0, 0.3), (0.3, 0.6), (0.6, 2)):
+        m = (kt >= lo) & (kt < hi)
+        if m.sum() == 0:
+            continue
+        out = []
+        for E in (E0, E1):
+            tot = (E[m] * res["w"]).sum()
+            out.append(100 * (((E[m] * res["sr"]["a-Si"] * res["w"]).sum() / tot) / res["ref"]["a-Si"] - 1))
+        print(f"  kt [{lo}, {hi}): {m.sum()} h, a-Si spectral effect plain {out[0]:+.1f} %, all-sky {out[1]:+.1f} %")
+
+
+def figure(results, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    techs = ("a-Si", "CdTe", "c-Si", "CIGS")
+    ams = next(r for r in results if r["name"] == "amsterdam")
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    ax = axes[0]
+    x = np.arange(len(techs))
+    rows = ams["rows"]
+    bars = [("plain (today), vs G173", rows[0][1], ""), ("all-sky, vs G173", rows[-1][1], ""),
+            ("all-sky, vs the model at the G173 state", rows[-1][1], "*")]
+    bw = 0.2
+    for i, (label, se, star) in enumerate(bars):
+        ax.bar(x + (i - 1.5) * bw, [100 * se[t + star] for t in techs], bw, label=f"Amsterdam, {label}")
+    ax.bar(x + 1.5 * bw, [DIRNBERGER_FREIBURG[t] for t in techs], bw, color="k", alpha=0.6,
+           label="Freiburg, measured (Dirnberger 2015)")
+    ax.axhline(0, color="0.5", lw=0.8)
+    ax.set_xticks(x, techs)
+    ax.set_ylabel("annual spectral effect [%]")
+    ax.set_title("Annual spectral effect, south plane tilted at latitude")
+    ax.legend(fontsize=7)
+    ax = axes[1]
+    bins = np.linspace(1.6, 2.2, 61)
+    kt = ams["kt"]
+    for label, short in ((rows[0][0], "plain"), (rows[-1][0], "all-sky")):
+        _, a = ams["spectra"][label]
+        ax.hist(a[kt < 0.3], bins=bins, histtype="step", lw=1.5, label=f"{short}, kt < 0.3")
+        ax.hist(a[kt >= 0.6], bins=bins, histtype="step", lw=1.0, ls="--", label=f"{short}, kt >= 0.6")
+    ax.axvline(ams["ape_g173"], color="k", lw=1, label="G173 global tilt")
+    ax.set_xlabel("average photon energy 340-1060 nm [eV]")
+    ax.set_ylabel("hours")
+    ax.set_title("Hourly APE on the plane, Amsterdam IWEC")
+    ax.legend(fontsize=7)
+    ax = axes[2]
+    wl = ams["wl"]
+    over = np.argmin(np.abs(kt - 0.15) + 10 * (ams["states"]["solar_elevation"].to_numpy() < 25))
+    for label, short in ((rows[0][0], "plain (today)"), (rows[-1][0], "all-sky")):
+        E, _ = ams["spectra"][label]
+        e = E[over]
+        ax.plot(wl, e / (e * ams["w"]).sum() * 1000, label=short)
+    g = ams["g173"]
+    ax.plot(wl, g / (g * ams["w"]).sum() * 1000, "k:", label="G173 global tilt")
+    ax.set_xlim(280, 1400)
+    ax.set_xlabel("wavelength [nm]")
+    ax.set_ylabel("spectral irradiance per 1000 W m-2 [W m-2 nm-1]")
+    ax.set_title(f"One overcast hour (kt {kt[over]:.2f}) on the plane")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    tmp = Path(path).with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, path)
+    print(f"figure written: {path}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sites", default="amsterdam", help="amsterdam, all, or a comma list of " + ", ".join(SITES))
+    ap.add_argument("--prefer", default="aod", choices=("visibility", "aod"),
+                    help="aerosol input of the sky state: the weather file's AOD column where valid (default) or its station visibility")
+    ap.add_argument("--figure", default=None, help="write the study figure (PNG)")
+    ap.add_argument("--stride", type=int, default=1,
+                    help="keep every n-th daylight hour (a quicker sample of the year; 1 = all)")
+    ap.add_argument("--cache", default=None,
+                    help="folder to keep the clear-sky spectra in between runs (reused when present)")
+    args = ap.parse_args(argv)
+    names = list(SITES) if args.sites == "all" else args.sites.split(",")
+    sky = ir.PragueSky()
+    g173 = g173_channels(np.asarray(sky.channel_edges))
+    sr = spectral_response(generic_eqe(sky.wavelengths), sky.wavelengths)
+    g173_model = model_at_g173(sky)
+    w = np.diff(sky.channel_edges)
+    print("the sky model at the G173 state against G173 (spectral effect of the model's reference "
+          "spectrum, %): " + ", ".join(f"{k} {100 * (((g173_model * s * w).sum() / (g173_model * w).sum()) / ((g173 * s * w).sum() / (g173 * w).sum()) - 1):+.2f}"
+                                      for k, s in sr.items()) + f"; APE {ape(g173_model, sky.wavelengths, w):.3f} eV")
+    results = []
+    for n in names:
+        if n not in SITES:
+            raise SystemExit(f"--sites: {n!r} is not one of {', '.join(SITES)}")
+        res = run_site(n, sky, sr, g173, g173_model, prefer=args.prefer, cache=args.cache,
+                       stride=args.stride)
+        report(res)
+        results.append(res)
+    if args.figure:
+        figure(results, args.figure)
+
+
+if __name__ == "__main__":
+    main()

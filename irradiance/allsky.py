@@ -1,0 +1,282 @@
+"""All-sky spectra under measured weather: per-step, per-channel factors on the clear-sky model.
+
+widesky's sky model is cloudless. Under a weather file, the plain measured path
+(:func:`irradiance.measured_scale_factors`) scales the clear-sky sun to the measured DNI and the
+clear-sky diffuse to the measured DHI, keeping the clear sky's spectral shape: under overcast the
+Rayleigh-blue clear-sky diffuse is then scaled up to an overcast DHI, far too blue. This module
+returns factors of shape (T, C), per step and per channel, that keep the measured broadband DNI and
+DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
+
+1. **Haze** (:mod:`irradiance.haze`): below the dataset's visibility the clear-sky state is corrected
+   for the extra aerosol (reddened beam, the scattered light added to the diffuse).
+2. **Cloud index** (Ernst et al. 2016, eq. 5): ``N = (rho - rho_clear) / (1 - rho_clear)`` clipped to
+   [0, 1], with ``rho = DHI / GHI`` measured and ``rho_clear`` the clear model's diffuse fraction: 0 for
+   a clear sky, 1 when all light is diffuse.
+3. **Diffuse spectrum** (Ernst et al. 2016, eqs. 7-8): clouds scatter the whole clear-sky global
+   spectrum, so the diffuse shape is ``(1 - N) D(l) / int D + N G(l) t(l) / int G t``, with ``D`` the
+   clear diffuse, ``G`` the clear global horizontal spectrum, and ``t`` the cloud layer's spectral
+   transmittance relative to a non-absorbing cloud (:mod:`irradiance.cloud_optics`: liquid-water
+   absorption of droplets in a two-stream slab whose optical depth reproduces the measured clear-sky
+   index ``GHI / GHI_clear``, and water vapour along the long in-cloud photon paths). This is the step
+   that the cloud modification factors of SEDES2 (Nann & Riordan 1991) describe empirically: overcast
+   light has the global spectrum's shape (no Rayleigh excess), with deeper water bands. ``G`` is taken
+   at the dataset's state, without the haze correction (haze lies below the cloud).
+4. **The sun through thin cloud** (Ernst et al. 2016, eq. 6): droplets and ice crystals are large
+   against the wavelength, so their extinction is spectrally flat (extinction efficiency 2 to within
+   3 % over 300-1200 nm for 10 um droplets, Mie, tests/test_allsky_optics.py); the beam keeps the
+   (haze-corrected) clear shape, scaled to the measured DNI.
+
+5. **Angular distribution**: the clear part ``(1 - N)`` keeps the clear sky's radiance distribution,
+   the cloud part (``overcast_dhi``) is distributed as the CIE standard overcast sky
+   (:mod:`irradiance.overcast_sky`).
+
+The factors multiply the clear-sky model spectra the integrator evaluates:
+``dni_scale * dni_clear`` and ``diffuse_scale * sky_radiance`` (circumsolar light takes the diffuse
+factor, as in the integrator); :func:`irradiance.poa_irradiance` applies them with
+``measured=..., spectral_model="allsky"`` (:mod:`irradiance.allsky_sky`), and with
+``angular="clear"`` they are plain (T, C) ``dni_scale``/``diffuse_scale``. Every part can be
+switched off (:class:`AllSkyOptions`); :data:`CLEAR_SHAPE` gives back the plain measured scaling.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from .cloud_optics import (DEFAULT_ASYMMETRY, DEFAULT_DROPLET_RADIUS, cloud_optical_depth,
+                           cloud_relative_transmittance, cloud_vapour_path, droplet_coalbedo,
+                           liquid_water_k, vapour_band_deepening)
+from .haze import haze_correction
+from .measured import MeasuredScaling, measured_scale_factors
+
+__all__ = ["AllSkyOptions", "AllSkyFactors", "allsky_factors", "cloud_index", "CLEAR_SHAPE"]
+
+
+@dataclass(frozen=True)
+class AllSkyOptions:
+    """Switches and parameters of the all-sky model (each part can be switched off).
+
+    Attributes
+    ----------
+    cloud_spectrum : bool
+        Ernst et al. (2016) diffuse shape under cloud (off: clear-sky diffuse shape).
+    cloud_absorption : bool
+        Liquid-water absorption in the cloud layer (needs the OPAC water optical constants in the
+        data directory).
+    cloud_vapour : bool
+        Water-vapour absorption along the long in-cloud paths (needs the dew point and the 6S band
+        table in the data directory).
+    haze : {"extrapolate", "clamp"}
+        Below the dataset's visibility: extend the aerosol (:mod:`irradiance.haze`) or keep the
+        clamped state (flagged by :func:`irradiance.sky_states`).
+    angular : {"cie_overcast", "clear"}
+        Angular distribution of the cloud-scattered light: the CIE overcast sky (returned apart as
+        ``overcast_dhi``, for the caller to distribute) or each channel's clear-sky distribution
+        (folded into ``diffuse_scale``: what (T, C) factors on the clear sky alone can express).
+    droplet_radius : float
+        Effective droplet radius [um].
+    asymmetry : float
+        Droplet asymmetry parameter [1].
+    fog_visibility : float
+        [km], see :func:`irradiance.haze.haze_correction`.
+    angstrom : float
+        Angstrom exponent [1] of the extra aerosol.
+    data_dir : str or None
+        Data directory for the water optical constants (default ``WIDESKY_DATA_DIR`` or
+        ``../shared/data``).
+    """
+
+    cloud_spectrum: bool = True
+    cloud_absorption: bool = True
+    cloud_vapour: bool = True
+    haze: str = "extrapolate"
+    angular: str = "cie_overcast"
+    droplet_radius: float = DEFAULT_DROPLET_RADIUS
+    asymmetry: float = DEFAULT_ASYMMETRY
+    fog_visibility: float = 1.0
+    angstrom: float = 1.3
+    data_dir: object = None
+
+    def __post_init__(self):
+        if self.haze not in ("extrapolate", "clamp"):
+            raise ValueError(f"haze={self.haze!r} is not one of ('extrapolate', 'clamp')")
+        if self.angular not in ("cie_overcast", "clear"):
+            raise ValueError(f"angular={self.angular!r} is not one of ('cie_overcast', 'clear')")
+
+
+CLEAR_SHAPE = AllSkyOptions(cloud_spectrum=False, cloud_absorption=False, cloud_vapour=False, haze="clamp",
+                            angular="clear")
+"""Every part off: the clear-sky shape scaled to the measured DNI and DHI (the plain measured path)."""
+
+
+class AllSkyFactors(NamedTuple):
+    """Output of :func:`allsky_factors`.
+
+    dni_scale, diffuse_scale : (T, C) factors [1] on the clear-sky sun spectrum and sky radiance.
+    overcast_dhi : (T, C) diffuse horizontal spectrum [W m-2 nm-1] of the cloud-scattered light, to be
+        distributed as the CIE overcast sky (:mod:`irradiance.overcast_sky`); zero with
+        ``angular="clear"``, where it is folded into ``diffuse_scale`` instead (it then takes each
+        channel's clear-sky angular distribution).
+    cloud_index : (T,) Ernst cloud index N [1] in [0, 1] (0 where nothing is measured).
+    cloud_tau : (T,) cloud optical depth [1] used for the absorption (0 where none).
+    cloud_vapour : (T,) extra water-vapour path in the cloud [cm].
+    haze : HazeCorrection or None.
+    scaling : MeasuredScaling of the broadband factors (guards, unmatched irradiance).
+    """
+
+    dni_scale: np.ndarray
+    diffuse_scale: np.ndarray
+    overcast_dhi: np.ndarray
+    cloud_index: np.ndarray
+    cloud_tau: np.ndarray
+    cloud_vapour: np.ndarray
+    haze: object
+    scaling: MeasuredScaling
+
+
+def cloud_index(dhi, ghi, clear_diffuse_fraction):
+    """Ernst et al. (2016) cloud index ``N = (rho - rho_clear) / (1 - rho_clear)`` [1] in [0, 1].
+
+    Parameters
+    ----------
+    dhi, ghi : array_like
+        Measured diffuse and global horizontal irradiance [W m-2].
+    clear_diffuse_fraction : array_like
+        The clear-sky model's DHI / GHI [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        0 where ``ghi`` <= 0 or an input is NaN (no information: clear shape).
+    """
+    dhi = np.asarray(dhi, dtype=float)
+    ghi = np.asarray(ghi, dtype=float)
+    rs = np.asarray(clear_diffuse_fraction, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = dhi / ghi
+        n = (rho - rs) / (1.0 - rs)
+    ok = np.isfinite(n) & (ghi > 0) & (rs < 1)
+    return np.where(ok, np.clip(n, 0.0, 1.0), 0.0)
+
+
+def _unit(spec, w):
+    """Normalise (T, C) spectra to unit integral over channels of widths w; zero rows stay zero."""
+    s = spec @ w
+    return np.where(s[:, None] > 0, spec / np.where(s > 0, s, 1.0)[:, None], 0.0)
+
+
+def _ratio(num, den):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = num / den
+    return np.where((den > 0) & np.isfinite(r), r, 0.0)
+
+
+def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi, ghi=None,
+                   visibility=None, temp_dew=None, min_visibility=20.0, options=AllSkyOptions(),
+                   **guards) -> AllSkyFactors:
+    """Per-step, per-channel factors that give the all-sky spectra and keep measured DNI and DHI.
+
+    Parameters
+    ----------
+    channel_edges : array_like
+        (C+1,) channel edges [nm] (the sky's; the centres are their midpoints).
+    dni_clear : array_like
+        (T, C) the clear-sky model's sun direct normal spectrum [W m-2 nm-1].
+    dhi_clear : array_like
+        (T, C) the clear-sky model's diffuse horizontal spectrum, circumsolar light included
+        [W m-2 nm-1].
+    sun_elevation : array_like
+        (T,) apparent sun elevation [deg].
+    dni, dhi : array_like
+        (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN = missing).
+    ghi : array_like, optional
+        (T,) measured global horizontal irradiance [W m-2]; default ``dni sin(elevation) + dhi``.
+    visibility : array_like, optional
+        (T,) measured visibility [km] for the haze extension (the sky was evaluated at
+        ``max(visibility, min_visibility)``).
+    temp_dew : array_like, optional
+        (T,) dew point [degC] for the water vapour inside the cloud (without it that part is off).
+    min_visibility : float
+        The dataset's lowest visibility [km].
+    options : AllSkyOptions
+    **guards
+        Passed to :func:`irradiance.measured_scale_factors` (``min_model_dni``, ``min_model_dhi``,
+        ``max_scale``, ``missing``; default ``missing="clear"`` as the integrator: NaN input keeps
+        the clear sky, flagged).
+
+    Returns
+    -------
+    AllSkyFactors
+        ``sum_c dni_scale * dni_clear * width = scaling.sun_scale * sum_c dni_clear * width`` and the
+        same for the diffuse: the broadband totals are those of the plain measured path (the
+        measured values wherever its guards did not act).
+    """
+    edges = np.asarray(channel_edges, dtype=float)
+    if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0):
+        raise ValueError("channel_edges must be increasing with >= 2 values [nm]")
+    lam = 0.5 * (edges[1:] + edges[:-1])
+    w = np.diff(edges)
+    bn = np.asarray(dni_clear, dtype=float)
+    dh = np.asarray(dhi_clear, dtype=float)
+    el = np.asarray(sun_elevation, dtype=float)
+    T, C = el.shape[0], lam.size
+    if bn.shape != (T, C) or dh.shape != (T, C):
+        raise ValueError(f"dni_clear and dhi_clear must have shape ({T}, {C}), got {bn.shape}, "
+                         f"{dh.shape}")
+    dni = np.broadcast_to(np.asarray(dni, dtype=float), (T,))
+    dhi = np.broadcast_to(np.asarray(dhi, dtype=float), (T,))
+    model_dni, model_dhi = bn @ w, dh @ w
+    guards.setdefault("missing", "clear")
+    scaling = measured_scale_factors(model_dni, model_dhi, dni, dhi, **guards)
+    sin_el = np.sin(np.radians(np.maximum(el, 0.0)))
+
+    haze = None
+    bh, dhh = bn, dh
+    if options.haze == "extrapolate" and visibility is not None:
+        haze = haze_correction(lam, w, bn, dh, el, np.broadcast_to(np.asarray(visibility, float), (T,)),
+                               dni=dni, min_visibility=min_visibility,
+                               fog_visibility=options.fog_visibility, angstrom=options.angstrom)
+        bh, dhh = haze.dni, haze.dhi
+
+    gh = bh * sin_el[:, None] + dhh                       # clear global horizontal, hazy (T, C)
+    g0 = bn * sin_el[:, None] + dh                        # the same at the dataset's state
+    ghi_m = (np.nan_to_num(dni) * sin_el + np.nan_to_num(dhi)) if ghi is None else \
+        np.broadcast_to(np.asarray(ghi, dtype=float), (T,))
+    n = np.zeros(T)
+    tau = np.zeros(T)
+    du = np.zeros(T)
+    trans = np.ones((T, C))
+    if options.cloud_spectrum:
+        n = cloud_index(dhi, ghi_m, _ratio(dhh @ w, gh @ w))
+        if options.cloud_absorption or options.cloud_vapour:
+            kc = _ratio(ghi_m, gh @ w)
+            tau = np.where(n > 0, cloud_optical_depth(np.where(kc > 0, kc, 1.0), options.asymmetry), 0.0)
+        if options.cloud_absorption:
+            co = droplet_coalbedo(lam, liquid_water_k(lam, options.data_dir), options.droplet_radius)
+            trans = trans * cloud_relative_transmittance(tau, co, options.asymmetry)
+        if options.cloud_vapour and temp_dew is not None:
+            du = cloud_vapour_path(tau, np.broadcast_to(np.asarray(temp_dew, float), (T,)),
+                                   options.asymmetry, options.droplet_radius)
+            trans = trans * vapour_band_deepening(edges, du, options.data_dir)
+    # the clear part keeps the (hazy) clear diffuse shape and angular distribution; the cloud part has
+    # the shape of the global spectrum at the dataset's state (the haze lies below the cloud, where
+    # the cloud's diffuse light is scattered on, not removed) times the cloud's transmittance
+    keep = dh > 0                                         # channels the clear sky can carry light in
+    clear_part = (1.0 - n)[:, None] * _unit(np.where(keep, dhh, 0.0), w)
+    cloud_part = n[:, None] * _unit(np.where(keep, g0 * trans, 0.0), w)
+    total = scaling.sky_scale * model_dhi                 # broadband DHI reproduced [W m-2]
+    if options.angular == "cie_overcast":
+        diffuse_scale = scaling.sky_scale[:, None] * _ratio(clear_part * model_dhi[:, None], dh)
+        overcast_dhi = total[:, None] * cloud_part
+    else:
+        diffuse_scale = scaling.sky_scale[:, None] * _ratio((clear_part + cloud_part) * model_dhi[:, None], dh)
+        overcast_dhi = np.zeros((T, C))
+    beam = _unit(np.where(bn > 0, bh, 0.0), w)
+    dni_scale = scaling.sun_scale[:, None] * _ratio(beam * model_dni[:, None], bn)
+    # rows with nothing to shape (night, zero model) keep the broadband factor on every channel
+    for f, s, m in ((dni_scale, scaling.sun_scale, model_dni), (diffuse_scale, scaling.sky_scale, model_dhi)):
+        empty = ~(m > 0)
+        f[empty] = np.asarray(s)[empty, None]
+    return AllSkyFactors(dni_scale, diffuse_scale, overcast_dhi, n, tau, du, haze, scaling)

@@ -1,0 +1,146 @@
+"""Spectral plane-of-array irradiance of an unobstructed plane under all-sky factors.
+
+The cheap path for studies of one orientation (technology comparisons, validation against measured
+spectral effects): the sky is integrated with the integrator's own quadrature
+(:func:`irradiance.patch_radiance` on Reinhart patches, circumsolar light traced with the sun), the
+patch weights are the exact projected solid angles of :func:`irradiance.cosine_weights`, and the ground
+is an infinite Lambertian plane, ``albedo GHI (1 - cos tilt) / 2``. No ray casting: nothing shades the
+plane or the ground. Per-step, per-channel factors (:func:`irradiance.allsky.allsky_factors`) and the
+CIE overcast blend (:mod:`irradiance.overcast_sky`) apply exactly as in the integrator: the blend is
+linear in the patch radiance, so it needs only each plane's overcast ratio.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .integrator import IntegratorSettings, patch_radiance
+from .overcast_sky import overcast_poa_ratio
+from .patches import cosine_weights, direction_from_angles, reinhart
+
+__all__ = ["ClearPlaneSpectra", "clear_plane_spectra", "plane_poa"]
+
+
+class ClearPlaneSpectra(NamedTuple):
+    """Clear-sky spectra of one step series for one plane, all (T, C) [W m-2 nm-1] unless stated.
+
+    dni : sun direct normal. dhi : sky diffuse horizontal, circumsolar included.
+    circumsolar : circumsolar normal irradiance, traced with the sun (sky light: it takes the diffuse
+        factor, and the integrator counts it in ``poa_direct``, as the Perez model does).
+    poa_sky : sky diffuse on the plane, circumsolar excluded.
+    cos_aoi : (T,) max(0, cos(angle of incidence)) [1]. sin_elevation : (T,) [1].
+    overcast_ratio : () plane / horizontal sky diffuse under the CIE overcast sky [1].
+    view_ground : () ground view factor ``(1 - cos tilt) / 2`` [1].
+    """
+
+    dni: np.ndarray
+    dhi: np.ndarray
+    circumsolar: np.ndarray
+    poa_sky: np.ndarray
+    cos_aoi: np.ndarray
+    sin_elevation: np.ndarray
+    overcast_ratio: float
+    view_ground: float
+
+
+def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=None, chunk=256,
+                        progress=False) -> ClearPlaneSpectra:
+    """Clear-sky spectral irradiance components of an unobstructed plane per step.
+
+    Parameters
+    ----------
+    sky : sky source
+        :class:`irradiance.PragueSky` or another (:mod:`irradiance.skies`).
+    states : SkyStates
+        T sky states.
+    surface_tilt : float
+        [deg] from horizontal, in [0, 180].
+    surface_azimuth : float
+        [deg] clockwise from north (180 = south).
+    settings : IntegratorSettings, optional
+        Quadrature (``mf``, radiance samples, circumsolar disc).
+    chunk : int
+        Steps per sky evaluation.
+    progress : bool
+        tqdm progress bar.
+
+    Returns
+    -------
+    ClearPlaneSpectra
+    """
+    if not 0.0 <= float(surface_tilt) <= 180.0:
+        raise ValueError(f"surface_tilt={surface_tilt!r} deg outside the valid range [0, 180]")
+    settings = settings or IntegratorSettings()
+    patches = reinhart(settings.mf)
+    normal = direction_from_angles(90.0 - float(surface_tilt), float(surface_azimuth)).reshape(1, 3)
+    w_h = cosine_weights(patches, np.array([[0.0, 0.0, 1.0]]))[0]
+    w_p = cosine_weights(patches, normal)[0]
+    T, C = len(states), sky.n_channels
+    dni, dhi, psky, circ = (np.zeros((T, C)) for _ in range(4))
+    s = states.sun_direction
+    cos_aoi = np.where(states.sun_elevation > 0, np.maximum(s @ normal[0], 0.0), 0.0)
+    sin_el = np.sin(np.radians(np.maximum(states.sun_elevation, 0.0)))
+    lit = np.nonzero(states.sun_elevation > getattr(sky, "min_sun_elevation", 0.0))[0]
+    blocks = range(0, lit.size, max(int(chunk), 1))
+    if progress:
+        from tqdm.auto import tqdm
+        blocks = tqdm(blocks, unit="chunk", desc="clear-sky spectra")
+    for c0 in blocks:
+        idx = lit[c0:c0 + chunk]
+        Lp, dn, cs = patch_radiance(sky, patches, states.take(idx), None, settings)
+        dni[idx] = dn
+        dhi[idx] = np.einsum("p,tpc->tc", w_h, Lp) + cs * sin_el[idx, None]
+        psky[idx] = np.einsum("p,tpc->tc", w_p, Lp)
+        circ[idx] = cs
+    ratio = float(overcast_poa_ratio(w_p, w_h, patches.directions[:, 2]))
+    view_ground = 0.5 * (1.0 - np.cos(np.radians(float(surface_tilt))))
+    return ClearPlaneSpectra(dni, dhi, circ, psky, cos_aoi, sin_el, ratio, view_ground)
+
+
+def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overcast_dhi=None):
+    """Spectral plane-of-array components under per-step (and per-channel) factors.
+
+    Parameters
+    ----------
+    clear : ClearPlaneSpectra
+    dni_scale, diffuse_scale : array_like
+        (T,) or (T, C) factors [1] on the sun spectrum and the sky radiance.
+    albedo : array_like
+        Ground albedo [1]: scalar or (T,) per step.
+    overcast_dhi : array_like, optional
+        (T, C) diffuse horizontal spectrum [W m-2 nm-1] of light distributed as the CIE overcast sky,
+        added to the scaled clear sky (``AllSkyFactors.overcast_dhi``).
+
+    Returns
+    -------
+    dict
+        ``poa_direct`` (beam and circumsolar, as the integrator), ``poa_sky_diffuse``,
+        ``poa_ground_diffuse``, ``poa_global``, ``ghi``, ``dhi``, ``dni`` (the sun only): (T, C)
+        [W m-2 nm-1].
+    """
+    T, C = clear.dni.shape
+    fb = np.asarray(dni_scale, dtype=float)
+    fd = np.asarray(diffuse_scale, dtype=float)
+    fb = fb[:, None] if fb.ndim == 1 else fb
+    fd = fd[:, None] if fd.ndim == 1 else fd
+    dni = fb * clear.dni
+    dhi = fd * clear.dhi
+    sky = fd * clear.poa_sky
+    if overcast_dhi is not None:
+        ov = np.asarray(overcast_dhi, dtype=float)
+        if ov.shape != (T, C) or np.any(ov < 0):
+            raise ValueError(f"overcast_dhi must have shape ({T}, {C}) and be >= 0")
+        sky = sky + ov * clear.overcast_ratio
+        dhi = dhi + ov
+    ghi = dni * clear.sin_elevation[:, None] + dhi
+    alb = np.asarray(albedo, dtype=float)
+    if alb.ndim == 1:
+        if alb.shape != (T,):
+            raise ValueError(f"albedo must be a scalar or have shape ({T},), got {alb.shape}")
+        alb = alb[:, None]
+    ground = alb * ghi * clear.view_ground
+    direct = (dni + fd * clear.circumsolar) * clear.cos_aoi[:, None]
+    return {"poa_direct": direct, "poa_sky_diffuse": sky, "poa_ground_diffuse": ground,
+            "poa_global": direct + sky + ground, "ghi": ghi, "dhi": dhi, "dni": dni}

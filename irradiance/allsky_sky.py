@@ -1,0 +1,90 @@
+"""The all-sky model inside the integrator: one chunk of steps, from the clear sky to contracted all-sky light.
+
+:func:`irradiance.poa_irradiance` with ``measured=..., spectral_model="allsky"`` calls
+:func:`allsky_patch_radiance` for each chunk of lit steps instead of scaling the contracted clear sky
+by broadband factors. The clear sky is evaluated once, contracted with a broadband column and the
+identity (so the model's spectral DNI and DHI of the step are known from the integrator's own
+quadrature), the per-step per-channel factors of :func:`irradiance.allsky.allsky_factors` are applied
+per channel, and the result is contracted with the integrator's columns; the cloud-scattered light
+is added as CIE overcast patch radiance (:mod:`irradiance.overcast_sky`), which then goes through
+the same occlusion, optics and reflection coefficients as any sky light.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .allsky import AllSkyOptions, allsky_factors
+from .integrator import patch_radiance
+from .overcast_sky import cie_overcast_relative
+
+__all__ = ["AllSkyWeather", "allsky_patch_radiance"]
+
+
+class AllSkyWeather(NamedTuple):
+    """Measured weather for the all-sky model, each (T,) (``None``: not available).
+
+    dni, dhi, ghi : [W m-2] (``ghi`` default ``dni sin(elevation) + dhi``).
+    visibility : [km] station visibility (the haze extension below the dataset's range).
+    temp_dew : [degC] dew point (water vapour in the cloud).
+    """
+
+    dni: np.ndarray
+    dhi: np.ndarray
+    ghi: object = None
+    visibility: object = None
+    temp_dew: object = None
+
+    def take(self, idx):
+        """The steps ``idx``."""
+        return AllSkyWeather(*(None if v is None else np.asarray(v, dtype=float)[idx] for v in self))
+
+
+def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllSkyWeather,
+                          options=AllSkyOptions(), min_visibility=20.0):
+    """All-sky patch radiance and beam of one chunk of steps, contracted with ``weights``.
+
+    Parameters
+    ----------
+    sky, patches, states, settings
+        As :func:`irradiance.patch_radiance` (``states``: the chunk's T states).
+    weights : array_like
+        (C, R) contraction matrix of the integrator.
+    weather : AllSkyWeather
+        The chunk's measured weather.
+    options : AllSkyOptions
+    min_visibility : float
+        The dataset's lowest visibility [km].
+
+    Returns
+    -------
+    radiance : numpy.ndarray
+        (T, P, R) all-sky patch radiance, contracted.
+    direct_normal : numpy.ndarray
+        (T, R) sun plus circumsolar normal irradiance, contracted (the circumsolar light takes the
+        diffuse factor, as in the integrator's measured path).
+    factors : AllSkyFactors
+    model : tuple
+        (model_dni, model_dhi) (T,) [W m-2], the clear model's broadband values.
+    """
+    W = np.asarray(weights, dtype=float)
+    C = sky.n_channels
+    widths = np.asarray(sky.channel_widths, dtype=float)
+    cols = np.concatenate([widths[:, None], np.eye(C)], axis=1)   # broadband first (circumsolar nodes)
+    Lp, dn, cs = patch_radiance(sky, patches, states, cols, settings)
+    Lp, dn, cs = Lp[..., 1:], dn[:, 1:], cs[:, 1:]                 # (T, P, C), (T, C), (T, C)
+    w_h = patches.vector[:, 2]                                    # exact horizontal weights [sr]
+    sin_el = np.sin(np.radians(np.maximum(states.sun_elevation, 0.0)))
+    dhi_clear = np.einsum("p,tpc->tc", w_h, Lp) + cs * sin_el[:, None]
+    f = allsky_factors(sky.channel_edges, dn, dhi_clear, states.sun_elevation, weather.dni,
+                       weather.dhi, ghi=weather.ghi, visibility=weather.visibility,
+                       temp_dew=weather.temp_dew, min_visibility=min_visibility, options=options)
+    L = np.einsum("tpc,tc,cr->tpr", Lp, f.diffuse_scale, W, optimize=True)
+    dni = (dn * f.dni_scale + cs * f.diffuse_scale) @ W
+    if np.any(f.overcast_dhi > 0):
+        shape = cie_overcast_relative(patches.directions[:, 2])
+        shape = shape / (shape * w_h).sum()                      # unit horizontal irradiance [sr-1]
+        L += shape[None, :, None] * (f.overcast_dhi @ W)[:, None, :]
+    return L, dni, f, (dn @ widths, dhi_clear @ widths)

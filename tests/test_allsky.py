@@ -1,0 +1,222 @@
+"""All-sky factors under measured weather (issue 16): conservation, limits of the published model, options.
+
+References and tolerances:
+* Energy: the broadband DNI and DHI of the all-sky spectra equal the plain measured scaling's
+  (``measured_scale_factors``: the measured values wherever its guards did not act) to 1e-12 relative.
+* Ernst et al. (2016, Sol. Energy Mater. Sol. Cells 157, 913), eqs. 5-8: the cloud index is 0 when the
+  measured diffuse fraction equals the clear model's and 1 when all light is diffuse; at N = 0 the
+  diffuse keeps the clear shape, at N = 1 (no cloud absorption) it has the clear global spectrum's
+  shape, exactly (1e-12); the beam keeps the clear shape (spectrally flat extinction of cloud particles).
+* Every part off (``CLEAR_SHAPE``) gives the plain measured factors on every channel, exactly.
+* On an unobstructed plane (``irradiance.allsky_plane``) the plain factors reproduce
+  ``poa_irradiance(measured=...)`` on a lone panel far above the ground: direct 1e-5, sky diffuse 1 %
+  (the integrator samples cut patches with rays), reflected 3 %. For a sky whose angular shape is the
+  same in every channel, spectral factors leave the broadband plane-of-array irradiance unchanged
+  (1e-10): the all-sky model moves light between channels, not in total.
+"""
+
+import numpy as np
+import pytest
+import trimesh
+
+from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors, cloud_index
+from irradiance.allsky_plane import clear_plane_spectra, plane_poa
+from irradiance.integrator import IntegratorSettings, poa_irradiance
+from irradiance.measured import measured_scale_factors
+from irradiance.scene import make_scene
+from irradiance.skies import AnalyticSky, SkyStates
+from skymodel.generator.paths import has_data
+
+needs_data = pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WIDESKY_DATA_DIR)")
+
+EDGES = np.arange(280.0, 2480.1, 40.0)
+LAM = 0.5 * (EDGES[1:] + EDGES[:-1])
+W = np.diff(EDGES)
+
+
+def clear_spectra(T=5):
+    """Smooth clear-sky-like spectra: a reddish beam and a Rayleigh-blue diffuse [W m-2 nm-1]."""
+    el = np.linspace(10.0, 60.0, T)
+    bn = np.exp(-0.5 * ((LAM - 750) / 450) ** 2)[None, :] * (0.5 + el / 100)[:, None]
+    dh = 0.25 * bn * (LAM / 500.0)[None, :] ** -3.5
+    return el, bn, dh
+
+
+def measured(el, bn, dh, dni_frac, dhi_frac):
+    return (bn @ W) * dni_frac, (dh @ W) * dhi_frac
+
+
+def test_broadband_is_conserved():
+    el, bn, dh = clear_spectra()
+    dni, dhi = measured(el, bn, dh, np.array([0.0, 0.2, 0.6, 1.0, 1.1]), np.array([3.5, 3.0, 1.5, 1.0, 0.9]))
+    ref = measured_scale_factors(bn @ W, dh @ W, dni, dhi, missing="clear")
+    for opt in (AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular="clear"),
+                AllSkyOptions(cloud_absorption=False, cloud_vapour=False)):
+        f = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=opt)
+        np.testing.assert_allclose((f.dni_scale * bn) @ W, ref.sun_scale * (bn @ W), rtol=1e-12)
+        np.testing.assert_allclose((f.diffuse_scale * dh) @ W + f.overcast_dhi @ W,
+                                   ref.sky_scale * (dh @ W), rtol=1e-12)
+        assert not np.any(ref.sun_guarded | ref.sky_guarded)
+        np.testing.assert_allclose((f.dni_scale * bn) @ W, dni, rtol=1e-12)
+        np.testing.assert_allclose((f.diffuse_scale * dh) @ W + f.overcast_dhi @ W, dhi, rtol=1e-12)
+
+
+def test_clear_shape_is_the_plain_measured_path():
+    el, bn, dh = clear_spectra()
+    dni, dhi = measured(el, bn, dh, np.array([0.0, 0.2, 0.6, 1.0, np.nan]), np.array([5.0, 3.0, 1.5, 1.0, 1.0]))
+    f = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=CLEAR_SHAPE)
+    ref = measured_scale_factors(bn @ W, dh @ W, dni, dhi, missing="clear")
+    np.testing.assert_allclose(f.dni_scale, np.broadcast_to(ref.sun_scale[:, None], bn.shape), rtol=1e-12)
+    np.testing.assert_allclose(f.diffuse_scale, np.broadcast_to(ref.sky_scale[:, None], dh.shape), rtol=1e-12)
+    assert np.all(f.overcast_dhi == 0) and np.all(f.cloud_index == 0)
+
+
+def test_ernst_limits():
+    el, bn, dh = clear_spectra(3)
+    sin_el = np.sin(np.radians(el))
+    g = bn * sin_el[:, None] + dh
+    # step 0: clear (measured = model, N = 0); step 1: overcast (no beam, N = 1); step 2: halfway
+    dni = np.array([bn[0] @ W, 0.0, 0.5 * (bn[2] @ W)])
+    dhi = np.array([dh[0] @ W, g[1] @ W * 0.3, dh[2] @ W * 1.4])
+    opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular="clear")
+    f = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=opt)
+    assert f.cloud_index[0] == pytest.approx(0.0, abs=1e-12) and f.cloud_index[1] == 1.0
+    assert 0 < f.cloud_index[2] < 1
+    np.testing.assert_allclose(f.diffuse_scale[0], 1.0, rtol=1e-12)            # clear shape kept
+    d1 = f.diffuse_scale[1] * dh[1]
+    np.testing.assert_allclose(d1 / (d1 @ W), g[1] / (g[1] @ W), rtol=1e-12)   # global's shape
+    np.testing.assert_allclose(f.dni_scale[2], f.dni_scale[2, 0], rtol=1e-12)  # neutral beam
+    # the same through the CIE overcast part: the overcast light carries the global's shape
+    f2 = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(cloud_absorption=False,
+                                                                            cloud_vapour=False))
+    np.testing.assert_allclose(f2.overcast_dhi[1] / (f2.overcast_dhi[1] @ W), g[1] / (g[1] @ W), rtol=1e-12)
+    np.testing.assert_allclose(f2.diffuse_scale[1], 0.0, atol=1e-12)
+    # overcast light is far less blue than the scaled clear diffuse
+    blue, red = np.argmin(np.abs(LAM - 420)), np.argmin(np.abs(LAM - 900))
+    assert d1[blue] / d1[red] < 0.5 * dh[1, blue] / dh[1, red]
+
+
+def test_cloud_index_formula():
+    np.testing.assert_allclose(cloud_index([100.0, 500.0, 250.0, 10.0], [500.0, 500.0, 500.0, 0.0],
+                                           [0.2, 0.2, 0.2, 0.2]), [0.0, 1.0, 0.375, 0.0])
+    assert cloud_index([np.nan], [100.0], [0.1])[0] == 0.0
+
+
+@pytest.mark.reference
+@needs_data
+def test_cloud_water_deepens_the_nir():
+    el, bn, dh = clear_spectra(2)
+    dni, dhi = np.zeros(2), np.array([0.05, 0.4]) * ((bn * np.sin(np.radians(el))[:, None] + dh) @ W)
+    dry = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(cloud_absorption=False,
+                                                                             cloud_vapour=False))
+    wet = allsky_factors(EDGES, bn, dh, el, dni, dhi, temp_dew=np.array([10.0, 10.0]))
+    assert wet.cloud_tau[0] > wet.cloud_tau[1] > 0 and wet.cloud_vapour[0] > 0
+    r = wet.overcast_dhi / dry.overcast_dhi
+    i1450, i940, i550 = (np.argmin(np.abs(LAM - x)) for x in (1460, 940, 540))
+    assert r[0, i1450] < 0.7 * r[0, i550] and r[0, i940] < r[0, i550]        # water bands deeper
+    assert r[0, i1450] < r[1, i1450]                                          # thicker cloud, deeper
+    np.testing.assert_allclose(wet.overcast_dhi @ W, dhi, rtol=1e-12)        # DHI still measured
+
+
+def test_options_and_shapes_are_checked():
+    el, bn, dh = clear_spectra(2)
+    with pytest.raises(ValueError, match="haze"):
+        AllSkyOptions(haze="fog")
+    with pytest.raises(ValueError, match="angular"):
+        AllSkyOptions(angular="perez")
+    with pytest.raises(ValueError, match="dni_clear"):
+        allsky_factors(EDGES, bn[:, :3], dh, el, [1, 1], [1, 1])
+    with pytest.raises(ValueError, match="channel_edges"):
+        allsky_factors(EDGES[::-1], bn, dh, el, [1, 1], [1, 1])
+    with pytest.raises(ValueError, match="negative"):
+        allsky_factors(EDGES, bn, dh, el, [-1.0, 1], [1, 1])
+
+
+def _panel(tilt, z=200.0, size=0.5):
+    h = size / 2
+    v = np.array([[-h, -h, 0], [h, -h, 0], [h, h, 0], [-h, h, 0]], dtype=float)
+    t = np.radians(tilt)
+    rot = np.array([[1, 0, 0], [0, np.cos(t), -np.sin(t)], [0, np.sin(t), np.cos(t)]])  # tilt toward south
+    v = v @ rot.T
+    v[:, 2] += z
+    return trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], process=False)
+
+
+class RedSunSky(AnalyticSky):
+    """AnalyticSky (same angular shape in every channel) with a redder sun than sky."""
+
+    def direct_normal(self, states):
+        return super().direct_normal(states) * (self.wavelengths / 500.0) ** 1.5
+
+
+def test_plane_path_matches_the_integrator_and_conserves_energy():
+    sky = RedSunSky()
+    states = SkyStates.create([12.0, 30.0, 55.0], [120.0, 180.0, 230.0], 30.0, 0.2)
+    settings = IntegratorSettings(rays_per_patch=4)
+    scene = make_scene(_panel(40.0), ground_z=0.0, analysis_reflectance=0.0)
+    clear = clear_plane_spectra(sky, states, 40.0, 180.0, settings)
+    w = np.diff(sky.channel_edges)
+    dni, dhi = (clear.dni @ w) * np.array([0.0, 0.5, 0.9]), (clear.dhi @ w) * np.array([3.0, 1.6, 1.0])
+    res = poa_irradiance(scene, sky, states, measured=(dni, dhi), settings=settings, n_jobs=1)
+    ref = measured_scale_factors(clear.dni @ w, clear.dhi @ w, dni, dhi, missing="clear")
+    plain = plane_poa(clear, ref.sun_scale, ref.sky_scale, states.albedo)
+    np.testing.assert_allclose(plain["poa_direct"] @ w, res.poa_direct[:, 0], rtol=1e-5, atol=1e-3)
+    np.testing.assert_allclose(plain["poa_sky_diffuse"] @ w, res.poa_sky_diffuse[:, 0], rtol=1e-2)
+    np.testing.assert_allclose(plain["poa_ground_diffuse"] @ w, res.poa_ground_diffuse[:, 0], rtol=3e-2)
+    opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular="clear")
+    f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt)
+    spec = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo)
+    np.testing.assert_allclose(spec["poa_global"] @ w, plain["poa_global"] @ w, rtol=1e-10)
+    assert not np.allclose(spec["poa_global"], plain["poa_global"], rtol=1e-3)     # the shape moved
+
+
+@pytest.mark.parametrize("angular", ["clear", "cie_overcast"])
+def test_integrator_allsky_matches_the_plane_path(angular):
+    from irradiance.allsky_sky import AllSkyWeather
+    sky = RedSunSky()
+    states = SkyStates.create([12.0, 30.0, 55.0], [120.0, 180.0, 230.0], 30.0, 0.2)
+    settings = IntegratorSettings(rays_per_patch=4)
+    clear = clear_plane_spectra(sky, states, 40.0, 180.0, settings)
+    w = np.diff(sky.channel_edges)
+    dni, dhi = (clear.dni @ w) * np.array([0.0, 0.5, 0.9]), (clear.dhi @ w) * np.array([3.0, 1.6, 1.0])
+    opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular=angular)
+    f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt)
+    ref = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi)
+    scene = make_scene([_panel(40.0), _panel(0.0, z=150.0)], ground_z=0.0, analysis_reflectance=0.0)
+    res = poa_irradiance(scene, sky, states, measured=AllSkyWeather(dni, dhi), settings=settings,
+                         n_jobs=1, spectral_model="allsky", allsky_options=opt, spectral=True)
+    np.testing.assert_allclose(res.poa_direct[:, 0], ref["poa_direct"] @ w, rtol=1e-4, atol=1e-3)
+    np.testing.assert_allclose(res.poa_sky_diffuse[:, 0], ref["poa_sky_diffuse"] @ w, rtol=1e-2)
+    np.testing.assert_allclose(res.poa_ground_diffuse[:, 0], ref["poa_ground_diffuse"] @ w, rtol=3e-2)
+    # the horizontal face (2 mesh faces per panel: face 2) receives exactly the measured DNI and DHI
+    el = np.radians(states.sun_elevation)
+    np.testing.assert_allclose(res.poa_direct[:, 2] + res.poa_sky_diffuse[:, 2], dni * np.sin(el) + dhi,
+                               rtol=2e-3)
+    np.testing.assert_allclose(res.scaling.sun_scale, dni / (clear.dni @ w), rtol=1e-9)
+    # spectral global on the tilted face follows the all-sky shape
+    g = res.spectral["global"][:, 0, :]
+    np.testing.assert_allclose(g / (g @ w)[:, None], ref["poa_global"] / (ref["poa_global"] @ w)[:, None],
+                               rtol=0.03, atol=1e-6)
+    with pytest.raises(ValueError, match="spectral_model"):
+        poa_irradiance(scene, sky, states, spectral_model="cloudy")
+    with pytest.raises(ValueError, match="needs measured"):
+        poa_irradiance(scene, sky, states, spectral_model="allsky")
+
+
+@pytest.mark.reference
+@needs_data
+def test_aod_column_keeps_amsterdam_inside_the_dataset():
+    import warnings
+
+    from irradiance.skystate import sky_states_for
+    from irradiance.weather import read_weather
+    from skymodel.generator.paths import data_file
+    wd = read_weather(data_file("weather/NLD_Amsterdam062400_IWEC.epw"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        st_v = sky_states_for(wd, prefer="visibility")
+        st_a = sky_states_for(wd, prefer="aod")
+    up = st_v.sun_elevation > 0
+    # docs/all-sky.md: station visibility clamps 58.6 % of daylight hours (with GHI > 0), the AOD column none
+    assert 0.55 < st_v.clamped["visibility"][up].mean() < 0.62
+    assert st_a.clamped["visibility"][up].mean() < 0.005
