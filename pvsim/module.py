@@ -266,7 +266,8 @@ def pvwatts_inverter(pdc, pdc0, eta_inv_nom=0.96, eta_inv_ref=0.9637):
     """PVWatts inverter (Dobos, NREL/TP-6A20-62641, 2014), pvlib's ``inverter.pvwatts`` parameters.
 
     ``eta = eta_inv_nom / eta_inv_ref * (-0.0162 z - 0.0059 / z + 0.9858)``, ``z = pdc / pdc0``;
-    AC power ``eta * pdc`` limited to ``eta_inv_nom * pdc0``; 0 where ``pdc`` <= 0.
+    AC power ``eta * pdc`` limited to [0, ``eta_inv_nom * pdc0``] (eta < 0 below z = 0.006); 0 where
+    ``pdc`` <= 0.
 
     Parameters
     ----------
@@ -285,4 +286,4 @@ def pvwatts_inverter(pdc, pdc0, eta_inv_nom=0.96, eta_inv_ref=0.9637):
     p = np.asarray(pdc, dtype=float)
     z = np.where(p > 0, p / pdc0, 1.0)
     eta = eta_inv_nom / eta_inv_ref * (-0.0162 * z - 0.0059 / z + 0.9858)
-    return np.where(p > 0, np.minimum(eta * p, eta_inv_nom * pdc0), 0.0)
+    return np.where(p > 0, np.clip(eta * p, 0.0, eta_inv_nom * pdc0), 0.0)

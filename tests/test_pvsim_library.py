@@ -21,10 +21,8 @@ def _have(rel):
     return True
 
 
-needs_g173 = [pytest.mark.reference,
-              pytest.mark.skipif(not _have("solar/ASTMG173.csv"), reason="../shared/data absent")]
-needs_pv = [pytest.mark.reference,
-            pytest.mark.skipif(not _have("pv/PVcircuit_Si_EQE.csv"), reason="../shared/data absent")]
+needs_g173 = pytest.mark.skipif(not _have("solar/ASTMG173.csv"), reason="../shared/data absent")
+needs_pv = pytest.mark.skipif(not _have("pv/PVcircuit_Si_EQE.csv"), reason="../shared/data absent")
 
 
 def _g173_fine():
@@ -90,8 +88,9 @@ def test_band_average_zero_outside_and_partial_cover():
         band_average(w, v, [330.0], [290.0])
 
 
-@pytest.mark.parametrize("m", needs_g173)
-def test_am15g_channels_integral(m):
+@pytest.mark.reference
+@needs_g173
+def test_am15g_channels_integral():
     # ASTM G173-03 global tilted integrated 280-2480 nm is 992.5 W m-2 (skymodel.generator.validation)
     g = pvsim.am15g_channels()
     assert g.shape == (55,)
@@ -178,8 +177,9 @@ def test_tandem_bottom_sees_only_subgap_light():
     assert b[2] == pytest.approx(shj * t.interlayer_transmittance, rel=1e-6)
 
 
-@pytest.mark.parametrize("m", needs_g173)
-def test_preset_jsc_in_published_ranges(m):
+@pytest.mark.reference
+@needs_g173
+def test_preset_jsc_in_published_ranges():
     """AM1.5G Jsc of each preset's cell EQE against the ranges of published cells [mA cm-2]:
     Green et al., Solar cell efficiency tables (Version 64, 2024) records and typical production cells
     (c-Si 38-42.5, mc-Si 36-39, CdTe 25-31, CIGS 33-39, a-Si 14-17, perovskite 1.55 eV 22-26,
@@ -234,8 +234,9 @@ def test_bad_curves_clear_errors(tmp_path, text, match):
     assert str(p) in str(exc.value)
 
 
-@pytest.mark.parametrize("m", needs_pv)
-def test_relative_sr_rejected_as_absolute(m):
+@pytest.mark.reference
+@needs_pv
+def test_relative_sr_rejected_as_absolute():
     # pvlib's example c-Si SR is relative (max 1): as absolute A/W it implies EQE 1.3 at 950 nm
     p = find_data_file("pv/pvlib_example_spectral_response_cSi_points.csv")
     with pytest.raises(ValueError, match="exceeds .* A W-1"):
@@ -248,8 +249,9 @@ def _measured(name):
     return pd.read_csv(find_data_file(f"pv/{name}"), comment="#").to_numpy(dtype=float)
 
 
-@pytest.mark.parametrize("m", needs_pv)
-def test_model_form_fits_measured_curves(m):
+@pytest.mark.reference
+@needs_pv
+def test_model_form_fits_measured_curves():
     """The parametric form fitted to each measured curve (least squares over its edge and window
     parameters) leaves an rms residual below 3.5 % EQE: c-Si absorber 1.2 %, GaAs 1.4 %, the 1.62 eV
     perovskite 3.2 % (its interference ripple is not in the model)."""
@@ -275,8 +277,10 @@ def test_model_form_fits_measured_curves(m):
         assert np.sqrt(np.mean(r.fun ** 2)) < bound, fname
 
 
-@pytest.mark.parametrize("m", needs_pv + needs_g173)
-def test_presets_against_measured_devices(m):
+@pytest.mark.reference
+@needs_pv
+@needs_g173
+def test_presets_against_measured_devices():
     """Presets (representative current products) against the particular measured/simulated devices;
     bounds are the deviations docs/pvsim.md states, rounded up."""
     w, g = _g173_fine()
