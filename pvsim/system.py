@@ -195,7 +195,9 @@ class TechnologyYield:
     series : dict
         group -> pandas.DataFrame indexed by time: ``poa_global``, ``poa_direct``,
         ``poa_sky_diffuse``, ``poa_ground_diffuse`` (broadband, no optics) [W m-2], ``aoi`` [deg],
-        ``effective_irradiance`` (front + bifaciality x rear) [W m-2], ``spectral_factor`` [1],
+        ``effective_irradiance`` (front + bifaciality x rear), ``effective_irradiance_front``,
+        ``poa_global_cover`` (broadband after the cover optics) [W m-2], ``spectral_factor``
+        (front effective irradiance / STC-scaled cover irradiance) [1],
         ``temp_air``, ``cell_temperature`` [degC], ``wind_speed`` [m s-1], ``dc``, ``ac`` [W]
         (area-weighted means over the group's front faces; powers summed).
     waterfall : dict
@@ -285,7 +287,7 @@ def _weather(name, value, T):
 
 
 def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=None, system=None,
-             reference_path=None, face_chunk=2048, progress=False):
+             reference=None, reference_path=None, face_chunk=2048, progress=False):
     """Yield of each technology on every module group of a POA result.
 
     Parameters
@@ -301,8 +303,11 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
         The second output of :func:`technology_responses` (default: recomputed; pass it when the
         run used your own responses).
     system : SystemSpec, optional
+    reference : array_like (C,), optional
+        Band-mean reference spectrum for STC [W m-2 nm-1] on the result's channels (e.g.
+        ``pvsim.reference.widesky_am15g()["spectrum"]``); default ASTM G173 global tilted.
     reference_path : str, optional
-        ASTM G173 file for the STC reference (default from the input data directory).
+        ASTM G173 file for the default reference (default from the input data directory).
     face_chunk : int
         Faces read at a time (bounds memory: about 50 x T x face_chunk bytes).
     progress : bool
@@ -323,7 +328,12 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
     if np.any(ws < 0):
         raise ValueError(f"wind_speed must be >= 0 [m s-1], got min {ws.min()!r}")
     edges = result.channel_edges if result.channel_edges is not None else channel_edges()
-    g_ref = am15g_channels(edges, reference_path)
+    if reference is None:
+        g_ref = am15g_channels(edges, reference_path)
+    else:
+        g_ref = np.asarray(reference, dtype=float)
+        if g_ref.shape != (edges.size - 1,) or not np.all(np.isfinite(g_ref)) or np.any(g_ref < 0):
+            raise ValueError(f"reference must be finite, >= 0 with shape ({edges.size - 1},), got {g_ref.shape}")
     g_ref_band = float(np.sum(g_ref * np.diff(edges)))
     kb = G_STC / g_ref_band
     needed = {src for t in techs for sub in t.subcells for src in [sources[sub][0]]} | {COVER_RESPONSE}
@@ -447,7 +457,9 @@ class _GroupAccumulator:
         return pd.DataFrame({
             "poa_global": q["poa_global"] / A, "poa_direct": q["poa_direct"] / A,
             "poa_sky_diffuse": q["poa_sky_diffuse"] / A, "poa_ground_diffuse": q["poa_ground_diffuse"] / A,
-            "aoi": aoi, "effective_irradiance": q["effective"] / A, "spectral_factor": sf,
+            "aoi": aoi, "effective_irradiance": q["effective"] / A,
+            "effective_irradiance_front": q["effective_front"] / A, "poa_global_cover": q["cover"] / A,
+            "spectral_factor": sf,
             "temp_air": ta, "wind_speed": ws, "cell_temperature": q["tc"] / A, "dc": q["dc"]}, index=times)
 
     def waterfall(self, area, eta, hours, s, pdc0):
@@ -471,7 +483,7 @@ class _GroupAccumulator:
 
 def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *, cover=None, system=None,
              measured=None, times=None, settings=None, output=None, n_jobs=None, progress=False,
-             reference_path=None):
+             reference=None, reference_path=None):
     """One integrator run for all ``technologies`` (shared geometry and sky), then :func:`pv_yield`.
 
     Parameters
@@ -485,6 +497,9 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
         Measured irradiance (T,) [W m-2] the clear sky is scaled to.
     output : str, optional
         HDF5 file for the POA result (streams; bounded memory).
+    reference : None, "widesky" or array_like (C,)
+        STC reference spectrum: ASTM G173 (default), the sky model's own AM1.5G
+        (:func:`pvsim.reference.widesky_am15g`), or band means [W m-2 nm-1].
 
     Returns
     -------
@@ -495,6 +510,11 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     resp, sources = technology_responses(techs, cover)
     res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
                          times=times, output=output, n_jobs=n_jobs, progress=progress)
-    y = pv_yield(res, techs, temp_air, wind_speed, sources=sources, system=system,
+    if isinstance(reference, str):
+        if reference != "widesky":
+            raise ValueError(f"reference={reference!r} must be None, 'widesky' or an array")
+        from .reference import widesky_am15g
+        reference = widesky_am15g(sky)["scaled"]
+    y = pv_yield(res, techs, temp_air, wind_speed, sources=sources, system=system, reference=reference,
                  reference_path=reference_path, progress=progress)
     return res, y
