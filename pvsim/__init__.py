@@ -1,7 +1,8 @@
 """widesky.pvsim: cell spectral responses, module model and spectral PV yield.
 
 The cell-technology library (parametric EQE presets and tandems), user EQE/SR curves, cover optics,
-cell temperature, and the module model on channel-contracted irradiance. See docs/pvsim.md.
+cell temperature, the module model on channel-contracted irradiance, and the system layer on the
+integrator (yield per module group, loss waterfall, technology comparison). See docs/pvsim.md.
 """
 
 from .spectra import (HC_EV_NM, am15g, am15g_channels, band_average, channel_edges, photon_flux,
@@ -17,6 +18,14 @@ from .module import (G_STC, T_STC, bifacial_effective_irradiance, channel_sr, cu
                      dc_power, effective_irradiance, low_irradiance_factor, pvwatts_inverter,
                      reference_currents, short_circuit_current, spectral_mismatch, stack_power,
                      tandem_stc_efficiency, temperature_factor)
+from .system import (COVER_RESPONSE, WATERFALL_STAGES, CoverOptics, SystemSpec, TechnologyYield, YieldResult,
+                     pv_yield, simulate, technology_responses)
+from .compare import (bandgap_sweep, hourly_spectral_factors, monthly_spectral_factor, plot_comparison,
+                      summary_table, summary_text, visibility_spectral_factor, waterfall_table,
+                      write_comparison)
+from .reference import widesky_am15g
+from .plots import plot_technologies
+from . import compare, system
 
 __all__ = [
     "HC_EV_NM", "am15g", "am15g_channels", "band_average", "channel_edges", "photon_flux", "qe_to_sr",
@@ -32,4 +41,9 @@ __all__ = [
     "effective_irradiance", "low_irradiance_factor", "pvwatts_inverter", "reference_currents",
     "short_circuit_current", "spectral_mismatch", "stack_power", "tandem_stc_efficiency",
     "temperature_factor",
+    "COVER_RESPONSE", "WATERFALL_STAGES", "CoverOptics", "SystemSpec", "TechnologyYield", "YieldResult",
+    "pv_yield", "simulate", "technology_responses",
+    "bandgap_sweep", "hourly_spectral_factors", "monthly_spectral_factor", "plot_comparison", "summary_table",
+    "summary_text", "visibility_spectral_factor", "waterfall_table", "write_comparison",
+    "widesky_am15g", "plot_technologies",
 ]
