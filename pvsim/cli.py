@@ -81,7 +81,8 @@ def register(subparsers) -> None:
         s = sub.add_parser(name, help=hlp)
         _site_args(s)
         _tech_args(s, default_all=name == "compare")
-        s.add_argument("--group", default=None, help="module group to report (default the first mesh)")
+        s.add_argument("--group", default=None,
+                   help="module group to report: a mesh file's stem (default the first mesh)")
         s.add_argument("-o", "--output", required=True,
                        help="output folder" if name == "compare" else "output CSV")
         s.set_defaults(func=func)
@@ -168,8 +169,10 @@ def _setup(args):
     sky = PragueSky(args.dataset)
     times, states, measured, note = _steps(args, sky)
     sky.check_states(states)
-    scene = make_scene(args.mesh, args.context, groups=[str(m) for m in args.mesh], ground_z=args.ground_z,
-                       two_sided=args.two_sided)
+    from pathlib import Path
+    stems = [Path(m).stem for m in args.mesh]
+    groups = stems if len(set(stems)) == len(stems) else [str(m) for m in args.mesh]
+    scene = make_scene(args.mesh, args.context, groups=groups, ground_z=args.ground_z, two_sided=args.two_sided)
     ta, ws = _weather_series(args, times)
     return dict(scene=scene, sky=sky, states=states, measured=measured, times=times, note=note,
                 cover=cover, system=system, settings=IntegratorSettings.for_tolerance(args.tolerance),

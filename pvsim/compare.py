@@ -168,6 +168,9 @@ def plot_comparison(y: YieldResult, path, group=None, title=None):
         ax.text(i, t.loc[n, "specific_yield"], f"{100 * (t.loc[n, 'spectral_factor'] - 1):+.1f}%",
                 ha="center", va="bottom", fontsize=7)
     ax.set_xticks(x, [t.loc[n, "label"] for n in names], rotation=40, ha="right", fontsize=8)
+    lo, hi = float(t["specific_yield"].min()), float(t["specific_yield"].max())
+    if hi > 0:
+        ax.set_ylim(max(0.0, lo - 0.6 * (hi - lo) - 0.02 * hi), hi + 0.25 * (hi - lo) + 0.01 * hi)
     ax.set_ylabel("specific yield (AC) [kWh/kWp]")
     ax.set_title("yield per rated power (labels: annual spectral gain)", fontsize=10)
     ax = axs[0, 1]
@@ -186,6 +189,7 @@ def plot_comparison(y: YieldResult, path, group=None, title=None):
     ax.set_ylabel("hourly spectral factor [1]")
     ax.set_title(f"distribution of hourly spectral factors (POA > {_MIN_POA:.0f} W m-2)", fontsize=10)
     ax = axs[1, 1]
+    vis = vis.dropna(how="all")
     xv = np.arange(len(vis.index))
     for n in names:
         ax.plot(xv, vis[n], "o-", ms=3, color=col[n])
