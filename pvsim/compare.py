@@ -110,7 +110,8 @@ def visibility_spectral_factor(y: YieldResult, group=None, bins=(20, 30, 40, 60,
     import pandas as pd
     g = _group(y, group)
     vis = pd.Series(y.visibility, index=y.times)
-    cut = pd.cut(vis, bins=list(bins), include_lowest=True)
+    labels = [f"{a:g}-{b:g}" for a, b in zip(bins[:-1], bins[1:])]
+    cut = pd.cut(vis, bins=list(bins), labels=labels, include_lowest=True)
     out = {}
     for name, ty in y.technologies.items():
         s = ty.series[g]
@@ -134,7 +135,7 @@ def summary_text(y: YieldResult, group=None, note=""):
     lines.append(f"highest specific yield: {t.loc[best, 'label']} {t.loc[best, 'specific_yield']:.0f} kWh/kWp")
     for name, r in t.sort_values("specific_yield", ascending=False).iterrows():
         lines.append(f"  {r['label']:28s} {r['specific_yield']:7.0f} kWh/kWp  PR {r['performance_ratio']:.3f}  "
-                     f"spectral {100 * (r['spectral_factor'] - 1):+5.1f} %  temperature -{100 * r['temperature_loss']:.1f} %"
+                     f"spectral {100 * (r['spectral_factor'] - 1):+5.1f} %  temperature {-100 * r['temperature_loss']:+.1f} %"
                      + (f"  2T current mismatch -{100 * r['current_mismatch_loss']:.1f} %"
                         if r["current_mismatch_loss"] > 0 else ""))
     summer, winter = mon.loc[mon.index.isin([6, 7, 8])].mean(), mon.loc[mon.index.isin([12, 1, 2])].mean()
@@ -180,7 +181,7 @@ def plot_comparison(y: YieldResult, path, group=None, title=None):
     ax.set_xlabel("month")
     ax.set_ylabel("spectral factor [1]")
     ax.set_title("monthly spectral factor (energy-weighted)", fontsize=10)
-    ax.legend(fontsize=6.5, ncol=2)
+    ax.legend(fontsize=6.5, ncol=2, loc="best")
     ax = axs[1, 0]
     ax.boxplot([hours[n] for n in names], showfliers=False)
     ax.set_xticks(np.arange(1, len(names) + 1), [t.loc[n, "label"] for n in names], rotation=40, ha="right",

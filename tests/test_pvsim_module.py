@@ -129,7 +129,7 @@ def test_effective_irradiance_and_mismatch_two_channel_arithmetic():
 def test_mismatch_against_pvlib():
     """Field spectrum = G173 direct, reference = G173 global. With 1 nm channels widesky's channel
     arithmetic equals pvlib.spectrum.calc_spectral_mismatch_field to 1e-4; on the PSM's 40 nm channels
-    the binning changes M by less than 0.3 % for every preset (stated in docs/pvsim.md)."""
+    the binning changes M by less than 0.1 % (measured: at most 0.04 %, a-Si; docs/pvsim.md)."""
     g = pvsim.read_astm_g173()
     k = (g["wavelength"] >= 280) & (g["wavelength"] <= 2480)
     w = g["wavelength"][k]
@@ -140,7 +140,7 @@ def test_mismatch_against_pvlib():
         t = get_technology(name)
         sr = pd.Series(t.sr(fine), index=fine)
         m_pvlib = float(pvlib.spectrum.calc_spectral_mismatch_field(sr, e_sun, e_ref=e_ref))
-        for edges, tol in ((np.arange(280.0, 2481.0, 1.0), 1e-4), (None, 3e-3)):
+        for edges, tol in ((np.arange(280.0, 2481.0, 1.0), 1e-4), (None, 1e-3)):
             e = pvsim.channel_edges() if edges is None else edges
             ref_c = pvsim.band_average(fine, e_ref.to_numpy(), e[:-1], e[1:])
             sun_c = pvsim.band_average(fine, e_sun.to_numpy(), e[:-1], e[1:])
