@@ -11,22 +11,14 @@ import trimesh
 import pvsim
 from irradiance import SkyStates, make_scene, poa_irradiance
 from irradiance.skies import AnalyticSky
-from pvsim.spectra import find_data_file
+from pvsim.spectra import has_data_file
 from pvsim.system import COVER_RESPONSE, CoverOptics, SystemSpec, pv_yield, simulate, technology_responses
 
 pvlib = pytest.importorskip("pvlib")
 
 
-def _have(rel):
-    try:
-        find_data_file(rel)
-    except FileNotFoundError:
-        return False
-    return True
-
-
 pytestmark = [pytest.mark.reference,
-              pytest.mark.skipif(not _have("solar/ASTMG173.csv"), reason="../shared/data absent")]
+              pytest.mark.skipif(not has_data_file("solar/ASTMG173.csv"), reason="../shared/data absent")]
 
 
 def quad(tilt, azimuth, centre=(0.0, 0.0, 0.0), size=1.0):
