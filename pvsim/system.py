@@ -76,11 +76,10 @@ class CoverOptics:
             return _Iam(self.n, self.K, self.L, self.n_ar)
         from irradiance import SpectralAngularTable
         ang = np.concatenate([np.arange(0.0, 80.0, 5.0), np.arange(80.0, 90.01, 1.0)])
-        w = np.arange(300.0, 2500.0, 20.0)
-        fac = spectral_cover_iam(ang, w, rubin_soda_lime_index(w), k=0.0, L=self.L, n_ar=self.n_ar)
-        # K enters as a grey absorption on top of the spectral Fresnel part
-        grey = cover_iam(ang, 1.5, self.K, self.L) / cover_iam(ang, 1.5, 0.0, self.L)
-        return SpectralAngularTable(ang, w, fac * grey[:, None])
+        w = np.arange(280.0, 2480.5, 20.0)           # the PSM range (Rubin n extrapolated below 310 nm)
+        k = self.K * w * 1e-9 / (4.0 * np.pi)          # the grey absorption coefficient as extinction k
+        fac = spectral_cover_iam(ang, w, rubin_soda_lime_index(w), k=k, L=self.L, n_ar=self.n_ar)
+        return SpectralAngularTable(ang, w, fac)
 
 
 @dataclass(frozen=True)
