@@ -410,6 +410,25 @@ class _Chunk:
         self.has_back = (bi >= 0) if want_back else np.zeros(fi.size, bool)
         self.bsel = bi[self.has_back]
         self._cache = {}
+        day = np.isfinite(self.aoi)
+        a = self.area
+        # area-weighted sums every technology shares, computed once per chunk
+        self.common = {"poa_global": self.g @ a, "poa_direct": d @ a,
+                       "poa_sky_diffuse": self.parts["sky_diffuse"] @ a,
+                       "poa_ground_diffuse": self.parts["ground_diffuse"] @ a,
+                       "aoi_w": np.where(day, np.nan_to_num(self.aoi), 0.0) @ a, "aoi_a": day @ a,
+                       "cover": self.cover @ a, "unshaded": self.unshaded @ a}
+        self._tc = {}
+
+    def cell_temperature(self, system, eta):
+        """(cell temperature (rows, F) [degC], its area-weighted sum (rows,)), shared by technologies
+        whose temperature model does not depend on their efficiency (Faiman)."""
+        key = (system.temperature_model, tuple(sorted(system.temperature_params.items())),
+               eta if system.temperature_model == "pvsyst" else None)
+        if key not in self._tc:
+            tc = system.cell_temperature(self.g, self.ta, self.ws, eta)
+            self._tc[key] = (tc, tc @ self.area)
+        return self._tc[key]
 
     def current(self, name, back=False):
         key = (name, back)
@@ -445,16 +464,14 @@ class _GroupAccumulator:
             curb = {sub: c.current(sources[sub][0], back=True) * sources[sub][1] for sub in tech.subcells}
             e_tot = e_front.copy()
             e_tot[:, c.has_back] += tech.bifaciality * effective_irradiance(tech, curb, jref)
-        tc = system.cell_temperature(c.g, c.ta, c.ws, eta)
+        tc, tc_sum = c.cell_temperature(system, eta)
         low = e_tot * low_irradiance_factor(e_tot, tech.low_irradiance_200)
         dc = eta * low * temperature_factor(tc, tech.gamma_pdc)          # W m-2 of module
         q = self.q
-        day = np.isfinite(c.aoi)
-        for k, v in (("poa_global", c.g), ("poa_direct", c.parts["direct"]),
-                     ("poa_sky_diffuse", c.parts["sky_diffuse"]), ("poa_ground_diffuse", c.parts["ground_diffuse"]),
-                     ("aoi_w", np.where(day, np.nan_to_num(c.aoi), 0.0)), ("aoi_a", day), ("cover", c.cover),
-                     ("effective_front", e_front), ("effective", e_tot), ("tc", tc), ("unshaded", c.unshaded),
-                     ("low", low), ("dc", dc)):
+        for k, v in c.common.items():
+            q[k][r] += v
+        q["tc"][r] += tc_sum
+        for k, v in (("effective_front", e_front), ("effective", e_tot), ("low", low), ("dc", dc)):
             q[k][r] += v @ a
         if isinstance(tech, TandemTechnology):
             js = {k: v @ a for k, v in cur.items()}
