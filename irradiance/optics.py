@@ -13,10 +13,13 @@ needs becomes an incidence-angle weight function ``g(theta)`` [1] tabulated on a
 
 For each function the workers return (:func:`optic_terms`)
 
-* the sky coefficients ``int_patch v cos(theta) g(theta) dw`` per point and patch: the patch's exact
-  projected solid angle times the ratio of the cos x g and cos quadratures over a ``kq x kq``
-  sub-grid of the patch (closed form times a quadrature correction where unobstructed), times the
-  visible fraction estimated from the occlusion rays weighted by cos x g (where obstructed);
+* the sky coefficients ``int_patch v cos(theta) g(theta) dw`` per point and patch: each occlusion
+  ray's share of the patch's exact projected solid angle times ``g`` at the ray's angle, plus the
+  patch's quadrature correction (the ratio of the cos x g and cos quadratures over a ``kq x kq``
+  sub-grid, 16 x 16 where the face's horizon cuts the patch, minus the rays' estimate of it) spread
+  over the rays in proportion to their shares. Unobstructed, a patch gets the quadrature of
+  cos x g; obstructed, the visible rays' part of it. The estimate is linear in ``g``, so optics that
+  are piecewise linear on the class nodes come out the same through the classes as per ray;
 * a per-point factor for reflected light: the mean of ``g`` at the angles of the rays that reached a
   reflector (ground or scene surface), weighted by each ray's share of projected solid angle. It is
   exact where the reflected radiance is uniform over the reflecting directions (the open ground of
@@ -37,7 +40,7 @@ __all__ = ["AngularWeights", "OpticPlan", "plan_optics", "optic_terms", "hat_wei
 GRID_STEP = 0.05                          # [deg] tabulation step of the weight functions
 #: Default incidence-angle nodes [deg] of the angle x wavelength classes (denser where glazing
 #: transmittance falls off).
-DEFAULT_NODES = (0.0, 30.0, 45.0, 55.0, 65.0, 72.0, 78.0, 84.0, 90.0)
+DEFAULT_NODES = (0.0, 20.0, 35.0, 45.0, 52.0, 58.0, 64.0, 70.0, 75.0, 80.0, 84.0, 87.0, 90.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,6 +149,62 @@ def plan_optics(responses, nodes=DEFAULT_NODES):
     return OpticPlan(w, tuple(kind), tuple(index), nodes_arr)
 
 
+def _sub_directions(patches, kq, which):
+    """(p, kq*kq, 3) sub-directions and (p, kq*kq) solid angles of patches ``which`` (index into
+    the P upper and P mirrored lower patches)."""
+    dq, wq = patches.subsample(kq)
+    dq_lo = dq.copy()
+    dq_lo[..., 2] *= -1.0
+    D = np.concatenate([dq, dq_lo])
+    Wt = np.concatenate([wq, wq])
+    return D[which], Wt[which]
+
+
+def quadrature_ratio(weights, patches, normals, kq=4, kq_cut=16, block=256):
+    """(M, n, 2P) ratio of the cos x g and cos quadratures over each upper and mirrored lower patch.
+
+    ``kq x kq`` sub-directions per patch, ``kq_cut x kq_cut`` for patches cut by the face's horizon
+    (where cos falls to 0 inside the patch and g changes fastest); patches wholly behind the face
+    get g(90 deg).
+    """
+    n = normals.shape[0]
+    P = patches.n_patches
+    M = weights.n
+    out = np.empty((M, n, 2 * P))
+    out[:] = weights.tables[:, -1][:, None, None]
+    cen = np.concatenate([patches.directions, patches.directions * [1.0, 1.0, -1.0]])   # (2P, 3)
+    sin_r = np.sin(np.minimum(np.concatenate([patches.radius, patches.radius]), np.pi / 2))
+    D, Wt = _sub_directions(patches, kq, np.arange(2 * P))
+    Kq = D.shape[1]
+    Dflat, Wflat = D.reshape(-1, 3), Wt.reshape(-1)
+    for i0 in range(0, n, block):
+        nn = normals[i0:i0 + block]
+        c = np.clip(nn @ Dflat.T, 0.0, 1.0)
+        wc = c * Wflat
+        base = wc.reshape(nn.shape[0], 2 * P, Kq).sum(axis=2)
+        idx = weights.index(np.degrees(np.arccos(c)))
+        ok = base > 0
+        for m in range(M):
+            num = (wc * weights.value(m, idx)).reshape(nn.shape[0], 2 * P, Kq).sum(axis=2)
+            out[m, i0:i0 + block][ok] = num[ok] / base[ok]
+    # patches cut by the face's horizon, finer
+    cc = normals @ cen.T
+    fi, pi_ = np.nonzero((cc > -sin_r) & (cc < sin_r))
+    if fi.size and kq_cut > kq:
+        Dc, Wc = _sub_directions(patches, kq_cut, np.arange(2 * P))
+        for j0 in range(0, fi.size, 4096):
+            f_, p_ = fi[j0:j0 + 4096], pi_[j0:j0 + 4096]
+            c = np.clip(np.einsum("nj,nkj->nk", normals[f_], Dc[p_]), 0.0, 1.0)
+            wc = c * Wc[p_]
+            base = wc.sum(axis=1)
+            idx = weights.index(np.degrees(np.arccos(c)))
+            ok = base > 0
+            for m in range(M):
+                num = (wc * weights.value(m, idx)).sum(axis=1)
+                out[m, f_[ok], p_[ok]] = num[ok] / base[ok]
+    return out
+
+
 def optic_terms(weights: AngularWeights, patches, normals, exact, w3, flat_dirs, miss, r_pt, r_col,
                 r_share, kq=4):
     """Sky coefficients and reflected-light factors of every weight function (one worker chunk).
@@ -185,39 +244,34 @@ def optic_terms(weights: AngularWeights, patches, normals, exact, w3, flat_dirs,
     M = weights.n
     cos_ray = np.clip((normals @ flat_dirs.T).reshape(n, P2, K), -1.0, 1.0)
     idx_ray = weights.index(np.degrees(np.arccos(np.maximum(cos_ray, 0.0))))
-    dq, wq = patches.subsample(kq)
-    dq_lo = dq.copy()
-    dq_lo[..., 2] *= -1.0
-    Dq = np.concatenate([dq, dq_lo]).reshape(-1, 3)
-    Wq = np.concatenate([wq, wq]).reshape(-1)
-    cq = np.clip(normals @ Dq.T, 0.0, 1.0)
-    wcq = cq * Wq[None, :]
-    Kq = wq.shape[1]
-    base = wcq.reshape(n, P2, Kq).sum(axis=2)
-    idx_q = weights.index(np.degrees(np.arccos(cq)))
+    ratio = quadrature_ratio(weights, patches, normals, kq)
     den_r = np.bincount(r_pt, weights=r_share, minlength=n)
     lo_exact = exact[:, P:].sum(axis=1)
+    # the plain (no optic) ray shares: the patch's exact projected solid angle split over its rays
+    wsum = w3.sum(axis=2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(wsum[..., None] > 0, exact[..., None] * w3 / np.where(
+            wsum > 0, wsum, 1.0)[..., None], 0.0)
+        inv_exact = np.where(exact > 0, 1.0 / np.where(exact > 0, exact, 1.0), 0.0)
+    has_rays = wsum > 0
+    sliver = ~has_rays[:, :P] & (exact[:, :P] > 0)
+    tot = share[:, :P].sum(axis=(1, 2))
+    vis_plain = np.sum(share[:, :P] * miss[:, :P], axis=(1, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f_up = np.where(tot > 0, vis_plain / np.where(tot > 0, tot, 1.0), 1.0)
     sky = np.zeros((M, n, P), np.float32)
     refl = np.zeros((M, n), np.float32)
     g90 = weights.tables[:, -1]
     for m in range(M):
-        num = (wcq * weights.value(m, idx_q)).reshape(n, P2, Kq).sum(axis=2)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = np.where(base > 0, num / np.where(base > 0, base, 1.0), g90[m])
-        exact_m = exact * ratio
-        wg = w3 * weights.value(m, idx_ray)
-        swg = wg.sum(axis=2)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            share_m = np.where(swg[..., None] > 0,
-                               exact_m[..., None] * wg / np.where(swg > 0, swg, 1.0)[..., None], 0.0)
+        exact_m = exact * ratio[m]
+        g_ray = weights.value(m, idx_ray)                                     # (n, 2P, K)
+        # a ray's share times g at its angle, plus the patch's quadrature correction spread in
+        # proportion to the shares: linear in g, and exact (cos x g quadrature) where unobstructed
+        delta = ratio[m] - np.sum(share * g_ray, axis=2) * inv_exact         # (n, 2P)
+        share_m = share * (g_ray + delta[..., None])
         vis = np.sum(share_m[:, :P] * miss[:, :P], axis=2)
         # slivers (a positive exact weight but no ray in front): the point's mean visible fraction
-        sliver = (swg[:, :P] <= 0) & (exact_m[:, :P] > 0)
-        if np.any(sliver):
-            tot = share_m[:, :P].sum(axis=(1, 2))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                f_up = np.where(tot > 0, vis.sum(axis=1) / np.where(tot > 0, tot, 1.0), 1.0)
-            vis = vis + np.where(sliver, exact_m[:, :P] * f_up[:, None], 0.0)
+        vis = vis + np.where(sliver, exact_m[:, :P] * f_up[:, None], 0.0)
         sky[m] = vis
         rs = share_m.reshape(n, -1)[r_pt, r_col]
         num_r = np.bincount(r_pt, weights=rs, minlength=n)

@@ -25,13 +25,13 @@ from dataclasses import asdict
 
 import numpy as np
 
-from .integrator import (IntegratorSettings, _horizontal_diffuse, _lazy_zeros, patch_radiance)
+from .integrator import (IntegratorSettings, horizontal_diffuse, lazy_zeros, patch_radiance)
 from .measured import measured_scale_factors
 from .optics import DEFAULT_NODES, plan_optics
 from .patches import cosine_weights, reinhart
 from .raycast import Coefficients, start_coefficients
 from .response import Response
-from .result import PARTS, FaceTable, H5Writer, POAResult, _atomic_h5
+from .result import PARTS, FaceTable, H5Writer, POAResult, atomic_h5
 from .scene import Scene
 from .skies import SkyStates
 
@@ -158,21 +158,22 @@ def _versions():
 class _Sink:
     """Where the blocks of output steps go: arrays in memory, or the HDF5 file."""
 
-    def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral):
+    def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral, compression=None):
         self.keys, self.T, self.F, self.C = keys, T, F, C
         self.path, self.writer, self.ctx = path, None, None
         self.spectral = spectral
         if path is None:
-            self.full = {k: _lazy_zeros((T, F), np.float32) for k in keys}
-            self.full["aoi"] = _lazy_zeros((T, F), np.float32)
-            self.full["sun_visible"] = _lazy_zeros((T, F), np.float32)
+            self.full = {k: lazy_zeros((T, F), np.float32) for k in keys}
+            self.full["aoi"] = lazy_zeros((T, F), np.float32)
+            self.full["sun_visible"] = lazy_zeros((T, F), np.float32)
             if spectral:
                 for p in PARTS + ("global",):
-                    self.full[("spectral", p)] = _lazy_zeros((T, F, C), np.float32)
+                    self.full[("spectral", p)] = lazy_zeros((T, F, C), np.float32)
         else:
-            self.ctx = _atomic_h5(path)
+            self.ctx = atomic_h5(path)
             f = self.ctx.__enter__()
-            self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None)
+            self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None,
+                                   compression)
 
     def block(self, b0, b1):
         """dict key -> (b1 - b0, F) zeroed arrays (aoi NaN) to fill for steps b0:b1."""
@@ -181,12 +182,17 @@ class _Sink:
             out = {k: v[b0:b1] for k, v in self.full.items()}
             out["aoi"][:] = np.nan
             return out
-        out = {k: np.zeros((n, self.F), np.float32) for k in self.keys}
-        out["aoi"] = np.full((n, self.F), np.nan, np.float32)
-        out["sun_visible"] = np.zeros((n, self.F), np.float32)
-        if self.spectral:
-            for p in PARTS + ("global",):
-                out[("spectral", p)] = np.zeros((n, self.F, self.C), np.float32)
+        # one set of block buffers, reused (fresh multi-100-MB arrays per block cost seconds of
+        # page faults)
+        if getattr(self, "_buf", None) is None or self._buf_n < n:
+            shape = {k: (n, self.F) for k in [*self.keys, "aoi", "sun_visible"]}
+            if self.spectral:
+                shape.update({("spectral", p): (n, self.F, self.C) for p in PARTS + ("global",)})
+            self._buf = {k: lazy_zeros(v, np.float32) for k, v in shape.items()}
+            self._buf_n = n
+        out = {k: v[:n] for k, v in self._buf.items()}
+        for k, v in out.items():
+            v.fill(np.nan if k == "aoi" else 0.0)
         return out
 
     def flush(self, b0, block):
@@ -204,7 +210,7 @@ class _Sink:
 def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, settings=None,
                    measured=None, times=None, dni_scale=None, diffuse_scale=None, output=None,
                    spectral=False, n_jobs=None, executor=None, progress=False, coefficients=None,
-                   optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None):
+                   optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None, compression=None):
     """Plane-of-array irradiance per face, step and response: direct, sky-diffuse and reflected parts.
 
     Parameters
@@ -253,6 +259,9 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         Extra entries (e.g. the command line) for ``result.provenance``.
     block_steps : int, optional
         Steps per output block (default: a block of about 384 MB).
+    compression : {None, "lzf", "gzip"}
+        Compression of the result file's (T, F) datasets (None: fastest, see
+        :mod:`irradiance.result`).
 
     Returns
     -------
@@ -348,7 +357,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
                                      sky_scale=None if ch_sky is None else ch_sky[idx])
         if measured is not None:                   # column 0 is broadband: the model's DNI, DHI
             model_dni[idx] = dni[:, 0]
-            model_dhi[idx] = _horizontal_diffuse(Lp[..., 0], cs[:, 0], w_horizontal, st.sun_elevation)
+            model_dhi[idx] = horizontal_diffuse(Lp[..., 0], cs[:, 0], w_horizontal, st.sun_elevation)
             f = measured_scale_factors(model_dni[idx], model_dhi[idx], m_dni[idx], m_dhi[idx],
                                        missing="clear")
             scale_d[idx], scale_s[idx] = f.sun_scale, f.sky_scale
@@ -359,7 +368,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         return Lp, dni
 
     sky_ahead = []
-    if pending is not None and pending._futs is not None:
+    if pending is not None and pending.running:
         per_step = P * Wall.shape[1] * 8
         n_ahead = min(len(chunk_plan), max(0, (256 << 20) // max(per_step * settings.time_chunk, 1)))
         sky_ahead = [sky_chunk(idx) for _, idx in chunk_plan[:n_ahead]]
@@ -379,14 +388,15 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         ctx = _ProductContext(scene, cf, states, lit, J, J_all, col_mat, spectral,
                               spectral_ground, settings.time_chunk)
         sink = _Sink(keys, T, F, C, None if output is None else os.fspath(output), names, units,
-                     faces_tab, spectral)
+                     faces_tab, spectral, compression)
         t_prod = 0.0
         ci = 0
         bar = None
         if progress:
             from tqdm.auto import tqdm
             bar = tqdm(total=len(chunk_plan), unit="chunk", desc="time series")
-        face_n = np.asarray(scene.face_normal, dtype=float)
+        face_nT = np.ascontiguousarray(np.asarray(scene.face_normal, dtype=np.float32).T)
+        sun_dir32 = states.sun_direction.astype(np.float32)
         invalid = ~scene.face_valid
         for bi, (b0, b1) in enumerate(blocks):
             if b1 <= b0:
@@ -394,8 +404,11 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
             block = sink.block(b0, b1)
             upb = np.nonzero(up[b0:b1])[0]
             if upb.size:                           # beam angle of incidence of every face
-                cz = np.clip(states.sun_direction[b0 + upb] @ face_n.T, -1.0, 1.0)
-                block["aoi"][upb] = np.degrees(np.arccos(cz))
+                cz = sun_dir32[b0 + upb] @ face_nT
+                np.clip(cz, -1.0, 1.0, out=cz)
+                np.arccos(cz, out=cz)
+                cz *= np.float32(180.0 / np.pi)
+                block["aoi"][upb] = cz
             while ci < len(chunk_plan) and chunk_plan[ci][0] == bi:
                 idx = chunk_plan[ci][1]
                 Lp, dni = sky_ahead[ci] if ci < len(sky_ahead) else sky_chunk(idx)
@@ -434,7 +447,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         if failed and sink is not None:
             sink.close(True)
         if failed and pending is not None:
-            pending._close()
+            pending.cancel()
     timings["total"] = time.perf_counter() - t_start
     if output is not None:
         res = POAResult.load(output)
@@ -490,10 +503,14 @@ class _ProductContext:
         self.sun_bin_of = np.arange(cf.n_sun) if cf.sun_index is None else cf.sun_index
         self.Hb = reinhart_vector_z(P)
         rows = tmax * J_all
-        self.buf_sky = _lazy_zeros((rows, N), np.float32)
-        self.buf_refl = _lazy_zeros((rows, N), np.float32)
-        self.buf_aux = _lazy_zeros((rows, N), np.float32)
-        self.buf_tmp = _lazy_zeros((tmax, N), np.float32)
+        self.buf_sky = lazy_zeros((rows, N), np.float32)
+        self.buf_refl = lazy_zeros((rows, N), np.float32)
+        self.buf_aux = lazy_zeros((rows, N), np.float32)
+        self.buf_tmp = lazy_zeros((tmax, N), np.float32)
+        self.buf_cos = lazy_zeros((tmax, N), np.float32)
+        self.buf_vis = lazy_zeros((tmax, N), np.float32)
+        self.buf_beam = lazy_zeros((tmax, N), np.float32)
+        self.buf_part = [lazy_zeros((tmax, N), np.float32) for _ in range(3)]
 
     def faces(self, a):
         """(..., N) -> (..., F): mean over each face's points."""
@@ -563,13 +580,15 @@ def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank):
                                   dtype=np.float32)
         refl_all[rows] += np.matmul(Xu, ctx.Ksun_T[g], out=ctx.buf_aux[:rows.size * Rp]).reshape(
             rows.size, Rp, N)
-    cos = np.zeros((Tc, N), np.float32)
-    vis = np.zeros((Tc, N), np.float32)
+    cos, vis, beam = ctx.buf_cos[:Tc], ctx.buf_vis[:Tc], ctx.buf_beam[:Tc]
+    cos.fill(0.0)
+    vis.fill(0.0)
     upc = np.nonzero(up[idx])[0]
     if upc.size:
         cos[upc] = s[upc].astype(np.float32) @ ctx.normals_T
         vis[upc] = ctx.sun_vis[ctx.sun_bin_of[sun_rank[idx[upc]]]]
-    beam = np.maximum(cos, 0.0) * vis
+    np.maximum(cos, 0.0, out=beam)
+    beam *= vis
     return {"sky": sky_all, "refl": refl_all, "beam": beam, "cos": cos, "vis": vis,
             "dni": dni.astype(np.float32)}
 
@@ -578,32 +597,37 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
     """Stage 4: each response's direct, sky-diffuse and reflected parts from its columns, the
     optics applied, averaged over each face's points, into ``block`` at ``rows``."""
     sky_all, refl_all, beam, dni = terms["sky"], terms["refl"], terms["beam"], terms["dni"]
+    Tc = beam.shape[0]
     aoi_pt = None
     f = ctx.faces
+    b_dir, b_sky, b_ref = (b[:Tc] for b in ctx.buf_part)
     for i, (name, _w, _unit, r) in enumerate(resp):
         kind = plan.kind[i]
         js = col_of[i]
         if kind != "none" and aoi_pt is None:
-            aoi_pt = np.degrees(np.arccos(np.clip(terms["cos"], -1.0, 1.0)))
+            aoi_pt = np.degrees(np.arccos(np.clip(terms["cos"], 0.0, 1.0)))
         if kind == "none":
             j = js[0]
-            direct = dni[:, j:j + 1] * beam
+            direct = np.multiply(dni[:, j:j + 1], beam, out=b_dir)
             skyd = sky_all[:, j]
             refl = refl_all[:, j]
         elif kind == "angular":
             j = js[0]
-            g = np.asarray(r.angular(np.minimum(aoi_pt, 90.0)), dtype=np.float32)
-            direct = dni[:, j:j + 1] * beam * g
+            g = np.asarray(r.angular(aoi_pt), dtype=np.float32)
+            direct = np.multiply(dni[:, j:j + 1], beam, out=b_dir)
+            direct *= g
             skyd = sky_all[:, j]
-            refl = refl_all[:, j] * ctx.refl_factor[plan.index[i]][None, :]
+            refl = np.multiply(refl_all[:, j], ctx.refl_factor[plan.index[i]][None, :], out=b_ref)
         else:
-            direct = np.zeros_like(beam)
-            skyd = np.zeros_like(beam)
-            refl = np.zeros_like(beam)
+            direct, skyd, refl = b_dir, b_sky, b_ref
+            for b in (direct, skyd, refl):
+                b.fill(0.0)
             eye = np.eye(plan.nodes.size)
             for a, j in enumerate(js):
                 hat = np.interp(aoi_pt, plan.nodes, eye[a]).astype(np.float32)
-                direct += dni[:, j:j + 1] * beam * hat
+                hat *= beam
+                hat *= dni[:, j:j + 1]
+                direct += hat
                 skyd += sky_all[:, j]
                 refl += refl_all[:, j] * ctx.refl_factor[plan.index[i] + a][None, :]
         block[(name, "direct")][rows] = f(direct)

@@ -17,9 +17,11 @@ File layout (HDF5 through h5py; ``format = "widesky.poa"``, ``format_version = 1
     /spectral/<part>        (T, F, C) float32 [W m-2 nm-1] (spectral runs only)
     /wavelengths, /channel_edges   (C,), (C+1,) [nm]
 
-The (T, F) datasets are chunked in blocks of steps x faces (about 1 MB) and compressed with LZF
-(fast, bundled with h5py), so a result larger than memory streams to disk during the run and reads
-back by face group or period without reading the rest.
+The (T, F) datasets are chunked in blocks of steps x faces (about 1 MB), so a result larger than
+memory streams to disk during the run and reads back by face group or period without reading the
+rest. They are stored uncompressed by default: LZF with shuffle halves the file but cost about
+13 s of CPU per GB written here (uncompressed: 1.5 s), more than the whole product phase;
+``compression="lzf"`` (or "gzip") asks for it.
 """
 
 from __future__ import annotations
@@ -307,12 +309,14 @@ class POAResult:
         return pd.DataFrame(data, index=self.times)
 
     # -- file ------------------------------------------------------------------------------------
-    def save(self, path):
-        """Write the result to one HDF5 file (atomically: a temporary file, then ``os.replace``)."""
+    def save(self, path, compression=None):
+        """Write the result to one HDF5 file (atomically: a temporary file, then ``os.replace``);
+        ``compression`` None, "lzf" or "gzip" for the (T, F) datasets."""
         path = os.fspath(path)
-        with _atomic_h5(path) as f:
+        with atomic_h5(path) as f:
             w = H5Writer(f, self.responses, self.units, self.faces, self.n_steps,
-                         spectral_channels=None if self.spectral is None else len(self.wavelengths))
+                         spectral_channels=None if self.spectral is None else len(self.wavelengths),
+                         compression=compression)
             step = max(1, (64 << 20) // max(1, 4 * self.n_faces * (3 * len(self.responses) + 2)))
             for t0 in range(0, self.n_steps, step):
                 t1 = min(self.n_steps, t0 + step)
@@ -434,7 +438,7 @@ def _stamp(t, tz):
 
 
 # -- HDF5 writing ----------------------------------------------------------------------------------
-class _atomic_h5:
+class atomic_h5:
     """Context manager: an h5py.File on a temporary file in the target's folder, moved onto the
     target with ``os.replace`` on success and removed on failure."""
 
@@ -479,16 +483,22 @@ class H5Writer:
     provenance.
     """
 
-    def __init__(self, f, responses, units, faces, n_steps, spectral_channels=None):
+    def __init__(self, f, responses, units, faces, n_steps, spectral_channels=None,
+                 compression=None):
         self.f = f
         T, F = int(n_steps), len(faces)
+        if compression not in (None, "lzf", "gzip"):
+            raise ValueError(f"compression={compression!r} is not one of (None, 'lzf', 'gzip')")
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["responses"] = json.dumps(list(responses))
         f.attrs["units"] = json.dumps(dict(units))
         f.attrs["parts"] = json.dumps(list(PARTS))
-        kw = dict(dtype="f4", chunks=_chunks(max(T, 1), max(F, 1)), compression="lzf",
-                  shuffle=True) if T and F else dict(dtype="f4")
+        kw = dict(dtype="f4")
+        if T and F:
+            kw["chunks"] = _chunks(T, F)
+            if compression is not None:
+                kw.update(compression=compression, shuffle=True)
         self.ds = {}
         g = f.create_group("poa")
         for r in responses:
