@@ -154,8 +154,31 @@ def _weather_series(args, times):
     return out[0], np.maximum(out[1], 0.0)
 
 
+def _sky_states(args, sky):
+    """(SkyStates, measured (dni, dhi) or None, note) for the clear-sky period or the weather file."""
+    from irradiance import Site, read_weather, sky_states_for
+    if args.weather is None:
+        missing = [n for n in ("lat", "lon", "start", "end") if getattr(args, n) is None]
+        if missing:
+            raise ValueError("without --weather, give " + ", ".join("--" + m for m in missing))
+        try:
+            tz = float(args.tz)
+        except ValueError:
+            tz = args.tz
+        site = Site(args.lat, args.lon, args.site_altitude, tz=tz)
+        return (sky_states_for(site, args.start, args.end, args.step, model=sky.model,
+                               visibility=args.visibility, albedo=args.albedo), None, "clear sky")
+    wd = read_weather(args.weather)
+    states = sky_states_for(wd, args.start, args.end, model=sky.model, visibility=args.visibility,
+                            albedo=args.albedo)
+    note = f"weather {args.weather} ({wd.site.latitude:.3f}, {wd.site.longitude:.3f})"
+    data = wd.data.loc[states.times]
+    if args.clear_sky or not {"dni", "dhi"} <= set(data.columns):
+        return states, None, note + ", clear sky"
+    return states, (data["dni"].to_numpy(), data["dhi"].to_numpy()), note + ", scaled to measured DNI/DHI"
+
+
 def _setup(args):
-    from irradiance.cli_poa import _steps
     from irradiance.integrator import IntegratorSettings
     from irradiance.scene import make_scene
     from irradiance.skies import PragueSky
@@ -166,7 +189,8 @@ def _setup(args):
     system = SystemSpec(temperature_model=args.temperature_model, dc_loss=args.dc_loss,
                         dc_ac_ratio=args.dc_ac_ratio)
     sky = PragueSky(args.dataset)
-    times, states, measured, note = _steps(args, sky)
+    states, measured, note = _sky_states(args, sky)
+    times = states.times
     sky.check_states(states)
     from pathlib import Path
     stems = [Path(m).stem for m in args.mesh]
