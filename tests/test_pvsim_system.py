@@ -274,8 +274,9 @@ def test_spectral_cover_iam_through_the_integrator(scene):
     ratio, aoi = cov[lit] / bare[lit], res.aoi[lit]
     steep = aoi < 75.0
     np.testing.assert_allclose(ratio[steep], pvsim.cover_iam(aoi[steep], n=1.52), rtol=0.01)
-    # grazing beams go through the integrator's angle classes (nodes 78, 84, 90 deg), linear between
-    # them where the IAM curves: measured up to 0.036 below the table at 80-87 deg
+    # grazing beams go through the integrator's incidence-angle classes (irradiance.optics.DEFAULT_NODES),
+    # linear between nodes where the IAM curves (measured with the 9 nodes of the first version: up to
+    # 0.036 below the table at 80-87 deg)
     np.testing.assert_allclose(ratio[~steep], pvsim.cover_iam(aoi[~steep], n=1.52), atol=0.05)
     order = np.argsort(aoi)
     assert np.all(np.diff(ratio[order]) < 1e-3)
