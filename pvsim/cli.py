@@ -168,9 +168,14 @@ def _sky_states(args, sky):
         site = Site(args.lat, args.lon, args.site_altitude, tz=tz)
         return (sky_states_for(site, args.start, args.end, args.step, model=sky.model,
                                visibility=args.visibility, albedo=args.albedo), None, "clear sky")
+    import warnings
     wd = read_weather(args.weather)
-    states = sky_states_for(wd, args.start, args.end, model=sky.model, visibility=args.visibility,
-                            albedo=args.albedo)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        states = sky_states_for(wd, args.start, args.end, model=sky.model, visibility=args.visibility,
+                                albedo=args.albedo)
+    for w in caught:
+        print(f"widesky: warning: {w.message}", file=sys.stderr)
     note = f"weather {args.weather} ({wd.site.latitude:.3f}, {wd.site.longitude:.3f})"
     data = wd.data.loc[states.times]
     if args.clear_sky or not {"dni", "dhi"} <= set(data.columns):
