@@ -14,7 +14,9 @@ Network (ISO 13790 C.2-C.3): air node ``theta_air``, surface (star) node ``theta
 ``H_tr_w`` (surface - outside, windows), ``H_tr_ms = h_ms A_m`` (surface - mass), ``H_tr_em``
 (mass - outside, opaque elements in series with ``H_tr_ms``). The mass node integrates with the
 Crank-Nicolson step of C.3; gains split as C.2: ``Phi_ia`` (convective internal) at the air node,
-``Phi_st`` and ``Phi_m`` (radiative internal + solar) by area ratios. Heating and cooling are ideal
+``Phi_st`` and ``Phi_m`` (radiative internal + solar) by area ratios (the standard drops the share
+``H_tr_w / (h_ms A_t)`` of these radiative gains as radiated straight out through the glazing; the
+energy-balance test accounts for it). Heating and cooling are ideal
 and convective at the air node: the air temperature is held at the set-point whenever the
 free-floating temperature leaves the band (C.4; the zone is linear in the heat input, so the need
 follows from two evaluations, exactly).
