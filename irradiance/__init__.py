@@ -16,8 +16,11 @@ from .skies import AnalyticSky, PragueSky, SkyStates, UniformSky
 from .raycast import (Coefficients, PendingCoefficients, compute_coefficients, start_coefficients,
                       sun_bins)
 from .reference import ReferenceResult, reference_poa, validation_scenes
-from .integrator import (PRESETS, IntegratorSettings, POAResult, measured_scaling, model_irradiance,
-                         patch_radiance, poa_irradiance)
+from .integrator import (PRESETS, IntegratorSettings, measured_scaling, model_irradiance,
+                         patch_radiance)
+from .response import AngularTable, Response, SpectralAngularTable
+from .result import FaceTable, POAResult
+from .poa import poa_irradiance
 
 __all__ = [
     # solar position
@@ -40,7 +43,9 @@ __all__ = [
     "SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "compute_coefficients", "Coefficients",
     "start_coefficients", "PendingCoefficients", "sun_bins",
     "IntegratorSettings", "PRESETS", "patch_radiance", "poa_irradiance", "POAResult",
-    "model_irradiance", "measured_scaling",
+    "model_irradiance", "measured_scaling", "FaceTable",
+    # responses and their optics
+    "Response", "AngularTable", "SpectralAngularTable",
     # brute-force reference
     "reference_poa", "ReferenceResult", "validation_scenes",
 ]
