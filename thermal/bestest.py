@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .glazing import Gap, GlazingUnit, layer_from_broadband
+from .loads import opaque_gains, sky_losses, window_gains
 from .optics import hemispherical
 from .surface import sky_temperature, surface_irradiance
 from .zone import ZoneParameters, simulate_5r1c
@@ -38,7 +39,6 @@ CASES = ("600", "660", "670", "900")
 GROUND_REFLECTANCE = 0.2          # ASHRAE 140-2020 7.2.1
 INTERNAL_RADIATIVE_FRACTION = 0.6  # ASHRAE 140-2020 7.2.1: 200 W, 60 % radiative
 INTERIOR_SOLAR_ABSORPTANCE = 0.6   # ASHRAE 140-2020 7.2.1: interior surfaces
-R_SE = 0.04                        # ISO 13790 11.3.4: external surface resistance [m2 K W-1]
 RHO_C_AIR = 1200.0                 # ISO 13790 9.3.1: rho_a c_a [J m-3 K-1]
 PROGRAMS = ("BSIMAC", "CSE", "DeST", "EnergyPlus", "ESP-r", "TRNSYS")
 
@@ -303,21 +303,19 @@ def case_gains(case: BestestCase, weather, site, g_table=None):
     ang, g, g_d, tau_d = _window_g(case.window) if g_table is None else g_table
     esc = solar_escape_fraction(tau_d, case.window_area, case.interior_area,
                                 INTERIOR_SOLAR_ABSORPTANCE)
-    theta = np.minimum(irr["aoi"], 90.0)
-    g_beam = np.interp(theta, ang, g)
     win_area = np.array([w[2] for w in case.walls] + [0.0])
     opq_area = np.array([w[1] for w in case.walls] + [case.roof_area])
     u_opq = np.array([case.u_wall] * len(case.walls) + [case.u_roof])
+    tilt = np.array([s[0] for s in surf])
     diffuse = irr["poa_sky_diffuse"] + irr["poa_ground_diffuse"]
-    window = ((irr["poa_direct"] * g_beam + diffuse * g_d) * win_area).sum(1) * (1 - esc)
-    opaque = (case.absorptance * R_SE * u_opq * opq_area * irr["poa_global"]).sum(1)
+    window = window_gains(win_area, irr["poa_direct"], diffuse, irr["aoi"], ang, g, g_d).sum(1)
+    window *= 1 - esc
+    opaque = opaque_gains(opq_area, u_opq, case.absorptance, irr["poa_global"]).sum(1)
     t_sky = sky_temperature(np.maximum(weather["ghi_infrared"].to_numpy(), 1.0))
-    d_t = weather["temp_air"].to_numpy() - t_sky
-    f_r = np.array([0.5] * len(case.walls) + [1.0])
-    h_r = 4 * 5.670374419e-8 * case.emissivity * (273.15 + 0.5 * (weather["temp_air"].to_numpy()
-                                                                  + t_sky)) ** 3
-    ua_sky = (R_SE * f_r * (u_opq * opq_area + case.u_window * win_area)).sum()
-    sky_loss = ua_sky * h_r * d_t
+    ta = weather["temp_air"].to_numpy()
+    sky_loss = (sky_losses(opq_area, u_opq, case.emissivity, tilt, ta, t_sky).sum(1)
+                + sky_losses(win_area, case.u_window, case.window.layers[0].emissivity_front,
+                             tilt, ta, t_sky).sum(1))
     south = int(np.argmin([abs(a - 180.0) for a, _, _ in case.walls]))
     return {"window": window, "opaque": opaque, "sky_loss": sky_loss,
             "incident_south": irr["poa_global"][:, south], "temp_sky": t_sky}
