@@ -236,9 +236,9 @@ class LoadsResult:
                        "peak_heating_time": self.heating[z].idxmax(),
                        "peak_cooling_W": self.cooling[z].max(),
                        "peak_cooling_time": self.cooling[z].idxmax()}
-        tot_h, tot_c = self.heating.sum(1), self.cooling.sum(1)
+        tot_h, tot_c = self.heating.sum(axis=1), self.cooling.sum(axis=1)
         rows["total"] = {"heating_kWh": tot_h.sum() * dt / 1000, "cooling_kWh": tot_c.sum() * dt / 1000,
-                         "solar_kWh": self.zone_solar.sum(1).sum() * dt / 1000,
+                         "solar_kWh": self.zone_solar.sum(axis=1).sum() * dt / 1000,
                          "peak_heating_W": tot_h.max(), "peak_heating_time": tot_h.idxmax(),
                          "peak_cooling_W": tot_c.max(), "peak_cooling_time": tot_c.idxmax()}
         return pd.DataFrame(rows).T
