@@ -32,8 +32,9 @@ from .optics import hemispherical
 from .surface import sky_temperature, surface_irradiance
 from .zone import ZoneParameters, simulate_5r1c
 
-__all__ = ["CASES", "GROUND_REFLECTANCE", "read_mos", "read_modelica_record", "case_definition",
-           "window_unit", "reference_results", "run_case", "BestestCase"]
+__all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_modelica_record",
+           "case_definition", "window_unit", "reference_results", "run_case", "BestestCase",
+           "load_weather", "case_gains", "integrator_irradiance", "solar_escape_fraction"]
 
 CASES = ("600", "660", "670", "900")
 GROUND_REFLECTANCE = 0.2          # ASHRAE 140-2020 7.2.1
@@ -272,8 +273,9 @@ def solar_escape_fraction(tau_diffuse, window_area, interior_area, absorptance):
     return rho * p / (1.0 - rho * (1.0 - p))
 
 
-def case_gains(case: BestestCase, weather, site, g_table=None):
-    """Hourly solar gains of a case [W] split by element, from the weather (Hay-Davies).
+def case_gains(case: BestestCase, weather, site, g_table=None, poa=None):
+    """Hourly solar gains of a case [W] split by element, from the weather (Hay-Davies) or from
+    the integrator (``poa``, see :func:`integrator_irradiance`).
 
     Parameters
     ----------
@@ -284,6 +286,9 @@ def case_gains(case: BestestCase, weather, site, g_table=None):
         From :func:`read_mos`.
     g_table : tuple, optional
         (angles [deg], g [1], g_diffuse [1], tau_diffuse [1]) to replace the window's own.
+    poa : dict, optional
+        From :func:`integrator_irradiance`: (T, 5) parts for the N, E, S, W walls and the roof and
+        ``window_gain`` per case window (T,) [W m-2 of glass]; replaces the weather-only route.
 
     Returns
     -------
@@ -296,7 +301,7 @@ def case_gains(case: BestestCase, weather, site, g_table=None):
     times = sun_times(weather.index, label="right")
     sp = solar_position(times, site["latitude"], site["longitude"], site["altitude"])
     surf = [(90.0, az) for az, _, _ in case.walls] + [(0.0, 180.0)]
-    irr = surface_irradiance([s[0] for s in surf], [s[1] for s in surf], sp["zenith"].to_numpy(),
+    irr = poa if poa is not None else surface_irradiance([s[0] for s in surf], [s[1] for s in surf], sp["zenith"].to_numpy(),
                              sp["azimuth"].to_numpy(), weather["dni"].to_numpy(),
                              weather["dhi"].to_numpy(), weather["ghi"].to_numpy(),
                              dni_extra(sp["earth_sun_distance"].to_numpy()), GROUND_REFLECTANCE)
@@ -308,8 +313,11 @@ def case_gains(case: BestestCase, weather, site, g_table=None):
     u_opq = np.array([case.u_wall] * len(case.walls) + [case.u_roof])
     tilt = np.array([s[0] for s in surf])
     diffuse = irr["poa_sky_diffuse"] + irr["poa_ground_diffuse"]
-    window = window_gains(win_area, irr["poa_direct"], diffuse, irr["aoi"], ang, g, g_d).sum(1)
-    window *= 1 - esc
+    if poa is not None:
+        window = poa["window_gain"][case.window.name] * case.window_area * (1 - esc)
+    else:
+        window = window_gains(win_area, irr["poa_direct"], diffuse, irr["aoi"], ang, g, g_d).sum(1)
+        window *= 1 - esc
     opaque = opaque_gains(opq_area, u_opq, case.absorptance, irr["poa_global"]).sum(1)
     t_sky = sky_temperature(np.maximum(weather["ghi_infrared"].to_numpy(), 1.0))
     ta = weather["temp_air"].to_numpy()
@@ -344,10 +352,56 @@ def load_weather(weather="tmy3", data_dir=None):
     return w.data, site
 
 
-def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None):
+def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, progress=False):
+    """Per-surface irradiance of the Case 600 box from widesky's integrator (the sky model's
+    angular and spectral distribution scaled to the weather's measured DNI and DHI).
+
+    The box (8 m x 6 m x 2.7 m, 12 m2 of south glazing, ASHRAE 140-2020 7.2.1) stands on a ground
+    of albedo 0.2; each case's window is a rated-g Response (its g by angle, flat spectrum, as the
+    records are broadband) applied per incoming direction.
+
+    Returns
+    -------
+    dict
+        (T, 5) ``poa_direct``, ``poa_sky_diffuse``, ``poa_ground_diffuse``, ``poa_global`` [W m-2]
+        and ``aoi`` [deg] for the N, E, S, W walls and the roof; ``window_gain``: dict window name
+        -> (T,) [W m-2 of glass]; ``result``: the POAResult.
+    """
+    from irradiance import PragueSky, poa_irradiance, read_epw
+    from .building import box_building
+    from .gains import (building_scene, group_weights, irradiance_by_surface,
+                        rated_glazing_response, sky_states_for_weather)
+    if weather not in WEATHER_FILES or weather == "drycold":
+        raise ValueError(f"weather={weather!r}: the integrator route reads the EPW ('tmy3')")
+    w = read_epw(_data_file(WEATHER_FILES[weather], data_dir))
+    sky = sky or PragueSky()
+    b = box_building(8.0, 6.0, 2.7, wwr={"south": 12.0 / 21.6}, sill=0.2, perimeter_zones=False)
+    scene, labels = building_scene(b, ground_albedo=GROUND_REFLECTANCE)
+    states, measured = sky_states_for_weather(w, sky, default_albedo=GROUND_REFLECTANCE)
+    units = {c: window_unit(c, data_dir) for c in ("600", "660", "670")}
+    flat = np.array([280.0, 2500.0]), np.ones(2)
+    responses = [rated_glazing_response(u, *flat, name=u.name) for u in units.values()]
+    res = poa_irradiance(scene, sky, states, responses=responses, measured=measured,
+                         n_jobs=n_jobs, progress=progress)
+    order = []
+    for az in (0.0, 90.0, 180.0, 270.0):
+        order.append(next(i for i, lab in enumerate(labels) if lab.startswith("wall")
+                          and abs(b.surfaces[i].azimuth - az) < 1))
+    order.append(next(i for i, lab in enumerate(labels) if lab.startswith("roof")))
+    irr = irradiance_by_surface(res, [labels[i] for i in order])
+    win = [lab for lab in labels if lab.startswith("window")]
+    M = group_weights(res, win)[:, 0]
+    irr["window_gain"] = {u.name: res.get(u.name, "global") @ M for u in units.values()}
+    irr["result"] = res
+    return irr
+
+
+def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None):
     """Simulate ASHRAE 140 Case ``case`` for a weather year (hourly, 8760 steps).
 
     ``weather``: a key of :data:`WEATHER_FILES`, or a (data, site) pair as :func:`load_weather`.
+    ``poa``: per-surface irradiance from :func:`integrator_irradiance` (same weather) instead of
+    the weather-only Hay-Davies route.
 
     Returns
     -------
@@ -359,7 +413,7 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
     """
     c = case if isinstance(case, BestestCase) else case_definition(case, data_dir)
     weather, site = load_weather(weather, data_dir) if isinstance(weather, str) else weather
-    gains = case_gains(c, weather, site, g_table)
+    gains = case_gains(c, weather, site, g_table, poa)
     phi_sol = gains["window"] + gains["opaque"] - gains["sky_loss"]
     res = simulate_5r1c(c.zone, weather["temp_air"].to_numpy(), c.internal_gains, phi_sol,
                         c.heating_setpoint, c.cooling_setpoint,

@@ -20,7 +20,7 @@ from .glazing import ANGLES, WAVELENGTHS, GlazingUnit
 from .loads import glazing_g_table
 
 __all__ = ["glazing_response", "rated_glazing_response", "building_scene", "irradiance_by_surface",
-           "window_gain_by_surface", "sky_states_for_weather"]
+           "window_gain_by_surface", "sky_states_for_weather", "group_weights"]
 
 
 def glazing_response(unit: GlazingUnit, name=None, quantity="shgc"):
@@ -83,7 +83,9 @@ def building_scene(building, context=(), *, ground_albedo=None, samples_per_face
     return scene, labels
 
 
-def _group_matrix(res, labels):
+def group_weights(res, labels):
+    """(F, S) area weights [1] of each result face in each labelled group (front sides), columns
+    summing to 1."""
     names = list(res.faces.group_names)
     missing = [lab for lab in labels if lab not in names]
     if missing:
@@ -106,7 +108,7 @@ def irradiance_by_surface(res, labels):
         (T, S): ``poa_direct``, ``poa_sky_diffuse``, ``poa_ground_diffuse``, ``poa_global``
         [W m-2] and ``aoi`` [deg] (NaN at night).
     """
-    M = _group_matrix(res, labels)
+    M = group_weights(res, labels)
     out = {f"poa_{p}": res.get("broadband", p) @ M
            for p in ("direct", "sky_diffuse", "ground_diffuse", "global")}
     with np.errstate(invalid="ignore"):
@@ -133,7 +135,7 @@ def window_gain_by_surface(res, labels, building, constructions, route="spectral
         raise ValueError(f"route={route!r} not one of ('spectral', 'rated')")
     surf = [s for s in building.surfaces if s.kind != "shading"]
     wins = [s for s in surf if s.kind == "window"]
-    M = _group_matrix(res, [s.label for s in wins])
+    M = group_weights(res, [s.label for s in wins])
     out = np.zeros((res.n_steps, len(wins)))
     for j, s in enumerate(wins):
         name = f"{constructions[s.construction].name}:{route}"
