@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .optics import coated_angular, hemispherical, invert_slab, slab
+from .optics import coated_angular, equivalent_slab, hemispherical, invert_slab, slab
 
 __all__ = ["GlazingLayer", "Gap", "GlazingUnit", "GAS_PROPERTIES", "combine_layers",
            "inward_fractions", "gap_conductance", "read_igdb", "read_nk_yml", "layer_from_nk",
@@ -77,6 +77,9 @@ class GlazingLayer:
         False: the layer is the uncoated slab with that ``n``, ``k``.
     n, k : numpy.ndarray
         (K,) refractive index and extinction coefficient of the (substrate) glass [1].
+    angular_model : {"substrate", "equivalent"}
+        For coated layers: the scaled-substrate rule (default) or the equivalent-slab route
+        (:func:`thermal.optics.equivalent_slab`), the second estimate used for the uncertainty.
     """
 
     name: str
@@ -91,8 +94,12 @@ class GlazingLayer:
     coated: bool = False
     n: np.ndarray = None
     k: np.ndarray = None
+    angular_model: str = "substrate"
 
     def __post_init__(self):
+        if self.angular_model not in ("substrate", "equivalent"):
+            raise ValueError(f"angular_model={self.angular_model!r} not one of "
+                             "('substrate', 'equivalent')")
         for name in ("emissivity_front", "emissivity_back"):
             v = getattr(self, name)
             if not 0 < v <= 1:
@@ -120,6 +127,8 @@ class GlazingLayer:
         if not self.coated:
             T, R = slab(at(self.n), at(self.k), self.thickness_mm, wl, aoi)
             return T, R, R
+        if self.angular_model == "equivalent":
+            return equivalent_slab(at(self.T), at(self.Rf), at(self.Rb), self.thickness_mm, wl, aoi)
         return coated_angular(at(self.T), at(self.Rf), at(self.Rb), at(self.n), at(self.k),
                               self.thickness_mm, wl, aoi)
 
@@ -127,7 +136,7 @@ class GlazingLayer:
         """The same layer mounted the other way round (front and back swapped)."""
         return GlazingLayer(self.name + " (flipped)", self.wavelength, self.T, self.Rb, self.Rf,
                             self.thickness_mm, self.emissivity_back, self.emissivity_front,
-                            self.conductivity, self.coated, self.n, self.k)
+                            self.conductivity, self.coated, self.n, self.k, self.angular_model)
 
 
 @dataclass(frozen=True)

@@ -50,7 +50,7 @@ class ZoneParameters:
     floor_area : float or array
         A_f [m2].
     h_tr_w : float or array
-        Window transmission conductance [W K-1] (sum of U A of glazed elements).
+        Window transmission conductance [W K-1] (sum of U A of glazed elements), >= 0.
     h_tr_op : float or array
         Opaque transmission conductance [W K-1] (sum of b U A of walls, roof, floor ...).
     h_ve : float or array
@@ -74,8 +74,9 @@ class ZoneParameters:
     def __post_init__(self):
         for name in ("floor_area", "h_tr_w", "h_tr_op", "h_ve", "heat_capacity", "mass_area"):
             v = np.asarray(getattr(self, name), dtype=float)
-            if np.any(~np.isfinite(v)) or np.any(v <= 0):
-                raise ValueError(f"{name}={v!r} must be finite and > 0")
+            if np.any(~np.isfinite(v)) or np.any(v < 0) or (name != "h_tr_w" and np.any(v == 0)):
+                raise ValueError(f"{name}={v!r} must be finite and > 0"
+                                 + (" (h_tr_w >= 0)" if name == "h_tr_w" else ""))
         if self.total_area is None:
             object.__setattr__(self, "total_area", LAMBDA_AT * np.asarray(self.floor_area, float))
         at = np.asarray(self.total_area, dtype=float)
