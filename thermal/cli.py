@@ -50,7 +50,8 @@ def register(subparsers) -> None:
     lo.add_argument("--route", default="spectral", choices=("spectral", "rated"),
                     help="window gains from the spectral-angular g or the rated AM1.5 g(angle)")
     lo.add_argument("--output", required=True, help="hourly CSV of zone heating, cooling and solar [W]")
-    lo.add_argument("--facade-map", help="PLY of the annual solar gain per m2 [kWh m-2] on each face")
+    lo.add_argument("--facade-map", help="PLY coloured by the annual incident shortwave per face "
+                                         "[kWh m-2], with a per-face CSV beside it")
     lo.add_argument("--jobs", type=int, default=1, help="ray-casting processes")
     lo.add_argument("--data-dir", default=None)
     lo.set_defaults(func=_loads)
@@ -172,7 +173,7 @@ def _loads(args) -> int:
             raise ValueError("--route spectral needs --sky integrator (the weather file has no spectra)")
     else:
         from irradiance import PragueSky, poa_irradiance
-        from .gains import (building_scene, glazing_response, irradiance_by_surface,
+        from .gains import (building_scene, front_faces, glazing_response, irradiance_by_surface,
                             rated_glazing_response, sky_states_for_weather, window_gain_by_surface)
         from .glazing import read_solar_spectrum
         sky = PragueSky()
@@ -194,14 +195,26 @@ def _loads(args) -> int:
     out.columns = [f"{z}:{q}" for q, z in out.columns]
     write_face_csv(args.output, out)
     if args.facade_map:
-        per_m2 = lr.surface_gains.sum().to_numpy() / 1000.0 / np.array([s.area for s in surf])
-        vals = np.full(len(b.faces), np.nan)
+        # annual incident global per mesh face [kWh m-2] (per result face on the integrator route,
+        # so shading shows within a surface), and each surface's annual gain per m2
+        order = np.concatenate([s.faces for s in surf])
+        incident = np.full(len(b.faces), np.nan)
+        if window_gain is None:
+            for j, s in enumerate(surf):
+                incident[s.faces] = irr["poa_global"][:, j].sum() / 1000.0
+        else:
+            front = front_faces(res)
+            annual = res.get("broadband", "global").sum(axis=0) / 1000.0
+            incident[order[np.asarray(res.faces.parent)[front]]] = annual[front]
+        gain = lr.surface_gains.sum().to_numpy() / 1000.0 / np.array([s.area for s in surf])
+        per_face_gain = np.full(len(b.faces), np.nan)
         for j, s in enumerate(surf):
-            vals[s.faces] = per_m2[j]
-        write_facade_ply(args.facade_map, b.vertices, b.faces, vals)
+            per_face_gain[s.faces] = gain[j]
+        write_facade_ply(args.facade_map, b.vertices, b.faces, incident)
         write_face_csv(Path(args.facade_map).with_suffix(".csv"),
                        pd.DataFrame({"surface": [b.surfaces[i].label for i in b.face_surface],
-                                     "solar_gain_kWh_m2": vals}))
+                                     "incident_kWh_m2": incident,
+                                     "surface_gain_kWh_m2": per_face_gain}))
     s = lr.summary().loc["total"]
     print(f"{len(b.zones)} zones, {len(data)} steps ({args.sky}, {args.route}): heating "
           f"{s['heating_kWh']:.0f} kWh, cooling {s['cooling_kWh']:.0f} kWh, solar "

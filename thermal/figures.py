@@ -129,11 +129,67 @@ def fig_study(outdir, study_dirs):
     plt.close(fig)
 
 
+def fig_facade(outdir, ply_path, title=""):
+    """Render a facade map PLY (:func:`thermal.facade.write_facade_ply`) seen from the south-west."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import trimesh
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    m = trimesh.load(ply_path, process=False)
+    tri = m.vertices[m.faces]
+    col = np.asarray(m.visual.face_colors)[:, :3] / 255.0
+    fig = plt.figure(figsize=(9, 5))
+    for k, (elev, azim) in enumerate(((20, -120), (20, 60))):
+        ax = fig.add_subplot(1, 2, k + 1, projection="3d")
+        ax.add_collection3d(Poly3DCollection(tri, facecolors=col, edgecolors="0.3", linewidths=0.2))
+        lo, hi = m.vertices.min(0), m.vertices.max(0)
+        span = (hi - lo).max()
+        ax.set(xlim=(lo[0], lo[0] + span), ylim=(lo[1], lo[1] + span), zlim=(lo[2], lo[2] + span),
+               xlabel="x east [m]", ylabel="y north [m]")
+        ax.view_init(elev, azim)
+        ax.set_title(("from south-west" if k == 0 else "from north-east"), fontsize=9)
+    vals = None
+    try:
+        import pandas as pd
+        vals = pd.read_csv(Path(ply_path).with_suffix(".csv"))["incident_kWh_m2"]
+    except (OSError, KeyError):
+        pass
+    if vals is not None:
+        sm = plt.cm.ScalarMappable(cmap=matplotlib.colors.LinearSegmentedColormap.from_list(
+            "w", np.array([[49, 54, 149], [116, 173, 209], [255, 255, 191], [244, 109, 67],
+                           [165, 0, 38]]) / 255.0), norm=plt.Normalize(vals.min(), vals.max()))
+        fig.colorbar(sm, ax=fig.axes, shrink=0.6, label="annual incident shortwave [kWh m-2]")
+    fig.suptitle(title, fontsize=10)
+    _save(fig, Path(outdir) / "thermal_facade.png")
+    plt.close(fig)
+
+
+def study_table(study_dirs):
+    """Markdown rows: per climate and unit, annual window gain, heating and cooling by route and
+    their relative difference (spectral / rated - 1)."""
+    import pandas as pd
+    lines = ["| climate | unit | window gain spectral / rated [MWh] | diff | cooling spectral / "
+             "rated [MWh] | diff | heating spectral / rated [MWh] | diff |",
+             "|---|---|---|---|---|---|---|---|"]
+    for d in study_dirs:
+        a = pd.read_csv(Path(d) / "annual.csv", index_col=[0, 1])
+        name = Path(d).name.replace("study_USA_", "").split(".")[0]
+        for unit in a.index.get_level_values(0).unique():
+            s, r = a.loc[(unit, "spectral")], a.loc[(unit, "rated")]
+            cells = []
+            for q in ("window_gain_kWh", "cooling_kWh", "heating_kWh"):
+                cells += [f"{s[q] / 1000:.2f} / {r[q] / 1000:.2f}", f"{(s[q] / r[q] - 1) * 100:+.2f} %"]
+            lines.append(f"| {name} | {unit} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m thermal.figures")
     ap.add_argument("outdir")
     ap.add_argument("--bestest-integrator", default=None)
     ap.add_argument("--study", nargs="*", default=[])
+    ap.add_argument("--facade", default=None, help="facade map PLY to render")
     args = ap.parse_args(argv)
     out = Path(args.outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -143,8 +199,12 @@ def main(argv=None):
     t = fig_bestest(out, integ)
     for k, v in t.items():
         print(k, round(v, 3))
+    if args.facade:
+        fig_facade(out, args.facade, "widesky thermal loads: Denver TMY3, WWR 0.4, 1 m overhangs, "
+                                     "low-e, spectral route")
     if args.study:
         fig_study(out, args.study)
+        print(study_table(args.study))
 
 
 if __name__ == "__main__":

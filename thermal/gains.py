@@ -20,7 +20,7 @@ from .glazing import ANGLES, WAVELENGTHS, GlazingUnit
 from .loads import glazing_g_table
 
 __all__ = ["glazing_response", "rated_glazing_response", "building_scene", "irradiance_by_surface",
-           "window_gain_by_surface", "sky_states_for_weather", "group_weights"]
+           "window_gain_by_surface", "sky_states_for_weather", "group_weights", "front_faces"]
 
 
 def glazing_response(unit: GlazingUnit, name=None, quantity="shgc"):
@@ -83,6 +83,12 @@ def building_scene(building, context=(), *, ground_albedo=None, samples_per_face
     return scene, labels
 
 
+def front_faces(res):
+    """(F,) bool: the result faces that are front sides ("front" or 0 in ``faces.side``)."""
+    side = np.asarray(res.faces.side)
+    return (side == "front") if side.dtype.kind in "OUS" else (side == 0)
+
+
 def group_weights(res, labels):
     """(F, S) area weights [1] of each result face in each labelled group (front sides), columns
     summing to 1."""
@@ -92,9 +98,7 @@ def group_weights(res, labels):
         raise ValueError(f"result has no group {missing[0]!r} (groups: {names[:5]} ...)")
     M = np.zeros((len(res.faces.area), len(labels)))
     for j, lab in enumerate(labels):
-        sel = res.faces.group == names.index(lab)
-        if hasattr(res.faces, "side"):
-            sel &= np.asarray(res.faces.side) == "front"
+        sel = (res.faces.group == names.index(lab)) & front_faces(res)
         M[sel, j] = res.faces.area[sel]
     return M / M.sum(0)
 
