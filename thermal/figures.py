@@ -101,10 +101,11 @@ def fig_bestest(outdir, integrator=None, data_dir=None):
 
 
 def _climate(folder):
-    """'Denver' from 'study_USA_CO_Denver.Intl.AP.725650_TMY3' and the like."""
-    stem = Path(folder).name.replace("study_", "").split(".")[0]
-    parts = stem.split("_")
-    return " ".join(parts[2:]).replace("-OHare", "") if len(parts) > 2 else stem
+    """'San Francisco' from 'study_USA_CA_San.Francisco.Intl.AP.724940_TMY3' and the like."""
+    stem = Path(folder).name.replace("study_", "")
+    parts = stem.split("_", 2)
+    core = parts[2] if len(parts) == 3 else stem
+    return core.split(".Intl")[0].split("-OHare")[0].replace(".", " ")
 
 
 def fig_study(outdir, study_dirs):
