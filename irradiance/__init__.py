@@ -5,7 +5,7 @@ from .location import (LABELS, Location, Site, daytime_steps, ensure_tz_aware, f
 from .measured import (MeasuredScaling, blend_toward_isotropic, clearness_index,
                        isotropic_blend_weight, measured_scale_factors)
 from .skystate import (DEFAULT_GROUPING, PSM_RANGES, GroupingSteps, SkyGroups, SkyRanges,
-                       group_sky_states, sky_ranges, sky_states)
+                       group_sky_states, sky_ranges, sky_states, sky_states_for)
 from .solarposition import (SOLAR_CONSTANT, SpaResult, delta_t_estimate, dni_extra, julian_day,
                             solar_position, spa)
 from .weather import (WEATHER_COLUMNS, WeatherData, WeatherFileError, read_epw, read_tmy3,
@@ -33,7 +33,7 @@ __all__ = [
     "WeatherData", "WeatherFileError", "read_epw", "read_tmy3", "read_weather_csv", "read_weather",
     "write_epw", "WEATHER_COLUMNS",
     # sky states
-    "SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "GroupingSteps", "DEFAULT_GROUPING",
+    "sky_states_for", "SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "GroupingSteps", "DEFAULT_GROUPING",
     "SkyGroups", "group_sky_states",
     # measured weather on the clear-sky model
     "MeasuredScaling", "measured_scale_factors", "clearness_index", "isotropic_blend_weight",
