@@ -147,8 +147,9 @@ def window_gain_by_surface(res, labels, building, constructions, route="spectral
     return out
 
 
-def sky_states_for_weather(weather, sky, default_visibility=50.0, default_albedo=0.2):
-    """SkyStates (mid-interval sun) and the measured (dni, dhi) for a WeatherData.
+def sky_states_for_weather(weather, sky, default_visibility=50.0, default_albedo=0.2, warn=True):
+    """SkyStates of a WeatherData (through :func:`irradiance.sky_states_for`: mid-interval sun,
+    Earth-Sun distance, clamp flags) and its measured (dni, dhi).
 
     Returns
     -------
@@ -156,13 +157,8 @@ def sky_states_for_weather(weather, sky, default_visibility=50.0, default_albedo
     measured : tuple of numpy.ndarray
         (T,) dni, dhi [W m-2].
     """
-    from irradiance import SkyStates, sky_states
+    from irradiance import sky_states_for
+    states = sky_states_for(weather, model=getattr(sky, "model", None),
+                            visibility=default_visibility, albedo=default_albedo, warn=warn)
     data = weather.data
-    sp = weather.site.solar_position(data.index, weather.label, weather.step)
-    st = sky_states(sp, data, model=sky.model, default_visibility=default_visibility,
-                    default_albedo=default_albedo)
-    states = SkyStates.create(st["solar_elevation"].to_numpy(), st["azimuth"].to_numpy(),
-                              st["visibility"].to_numpy(), st["albedo"].to_numpy(),
-                              earth_sun_distance=sp["earth_sun_distance"].to_numpy(),
-                              times=data.index)
     return states, (data["dni"].to_numpy(), data["dhi"].to_numpy())
