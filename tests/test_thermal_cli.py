@@ -61,6 +61,9 @@ def test_facade_ply_roundtrip(tmp_path):
     v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.0]])
     f = np.array([[0, 1, 2], [0, 2, 3]])
     p = tmp_path / "m.ply"
+    write_facade_ply(p, v, f, [1.0, np.nan])               # NaN (e.g. shading faces): grey
+    m = trimesh.load(p, process=False)
+    assert np.asarray(m.visual.face_colors)[1, :3].tolist() == [128, 128, 128]
     write_facade_ply(p, v, f, [1.0, 2.0])
     m = trimesh.load(p, process=False)
     assert m.faces.tolist() == f.tolist()

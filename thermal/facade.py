@@ -19,7 +19,7 @@ def colour_map(values, vmin=None, vmax=None):
     v = np.asarray(values, float)
     lo = np.nanmin(v) if vmin is None else vmin
     hi = np.nanmax(v) if vmax is None else vmax
-    t = np.clip((v - lo) / (hi - lo if hi > lo else 1.0), 0, 1)
+    t = np.nan_to_num(np.clip((v - lo) / (hi - lo if hi > lo else 1.0), 0, 1), nan=0.0)
     stops = np.array([[49, 54, 149], [116, 173, 209], [255, 255, 191], [244, 109, 67],
                       [165, 0, 38]], float)
     x = t * (len(stops) - 1)
