@@ -2,8 +2,9 @@
 inward-flowing fraction, U-value and solar heat gain coefficient, per wavelength and angle.
 
 A unit is a list of layers (outside first) separated by gas gaps. Each layer's optics per angle of
-incidence and wavelength come from :mod:`thermal.optics` (uncoated: Fresnel slab from n, k; coated:
-the scaled-substrate rule). Layers are combined by the adding method (net radiation between
+incidence, wavelength and polarisation come from :mod:`thermal.optics` (uncoated: Fresnel slab from
+n, k; coated: the scaled-substrate rule with the substrate's s and p shapes). Layers are combined,
+for s and p light separately and then averaged, by the adding method (net radiation between
 parallel specular layers, all at the same angle in air)::
 
     rho_N = 0,  rho_{j-1} = Rf_j + Tf_j Tb_j rho_j / (1 - Rb_j rho_j)     (stack reflectance seen
@@ -109,7 +110,7 @@ class GlazingLayer:
             object.__setattr__(self, "n", n)
             object.__setattr__(self, "k", k)
 
-    def optics(self, aoi, wavelength=None):
+    def optics(self, aoi, wavelength=None, polarised=False):
         """(T, Rf, Rb) per angle and wavelength, each (A, K) [1].
 
         Parameters
@@ -119,18 +120,23 @@ class GlazingLayer:
         wavelength : array_like, optional
             (K,) [nm]; default the layer's own grid. Values are interpolated linearly (held at the
             ends) before the angular model is applied.
+        polarised : bool
+            Return ((T, Rf, Rb) for s light, (T, Rf, Rb) for p light).
         """
         wl = self.wavelength if wavelength is None else np.asarray(wavelength, dtype=float)
 
         def at(v):
             return np.interp(wl, self.wavelength, v)
         if not self.coated:
-            T, R = slab(at(self.n), at(self.k), self.thickness_mm, wl, aoi)
-            return T, R, R
+            res = slab(at(self.n), at(self.k), self.thickness_mm, wl, aoi, polarised=polarised)
+            if polarised:
+                return tuple((T, R, R) for T, R in res)
+            return res[0], res[1], res[1]
         if self.angular_model == "equivalent":
-            return equivalent_slab(at(self.T), at(self.Rf), at(self.Rb), self.thickness_mm, wl, aoi)
+            return equivalent_slab(at(self.T), at(self.Rf), at(self.Rb), self.thickness_mm, wl,
+                                   aoi, polarised)
         return coated_angular(at(self.T), at(self.Rf), at(self.Rb), at(self.n), at(self.k),
-                              self.thickness_mm, wl, aoi)
+                              self.thickness_mm, wl, aoi, polarised)
 
     def flipped(self):
         """The same layer mounted the other way round (front and back swapped)."""
@@ -304,9 +310,13 @@ class GlazingUnit:
         key = (aoi.tobytes(), wl.tobytes())
         if key in self._cache:
             return self._cache[key]
-        per = np.array([layer.optics(aoi, wl) for layer in self.layers])   # (N, 3, A, K)
-        Tf, Rf, Rb = per[:, 0], per[:, 1], per[:, 2]
-        T, R, A = combine_layers(Tf, Tf, Rf, Rb)
+        # s and p light through the whole stack, averaged at the end
+        per = np.array([layer.optics(aoi, wl, polarised=True) for layer in self.layers])
+        T = R = A = 0.0                                          # per: (N, 2 pol, 3, A, K)
+        for p in range(2):
+            Tf, Rf, Rb = per[:, p, 0], per[:, p, 1], per[:, p, 2]
+            Tp, Rp, Ap = combine_layers(Tf, Tf, Rf, Rb)
+            T, R, A = T + 0.5 * Tp, R + 0.5 * Rp, A + 0.5 * Ap
         Nf = self.inward_fractions()
         out = {"aoi": aoi, "wavelength": wl, "transmittance": T, "reflectance": R,
                "absorbed": A, "inward_fraction": Nf,
