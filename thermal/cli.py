@@ -30,6 +30,11 @@ def register(subparsers) -> None:
     b.add_argument("--case", nargs="+", default=["600", "660", "670", "900"])
     b.add_argument("--weather", default="tmy3", choices=("tmy3", "drycold"),
                    help="tmy3: Denver Intl AP TMY3 (the 140-2020 weather, default); drycold: older")
+    b.add_argument("--sky", default="weather", choices=("weather", "integrator"),
+                   help="weather: Hay-Davies from the file (default, seconds); integrator: widesky's "
+                        "sky scaled to the file's DNI/DHI (minutes; tmy3 only)")
+    b.add_argument("--json", help="also write the results here (for python -m thermal.figures)")
+    b.add_argument("--jobs", type=int, default=1, help="ray-casting processes (integrator)")
     b.add_argument("--data-dir", default=None,
                    help="data directory (default WIDESKY_DATA_DIR or ../shared/data)")
     b.set_defaults(func=_bestest)
@@ -106,14 +111,24 @@ def _glazing(args) -> int:
 
 
 def _bestest(args) -> int:
-    from .bestest import CASES, reference_results, run_case
-    refs = reference_results(args.data_dir)
-    print(f"ASHRAE 140 with the ISO 13790 5R1C model, weather {args.weather}")
-    print(f"{'case':5s} {'quantity':15s} {'widesky':>9s} {'limits':>15s} {'programs':>15s}")
+    import json
+    from .bestest import CASES, integrator_irradiance, reference_results, run_case
+    from .facade import atomic_write
     for c in args.case:
         if c not in CASES:
             raise ValueError(f"--case {c!r} not one of {CASES}")
-        r = run_case(c, args.data_dir, weather=args.weather)
+    refs = reference_results(args.data_dir)
+    poa = None
+    if args.sky == "integrator":
+        poa = integrator_irradiance(args.weather, args.data_dir, n_jobs=args.jobs,
+                                    progress=sys.stderr.isatty())
+    print(f"ASHRAE 140 with the ISO 13790 5R1C model, weather {args.weather}, sky {args.sky}")
+    print(f"{'case':5s} {'quantity':15s} {'widesky':>9s} {'limits':>15s} {'programs':>15s}")
+    saved = {}
+    for c in args.case:
+        r = run_case(c, args.data_dir, weather=args.weather, poa=poa)
+        saved[c] = {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
+                    if k not in ("hourly", "case")}
         for q, unit, scale in (("annual_heating", "MWh", 1e-3), ("annual_cooling", "MWh", 1e-3),
                                ("peak_heating", "kW", 1e-3), ("peak_cooling", "kW", 1e-3)):
             ref = refs[c][q]
@@ -122,6 +137,9 @@ def _bestest(args) -> int:
             lim_s = f"{lim[0] * scale:.2f}-{lim[1] * scale:.2f}" if lim else "-"
             print(f"{c:5s} {q:15s} {r[q] * scale:7.2f} {unit:3s} {lim_s:>13s} "
                   f"{min(prog) * scale:6.2f}-{max(prog) * scale:.2f}")
+    if args.json:
+        text = json.dumps(saved, indent=1).encode()
+        atomic_write(args.json, lambda fh: fh.write(text))
     return 0
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["write_facade_ply", "write_face_csv", "colour_map"]
+__all__ = ["write_facade_ply", "write_face_csv", "colour_map", "atomic_write"]
 
 
 def colour_map(values, vmin=None, vmax=None):
@@ -30,7 +30,8 @@ def colour_map(values, vmin=None, vmax=None):
     return np.round(rgb).astype(np.uint8)
 
 
-def _atomic_write(path, write):
+def atomic_write(path, write):
+    """Write ``path`` atomically: ``write(fh)`` fills a temporary binary file, then os.replace."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
     try:
@@ -76,10 +77,10 @@ def write_facade_ply(path, vertices, faces, values, vmin=None, vmax=None):
         fh.write(head)
         fh.write(v.tobytes())
         fh.write(rec.tobytes())
-    _atomic_write(path, write)
+    atomic_write(path, write)
 
 
 def write_face_csv(path, faces_table):
     """Per-face CSV (a pandas DataFrame, one row per face) written atomically."""
     text = faces_table.to_csv(index=True).encode()
-    _atomic_write(path, lambda fh: fh.write(text))
+    atomic_write(path, lambda fh: fh.write(text))
