@@ -153,9 +153,9 @@ def fig_facade(outdir, ply_path, title=""):
         ax = fig.add_subplot(1, 2, k + 1, projection="3d")
         ax.add_collection3d(Poly3DCollection(tri, facecolors=col, edgecolors="0.3", linewidths=0.2))
         lo, hi = m.vertices.min(0), m.vertices.max(0)
-        span = (hi - lo).max()
-        ax.set(xlim=(lo[0], lo[0] + span), ylim=(lo[1], lo[1] + span), zlim=(lo[2], lo[2] + span),
+        ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), zlim=(lo[2], hi[2]),
                xlabel="x east [m]", ylabel="y north [m]")
+        ax.set_box_aspect(hi - lo)
         ax.view_init(elev, azim)
         ax.set_title(("from south-west" if k == 0 else "from north-east"), fontsize=9)
     vals = None
@@ -209,8 +209,8 @@ def main(argv=None):
     for k, v in t.items():
         print(k, round(v, 3))
     if args.facade:
-        fig_facade(out, args.facade, "widesky thermal loads: Denver TMY3, WWR 0.4, 1 m overhangs, "
-                                     "low-e, spectral route")
+        fig_facade(out, args.facade, "widesky thermal loads: Denver TMY3, 2 storeys, WWR 0.4, "
+                                     "1 m overhangs, 0.5 m fins, low-e, spectral route")
     if args.study:
         fig_study(out, args.study)
         print(study_table(args.study))
