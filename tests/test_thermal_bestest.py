@@ -87,3 +87,13 @@ def test_case_inputs_from_files():
     assert c.heating_setpoint == 20.0 and c.cooling_setpoint == 27.0 and c.internal_gains == 200.0
     with pytest.raises(ValueError, match="case="):
         case_definition("610")
+
+
+def test_read_mos_drycold():
+    """The DRYCOLD table: 8760 hours, Denver-Stapleton header, coldest hour -24.4 degC (4 Jan)."""
+    from thermal.bestest import read_mos
+    data, site = read_mos(data_file("weather/DRYCOLD.mos"))
+    assert len(data) == 8760 and site["latitude"] == pytest.approx(39.76)
+    assert data["temp_air"].min() == pytest.approx(-24.4)
+    assert data["temp_air"].idxmin().strftime("%m-%d") == "01-04"
+    assert data["ghi"].max() < 1400 and data["ghi_infrared"].min() > 100
