@@ -79,7 +79,7 @@ class BuildConfig:
     n_streams: int = 16
     n_moments: int = 128
     atmosphere: dict = field(default_factory=dict)
-    zenith_step_deg: float = 3.0
+    zenith_step_deg: float = 2.0
     trans_dims: tuple = (128, 32)
     trans_rank: int = 40
     validation_off_grid: int = 24
@@ -98,7 +98,8 @@ class BuildConfig:
     def solver_key(self) -> str:
         """Hash of the settings that change solver output (not knots, ranks or grids)."""
         d = {"n_streams": self.n_streams, "n_moments": self.n_moments, "atmosphere": self.atmosphere,
-             "zenith_step_deg": self.zenith_step_deg, "min_solve": self.min_solve_elevation_deg, "v": 1}
+             "zenith_step_deg": self.zenith_step_deg, "min_solve": self.min_solve_elevation_deg,
+             "phase": "tabulated", "azimuths": AZIMUTHS_DEG.tolist(), "v": 2}
         return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:12]
 
     def to_dict(self) -> dict:
@@ -124,14 +125,16 @@ def load_config(path) -> BuildConfig:
 
 # --------------------------------------------------------------------------------------------- directions
 
-AZIMUTHS_DEG = np.array([0.0, 0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0, 9.0, 12.5, 17.0, 22.0, 28.0, 35.0, 42.5, 50.0,
-                         60.0, 70.0, 80.0, 90.0, 100.0, 110.0, 120.0, 130.0, 140.0, 150.0, 160.0, 170.0, 180.0])
-"""Relative azimuths of the fit grid [deg] (0 = toward the sun), refined near the sun."""
+AZIMUTHS_DEG = np.concatenate([[0.0, 0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0, 9.0, 12.5, 17.0, 22.0, 28.0, 35.0, 42.5],
+                               np.arange(50.0, 180.1, 5.0)])
+"""Relative azimuths of the fit grid [deg] (0 = toward the sun), refined near the sun; every 5 deg beyond 50 deg,
+finer than the sun-angle knots there (6-9 deg), so that no knot cell of the fit goes unsampled (with 10 deg steps the
+fit rang between the samples: docs/default-dataset.md, "Smoothness")."""
 SUN_OFFSETS_DEG = np.array([0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0])
 """Offsets of extra view zeniths around the solar zenith [deg]."""
 
 
-def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 3.0):
+def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 2.0):
     """Product grid of the fit samples for one solar elevation.
 
     Returns
