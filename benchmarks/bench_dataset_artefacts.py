@@ -16,7 +16,8 @@ E  the first file itself (rank 6, 40/30/24 knots, interpolated between grid stat
 Each variant is scored with the smoothness check's metrics (skymodel.generator.smoothness) and its mean absolute
 error against the fine-grid solver (the reference image), and drawn: solver vs fit images and the 80 deg almucantar.
 
-Run:  python benchmarks/bench_dataset_artefacts.py --old /path/to/first/default.dat --plot docs/figures/dataset_artefacts
+Run:  python benchmarks/bench_dataset_artefacts.py --old /path/to/first/default.dat \
+          --plot docs/figures/dataset_artefacts
 """
 
 from __future__ import annotations
@@ -160,14 +161,42 @@ def run(old_path=None, plot=None):
             variants["E: the first default.dat"] = old_f
         ref_f = _solver_lookup(ref, th_f, ph_f)
         scores = {k: _score(f, ele, ref_f) for k, f in variants.items()}
+        # the profile of the figure straight from the solver at 0.5 deg steps (finer than the reference image's grid,
+        # which is too coarse for the Legendre series' ringing, period about 1.4 deg in scattering angle)
+        x, th_p, ph_p = _profile(ele)
+        direct = {"A: solver, Legendre-series correction": _solve(vis, ele, chans[:1], th_p, ph_p, False, cfg),
+                  "A: solver, tabulated phase function": _solve(vis, ele, chans[:1], th_p, ph_p, True, cfg)}
+        for k, v in direct.items():
+            scores[k]["profile_turning_points"] = int(_tp(v, ele))
         results.append({"visibility": vis, "elevation": ele, "wavelengths_nm": list(wls), "scores": scores,
                         "seconds": round(time.perf_counter() - t0, 1)})
         if plot:
-            _plot(variants, vis, ele, wls, f"{plot}_{ele:g}deg.png")
+            _plot(variants, direct, vis, ele, wls, f"{plot}_{ele:g}deg.png")
     return results
 
 
-def _plot(variants, vis, ele, wls, path):
+def _profile(ele):
+    """The figure's profile: the 80 deg almucantar (sun below 20 deg) or the solar meridian through the zenith:
+    (x [deg], view zeniths, relative azimuths) as solver product grids."""
+    if ele < 20:
+        return np.arange(0.0, 180.01, 0.5), np.array([80.0]), np.arange(0.0, 180.01, 0.5)
+    zz = np.arange(0.0, 10.01, 0.25)
+    return np.concatenate([-zz[::-1], zz[1:]]), zz, np.array([0.0, 180.0])
+
+
+def _as_profile(solved, ele):
+    """Solver output of :func:`_profile`'s grid as a 1-D profile (first channel)."""
+    if ele < 20:
+        return solved[0, :, 0]
+    return np.concatenate([solved[::-1, 0, 0], solved[1:, 1, 0]])
+
+
+def _tp(solved, ele):
+    from skymodel.generator.smoothness import turning_points
+    return turning_points(_as_profile(solved, ele))
+
+
+def _plot(variants, direct, vis, ele, wls, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -179,29 +208,31 @@ def _plot(variants, vis, ele, wls, path):
     dirs, mask = fisheye_directions(220, view, vaz)
     mask = mask & (dirs[..., 2] >= 0)
     keys = [k for k in variants if not k.startswith("B: tabulated solver, old grid")]
-    fig = plt.figure(figsize=(2.3 * len(keys), 5.6))
-    gs = fig.add_gridspec(2, len(keys), height_ratios=[1.0, 0.8])
+    fig = plt.figure(figsize=(2.3 * len(keys), 5.0 if view == "side" else 5.8))
+    gs = fig.add_gridspec(2, len(keys), height_ratios=[0.6 if view == "side" else 1.0, 0.9])
     for j, k in enumerate(keys):
         img = np.zeros(mask.shape)
         img[mask] = variants[k](dirs[mask])[:, 0]
         ref = np.percentile(img[mask], 99.0)
         ax = fig.add_subplot(gs[0, j])
-        ax.imshow(srgb_encode(img / ref), cmap="gray", vmin=0, vmax=1)
+        shown = srgb_encode(img / ref)
+        if view == "side":
+            shown = shown[: shown.shape[0] // 2 + 2]  # the sky half (the ground is dark)
+        ax.imshow(shown, cmap="gray", vmin=0, vmax=1)
         ax.set_xticks([])
         ax.set_yticks([])
         ax.set_title(k.replace(", ", ",\n", 1), fontsize=6.5)
     ax = fig.add_subplot(gs[1, :])
-    az = np.arange(0.0, 180.01, 0.5)
-    d = S._enu(np.full(len(az), 80.0 if ele < 20 else 3.0), 180.0 + az)
-    if ele >= 20:  # the zenith region: a vertical through the zenith, 10 deg each side
-        zz = np.arange(-10.0, 10.01, 0.25)
-        d = S._enu(np.abs(zz), np.where(zz < 0, 0.0, 180.0))
-        x, xl = zz, "view zenith along the solar meridian [deg] (negative toward the sun)"
+    x, th_p, ph_p = _profile(ele)
+    if ele < 20:
+        d = S._enu(np.full(len(x), 80.0), 180.0 + x)
+        xl = "relative azimuth along the 80 deg almucantar [deg]"
     else:
-        x, xl = az, "relative azimuth along the 80 deg almucantar [deg]"
+        d = S._enu(np.abs(x), np.where(x < 0, 180.0, 0.0))  # the sun is at azimuth 180
+        xl = "view zenith along the solar meridian [deg] (negative toward the sun)"
     for k in keys:
-        ax.plot(x, variants[k](d)[:, 0], lw=1.6 if k.startswith("A") else 1.0,
-                ls="-" if not k.startswith("A: solver, L") else ":", label=k)
+        y = _as_profile(direct[k], ele) if k in direct else variants[k](d)[:, 0]
+        ax.plot(x, y, lw=1.6 if k.startswith("A") else 1.0, ls=":" if k.startswith("A: solver, L") else "-", label=k)
     ax.set_yscale("log")
     ax.set_xlabel(xl)
     ax.set_ylabel(f"radiance {wls[0]:.0f} nm [W m-2 sr-1 nm-1]")
@@ -221,9 +252,13 @@ def main(argv=None):
     res = run(a.old, a.plot)
     for r in res:
         print(f"\n{r['visibility']} km, sun {r['elevation']} deg ({r['seconds']} s); channels {r['wavelengths_nm']}")
-        print("| variant | almucantar turning points (max) | vertical | aureole ray | zenith spot [%] | NMAE vs solver [%] |")
+        print("| variant | almucantar turning points (max) | vertical | aureole ray | zenith spot [%] | "
+              "NMAE vs solver [%] |")
         print("|---|---|---|---|---|---|")
         for k, s in r["scores"].items():
+            if "profile_turning_points" in s:
+                print(f"| {k}: the figure's profile at 0.5 deg steps | {s['profile_turning_points']} turning points "
+                      "| | | | |")
             f = lambda v, p=False: " / ".join(f"{100 * x:.1f}" if p else f"{x:g}" for x in v)  # noqa: E731
             print(f"| {k} | {f(s['almucantar_tp'])} | {f(s['vertical_tp'])} | {f(s['aureole_tp'])} | "
                   f"{f(s['zenith_spot'], True)} | {f(s['nmae'], True)} |")

@@ -82,6 +82,8 @@ def main(argv=None):
     ap.add_argument("--sheet", default=None, help="contact sheet PNG")
     ap.add_argument("--before", default=None, help="a second dataset drawn above (the sheet's 'before')")
     ap.add_argument("--no-check", action="store_true", help="only draw the sheet")
+    ap.add_argument("--visibility", type=float, default=30.0, help="visibility of the sheet [km]")
+    ap.add_argument("--albedo", type=float, default=0.3, help="ground albedo of the sheet [1]")
     a = ap.parse_args(argv)
     model = load_dataset(a.dataset)
     if not a.no_check:
@@ -104,7 +106,7 @@ def main(argv=None):
         models, labels = [model], ["after" if a.before else ""]
         if a.before:
             models, labels = [load_dataset(a.before), model], ["before", "after"]
-        contact_sheet(models, labels, a.sheet)
+        contact_sheet(models, labels, a.sheet, a.visibility, a.albedo)
         print("wrote", a.sheet)
 
 

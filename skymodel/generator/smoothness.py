@@ -185,7 +185,10 @@ def profile_metrics(radiance: dict, aureole_valid, sun_elevation_deg: float, rel
     tp_aur = turning_points(held, rel_tol)
     rise = monotone_violations(aur, rel_tol, valid=valid)
     z = radiance["zenith"]
-    spot = np.abs(z[0] / np.maximum(z[1:].mean(axis=0), 1e-300) - 1.0)
+    ring = z[1:].mean(axis=0)
+    # relative to the ring, floored at FLOOR_FRACTION of the larger of the two (a zero ring around a lit zenith counts
+    # as 1000, not as infinity)
+    spot = np.abs(z[0] - ring) / np.maximum(ring, FLOOR_FRACTION * np.maximum(z[0], ring) + 1e-300)
     if 90.0 - sun_elevation_deg < 15.0:
         spot = np.zeros_like(spot)  # the zenith lies in the aureole: the aureole check covers it
     return {"almucantar_tp": tp_alm.max(axis=-1), "almucantar_excess": np.maximum(tp_alm - 1, 0).sum(axis=-1),
@@ -293,6 +296,9 @@ def summarise(result: dict, wavelengths_nm=None) -> dict:
              "max_aureole_rise": round(float(np.max(np.where(chk, get("aureole_rise"), 0))), 5),
              "max_zenith_spot": round(float(np.max(np.where(chk, get("zenith_spot"), 0))), 5),
              "failing_channels_per_state_max": int(fails.sum(axis=1).max())}
+        ele = np.array([r["elevation"] for r in rows])
+        g["failing_pairs_by_elevation"] = {f"{e:g}": int(fails[ele == e].sum()) for e in np.unique(ele)}
+        g["checked_pairs_by_elevation"] = {f"{e:g}": int(chk[ele == e].sum()) for e in np.unique(ele)}
         if wavelengths_nm is not None:
             wl = np.asarray(wavelengths_nm, float)
             g["failing_channels_nm"] = wl[fails.any(axis=0)].round(1).tolist()

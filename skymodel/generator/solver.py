@@ -11,8 +11,8 @@ Method (see docs/atmosphere-and-solver.md):
   Buras-Emde intensity correction (Buras, Dowling & Emde 2011, JQSRT 112, 2028) fed with the **tabulated** Mie +
   Rayleigh phase function of every layer (``intensity_corr_buras`` with ``num_phase_func_angles > 0``). Without a
   table disortpp falls back to the Nakajima-Tanaka correction built from the Legendre moments, whose 256-term series
-  of the aerosol phase function rings (Gibbs) at every scattering angle: measured, 5-29 spurious turning points per
-  almucantar in 380-820 nm at 8 deg sun (docs/atmosphere-and-solver.md, "Intensity correction");
+  of the aerosol phase function rings (Gibbs) at every scattering angle (small in the channel sums, below 0.05 % of
+  the radiance at 29.2 km and 8 deg sun, but not physics; docs/atmosphere-and-solver.md, "Intensity correction");
 - radiances and diffuse fluxes are weighted sums of the runs times the channel's band-mean extraterrestrial
   irradiance;
 - the direct beam uses the band transmittance sum_runs w exp(-sum_l tau_l s_l / dz_l) with the geometric path
