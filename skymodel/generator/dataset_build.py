@@ -680,7 +680,8 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
         "generator": "skymodel.generator.dataset_build (widesky dataset build)",
         "config": config.to_dict(),
         "versions": _versions(),
-        "solver": {"method": "plane-parallel DISORT (disortpp), Buras-Emde intensity correction",
+        "solver": {"method": "plane-parallel DISORT (disortpp), Buras-Emde intensity correction with the tabulated "
+                             "phase function",
                    "n_streams": config.n_streams, "n_moments": config.n_moments,
                    "atmosphere": {k: (list(v) if isinstance(v, tuple) else v)
                                   for k, v in asdict(config.spec()).items()},
