@@ -153,5 +153,10 @@ def test_tiny_build_direct_beam_and_error_report(tiny):
     errs = meta["errors"]
     assert errs["n_states"]["all"] == 2
     assert len(errs["all"]["nmae_mean"]) == 55 and np.all(np.isfinite(errs["all"]["nmae_mean"]))
+    # the smoothness check runs over the 2 x 2 x 2 grid and the 1 x 1 x 1 state between (report, not a pass/fail here:
+    # 4 streams and rank 3 are not the default's settings)
+    sm = meta["smoothness"]
+    assert sm["grid"]["states"] == 8 and sm["between"]["states"] == 1
+    assert 0 < sm["grid"]["checked_pairs"] <= 8 * 55
     et = m.metadata["extraterrestrial"]
     assert et["wavelength"][0] == 280.0 and et["wavelength"][-1] == 2480.0

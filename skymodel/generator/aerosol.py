@@ -43,6 +43,12 @@ MIE_WAVELENGTHS_NM = np.unique(np.concatenate([np.arange(300.0, 2461.0, 40.0), [
 """Wavelengths where Mie properties are computed [nm]; others are interpolated."""
 N_MU = 2000
 MAX_MOMENTS = 512
+PHASE_ANGLES_DEG = np.concatenate([np.arange(0.0, 1.0, 0.05), np.arange(1.0, 3.0, 0.1), np.arange(3.0, 10.0, 0.25),
+                                   np.arange(10.0, 30.0, 0.5), np.arange(30.0, 180.1, 2.0)])
+"""Scattering angles of the tabulated phase function handed to the solver's intensity correction [deg] (184, dense
+in the forward peak; the phase function is interpolated linearly in the cosine between them)."""
+PHASE_MU = np.cos(np.radians(PHASE_ANGLES_DEG[::-1]))
+"""Cosines of :data:`PHASE_ANGLES_DEG`, ascending [1] (the order the solver wants)."""
 N_RADII = 120
 AREA_CUTOFF = 1e-10
 
@@ -181,7 +187,13 @@ def _component_optics_one(args):
     mom = 0.5 * (leg * (w * phase)[None, :]).sum(axis=1)
     vol = np.sum(nr * 4.0 / 3.0 * np.pi * r ** 3)
     return {"cext_um2": cext, "csca_um2": csca, "csca_quad_um2": csca_quad, "moments": mom,
-            "volume_um3": vol, "density": sd["density"]}
+            "phase": _tabulate_phase(mu, phase), "volume_um3": vol, "density": sd["density"]}
+
+
+def _tabulate_phase(mu, phase):
+    """The phase function on :data:`PHASE_MU` from its values at the quadrature cosines ``mu`` (log-linear)."""
+    order = np.argsort(mu)
+    return np.exp(np.interp(PHASE_MU, mu[order], np.log(np.maximum(phase[order], 1e-300))))
 
 
 def component_optics(component: str, relative_humidity: int = 50, data_dir=None, processes: int = 2,
@@ -193,13 +205,15 @@ def component_optics(component: str, relative_humidity: int = 50, data_dir=None,
     dict with
         wavelength_nm (W,) [nm]; cext, csca (W,) cross-sections per particle [um2]; ssa (W,) [1];
         moments (W, MAX_MOMENTS+1) Legendre moments [1] (chi_0 = 1); g (W,) asymmetry parameter [1];
+        phase (W, len(PHASE_MU)) the phase function itself at :data:`PHASE_MU` (normalised to 4 pi over the sphere) [1];
         quadrature_error (W,) relative difference of the angular integral vs the series Csca [1].
     """
     rh = _humidity_tag(component, relative_humidity)
     sd = size_distribution(component, rh, data_dir)
     m_tab = refractive_index(component, MIE_WAVELENGTHS_NM, rh, data_dir)
     key = hashlib.sha1(json.dumps([component, rh, sd, MIE_WAVELENGTHS_NM.tolist(), N_MU, MAX_MOMENTS, N_RADII, AREA_CUTOFF,
-                                   np.round(m_tab.real, 6).tolist(), np.round(m_tab.imag, 9).tolist(), 1]
+                                   np.round(m_tab.real, 6).tolist(), np.round(m_tab.imag, 9).tolist(), 2,
+                                   PHASE_MU.tolist()]
                                   ).encode()).hexdigest()[:16]
     path = cache_dir() / f"mie_{component}{rh:02d}_{key}.npz"
     if path.exists():
@@ -215,6 +229,7 @@ def component_optics(component: str, relative_humidity: int = 50, data_dir=None,
     out = {"wavelength_nm": MIE_WAVELENGTHS_NM.copy(),
            "cext": np.array([r["cext_um2"] for r in res]), "csca": np.array([r["csca_um2"] for r in res]),
            "moments": np.array([r["moments"] for r in res]),
+           "phase": np.array([r["phase"] for r in res]),
            "volume_um3": np.array([r["volume_um3"] for r in res]),
            "quadrature_error": np.array([r["csca_quad_um2"] / r["csca_um2"] - 1 for r in res])}
     out["ssa"] = out["csca"] / out["cext"]
@@ -237,7 +252,8 @@ class AerosolOptics:
     """Spectral optical properties of an aerosol mixture, per unit AOD at 550 nm.
 
     wavelength_nm (W,) [nm]; extinction (W,) extinction relative to 550 nm [1]; ssa (W,) [1];
-    moments (W, nmom+1) [1].
+    moments (W, nmom+1) [1]; phase (W, len(PHASE_MU)) the phase function at :data:`PHASE_MU` [1] (None: not
+    tabulated).
     """
 
     wavelength_nm: np.ndarray
@@ -245,6 +261,7 @@ class AerosolOptics:
     ssa: np.ndarray
     moments: np.ndarray
     name: str
+    phase: np.ndarray | None = None
 
     def at(self, wavelength_nm):
         """Interpolate to wavelengths [nm]: returns (relative extinction (N,), ssa (N,), moments (N, nmom+1))."""
@@ -255,6 +272,15 @@ class AerosolOptics:
         mom = np.stack([np.interp(w, self.wavelength_nm, self.moments[:, j]) for j in range(self.moments.shape[1])],
                        axis=1)
         return ext, ssa, mom
+
+    def phase_at(self, wavelength_nm):
+        """The tabulated phase function at wavelengths [nm]: (N, len(PHASE_MU)) [1] (log-linear in wavelength), or
+        None when the mixture carries no table."""
+        if self.phase is None:
+            return None
+        w = np.atleast_1d(np.asarray(wavelength_nm, float))
+        lp = np.log(np.maximum(self.phase, 1e-300))
+        return np.exp(np.stack([np.interp(w, self.wavelength_nm, lp[:, j]) for j in range(lp.shape[1])], axis=1))
 
     def aod(self, aod550, wavelength_nm):
         """Aerosol optical depth [1] at wavelengths [nm] for an AOD at 550 nm [1]."""
@@ -281,7 +307,7 @@ def opac_mixture(opac_type: str = "continental_average", relative_humidity: int 
     """
     if opac_type not in OPAC_TYPES:
         raise ValueError(f"opac_type={opac_type!r}: valid types are {tuple(OPAC_TYPES)}")
-    ext = sca = mom = None
+    ext = sca = mom = phase = None
     for comp, number in OPAC_TYPES[opac_type].items():
         o = component_optics(comp, relative_humidity, data_dir, processes, progress)
         e = number * o["cext"]
@@ -289,12 +315,14 @@ def opac_mixture(opac_type: str = "continental_average", relative_humidity: int 
         ext = e if ext is None else ext + e
         sca = s if sca is None else sca + s
         mom = s[:, None] * o["moments"] if mom is None else mom + s[:, None] * o["moments"]
+        phase = s[:, None] * o["phase"] if phase is None else phase + s[:, None] * o["phase"]
     wl = MIE_WAVELENGTHS_NM.copy()
     mom = mom / sca[:, None]
+    phase = phase / sca[:, None]
     e550 = float(np.interp(550.0, wl, ext))
     rel = ext / e550 if angstrom is None else (wl / 550.0) ** (-float(angstrom))
     name = opac_type + ("" if angstrom is None else f"+angstrom{angstrom:g}")
-    return AerosolOptics(wavelength_nm=wl, extinction=rel, ssa=sca / ext, moments=mom, name=name)
+    return AerosolOptics(wavelength_nm=wl, extinction=rel, ssa=sca / ext, moments=mom, name=name, phase=phase)
 
 
 def aerosol_layer_fractions(levels_km, scale_height_km: float) -> np.ndarray:

@@ -41,6 +41,7 @@ __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", 
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
            "knots", "config_knots", "direction_samples", "fit_sky", "fit_all", "segment_path_factors",
            "transmittance_grid", "transmittance_samples", "fit_transmittance_bounded", "assemble", "build_dataset",
+           "smoothness_report",
            "cache_root"]
 
 PLANET_RADIUS_M = 6378000.0
@@ -79,7 +80,7 @@ class BuildConfig:
     n_streams: int = 16
     n_moments: int = 128
     atmosphere: dict = field(default_factory=dict)
-    zenith_step_deg: float = 3.0
+    zenith_step_deg: float = 2.0
     trans_dims: tuple = (128, 32)
     trans_rank: int = 40
     validation_off_grid: int = 24
@@ -98,7 +99,8 @@ class BuildConfig:
     def solver_key(self) -> str:
         """Hash of the settings that change solver output (not knots, ranks or grids)."""
         d = {"n_streams": self.n_streams, "n_moments": self.n_moments, "atmosphere": self.atmosphere,
-             "zenith_step_deg": self.zenith_step_deg, "min_solve": self.min_solve_elevation_deg, "v": 1}
+             "zenith_step_deg": self.zenith_step_deg, "min_solve": self.min_solve_elevation_deg,
+             "phase": "tabulated", "azimuths": AZIMUTHS_DEG.tolist(), "v": 2}
         return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:12]
 
     def to_dict(self) -> dict:
@@ -124,14 +126,16 @@ def load_config(path) -> BuildConfig:
 
 # --------------------------------------------------------------------------------------------- directions
 
-AZIMUTHS_DEG = np.array([0.0, 0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0, 9.0, 12.5, 17.0, 22.0, 28.0, 35.0, 42.5, 50.0,
-                         60.0, 70.0, 80.0, 90.0, 100.0, 110.0, 120.0, 130.0, 140.0, 150.0, 160.0, 170.0, 180.0])
-"""Relative azimuths of the fit grid [deg] (0 = toward the sun), refined near the sun."""
+AZIMUTHS_DEG = np.concatenate([[0.0, 0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0, 9.0, 12.5, 17.0, 22.0, 28.0, 35.0, 42.5],
+                               np.arange(50.0, 180.1, 5.0)])
+"""Relative azimuths of the fit grid [deg] (0 = toward the sun), refined near the sun; every 5 deg beyond 50 deg,
+finer than the sun-angle knots there (6-9 deg), so that no knot cell of the fit goes unsampled (with 10 deg steps the
+fit rang between the samples: docs/default-dataset.md, "Smoothness")."""
 SUN_OFFSETS_DEG = np.array([0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0])
 """Offsets of extra view zeniths around the solar zenith [deg]."""
 
 
-def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 3.0):
+def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 2.0):
     """Product grid of the fit samples for one solar elevation.
 
     Returns
@@ -355,7 +359,9 @@ def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, va
     """Solve (or find in the cache) every grid state, ground response and validation state of ``config``."""
     jobs = [("ground", config, float(v), 0.0, None) for v in config.visibilities_km]
     # lowest elevations first within each visibility is irrelevant; interleave for balance
-    jobs += [("fit", config, float(v), float(e), None) for e in config.elevations_deg for v in config.visibilities_km]
+    # grid elevations above max_fit_elevation_deg hold the fit of the highest one below (see assemble): not solved
+    jobs += [("fit", config, float(v), float(e), None) for e in _fitted_elevations(config)
+             for v in config.visibilities_km]
     if validation:
         jobs += [("val_" + k, config, v, e, a) for k, v, e, a in validation_states(config)]
     todo = [j for j in jobs if not (ground_file(config, j[2]) if j[0] == "ground"
@@ -484,9 +490,18 @@ def _fit_job(job):
     return vis, ele, path
 
 
+def _fitted_elevations(config: BuildConfig) -> list:
+    """Grid elevations [deg] that are solved and fitted (those up to ``max_fit_elevation_deg``; at least the lowest)."""
+    ele = [float(e) for e in config.elevations_deg]
+    ok = [e for e in ele if e <= config.max_fit_elevation_deg]
+    return ok or ele[:1]
+
+
 def fit_all(config: BuildConfig, processes=2, progress=True, log=None):
-    """Fit every grid state (cached); returns sun, zen, emph arrays of grid shape G + (...) and nmae G."""
-    jobs = [(config, float(v), float(e)) for v in config.visibilities_km for e in config.elevations_deg]
+    """Fit every grid state (cached); returns sun, zen, emph arrays of grid shape G + (...) and nmae G. Elevations above
+    ``max_fit_elevation_deg`` take the fit of the highest fitted elevation (:func:`assemble` explains why)."""
+    fitted_ele = _fitted_elevations(config)
+    jobs = [(config, float(v), float(e)) for v in config.visibilities_km for e in fitted_ele]
     todo = [j for j in jobs if not fit_file(config, j[1], j[2]).exists()]
     t0 = time.perf_counter()
     for i, r in enumerate(_pool_map(_fit_job, todo, processes, progress, "fit")):
@@ -496,7 +511,8 @@ def fit_all(config: BuildConfig, processes=2, progress=True, log=None):
     res = {}
     for iv, v in enumerate(config.visibilities_km):
         for ie, e in enumerate(config.elevations_deg):
-            d = load_state(fit_file(config, float(v), float(e)))
+            e_fit = max([x for x in fitted_ele if x <= float(e)] or fitted_ele[:1])
+            d = load_state(fit_file(config, float(v), e_fit))
             for k in ("sun", "zen", "emph", "nmae"):
                 x = d[k]  # (nAlb, C, ...)
                 if k not in res:
@@ -673,7 +689,8 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
         "generator": "skymodel.generator.dataset_build (widesky dataset build)",
         "config": config.to_dict(),
         "versions": _versions(),
-        "solver": {"method": "plane-parallel DISORT (disortpp), Buras-Emde intensity correction",
+        "solver": {"method": "plane-parallel DISORT (disortpp), Buras-Emde intensity correction with the tabulated "
+                             "phase function",
                    "n_streams": config.n_streams, "n_moments": config.n_moments,
                    "atmosphere": {k: (list(v) if isinstance(v, tuple) else v)
                                   for k, v in asdict(config.spec()).items()},
@@ -696,6 +713,16 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
     return meta
 
 
+def smoothness_report(dataset_path) -> dict:
+    """The smoothness check (:mod:`skymodel.generator.smoothness`) of a written dataset over its grid and between grid
+    points, summarised for the sidecar."""
+    from ..dataset import load_dataset
+    from .smoothness import check_dataset, summarise
+
+    model = load_dataset(dataset_path)
+    return summarise(check_dataset(model), model.wavelengths)
+
+
 def build_dataset(config: BuildConfig, output, processes: int = 2, progress: bool = True, validation: bool = True,
                   log=None, data_dir=None) -> dict:
     """Solve (resumable), fit and write a dataset (see module docstring); returns the sidecar dict, with the
@@ -708,6 +735,7 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
         from .dataset_errors import evaluate_errors, summarise
         errs = evaluate_errors(config, output)
         meta["errors"] = summarise(errs)
+    meta["smoothness"] = smoothness_report(output)
     meta["build_seconds"] = round(time.perf_counter() - t0, 1)
     Path(output).with_name(Path(output).name + ".json").write_text(json.dumps(meta, indent=1))
     return meta

@@ -30,7 +30,9 @@ GROUP_ABS = 0.02
 class SubProblem:
     """One solver run of a channel: weight [1], effective wavelength [nm] and per-layer (ground first) optical depths
     of Rayleigh scattering, aerosol extinction and gas absorption [1], aerosol single-scattering albedo [1] and
-    aerosol Legendre moments (nmom+1,) [1]."""
+    aerosol Legendre moments (nmom+1,) [1]; optionally the aerosol phase function tabulated at
+    :data:`skymodel.generator.aerosol.PHASE_MU` [1], which the solver's intensity correction uses instead of the
+    (truncated) Legendre series."""
 
     weight: float
     wavelength_nm: float
@@ -40,6 +42,7 @@ class SubProblem:
     ssa_aerosol: float
     moments_aerosol: np.ndarray
     moments_rayleigh: np.ndarray
+    phase_aerosol: np.ndarray | None = None
 
     @property
     def tau_total(self) -> np.ndarray:
@@ -56,6 +59,21 @@ class SubProblem:
             np.maximum(sca, 1e-300)[:, None]
         mom[:, 0] = 1.0
         return dtau[::-1].copy(), np.clip(ssa[::-1], 0.0, 1.0 - 1e-12), mom[::-1].copy()
+
+    def phase_table(self):
+        """Per-layer phase function (L, len(PHASE_MU)) [1] at :data:`skymodel.generator.aerosol.PHASE_MU`, top of
+        atmosphere first (DISORT's order): Rayleigh (1 + 5 chi_2 P_2(mu), exact for its two moments) and the
+        aerosol's tabulated Mie phase function, weighted by their scattering optical depths; None without a table."""
+        from .aerosol import PHASE_MU
+
+        if self.phase_aerosol is None:
+            return None
+        sca_r = self.tau_rayleigh
+        sca_a = self.tau_aerosol * self.ssa_aerosol
+        p_r = 1.0 + 5.0 * self.moments_rayleigh[2] * (1.5 * PHASE_MU ** 2 - 0.5)
+        tab = (sca_r[:, None] * p_r[None, :] + sca_a[:, None] * np.asarray(self.phase_aerosol)[None, :]) / \
+            np.maximum(sca_r + sca_a, 1e-300)[:, None]
+        return tab[::-1].copy()
 
 
 def spectral_groups(channel, et_fine, tau_col_fine):
@@ -112,6 +130,8 @@ def channel_subproblems(channel, atmosphere, et_fine, o3_tau_fine, aerosol, aod5
         tr = (tau_r_fine[:, g] * eg).sum(axis=1) / eg.sum()
         to3 = (o3[:, g] * eg).sum(axis=1) / eg.sum()
         ext, ssa_a, mom_a = aerosol.at(lam)
+        ph_a = aerosol.phase_at(lam)
+        ph_a = None if ph_a is None else ph_a[0]
         ta = aod550 * ext[0] * aerosol_fractions
         mom_a = mom_a[0, : nmom + 1]
         mom_r = rayleigh_moments(lam, nmom, co2_ppm)
@@ -123,5 +143,5 @@ def channel_subproblems(channel, atmosphere, et_fine, o3_tau_fine, aerosol, aod5
                     continue
                 out.append(SubProblem(weight=float(weight), wavelength_nm=lam, tau_rayleigh=tr, tau_aerosol=ta,
                                       tau_absorption=tabs, ssa_aerosol=float(ssa_a[0]), moments_aerosol=mom_a,
-                                      moments_rayleigh=mom_r))
+                                      moments_rayleigh=mom_r, phase_aerosol=ph_a))
     return out

@@ -1,0 +1,114 @@
+"""Smoothness check of a dataset (skymodel.generator.smoothness) and a contact sheet of its renders.
+
+Prints the check's summary (every grid state and the states between grid points, all channels with measurable
+energy) with its wall time, and draws a contact sheet: up-facing fisheye renders for solar elevations 0-90 deg
+(columns) x the sRGB composite and single channels (rows), at 30 km and albedo 0.3 (between grid points of the
+default dataset). With ``--before OLD.dat`` the sheet shows OLD's row block above DATASET's.
+
+Run:  python benchmarks/bench_dataset_smoothness.py skymodel/data/default.dat --json /tmp/smooth.json \
+          --sheet docs/figures/dataset_contact_sheet.png [--before old.dat]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import warnings
+
+import numpy as np
+
+ELEVATIONS = (0.0, 2.0, 5.0, 8.0, 13.5, 25.0, 45.0, 70.0, 90.0)
+ROWS = ("sRGB", 540.0, 1260.0, 2220.0)
+
+
+def _image(model, elevation, row, visibility, albedo, resolution):
+    from skymodel.colour import srgb_encode
+    from skymodel.render import render_sky
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # clamping at the grid's edge (sun at 0 deg) is what a user sees too
+        if row == "sRGB":
+            r = render_sky(model, sun_elevation=elevation, visibility=visibility, albedo=albedo,
+                           resolution=resolution, threads=1)
+            lum = r.luminance_like()
+            rgb = r.rgb_linear()
+        else:
+            r = render_sky(model, sun_elevation=elevation, visibility=visibility, albedo=albedo,
+                           wavelengths=[row], resolution=resolution, threads=1)
+            lum = r.values[..., 0].astype(float)
+            rgb = np.repeat(lum[..., None], 3, axis=-1)
+    v = lum[r.mask]
+    ref = np.percentile(v[v > 0], 99.0) if np.any(v > 0) else 1.0
+    out = srgb_encode(rgb / ref)
+    out[~r.mask] = 0.0
+    return np.clip(out, 0, 1)
+
+
+def contact_sheet(models, labels, path, visibility=30.0, albedo=0.3, resolution=150):
+    """Draw the sheet of ``models`` (list of SkyModel) with row-block ``labels`` to ``path`` [PNG]."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nr = len(ROWS) * len(models)
+    fig, axes = plt.subplots(nr, len(ELEVATIONS), figsize=(1.45 * len(ELEVATIONS), 1.5 * nr + 0.4))
+    for b, (model, label) in enumerate(zip(models, labels)):
+        for i, row in enumerate(ROWS):
+            for j, e in enumerate(ELEVATIONS):
+                ax = axes[b * len(ROWS) + i, j]
+                ax.imshow(_image(model, e, row, visibility, albedo, resolution))
+                ax.set_xticks([])
+                ax.set_yticks([])
+                if b * len(ROWS) + i == 0:
+                    ax.set_title(f"sun {e:g} deg", fontsize=8)
+                if j == 0:
+                    name = row if row == "sRGB" else f"{row:.0f} nm"
+                    ax.set_ylabel(f"{label}\n{name}", fontsize=7)
+    fig.suptitle(f"up-facing renders, visibility {visibility:g} km, albedo {albedo:g} (north up, sun in the south)",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None):
+    from skymodel import load_dataset
+    from skymodel.generator.smoothness import check_dataset, summarise
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("dataset")
+    ap.add_argument("--json", default=None, help="write the summary here")
+    ap.add_argument("--sheet", default=None, help="contact sheet PNG")
+    ap.add_argument("--before", default=None, help="a second dataset drawn above (the sheet's 'before')")
+    ap.add_argument("--no-check", action="store_true", help="only draw the sheet")
+    ap.add_argument("--visibility", type=float, default=30.0, help="visibility of the sheet [km]")
+    ap.add_argument("--albedo", type=float, default=0.3, help="ground albedo of the sheet [1]")
+    a = ap.parse_args(argv)
+    model = load_dataset(a.dataset)
+    if not a.no_check:
+        t0 = time.perf_counter()
+        summary = summarise(check_dataset(model), model.wavelengths)
+        summary["seconds"] = round(time.perf_counter() - t0, 1)
+        for g in ("grid", "between"):
+            s = summary.get(g)
+            if s:
+                print(f"{g}: {s['states']} states, {s['checked_pairs']} checked (state, channel) pairs, "
+                      f"{s['failing_pairs']} failing ({s['failing_states']} states); almucantar >1 turning point "
+                      f"{s['almucantar_tp_gt1']}, vertical >2 {s['vertical_tp_gt2']}, aureole ray >1 "
+                      f"{s['aureole_tp_gt1']}, zenith spot {s['zenith_spot_pairs']} (max "
+                      f"{100 * s['max_zenith_spot']:.1f} %)")
+        print(f"check: {summary['seconds']} s")
+        if a.json:
+            with open(a.json, "w") as f:
+                json.dump(summary, f, indent=1)
+    if a.sheet:
+        models, labels = [model], ["after" if a.before else ""]
+        if a.before:
+            models, labels = [load_dataset(a.before), model], ["before", "after"]
+        contact_sheet(models, labels, a.sheet, a.visibility, a.albedo)
+        print("wrote", a.sheet)
+
+
+if __name__ == "__main__":
+    main()

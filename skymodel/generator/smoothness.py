@@ -1,0 +1,310 @@
+"""Smoothness check of a sky-radiance dataset: spurious rings, fringes and spots that the fit-error figures miss.
+
+A clear sky is smooth where its physics is: along an almucantar (fixed view zenith) the radiance falls from the sun's
+side to one minimum and may rise again toward the antisolar side; along the verticals at 90 and 180 deg from the sun
+it has at most one minimum between the zenith and the horizon; outward from the sun (the aureole) it only falls; and
+the zenith is no brighter or darker than a small ring around it beyond what the curvature of the sky allows. The
+check evaluates a dataset with the evaluator (what a render or the integrator sees) along these profiles, for every
+channel whose sky carries measurable energy, at every grid state and at states between grid points, and counts
+
+- **turning points** along each almucantar and vertical, with a hysteresis ``rel_tol``: a reversal counts only once the
+  profile has moved back by more than ``rel_tol`` of its current extreme (ripples smaller than that are invisible
+  and below the fit error; see docs/default-dataset.md, "Smoothness", for the choice of 0.5 %);
+- **aureole turning points**: along rays from the sun out to ``AUREOLE_MAX_DEG`` (above view zenith
+  ``AUREOLE_MAX_ZENITH_DEG``) the radiance falls, and may rise once where the sky's own gradient takes over (toward
+  the zenith in the UV at low sun, where the ozone path shortens): at most one turning point; rings around the sun
+  make more;
+- **zenith spot**: ``|L(zenith) / mean(L on a ring of ZENITH_RING_DEG) - 1|``.
+
+Pure functions over arrays; :func:`check_dataset` runs everything and :func:`summarise` reduces it for the sidecar.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+__all__ = ["ALMUCANTAR_ZENITHS_DEG", "VERTICAL_AZIMUTHS_DEG", "REL_TOL", "ZENITH_SPOT_TOL", "MAX_ALMUCANTAR_TP",
+           "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "turning_points",
+           "monotone_violations", "profile_directions", "profile_metrics", "check_states", "grid_states",
+           "between_grid_states", "check_dataset", "summarise"]
+
+ALMUCANTAR_ZENITHS_DEG = (20.0, 40.0, 60.0, 70.0, 75.0, 80.0, 84.0, 87.0, 89.0)
+"""View zeniths of the checked almucantars [deg]."""
+ALMUCANTAR_STEP_DEG = 1.0
+"""Relative-azimuth step along an almucantar [deg] (0 = toward the sun ... 180)."""
+VERTICAL_AZIMUTHS_DEG = (90.0, 180.0)
+"""Relative azimuths of the checked verticals [deg] (zenith to the horizon in 0.5 deg steps)."""
+VERTICAL_STEP_DEG = 0.5
+AUREOLE_MAX_DEG = 12.0
+"""Largest angle from the sun of the aureole rays [deg] (0.25 deg steps, 8 position angles)."""
+AUREOLE_MAX_ZENITH_DEG = 85.0
+"""Aureole ray points below this view zenith only [deg] (toward the horizon the path length makes the sky brighten)."""
+ZENITH_RING_DEG = 1.5
+"""Radius of the ring the zenith radiance is compared with [deg]."""
+REL_TOL = 0.005
+"""Hysteresis of the turning-point and monotonicity counts [1] (docs/default-dataset.md, "Smoothness")."""
+ZENITH_SPOT_TOL = 0.01
+"""Largest accepted ``|L(zenith) / ring mean - 1|`` [1]."""
+MAX_ALMUCANTAR_TP = 1
+"""Turning points allowed along an almucantar (one minimum)."""
+MAX_VERTICAL_TP = 2
+"""Turning points allowed along the verticals at 90 and 180 deg from the sun: a minimum, then the maximum a few degrees
+above the horizon that the solver's own radiance shows (the horizon band darkens again below it; measured at 29.2 km,
+sun 8 deg: maximum at view zenith 81-89 deg in every channel)."""
+MAX_AUREOLE_TP = 1
+"""Turning points allowed along a ray from the sun."""
+MIN_ENERGY_FRACTION = 0.01
+"""Channels whose sky-diffuse horizontal irradiance is below this fraction of the state's brightest channel are not
+checked [1] (saturated absorption bands: their dim skies are set by the half-float floor, not by the fit)."""
+FLOOR_FRACTION = 1e-3
+"""Absolute floor of the hysteresis as a fraction of each profile's maximum [1] (near-zero values)."""
+
+
+def turning_points(y, rel_tol: float = REL_TOL, floor_fraction: float = FLOOR_FRACTION) -> np.ndarray:
+    """Number of direction reversals of each profile, counting a reversal once the profile has moved back by more than
+    ``rel_tol`` of its current extreme (a zigzag filter), with an absolute floor of ``floor_fraction`` of the profile's
+    largest absolute value.
+
+    Parameters
+    ----------
+    y : ndarray (..., n)  profiles along their last axis (any unit).
+
+    Returns
+    -------
+    ndarray (...) int
+    """
+    y = np.asarray(y, float)
+    floor = floor_fraction * np.max(np.abs(y), axis=-1)
+    shape = y.shape[:-1]
+    hi = y[..., 0].copy()
+    lo = y[..., 0].copy()
+    ext = y[..., 0].copy()
+    trend = np.zeros(shape, np.int8)
+    count = np.zeros(shape, np.int64)
+    for k in range(1, y.shape[-1]):
+        v = y[..., k]
+        tol = np.maximum(rel_tol * np.abs(ext), floor)
+        # no trend yet: start one once the profile has left its range by more than the tolerance
+        und = trend == 0
+        hi = np.where(und, np.maximum(hi, v), hi)
+        lo = np.where(und, np.minimum(lo, v), lo)
+        up0 = und & (v - lo > np.maximum(rel_tol * np.abs(lo), floor))
+        dn0 = und & ~up0 & (hi - v > np.maximum(rel_tol * np.abs(hi), floor))
+        # rising: a new maximum, or a reversal once it has fallen by more than the tolerance
+        rising = trend == 1
+        rev_dn = rising & (ext - v > tol)
+        # falling
+        falling = trend == -1
+        rev_up = falling & (v - ext > tol)
+        count += rev_dn | rev_up
+        new_ext = np.where(rising & (v > ext), v, ext)
+        new_ext = np.where(falling & (v < ext), v, new_ext)
+        new_ext = np.where(rev_dn | rev_up | up0 | dn0, v, new_ext)
+        trend = np.where(up0 | rev_up, 1, np.where(dn0 | rev_dn, -1, trend)).astype(np.int8)
+        ext = new_ext
+    return count
+
+
+def monotone_violations(y, rel_tol: float = REL_TOL, floor_fraction: float = FLOOR_FRACTION, valid=None):
+    """Largest rise of each profile above its running minimum, relative to that minimum [1] (0 for a non-increasing
+    profile); ``valid`` (same shape, bool) masks points that do not count (and do not lower the running minimum)."""
+    y = np.asarray(y, float)
+    if valid is None:
+        valid = np.ones(y.shape, bool)
+    yv = np.where(valid, y, np.inf)
+    run_min = np.minimum.accumulate(yv, axis=-1)
+    floor = floor_fraction * np.max(np.where(valid, np.abs(y), 0.0), axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rise = np.where(valid & np.isfinite(run_min), (y - run_min) / np.maximum(run_min, floor + 1e-300), 0.0)
+    return np.max(rise, axis=-1)
+
+
+def _enu(zenith_deg, azimuth_deg):
+    z = np.radians(zenith_deg)
+    a = np.radians(azimuth_deg)
+    return np.stack([np.sin(z) * np.sin(a), np.sin(z) * np.cos(a), np.cos(z)], axis=-1)
+
+
+def profile_directions(sun_elevation_deg: float):
+    """View directions (east-north-up, sun at azimuth 180) of every checked profile for one solar elevation [deg].
+
+    Returns
+    -------
+    dict of ndarray: ``almucantar`` (nZ, nAz, 3), ``vertical`` (nV, nTh, 3), ``aureole`` (8, nG, 3) with
+    ``aureole_valid`` (8, nG) bool (above :data:`AUREOLE_MAX_ZENITH_DEG`), ``zenith`` (1 + 16, 3): the zenith, then
+    a ring of :data:`ZENITH_RING_DEG`.
+    """
+    az = np.arange(0.0, 180.0 + 1e-9, ALMUCANTAR_STEP_DEG)
+    alm = np.stack([_enu(np.full_like(az, z), 180.0 + az) for z in ALMUCANTAR_ZENITHS_DEG])
+    th = np.arange(0.0, 89.5 + 1e-9, VERTICAL_STEP_DEG)
+    ver = np.stack([_enu(th, np.full_like(th, 180.0 + a)) for a in VERTICAL_AZIMUTHS_DEG])
+    # aureole rays: rotate the sun direction by gamma toward position angle psi
+    s = _enu(np.array(90.0 - sun_elevation_deg), np.array(180.0))
+    up = np.array([0.0, 0.0, 1.0]) - s * s[2]
+    up = up / np.linalg.norm(up) if np.linalg.norm(up) > 1e-9 else np.array([0.0, -1.0, 0.0])
+    side = np.cross(s, up)
+    g = np.radians(np.arange(0.25, AUREOLE_MAX_DEG + 1e-9, 0.25))
+    psi = np.radians(np.arange(0.0, 360.0, 45.0))
+    dirs = (np.cos(g)[None, :, None] * s + np.sin(g)[None, :, None] *
+            (np.cos(psi)[:, None, None] * up + np.sin(psi)[:, None, None] * side))
+    valid = np.degrees(np.arccos(np.clip(dirs[..., 2], -1, 1))) < AUREOLE_MAX_ZENITH_DEG
+    ring = _enu(np.full(16, ZENITH_RING_DEG), np.arange(16) * 22.5)
+    zen = np.concatenate([[[0.0, 0.0, 1.0]], ring])
+    return {"almucantar": alm, "vertical": ver, "aureole": dirs, "aureole_valid": valid, "zenith": zen}
+
+
+def profile_metrics(radiance: dict, aureole_valid, sun_elevation_deg: float, rel_tol: float = REL_TOL) -> dict:
+    """Smoothness metrics from the radiance along the profiles of :func:`profile_directions` for one solar elevation.
+
+    Parameters
+    ----------
+    radiance : dict with the keys of :func:`profile_directions`, each of the profile's shape + (..., C): trailing
+        axes are sky states and channels [W m-2 sr-1 nm-1].
+    aureole_valid : bool, the aureole's shape + ones for the trailing axes.
+
+    Returns
+    -------
+    dict of (..., C) arrays: almucantar_tp (max over almucantars), almucantar_excess (spurious turning points summed
+    over almucantars: above 1 each), vertical_tp (max), aureole_tp (max over rays), aureole_rise [1] (largest rise
+    above the running minimum, max over rays; reported, not a criterion), zenith_spot [1].
+    """
+    def last(a, n):  # move the profile's n leading axes to the end
+        return np.moveaxis(a, list(range(n)), list(range(a.ndim - n, a.ndim)))
+
+    tp_alm = turning_points(last(radiance["almucantar"], 2), rel_tol)          # (..., C, nZ)
+    tp_ver = turning_points(last(radiance["vertical"], 2), rel_tol)
+    aur = last(radiance["aureole"], 2)                                          # (..., C, 8, nG)
+    valid = np.broadcast_to(last(np.asarray(aureole_valid), 2), aur.shape)
+    # the valid part of a ray is a prefix (its view zenith grows monotonically toward the horizon): hold the last
+    # valid value over the rest, which adds no turning point
+    idx = np.where(valid, np.arange(aur.shape[-1]), 0)
+    idx = np.maximum.accumulate(idx, axis=-1)
+    held = np.take_along_axis(np.where(valid, aur, 0.0), idx, axis=-1)
+    tp_aur = turning_points(held, rel_tol)
+    rise = monotone_violations(aur, rel_tol, valid=valid)
+    z = radiance["zenith"]
+    ring = z[1:].mean(axis=0)
+    # relative to the ring, floored at FLOOR_FRACTION of the larger of the two (a zero ring around a lit zenith counts
+    # as 1000, not as infinity)
+    spot = np.abs(z[0] - ring) / np.maximum(ring, FLOOR_FRACTION * np.maximum(z[0], ring) + 1e-300)
+    if 90.0 - sun_elevation_deg < 15.0:
+        spot = np.zeros_like(spot)  # the zenith lies in the aureole: the aureole check covers it
+    return {"almucantar_tp": tp_alm.max(axis=-1), "almucantar_excess": np.maximum(tp_alm - 1, 0).sum(axis=-1),
+            "vertical_tp": tp_ver.max(axis=-1), "aureole_tp": tp_aur.max(axis=-1), "aureole_rise": rise.max(axis=-1),
+            "zenith_spot": spot}
+
+
+def _fails(m, rel_tol):
+    """Boolean (C,) per metric set: any profile beyond its limit."""
+    return (m["almucantar_tp"] > MAX_ALMUCANTAR_TP) | (m["vertical_tp"] > MAX_VERTICAL_TP) | \
+        (m["aureole_tp"] > MAX_AUREOLE_TP) | (m["zenith_spot"] > ZENITH_SPOT_TOL)
+
+
+def check_states(model, states, rel_tol: float = REL_TOL) -> list:
+    """Run the check on ``model`` for sky states ``states`` = [(visibility [km], elevation [deg], albedo [1]), ...].
+
+    Returns
+    -------
+    list of dict per state (in the order given): visibility, elevation, albedo, checked (C,) bool (channels with
+    measurable energy), the metrics of :func:`profile_metrics` and fails (C,) bool.
+    """
+    from ..evaluate import sky_radiance
+
+    keys = ("almucantar", "vertical", "aureole", "zenith")
+    th = np.arange(2.5, 90.0, 5.0)  # the hemisphere for the energy criterion: 5 deg cells
+    ph = np.arange(2.5, 360.0, 5.0)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    hemi = _enu(T.ravel(), P.ravel())
+    w = (np.sin(np.radians(T)) * np.cos(np.radians(T))).ravel()[None, :, None]
+    out = [None] * len(states)
+    by_ele = {}
+    for i, (vis, ele, alb) in enumerate(states):
+        by_ele.setdefault(float(ele), []).append(i)
+    for ele, idx in by_ele.items():
+        d = profile_directions(ele)
+        flat = np.concatenate([d[k].reshape(-1, 3) for k in keys] + [hemi])
+        vis = np.array([states[i][0] for i in idx], float)
+        alb = np.array([states[i][2] for i in idx], float)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # clamping at the grid's edges is the user's view too
+            L = sky_radiance(model, flat, np.full(len(idx), ele), np.full(len(idx), 180.0), vis, alb)
+        L = L.reshape(len(idx), len(flat), -1)                   # (S, N, C)
+        n_prof = len(flat) - len(hemi)
+        e = np.sum(w * L[:, n_prof:], axis=1)                      # (S, C)
+        checked = e >= MIN_ENERGY_FRACTION * e.max(axis=1, keepdims=True)
+        rad, j = {}, 0
+        for k in keys:
+            n = int(np.prod(d[k].shape[:-1]))
+            rad[k] = np.moveaxis(L[:, j:j + n].reshape((len(idx),) + d[k].shape[:-1] + (L.shape[-1],)), 0, -2)
+            j += n
+        m = profile_metrics(rad, d["aureole_valid"][..., None], ele, rel_tol)  # arrays (S, C)
+        f = _fails(m, rel_tol) & checked
+        for q, i in enumerate(idx):
+            out[i] = {"visibility": float(states[i][0]), "elevation": ele, "albedo": float(states[i][2]),
+                      "checked": checked[q], **{k: v[q] for k, v in m.items()}, "fails": f[q]}
+    return out
+
+
+def grid_states(model) -> list:
+    """Every (visibility, elevation, albedo) configuration of the dataset's grid (ground level)."""
+    return [(float(v), float(e), float(a)) for v in model.visibilities for e in model.elevations
+            for a in model.albedos]
+
+
+def between_grid_states(model) -> list:
+    """States between grid points: geometric midpoints of adjacent visibilities x midpoints of adjacent elevations
+    x albedo midpoints (and the grid albedos when there is one)."""
+    v = np.asarray(model.visibilities, float)
+    e = np.asarray(model.elevations, float)
+    a = np.asarray(model.albedos, float)
+    vm = np.sqrt(v[1:] * v[:-1]) if len(v) > 1 else v
+    em = 0.5 * (e[1:] + e[:-1]) if len(e) > 1 else e
+    am = 0.5 * (a[1:] + a[:-1]) if len(a) > 1 else a
+    return [(float(x), float(y), float(z)) for x in vm for y in em for z in am]
+
+
+def check_dataset(model, rel_tol: float = REL_TOL, between: bool = True) -> dict:
+    """The smoothness check over the grid (and between grid points): {'grid': [...], 'between': [...]}, each a list of
+    :func:`check_states` results."""
+    res = {"grid": check_states(model, grid_states(model), rel_tol)}
+    if between:
+        res["between"] = check_states(model, between_grid_states(model), rel_tol)
+    return res
+
+
+def summarise(result: dict, wavelengths_nm=None) -> dict:
+    """JSON-ready summary of :func:`check_dataset`: per group, the number of states and of checked (state, channel)
+    pairs, the failing pairs per metric, the channels and states that fail, and the worst values."""
+    out = {"rel_tol": REL_TOL, "zenith_spot_tol": ZENITH_SPOT_TOL, "max_turning_points": {
+               "almucantar": MAX_ALMUCANTAR_TP, "vertical": MAX_VERTICAL_TP, "aureole_ray": MAX_AUREOLE_TP},
+           "almucantar_zeniths_deg": list(ALMUCANTAR_ZENITHS_DEG), "vertical_azimuths_deg": list(VERTICAL_AZIMUTHS_DEG)}
+    for group, rows in result.items():
+        if not rows:
+            continue
+        chk = np.array([r["checked"] for r in rows])
+        get = lambda k: np.array([r[k] for r in rows])  # noqa: E731
+        fails = get("fails")
+        g = {"states": len(rows), "checked_pairs": int(chk.sum()), "failing_pairs": int(fails.sum()),
+             "failing_states": int(fails.any(axis=1).sum()),
+             "almucantar_tp_gt1": int(((get("almucantar_tp") > 1) & chk).sum()),
+             "vertical_tp_gt2": int(((get("vertical_tp") > 2) & chk).sum()),
+             "aureole_tp_gt1": int(((get("aureole_tp") > MAX_AUREOLE_TP) & chk).sum()),
+             "zenith_spot_pairs": int(((get("zenith_spot") > ZENITH_SPOT_TOL) & chk).sum()),
+             "max_almucantar_tp": int(np.max(np.where(chk, get("almucantar_tp"), 0))),
+             "max_aureole_rise": round(float(np.max(np.where(chk, get("aureole_rise"), 0))), 5),
+             "max_zenith_spot": round(float(np.max(np.where(chk, get("zenith_spot"), 0))), 5),
+             "failing_channels_per_state_max": int(fails.sum(axis=1).max())}
+        ele = np.array([r["elevation"] for r in rows])
+        g["failing_pairs_by_elevation"] = {f"{e:g}": int(fails[ele == e].sum()) for e in np.unique(ele)}
+        g["checked_pairs_by_elevation"] = {f"{e:g}": int(chk[ele == e].sum()) for e in np.unique(ele)}
+        if wavelengths_nm is not None:
+            wl = np.asarray(wavelengths_nm, float)
+            g["failing_channels_nm"] = wl[fails.any(axis=0)].round(1).tolist()
+        worst = sorted(range(len(rows)), key=lambda i: -int(fails[i].sum()))[:5]
+        g["worst_states"] = [{"visibility": rows[i]["visibility"], "elevation": rows[i]["elevation"],
+                              "albedo": rows[i]["albedo"], "failing_channels": int(fails[i].sum())}
+                             for i in worst if fails[i].any()]
+        out[group] = g
+    return out

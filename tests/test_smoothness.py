@@ -1,0 +1,168 @@
+"""The smoothness check (skymodel.generator.smoothness) and the two fixes it measures (issue 11).
+
+References and tolerances:
+- turning points: analytic profiles with known extrema (a cosine over 1.5 periods has 2, a parabola 1, a ripple below
+  the 0.5 % hysteresis none);
+- an analytic clear sky (the CIE standard clear sky, ISO 15469:2004 type 12 gradation and indicatrix) passes every
+  criterion; the same sky with a 5 % ring pattern around the sun (period 3 deg in the angle to the sun) fails the
+  almucantar and aureole criteria, and a zenith spot of 5 % fails the zenith criterion;
+- the solver: with the Nakajima-Tanaka correction from 256 Legendre moments the 540 nm almucantar at view zenith 80 deg
+  (sun 8 deg, 29.2 km) has spurious turning points at zero tolerance (measured 12 at 1 deg steps; all below 0.05 %
+  of the radiance, so the 0.5 % check does not see them); with the tabulated phase function
+  (Buras-Emde) it has one minimum, the fluxes are identical (the correction changes radiances only) and the aureole
+  within 1 deg of the sun agrees within 15 % (measured: up to 13 % at 380 nm, where the 256-term series cannot follow
+  the forward peak of the coarse mode, P(0) = 156 at 373 nm; 1.4-2.6 % at 540 nm on the dominant sub-problem);
+- the fit (default settings: emphasis held at 1, second-difference penalty 1e-5) of that state passes the check at 380,
+  540 and 1260 nm, and stays within 2 % of the solver along the almucantar (measured 0.6 % mean);
+- the shipped default.dat predates the fix: the check flags it (strict xfail until the rebuilt file lands).
+"""
+
+import numpy as np
+import pytest
+
+from skymodel.generator import smoothness as S
+from skymodel.generator.paths import has_data
+
+
+def test_turning_points_count_reversals_beyond_the_hysteresis():
+    x = np.linspace(0.0, 3.0 * np.pi, 400)
+    assert S.turning_points(1.0 + 0.02 * np.cos(x)) == 2
+    assert S.turning_points((x - 4.0) ** 2 + 1.0) == 1
+    assert S.turning_points(np.exp(-x)) == 0
+    assert S.turning_points(1.0 + 0.001 * np.cos(x)) == 0  # 0.2 % peak to peak, below the 0.5 % hysteresis
+    batch = np.stack([1.0 + 0.02 * np.cos(x), np.exp(-x)])
+    assert S.turning_points(batch).tolist() == [2, 0]
+
+
+def _cie_clear(directions, sun_elevation_deg, ring=0.0, spot=0.0):
+    """CIE standard clear sky (type 12: a=-1, b=-0.32, c=10, d=-3, e=0.45) relative radiance at east-north-up
+    directions (sun at azimuth 180), with an optional ring ripple around the sun and a zenith spot."""
+    v = directions / np.linalg.norm(directions, axis=-1, keepdims=True)
+    s = S._enu(np.array(90.0 - sun_elevation_deg), np.array(180.0))
+    g = np.arccos(np.clip(v @ s, -1, 1))
+    cz = np.maximum(v[..., 2], 1e-3)
+    lum = (1 + 10 * (np.exp(-3 * g) - np.exp(-3 * np.pi / 2)) + 0.45 * np.cos(g) ** 2) * (1 - np.exp(-0.32 / cz))
+    lum = lum * (1 + ring * np.cos(2 * np.pi * np.degrees(g) / 3.0))
+    zen = np.degrees(np.arccos(np.clip(v[..., 2], -1, 1)))
+    lum = lum * (1 + spot * np.exp(-(zen / 0.5) ** 2))
+    return lum[..., None]
+
+
+@pytest.mark.parametrize("elevation", [5.0, 30.0, 60.0])
+def test_analytic_clear_sky_passes_and_artefacts_fail(elevation):
+    d = S.profile_directions(elevation)
+    keys = ("almucantar", "vertical", "aureole", "zenith")
+
+    def metrics(**kw):
+        rad = {k: _cie_clear(d[k], elevation, **kw) for k in keys}
+        return S.profile_metrics(rad, d["aureole_valid"][..., None], elevation)
+
+    clean = metrics()
+    assert not S._fails(clean, S.REL_TOL).any(), clean
+    rings = metrics(ring=0.05)
+    assert rings["almucantar_tp"][0] > S.MAX_ALMUCANTAR_TP
+    assert rings["aureole_tp"][0] > S.MAX_AUREOLE_TP
+    assert S._fails(rings, S.REL_TOL).all()
+    spot = metrics(spot=0.05)
+    if 90.0 - elevation >= 15.0:
+        assert spot["zenith_spot"][0] > S.ZENITH_SPOT_TOL
+
+
+needs_data = pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
+
+
+@pytest.fixture(scope="module")
+def solved_channels():
+    """Solver radiance at 29.2 km, sun 8 deg, channels 380 / 540 / 1260 nm, on the build's fit directions and on
+    the 80 deg almucantar (1 deg steps), with the tabulated and the Legendre-series intensity correction."""
+    from skymodel.generator.dataset_build import fit_directions, load_config, _problems
+    from skymodel.generator.solver import SolverConfig, run_disort
+
+    cfg = load_config("skymodel/data/default-dataset.json")
+    probs, et, _ = _problems(29.2, cfg)
+    th, ph = fit_directions(8.0, cfg.zenith_step_deg)
+    az = np.arange(0.0, 180.01, 1.0)
+    mu0 = np.sin(np.radians(8.0))
+    out = {}
+    for name, sc in (("tab", SolverConfig(16, 256, True)), ("nt", SolverConfig(16, 256, True, tabulated_phase=False))):
+        grid, alm, flux = [], [], []
+        for c in (2, 6, 24):
+            g = np.zeros((len(th), len(ph)))
+            a = np.zeros((1, len(az)))
+            f = 0.0
+            for p in probs[c]:
+                r, fd, _ = run_disort(p, mu0, 0.0, th, ph, sc)
+                g += p.weight * r
+                r2, _, _ = run_disort(p, mu0, 0.0, np.array([80.0]), az, sc)
+                a += p.weight * r2
+                f += p.weight * fd
+            grid.append(g * et[c])
+            alm.append(a[0] * et[c])
+            flux.append(f)
+        out[name] = {"grid": np.stack(grid, -1), "alm": np.stack(alm, -1), "flux": np.array(flux)}
+    out["zenith"], out["azimuth"], out["az_alm"] = th, ph, az
+    return out
+
+
+@needs_data
+@pytest.mark.slow
+def test_tabulated_phase_correction_removes_the_solver_rings(solved_channels):
+    tab, nt = solved_channels["tab"], solved_channels["nt"]
+    # at zero tolerance: the ringing is small in the channel sums (below the check's 0.5 % hysteresis)
+    tp_nt = S.turning_points(nt["alm"].T, 0.0, 0.0)
+    tp_tab = S.turning_points(tab["alm"].T, 0.0, 0.0)
+    assert tp_nt[1] > 3, tp_nt          # 540 nm: the 256-moment series rings
+    assert np.all(tp_tab <= 1), tp_tab  # one minimum along the almucantar
+    np.testing.assert_allclose(tab["flux"], nt["flux"], rtol=1e-12)
+    # aureole: the first zenith rows around the sun (sun zenith 82 deg), azimuths within 2 deg
+    th, ph = solved_channels["zenith"], solved_channels["azimuth"]
+    near = (np.abs(th - 82.0) <= 1.0)[:, None] & (ph <= 2.0)[None, :]
+    np.testing.assert_allclose(tab["grid"][near], nt["grid"][near], rtol=0.15)
+
+
+@needs_data
+@pytest.mark.slow
+def test_default_fit_settings_give_a_smooth_accurate_sky(solved_channels):
+    from skymodel.evaluate import reference_angles
+    from skymodel.generator.dataset_build import config_knots, direction_samples, fit_sky, load_config
+    from skymodel.generator.fit import RadianceFit
+
+    cfg = load_config("skymodel/data/default-dataset.json")
+    smp = direction_samples(solved_channels["zenith"], solved_channels["azimuth"], 8.0)
+    br = config_knots(cfg)
+    sun, zen, emph, _ = fit_sky(solved_channels["tab"]["grid"], smp, br, cfg.rank, cfg.smoothing, cfg.iterations,
+                                cfg.refine)
+    d = S.profile_directions(8.0)
+    rad = {}
+    for k in ("almucantar", "vertical", "aureole", "zenith"):
+        a = reference_angles(d[k].reshape(-1, 3), 8.0, 180.0)
+        rad[k] = np.stack([RadianceFit(sun[c], zen[c], emph[c], 0).evaluate(a["gamma"], a["zero"], a["zero"], *br)
+                           for c in range(3)], -1).reshape(d[k].shape[:-1] + (3,))
+    m = S.profile_metrics(rad, d["aureole_valid"][..., None], 8.0)
+    assert not S._fails(m, S.REL_TOL).any(), m
+    # accuracy along the held-out 80 deg almucantar
+    az = solved_channels["az_alm"]
+    from skymodel.evaluate import directions_from_angles
+    a = reference_angles(directions_from_angles(np.full(len(az), 80.0), 180.0 + az), 8.0, 180.0)
+    fit = np.stack([RadianceFit(sun[c], zen[c], emph[c], 0).evaluate(a["gamma"], a["zero"], a["zero"], *br)
+                    for c in range(3)], -1)
+    ref = solved_channels["tab"]["alm"]
+    assert np.mean(np.abs(fit / ref - 1)) < 0.02
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="skymodel/data/default.dat predates the issue-11 fixes (rebuild pending): "
+                   "the check flags it; remove this mark when the rebuilt file lands")
+def test_default_dataset_passes_the_smoothness_check():
+    import skymodel
+
+    model = skymodel.load_dataset()
+    # every grid elevation at three visibilities and the middle albedo, and the states between those (the full check,
+    # 881 states, is the build's report: about 100 s on an idle core)
+    v = model.visibilities[[0, len(model.visibilities) // 2, -1]]
+    grid = [(float(x), float(e), 0.5) for x in v for e in model.elevations]
+    e = np.asarray(model.elevations, float)
+    between = [(float(np.sqrt(v[0] * v[1])), float(y), 0.25) for y in 0.5 * (e[1:] + e[:-1])]
+    res = {"grid": S.check_states(model, grid), "between": S.check_states(model, between)}
+    summary = S.summarise(res, model.wavelengths)
+    assert summary["grid"]["failing_pairs"] == 0 and summary["between"]["failing_pairs"] == 0, summary
