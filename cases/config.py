@@ -9,6 +9,7 @@ out of range or not among the choices is an error naming the range or the choice
 from __future__ import annotations
 
 import difflib
+import os
 import re
 import tomllib
 from dataclasses import dataclass
@@ -99,8 +100,12 @@ _NUM_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d
 
 
 def _suggest(key, valid):
-    close = difflib.get_close_matches(key, valid, n=1, cutoff=0.5)
-    return f" (did you mean '{close[0]}'?)" if close else ""
+    """The closest valid name (similarity, ties and near-ties broken by a shared beginning), if any is close."""
+    def score(v):
+        prefix = len(os.path.commonprefix([key.lower(), v.lower()]))
+        return difflib.SequenceMatcher(None, key.lower(), v.lower()).ratio() + 0.2 * prefix
+    best = max(valid, key=score, default=None)
+    return f" (did you mean '{best}'?)" if best is not None and score(best) >= 0.6 else ""
 
 
 def _number(where, f: Field, raw):

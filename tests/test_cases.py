@@ -1,0 +1,216 @@
+"""The case runner (cases/): configuration validation, the report folder, and its numbers.
+
+Physics reference: an unobstructed horizontal roof must receive the sky model's own global horizontal
+irradiance (irradiance.model_irradiance, the integrator's quadrature: DNI sin(elevation) + DHI) at every
+step, to 0.5 % (the integrator's measured error on an unobstructed plane is 0.13 % annually; the test
+checks the runner's wiring of sites, interval labels, times and units, which would shift whole hours).
+"""
+
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import cases
+from cases.config import ConfigError, validate
+
+SHIPPED = Path(cases.__file__).parent
+
+BASE = {
+    "case": {"title": "t"},
+    "site": {"latitude": 50.08, "longitude": 14.42, "tz": "Europe/Prague"},
+    "period": {"start": "2024-06-20", "end": "2024-06-22"},
+    "scene": {"geometry": "geometry.py"},
+    "report": {"sky_time": "2024-06-21T12:00"},
+}
+
+
+def cfg(**changes):
+    d = {k: dict(v) for k, v in BASE.items()}
+    for path, value in changes.items():
+        section, key = path.split("__")
+        d.setdefault(section, {})[key] = value
+    return d
+
+
+@pytest.fixture
+def folder(tmp_path):
+    shutil.copy(SHIPPED / "solar_potential" / "geometry.py", tmp_path / "geometry.py")
+    return tmp_path
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"sky__visiblity": 40}, ["sky.visiblity", "did you mean 'visibility'", "valid keys in [sky]"]),
+    ({"sky__visibility": "40 m"}, ["sky.visibility", "'m'", "expected km"]),
+    ({"sky__visibility": 5}, ["sky.visibility = 5", "[20, 131.8] km"]),
+    ({"sky__visibility": "150 km"}, ["sky.visibility = '150 km'", "[20, 131.8] km"]),
+    ({"sky__albedo": "0.3 km"}, ["sky.albedo", "'km'", "dimensionless"]),
+    ({"site__latitude": 95}, ["site.latitude = 95", "[-90, 90] deg"]),
+    ({"site__latitude": "50 rad"}, ["site.latitude", "'rad'", "expected deg"]),
+    ({"period__step": "2h"}, ["period.step = '2h'", "10min, 15min, 30min, 1h"]),
+    ({"period__end": "2024-06-19"}, ["period.end", "must be after period.start"]),
+    ({"period__start": "midsummer"}, ["period.start = 'midsummer'", "ISO 8601"]),
+    ({"scene__two_sided": "yes"}, ["scene.two_sided = 'yes'", "true or false"]),
+    ({"scene__samples_per_face": 3}, ["scene.samples_per_face = 3", "square number"]),
+    ({"scene__samples_per_face": 2.5}, ["scene.samples_per_face = 2.5", "integer"]),
+    ({"scene__geometry": "nothere.py"}, ["scene.geometry = 'nothere.py'", "no such file"]),
+    ({"report__views": ["south-west", "up"]}, ["report.views", "'up'", "south-east", "top"]),
+    ({"accuracy__tolerance": 0.001}, ["accuracy.tolerance = 0.001", "[0.006, 0.5]"]),
+    ({"skies__visibility": 40}, ["unknown section [skies]", "did you mean 'sky'", "valid sections"]),
+])
+def test_config_errors_name_the_key_and_the_valid_values(folder, changes, words):
+    with pytest.raises(ConfigError) as e:
+        validate(cfg(**changes), folder, source="case.toml")
+    for w in words:
+        assert w in str(e.value), str(e.value)
+
+
+def test_config_required_keys_and_defaults(folder):
+    d = cfg()
+    del d["site"]["latitude"]
+    with pytest.raises(ConfigError, match=r"site.latitude is required"):
+        validate(d, folder)
+    ok = validate(cfg(sky__visibility="35.5 km", sky__albedo="0.25"), folder)
+    assert ok["sky"]["visibility"] == 35.5 and ok["sky"]["albedo"] == 0.25
+    assert ok["period"]["step"] == "1h" and ok["accuracy"]["tolerance"] == 0.02 and ok["sky"]["dataset"] is None
+    assert ok["scene"]["geometry"] == (folder / "geometry.py").resolve()
+
+
+def test_shipped_cases_validate():
+    assert "solar_potential" in cases.list_cases()
+    for name in cases.list_cases():
+        c = cases.load_config(SHIPPED / name)
+        assert c["case"]["title"]
+        assert (SHIPPED / name / "README.md").is_file()
+
+
+def _write_case(folder, toml):
+    (folder / "case.toml").write_text(toml, encoding="utf-8")
+    return folder
+
+
+SMALL = """
+[case]
+title = "small"
+[site]
+latitude = 50.08
+longitude = 14.42
+tz = "Europe/Prague"
+[period]
+start = "2024-06-20"
+end = "2024-06-22"
+step = "1h"
+[sky]
+visibility = "40 km"
+albedo = 0.2
+[scene]
+geometry = "geometry.py"
+[scene.parameters]
+cell = 6.0
+{extra}
+[report]
+sky_time = "2024-06-21T12:30"
+views = ["south-west"]
+render_size = 200
+"""
+
+
+@pytest.fixture(scope="module")
+def small_report(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("case")
+    shutil.copy(SHIPPED / "solar_potential" / "geometry.py", folder / "geometry.py")
+    # no context: the roof is an unobstructed horizontal plane
+    geo = (folder / "geometry.py").read_text().replace('    context = {', '    context = {} if parameters.get("alone") else {')
+    (folder / "geometry.py").write_text(geo)
+    _write_case(folder, SMALL.format(extra="alone = true"))
+    out = tmp_path_factory.mktemp("reports") / "rep"
+    return cases.run_case(folder, out, n_jobs=1, progress=False, log=lambda m: None), folder
+
+
+def test_report_folder_contents(small_report):
+    rep, _ = small_report
+    names = {p.name for p in rep.iterdir()}
+    assert {"index.html", "timeseries.csv", "timeseries.parquet", "faces.csv", "poa.npz", "provenance.json",
+            "case.toml", "sky.exr", "sky.png", "scene_south-west.png", "scene.ply"} <= names
+    assert not [p for p in rep.parent.iterdir() if p.name.startswith(".")]          # no temporary folder left
+    html = (rep / "index.html").read_text()
+    # self-contained: no script, no stylesheet link, no image or link to another origin
+    assert "<script" not in html and "<link" not in html
+    assert not re.search(r'(src|href)="(https?:)?//', html)
+    assert html.count("data:image/png;base64,") == 2                                 # one render and the sky
+    assert "Accuracy and limits" in html and "tolerance 0.02" in html
+    import trimesh
+    m = trimesh.load(rep / "scene.ply", process=False)
+    assert len(m.faces) > 0 and m.visual.face_colors.shape[0] == len(m.faces)
+    pq = pd.read_parquet(rep / "timeseries.parquet")
+    csv = pd.read_csv(rep / "timeseries.csv", index_col=0)
+    np.testing.assert_allclose(csv.to_numpy(), pq.to_numpy(), rtol=1e-3, atol=1e-3)  # CSV keeps 4 digits
+
+
+def test_roof_alone_receives_the_model_global_horizontal(small_report):
+    import irradiance as ir
+
+    rep, _ = small_report
+    ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
+    roof = ts["roof:poa_global [W m-2]"].to_numpy()
+    site = ir.Site(50.08, 14.42, tz="Europe/Prague")
+    times = ir.time_range("2024-06-20", "2024-06-22", "1h", tz=site.tz, label="left")
+    assert list(ts.index) == [str(t) for t in times]
+    sp = site.solar_position(times, label="left")
+    el = sp["apparent_elevation"].to_numpy()
+    st = ir.SkyStates.create(el, sp["azimuth"].to_numpy(), 40.0, 0.2)
+    dni, dhi = ir.model_irradiance(ir.PragueSky(), st)
+    ghi = dni * np.sin(np.radians(np.maximum(el, 0))) + dhi
+    day = ghi > 20
+    np.testing.assert_allclose(roof[day], ghi[day], rtol=5e-3)
+    assert np.all(roof[~day] < 25)
+    # a period's insolation per face equals the time series summed (faces.csv vs timeseries.csv)
+    faces = pd.read_csv(rep / "faces.csv")
+    r = faces[faces.label == "roof"]
+    assert np.average(r.insolation_kwh_m2, weights=r.area_m2) == pytest.approx(roof.sum() / 1000, rel=1e-3)
+    # the saved result holds the same numbers per face
+    z = np.load(rep / "poa.npz")
+    sel = z["face_label"] == "roof"
+    got = (z["poa_global"][:, sel] @ z["face_area"][sel]) / z["face_area"][sel].sum()
+    np.testing.assert_allclose(got, roof[z["daylight"]], rtol=1e-3, atol=0.05)
+
+
+def test_spectral_split_sums_to_the_total(small_report):
+    rep, _ = small_report
+    ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
+    for lab in ("roof", "facade_south", "facade_north"):
+        bands = sum(ts[f"{lab}:{b} [W m-2]"] for b in cases.BANDS)
+        np.testing.assert_allclose(bands, ts[f"{lab}:poa_global [W m-2]"], rtol=2e-3, atol=0.05)
+
+
+def test_a_failed_run_leaves_the_previous_report_untouched(small_report, monkeypatch):
+    rep, folder = small_report
+    before = sorted(p.name for p in rep.iterdir())
+    stamp = (rep / "index.html").stat().st_mtime_ns
+    import cases.report
+
+    def boom(run, tmp, provenance):
+        (Path(tmp) / "index.html").write_text("half")
+        raise KeyboardInterrupt                           # as if interrupted while writing
+    monkeypatch.setattr(cases.report, "write_report", boom)
+    with pytest.raises(KeyboardInterrupt):
+        cases.run_case(folder, rep, n_jobs=1, progress=False, log=lambda m: None)
+    assert sorted(p.name for p in rep.iterdir()) == before and (rep / "index.html").stat().st_mtime_ns == stamp
+    assert not [p for p in rep.parent.iterdir() if p.name.startswith(".")]
+
+
+def test_cli_errors_are_one_line(tmp_path, folder):
+    _write_case(folder, SMALL.format(extra="").replace('visibility = "40 km"', 'visibility = "40 m"'))
+    p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", str(folder), "-o", str(tmp_path / "r")],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2, p.stderr
+    assert p.stderr.strip().count("\n") == 0 and "sky.visibility" in p.stderr and "expected km" in p.stderr
+    assert not (tmp_path / "r").exists()
+    p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", "no_such_case"], capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 2 and "solar_potential" in p.stderr
