@@ -236,7 +236,10 @@ class _Handler(BaseHTTPRequestHandler):
             self.send_header(k, v)
         self.end_headers()
         if self.command != "HEAD":
-            self.wfile.write(body)
+            try:
+                self.wfile.write(body)
+            except (BrokenPipeError, ConnectionResetError):
+                pass                   # the page moved on (a newer slider state): nothing to deliver
 
     def _json(self, code, obj):
         self._send(code, json.dumps(obj).encode(), "application/json")

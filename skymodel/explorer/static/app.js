@@ -93,7 +93,7 @@ async function loadSpectrum(side, p) {
 // --- plots -----------------------------------------------------------------------------------------
 const COLORS = ["#1f5fa8", "#d9541e", "#2a9d4a", "#8e44ad", "#888"];
 function plot(canvas, series, ylabel, logy) {
-  const ctx = canvas.getContext("2d"), W = canvas.width, H = canvas.height, L = 62, R = 10, T = 10, B = 34;
+  const ctx = canvas.getContext("2d"), W = canvas.width, H = canvas.height, L = 72, R = 10, T = 10, B = 34;
   ctx.clearRect(0, 0, W, H);
   const xs = series.flatMap((s) => s.x), ys = series.flatMap((s) => s.y).filter((v) => isFinite(v) && (!logy || v > 0));
   if (!xs.length || !ys.length) { ctx.fillText("no data", W / 2 - 20, H / 2); return; }
@@ -106,15 +106,18 @@ function plot(canvas, series, ylabel, logy) {
   ctx.strokeStyle = "#999"; ctx.fillStyle = "#333"; ctx.font = "11px sans-serif"; ctx.lineWidth = 1;
   ctx.strokeRect(L, T, W - L - R, H - T - B);
   for (let x = Math.ceil(x0 / 400) * 400; x <= x1; x += 400) {
-    ctx.fillText(String(x), px(x) - 12, H - B + 14);
+    ctx.textAlign = "center"; ctx.fillText(String(x), px(x), H - B + 14); ctx.textAlign = "left";
     ctx.beginPath(); ctx.moveTo(px(x), H - B); ctx.lineTo(px(x), H - B + 4); ctx.stroke();
   }
-  ctx.fillText("wavelength [nm]", W / 2 - 40, H - 4);
+  ctx.textAlign = "center"; ctx.fillText("wavelength [nm]", (L + W - R) / 2, H - 4); ctx.textAlign = "left";
+  ctx.textAlign = "right";
   for (let k = 0; k <= 4; k++) {
     const fv = fy0 + (fy1 - fy0) * k / 4, v = logy ? Math.pow(10, fv) : fv;
-    ctx.fillText(v.toPrecision(3), 4, py(v) + 4);
+    ctx.fillText(v.toPrecision(3), L - 4, py(v) + 4);
   }
-  ctx.save(); ctx.translate(12, H / 2 + 60); ctx.rotate(-Math.PI / 2); ctx.fillText(ylabel, 0, 0); ctx.restore();
+  ctx.textAlign = "center";
+  ctx.save(); ctx.translate(10, (T + H - B) / 2); ctx.rotate(-Math.PI / 2); ctx.fillText(ylabel, 0, 0); ctx.restore();
+  ctx.textAlign = "left";
   series.forEach((s, i) => {
     ctx.strokeStyle = s.color || COLORS[i % COLORS.length]; ctx.lineWidth = 1.6; ctx.setLineDash(s.dash || []);
     ctx.beginPath(); let started = false;
