@@ -11,6 +11,18 @@ daylight hours, scaled to the year's daylight hours; the ratio is reported.
 
 Run: python benchmarks/bench_poa.py [--faces 20000] [--jobs 2] [--baseline-hours 3]
      [--mf M --rays-per-patch K --radiance-samples K]  (default: IntegratorSettings())
+
+Memory and time against today's code path (issue 17):
+
+     python benchmarks/bench_poa.py --compare [--baseline-commit 46f5284] [--repeat 1]
+
+runs, each in its own process (so that peak resident memory is the process's own: ru_maxrss of
+the main process; the ray-casting workers are separate processes, reported apart), alternating:
+``today`` (the integrator at ``--baseline-commit``, extracted with ``git archive``: totals and the
+weighted responses held in memory), ``streamed`` (this code: 3 responses x 3 parts + aoi + sun
+visibility streamed to an HDF5 file) and ``optics`` (the same with a Fresnel cover IAM on the c-Si
+response and an angle x wavelength glazing table). Time is reported as the ratio to ``today`` in
+the same run.
 """
 
 from __future__ import annotations
@@ -107,9 +119,52 @@ def responses(wl):
     return {"c-Si": csi, "glazing": glazing}
 
 
-def year_states(year=2023, lat=50.08, lon=14.42, visibility=40.0, albedo=0.2):
+def fresnel_cover(aoi, n=1.526, K=4.0, L=0.002):
+    """Transmittance of a glass cover relative to normal incidence [1] at ``aoi`` [deg]: Fresnel
+    reflection of unpolarised light at both polarisations and Beer absorption along the refracted
+    path (De Soto et al. 2006's cover model, written from the physics)."""
+    th = np.radians(np.clip(np.asarray(aoi, dtype=float), 0.0, 89.999))
+
+    def tau(t):
+        tr = np.arcsin(np.sin(t) / n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rs = (np.sin(tr - t) / np.sin(tr + t)) ** 2
+            rp = (np.tan(tr - t) / np.tan(tr + t)) ** 2
+        r0 = ((n - 1) / (n + 1)) ** 2
+        rs = np.where(t < 1e-9, r0, rs)
+        rp = np.where(t < 1e-9, r0, rp)
+        return np.exp(-K * L / np.cos(tr)) * (1 - 0.5 * (rs + rp))
+
+    out = tau(th) / tau(np.zeros(1))
+    return np.where(np.asarray(aoi) >= 90.0, 0.0, out)
+
+
+def glazing_table():
+    """An angle x wavelength transmittance of 4 mm clear glass [1]: Fresnel at n = 1.52 with a
+    wavelength-dependent absorption coefficient (an iron-oxide-like band near 1000 nm and the UV
+    edge), 0-90 deg by 5 deg, 280-2480 nm by 20 nm (an illustrative table, not a product's)."""
+    from irradiance import SpectralAngularTable
+    ang = np.arange(0.0, 90.1, 5.0)
+    wl = np.arange(280.0, 2480.1, 20.0)
+    K = 20.0 + 120.0 * np.exp(-0.5 * ((wl - 1000.0) / 250.0) ** 2) + 4000.0 * np.exp(-(wl - 280.0) / 25.0)
+    tab = np.stack([fresnel_cover(ang, n=1.52, K=k, L=0.004) * np.exp(-k * 0.004) for k in K], 1)
+    return SpectralAngularTable(ang, wl, tab)
+
+
+def response_objects(wl, optics):
+    """The two responses of :func:`responses` as Response objects; with ``optics`` a Fresnel cover
+    on c-Si and the angle x wavelength glazing table."""
+    from irradiance import Response
+    r = responses(wl)
+    return [Response("c-Si", wl, r["c-Si"], unit="sr", angular=fresnel_cover if optics else None),
+            Response("glazing", wl, r["glazing"] if not optics else np.ones_like(wl),
+                     unit="transmittance", angular=glazing_table() if optics else None)]
+
+
+def year_states(year=2023, lat=50.08, lon=14.42, visibility=40.0, albedo=0.2, states_type=None):
     from irradiance.skies import SkyStates
     from irradiance.solarposition import solar_position
+    SkyStates = states_type or SkyStates
     times = pd.date_range(f"{year}-01-01 00:30", f"{year}-12-31 23:30", freq="1h", tz="Etc/GMT-1")
     sp = solar_position(times, lat, lon)
     st = SkyStates.create(sp["apparent_elevation"].to_numpy(), sp["azimuth"].to_numpy(),
@@ -117,8 +172,108 @@ def year_states(year=2023, lat=50.08, lon=14.42, visibility=40.0, albedo=0.2):
     return times, st
 
 
+def _worker(mode, faces, jobs, output):
+    """One timed run in this process; prints a JSON line (seconds, peak RSS)."""
+    import json
+    import resource
+    import importlib
+    base = os.environ.get("BENCH_POA_BASELINE")
+    if base:                  # the baseline package, under its own name (the editable install
+        sys.path.insert(0, base)          # resolves "irradiance.*" to this worktree)
+    pkg = "irradiance_baseline" if base else "irradiance"
+    make_scene = importlib.import_module(pkg + ".scene").make_scene
+    skies = importlib.import_module(pkg + ".skies")
+    if base and not skies.__file__.startswith(base):
+        raise SystemExit(f"baseline not loaded: {skies.__file__}")
+    analysis, groups, context = benchmark_scene(faces)
+    scene = make_scene(analysis, context, groups=groups, ground_z=0.0)
+    times, states = year_states(states_type=skies.SkyStates)
+    import skymodel
+    sky = skies.PragueSky(skymodel.load_dataset())
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t0 = time.perf_counter()
+    if mode == "today":
+        poa_irradiance = importlib.import_module(pkg + ".integrator").poa_irradiance
+        res = poa_irradiance(scene, sky, states, responses=responses(sky.wavelengths),
+                             times=times, n_jobs=jobs)
+        total = float(res.poa_global.sum(dtype=np.float64))
+    else:
+        from irradiance import poa_irradiance
+        res = poa_irradiance(scene, sky, states, responses=response_objects(
+            sky.wavelengths, mode == "optics"), times=times, n_jobs=jobs, output=output)
+        total = float(sum(res.poa_global[a:a + 512].sum(dtype=np.float64)
+                          for a in range(0, res.n_steps, 512)))
+    sec = time.perf_counter() - t0
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    size = os.path.getsize(output) if output and os.path.exists(output) else 0
+    print("RESULT " + json.dumps({"mode": mode, "seconds": sec, "peak_rss_mb": rss / 1024,
+                                  "rss_before_run_mb": rss0 / 1024, "worker_peak_rss_mb": kids / 1024,
+                                  "file_mb": size / 2 ** 20, "sum_poa_global": total,
+                                  "timings": {k: v for k, v in res.timings.items()
+                                              if isinstance(v, (int, float))}}))
+    return 0
+
+
+def compare(args):
+    """Run today / streamed / optics in separate processes, alternating; print RSS and time ratios."""
+    import json
+    import subprocess
+    here = os.path.dirname(os.path.abspath(__file__))
+    repo = os.path.dirname(here)
+    work = tempfile.mkdtemp(prefix="bench_poa_")
+    base = os.path.join(work, "baseline")
+    os.makedirs(base)
+    arch = subprocess.run(["git", "-C", repo, "archive", args.baseline_commit, "irradiance"],
+                          check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", base], input=arch, check=True)
+    os.rename(os.path.join(base, "irradiance"), os.path.join(base, "irradiance_baseline"))
+    runs = []
+    for rep in range(args.repeat):
+        for mode in ("today", "streamed", "optics"):
+            env = dict(os.environ)
+            env.pop("BENCH_POA_BASELINE", None)
+            if mode == "today":
+                env["BENCH_POA_BASELINE"] = base
+            out = os.path.join(work, f"{mode}.h5")
+            cmd = [sys.executable, os.path.abspath(__file__), "--worker", mode, "--faces",
+                   str(args.faces), "--jobs", str(args.jobs), "--worker-output", out]
+            load = os.getloadavg()[0]
+            p = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=work)
+            line = [x for x in p.stdout.splitlines() if x.startswith("RESULT ")]
+            if p.returncode or not line:
+                print(p.stdout[-2000:], p.stderr[-4000:])
+                raise SystemExit(f"{mode} run failed")
+            r = json.loads(line[-1][7:])
+            r["load"] = load
+            runs.append(r)
+            print(f"  {mode:9s} {r['seconds']:7.1f} s, peak RSS main {r['peak_rss_mb']:7.0f} MB "
+                  f"(before the run {r['rss_before_run_mb']:.0f} MB), workers {r['worker_peak_rss_mb']:.0f} MB, "
+                  f"file {r['file_mb']:.0f} MB, load {load:.1f}", flush=True)
+            if os.path.exists(out):
+                os.unlink(out)
+    t = {m: [r["seconds"] for r in runs if r["mode"] == m] for m in ("today", "streamed", "optics")}
+    m = {k: max(r["peak_rss_mb"] for r in runs if r["mode"] == k) for k in t}
+    sums = {k: [r["sum_poa_global"] for r in runs if r["mode"] == k][0] for k in t}
+    print(f"time ratio streamed / today = {np.median(t['streamed']) / np.median(t['today']):.2f} "
+          f"(medians of {args.repeat}), optics / today = "
+          f"{np.median(t['optics']) / np.median(t['today']):.2f}")
+    print(f"peak RSS of the main process [MB]: today {m['today']:.0f}, streamed {m['streamed']:.0f}, "
+          f"optics {m['optics']:.0f}")
+    print(f"broadband poa_global sums agree: streamed / today - 1 = "
+          f"{sums['streamed'] / sums['today'] - 1:.2e} (the new runs scale by 1/r^2 of the "
+          f"Earth-Sun distance, today's do not: the annual mean of 1/r^2 is about 1.0001)")
+    return 0
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--compare", action="store_true",
+                    help="memory and time against today's code path (see the module docstring)")
+    ap.add_argument("--baseline-commit", default="46f5284")
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--worker-output", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--faces", type=int, default=20000)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--baseline-hours", type=int, default=3)
@@ -127,6 +282,10 @@ def main(argv=None):
     ap.add_argument("--rays-per-patch", type=int, default=None, help="override rays_per_patch")
     ap.add_argument("--radiance-samples", type=int, default=None, help="override radiance_samples")
     args = ap.parse_args(argv)
+    if args.worker:
+        return _worker(args.worker, args.faces, args.jobs, args.worker_output)
+    if args.compare:
+        return compare(args)
     from irradiance.integrator import IntegratorSettings, poa_irradiance
     from irradiance.scene import make_scene
 
@@ -160,7 +319,7 @@ def main(argv=None):
     print(f"  products: {tm['product']:.1f} s "
           f"({scene.n_faces * n_lit / max(tm['product'], 1e-9) / 1e6:.1f} M face-steps/s)")
     agg = res.aggregate()
-    kwh = agg["poa_global"].sum(axis=0) / 1000.0
+    kwh = agg["poa_global"].sum(axis=0) / 1000.0   # hourly steps: W m-2 x 1 h
     print("  annual POA global per group [kWh m-2]: " +
           ", ".join(f"{g} {v:.0f}" for g, v in zip(res.group_names, kwh)))
 

@@ -5,7 +5,7 @@ from .location import (LABELS, Location, Site, daytime_steps, ensure_tz_aware, f
 from .measured import (MeasuredScaling, blend_toward_isotropic, clearness_index,
                        isotropic_blend_weight, measured_scale_factors)
 from .skystate import (DEFAULT_GROUPING, PSM_RANGES, GroupingSteps, SkyGroups, SkyRanges,
-                       group_sky_states, sky_ranges, sky_states)
+                       group_sky_states, sky_ranges, sky_states, sky_states_for)
 from .solarposition import (SOLAR_CONSTANT, SpaResult, delta_t_estimate, dni_extra, julian_day,
                             solar_position, spa)
 from .weather import (WEATHER_COLUMNS, WeatherData, WeatherFileError, read_epw, read_tmy3,
@@ -16,8 +16,11 @@ from .skies import AnalyticSky, PragueSky, SkyStates, UniformSky
 from .raycast import (Coefficients, PendingCoefficients, compute_coefficients, start_coefficients,
                       sun_bins)
 from .reference import ReferenceResult, reference_poa, validation_scenes
-from .integrator import (PRESETS, IntegratorSettings, POAResult, measured_scaling, model_irradiance,
-                         patch_radiance, poa_irradiance)
+from .integrator import (PRESETS, IntegratorSettings, measured_scaling, model_irradiance,
+                         patch_radiance)
+from .response import AngularTable, Response, SpectralAngularTable
+from .result import FaceTable, POAResult
+from .poa import poa_irradiance
 
 __all__ = [
     # solar position
@@ -30,7 +33,7 @@ __all__ = [
     "WeatherData", "WeatherFileError", "read_epw", "read_tmy3", "read_weather_csv", "read_weather",
     "write_epw", "WEATHER_COLUMNS",
     # sky states
-    "SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "GroupingSteps", "DEFAULT_GROUPING",
+    "sky_states_for", "SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "GroupingSteps", "DEFAULT_GROUPING",
     "SkyGroups", "group_sky_states",
     # measured weather on the clear-sky model
     "MeasuredScaling", "measured_scale_factors", "clearness_index", "isotropic_blend_weight",
@@ -40,7 +43,9 @@ __all__ = [
     "SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "compute_coefficients", "Coefficients",
     "start_coefficients", "PendingCoefficients", "sun_bins",
     "IntegratorSettings", "PRESETS", "patch_radiance", "poa_irradiance", "POAResult",
-    "model_irradiance", "measured_scaling",
+    "model_irradiance", "measured_scaling", "FaceTable",
+    # responses and their optics
+    "Response", "AngularTable", "SpectralAngularTable",
     # brute-force reference
     "reference_poa", "ReferenceResult", "validation_scenes",
 ]

@@ -3,7 +3,7 @@
 Examples::
 
     widesky poa roof.obj --context city.glb --lat 50.08 --lon 14.42 --tz Europe/Prague \\
-        --start 2023-01-01 --end 2024-01-01 --step 1h --visibility 40 --albedo 0.2 -o poa.npz
+        --start 2023-01-01 --end 2024-01-01 --step 1h --visibility 40 --albedo 0.2 -o poa.h5
     widesky poa roof.obj --weather prague.epw --response c-Si=csi_sr.csv -o poa.csv
 
 Mesh coordinates are metres east, north, up (e.g. UTM). Without ``--weather`` the sky is the clear
@@ -11,12 +11,14 @@ sky of the dataset for every step of the period. With ``--weather`` (EPW, TMY3 o
 column names) the site, the steps, and per-step visibility (or aerosol optical depth) and albedo come
 from the file, and the clear sky is scaled per step to the file's measured DNI and DHI (docs/
 time-and-weather.md; ``--clear-sky`` keeps the clear sky); ``--start``/``--end`` select a part of the
-file. ``--response NAME=FILE`` (repeatable) reads a spectral response (CSV: wavelength [nm],
-response [1]; interpolated to the channel centres, 0 outside) and adds its effective irradiance.
+file. ``--response NAME=FILE`` (repeatable, names unique) reads a spectral response
+(:meth:`irradiance.Response.from_csv`: columns ``wavelength_nm,value``; ``--response-unit`` sr,
+qe, transmittance or weight), band-averaged over each 40 nm channel; its parts are added.
 
-Writes an ``.npz`` with the (T, F) arrays ``poa_global``, ``poa_direct``, ``poa_sky_diffuse``,
-``poa_ground_diffuse`` and ``effective_irradiance_<name>`` [W m-2], ``times``, ``face_area`` [m2],
-``face_group`` and ``group_names``; or, for ``.csv``, the area-weighted mean per face group.
+Output by suffix: ``.h5``/``.hdf5`` the full result (:class:`irradiance.POAResult`, per face, step,
+response and part; streamed to the file during the run, :meth:`POAResult.load` reads it), or
+``.csv`` the area-weighted mean of every part per face group (or of one ``--group``). Outputs are
+written atomically; the output folder is checked before any computation.
 """
 
 from __future__ import annotations
@@ -48,7 +50,10 @@ def register(subparsers) -> None:
     p.add_argument("--albedo", type=float, default=0.2,
                    help="ground albedo [1] (with --weather: where the file gives none)")
     p.add_argument("--response", action="append", default=[], metavar="NAME=FILE",
-                   help="spectral response CSV (wavelength [nm], response [1]); repeatable")
+                   help="spectral response CSV (wavelength_nm,value); repeatable, unique names")
+    p.add_argument("--response-unit", default="sr", choices=("sr", "qe", "transmittance", "weight"),
+                   help="unit of the --response values: sr [A W-1] (default), qe [1], "
+                        "transmittance [1], weight [1]")
     p.add_argument("--ground-z", type=float, default=None, help="ground height [m] (default: lowest vertex)")
     p.add_argument("--dataset", default=None, help="PSM dataset file (default: embedded)")
     p.add_argument("--tolerance", type=float, default=0.02,
@@ -57,46 +62,101 @@ def register(subparsers) -> None:
     p.add_argument("--samples-per-face", type=int, default=1, help="points per face (1, 4, 9 ...)")
     p.add_argument("--two-sided", action="store_true", help="also analyse the back of every face")
     p.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores)")
-    p.add_argument("-o", "--output", required=True, help="output .npz (per face) or .csv (per group)")
+    p.add_argument("--group", default=None, help="with a .csv output: only this face group")
+    p.add_argument("-o", "--output", required=True,
+                   help="output: .h5/.hdf5 (full result per face) or .csv (per face group)")
     p.set_defaults(func=_run)
 
 
-def read_response(path, wavelengths):
-    """A spectral response from a CSV file (first column wavelength [nm], second the response [1];
-    ``#`` comments and one header line allowed), interpolated linearly to ``wavelengths`` [nm], 0
-    outside its range."""
-    rows = []
+#: Longest run the CLI starts [steps] (about 10 years of 5-minute steps); split longer periods.
+MAX_STEPS = 1_000_000
+OUTPUT_SUFFIXES = (".h5", ".hdf5", ".csv")
+
+
+def _output_kind(path):
+    """"h5" or "csv" from the output's suffix; checks that its folder exists and is writable."""
+    import os
+    low = str(path).lower()
+    kind = "h5" if low.endswith((".h5", ".hdf5")) else "csv" if low.endswith(".csv") else None
+    if kind is None:
+        raise ValueError(f"--output {path!r}: unknown suffix; valid: {', '.join(OUTPUT_SUFFIXES)} "
+                         "(HDF5 result per face, or CSV per face group)")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ValueError(f"--output {path!r}: folder {folder!r} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"--output {path!r}: folder {folder!r} is not writable")
+    return kind
+
+
+def _check_args(args):
+    """Bad input refused before any work, each message naming the option, value and valid range."""
+    import math
+    if args.jobs is not None and args.jobs < 1:
+        raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
+    if args.ground_z is not None and not math.isfinite(args.ground_z):
+        raise ValueError(f"--ground-z {args.ground_z}: must be a finite height [m]")
+    for name, v, lo, hi in (("--visibility", args.visibility, 0.0, None),
+                            ("--albedo", args.albedo, 0.0, 1.0),
+                            ("--site-altitude", args.site_altitude, -500.0, 9000.0),
+                            ("--tolerance", args.tolerance, 0.0, None)):
+        if not math.isfinite(v) or v < lo or (hi is not None and v > hi) or (
+                name in ("--visibility", "--tolerance") and v <= 0):
+            rng = f"[{lo:g}, {hi:g}]" if hi is not None else f"> {lo:g}"
+            raise ValueError(f"{name} {v}: outside the valid range {rng}")
+    if args.weather is not None:
+        given = [n for n in ("lat", "lon") if getattr(args, n) is not None]
+        if given:
+            raise ValueError("--weather gives the site: remove " + ", ".join("--" + g for g in given))
+    if args.group is not None and not str(args.output).lower().endswith(".csv"):
+        raise ValueError("--group selects a face group of a .csv output")
+
+
+def _responses(args):
+    from .response import Response
+    out, names = [], set()
+    for item in args.response:
+        name, sep, path = item.partition("=")
+        if not sep or not name or not path:
+            raise ValueError(f"--response {item!r}: expected NAME=FILE")
+        if name in names or name == "broadband":
+            raise ValueError(f"--response {item!r}: the name {name!r} is "
+                             + ("given twice" if name in names else "reserved (always computed)"))
+        names.add(name)
+        out.append(Response.from_csv(path, name=name, unit=args.response_unit))
+    return out
+
+
+def _period_steps(args):
+    """Steps of the clear-sky period, estimated before anything is allocated."""
+    import pandas as pd
     try:
-        with open(path, encoding="utf-8-sig") as f:
-            lines = f.read().splitlines()
-    except OSError as e:
-        raise ValueError(f"response file {path}: {e.strerror}") from None
-    header_seen = False
-    for n, line in enumerate(lines, 1):
-        line = line.split("#", 1)[0].strip()
-        if not line:
-            continue
-        parts = [x.strip() for x in line.replace(";", ",").split(",")]
-        try:
-            rows.append((float(parts[0]), float(parts[1])))
-        except (ValueError, IndexError):
-            if rows or header_seen:
-                raise ValueError(f"response file {path}, line {n}: expected 'wavelength [nm], "
-                                 f"response [1]', got {line[:60]!r}") from None
-            header_seen = True
-    a = np.array(rows, dtype=float).reshape(-1, 2)
-    a = a[np.all(np.isfinite(a), axis=1)]
-    if a.shape[0] < 2:
-        raise ValueError(f"response file {path}: fewer than two valid rows")
-    a = a[np.argsort(a[:, 0])]
-    return np.interp(wavelengths, a[:, 0], a[:, 1], left=0.0, right=0.0)
+        step = pd.Timedelta(args.step)
+        span = pd.Timestamp(args.end) - pd.Timestamp(args.start)
+    except (ValueError, TypeError) as e:
+        raise ValueError(f"--start/--end/--step: {e}") from None
+    if step <= pd.Timedelta(0):
+        raise ValueError(f"--step {args.step}: must be positive")
+    return int(span / step)
+
+
+def _refuse_huge(n_steps, n_faces, n_responses, what):
+    from .poa import estimate_run
+    if n_steps <= MAX_STEPS:
+        return
+    out_bytes, _ = estimate_run(n_faces, n_steps, n_responses)
+    # measured on the 20,000-face benchmark: about 1.5e-9 s per face, daylight step and column
+    # on 2 cores (docs/irradiance-integrator.md); half the steps are daylight
+    secs = 1.5e-9 * n_faces * n_steps * 0.5 * (n_responses + 1) * 3
+    raise ValueError(f"{what}: {n_steps:,} steps x {n_faces:,} faces would write about "
+                     f"{out_bytes / 1e9:,.0f} GB and take about {secs / 3600:,.1f} h; the CLI "
+                     f"runs at most {MAX_STEPS:,} steps: split the period")
 
 
 def _steps(args, sky):
-    """(times, SkyStates, measured (dni, dhi) or None, note) for the period or the weather file."""
-    from .location import Site, time_range
-    from .skies import SkyStates
-    from .skystate import sky_states
+    """(SkyStates, measured (dni, dhi) or None, note) for the period or the weather file."""
+    from .location import Site
+    from .skystate import sky_states_for
     from .weather import read_weather
 
     if args.weather is None:
@@ -109,74 +169,88 @@ def _steps(args, sky):
         except ValueError:
             pass
         site = Site(args.lat, args.lon, args.site_altitude, tz=tz)
-        times = time_range(args.start, args.end, args.step, tz=site.tz, label="left")
-        sp = site.solar_position(times, label="left")
-        states = SkyStates.create(sp["apparent_elevation"].to_numpy(), sp["azimuth"].to_numpy(),
-                                  args.visibility, args.albedo)
-        return times, states, None, "clear sky"
+        states = sky_states_for(site, args.start, args.end, args.step, model=sky.model,
+                                visibility=args.visibility, albedo=args.albedo, label="left")
+        return states, None, "clear sky"
     wd = read_weather(args.weather)
-    data = wd.data
-    if args.start is not None or args.end is not None:
-        lo = data.index[0] if args.start is None else wd.site.localize([args.start])[0]
-        hi = None if args.end is None else wd.site.localize([args.end])[0]
-        keep = (data.index >= lo) & (True if hi is None else data.index < hi)
-        data = data[keep]
-        if data.empty:
-            raise ValueError(f"no steps of {args.weather} in the period {args.start} .. {args.end}")
-    sp = wd.site.solar_position(data.index, wd.label, wd.step)
-    st = sky_states(sp, data, model=sky.model, default_visibility=args.visibility,
-                    default_albedo=args.albedo)
-    states = SkyStates.create(st["solar_elevation"].to_numpy(), st["azimuth"].to_numpy(),
-                              st["visibility"].to_numpy(), st["albedo"].to_numpy())
+    states = sky_states_for(wd, args.start, args.end, model=sky.model,
+                            visibility=args.visibility, albedo=args.albedo)
     note = f"weather {args.weather} ({wd.site.latitude:.3f}, {wd.site.longitude:.3f})"
+    data = wd.data.loc[states.times]
     if args.clear_sky or not {"dni", "dhi"} <= set(data.columns):
-        return data.index, states, None, note + ", clear sky"
-    return (data.index, states, (data["dni"].to_numpy(), data["dhi"].to_numpy()),
-            note + ", scaled to measured DNI/DHI")
+        return states, None, note + ", clear sky"
+    return states, (data["dni"].to_numpy(), data["dhi"].to_numpy()), note + ", scaled to measured DNI/DHI"
+
+
+def _write_csv(res, path, group=None):
+    """Area-weighted mean of every response's parts per face group, written atomically."""
+    import os
+    import tempfile
+
+    import pandas as pd
+    agg = res.aggregate()
+    groups = list(enumerate(res.group_names))
+    if group is not None:
+        if group not in res.group_names:
+            raise ValueError(f"--group {group!r}: not one of {res.group_names}")
+        groups = [(res.group_names.index(group), group)]
+    cols = {}
+    for r in res.responses:
+        for p in ("global", "direct", "sky_diffuse", "ground_diffuse"):
+            for g, name in groups:
+                cols[f"{name}:{r}:poa_{p}"] = agg[f"{r}:{p}"][:, g]
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".csv", dir=folder)
+    os.close(fd)
+    try:
+        pd.DataFrame(cols, index=res.times).to_csv(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
 
 
 def _run(args) -> int:
-    from .integrator import IntegratorSettings, poa_irradiance
+    import warnings
+
+    from .integrator import IntegratorSettings
+    from .poa import poa_irradiance
     from .scene import make_scene
     from .skies import PragueSky
 
+    _check_args(args)
+    kind = _output_kind(args.output)
+    responses = _responses(args)
+    if args.weather is None and args.start is not None and args.end is not None:
+        _refuse_huge(_period_steps(args), 1, len(responses), f"--start {args.start} --end "
+                     f"{args.end} --step {args.step}")
     sky = PragueSky(args.dataset)
-    responses = {}
-    for item in args.response:
-        name, sep, path = item.partition("=")
-        if not sep or not name or not path:
-            raise ValueError(f"--response {item!r}: expected NAME=FILE")
-        responses[name] = read_response(path, sky.wavelengths)
-    times, states, measured, note = _steps(args, sky)
-    sky.check_states(states)
     scene = make_scene(args.mesh, args.context, groups=[str(m) for m in args.mesh],
                        ground_z=args.ground_z, samples_per_face=args.samples_per_face,
                        two_sided=args.two_sided)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        states, measured, note = _steps(args, sky)
+    for w in caught:
+        print(f"widesky: warning: {w.message}", file=sys.stderr)
+    _refuse_huge(len(states), scene.n_faces, len(responses), "the run")
     res = poa_irradiance(scene, sky, states, responses=responses,
                          settings=IntegratorSettings.for_tolerance(args.tolerance),
-                         measured=measured,
-                         times=times, n_jobs=args.jobs, progress=sys.stderr.isatty())
-    if args.output.endswith(".csv"):
-        import pandas as pd
-        agg = res.aggregate()
-        cols = {}
-        for q in [*res.QUANTITIES, *(f"effective_irradiance:{n}" for n in res.effective_irradiance)]:
-            for g, name in enumerate(res.group_names):
-                cols[f"{name}:{q}"] = agg[q][:, g]
-        pd.DataFrame(cols, index=times).to_csv(args.output)
-    else:
-        np.savez_compressed(args.output, times=np.asarray(times.astype(str), dtype=str),
-                            face_area=res.face_area, face_group=res.face_group,
-                            group_names=np.array(res.group_names),
-                            **{q: getattr(res, q) for q in res.QUANTITIES},
-                            **{f"effective_irradiance_{n}": v
-                               for n, v in res.effective_irradiance.items()})
+                         measured=measured, n_jobs=args.jobs, progress=sys.stderr.isatty(),
+                         output=args.output if kind == "h5" else None,
+                         provenance={"command": "widesky poa " + " ".join(sys.argv[2:])})
+    if kind == "csv":
+        _write_csv(res, args.output, args.group)
     if res.scaling is not None:
         lit = states.sun_elevation > 0
         n_g = int(np.sum(res.scaling.sun_guarded | res.scaling.sky_guarded))
         note += f" ({n_g} of {int(lit.sum())} daylight steps guarded or missing)"
+    n_c = states.n_clamped
+    if n_c:
+        note += ", clamped: " + ", ".join(f"{k} {v}" for k, v in n_c.items())
     tm = res.timings
-    print(f"{scene.n_faces} faces x {len(times)} steps ({note}): rays {tm['rays']:.1f} s "
+    print(f"{scene.n_faces} faces x {len(states)} steps ({note}): rays {tm['rays']:.1f} s "
           f"({tm['n_rays'] / 1e6:.1f} M), sky {tm['sky']:.1f} s, products {tm['product']:.1f} s "
           f"-> {args.output}")
+    res.close()
     return 0

@@ -52,6 +52,8 @@ from .skies import SkyStates
 __all__ = ["IntegratorSettings", "patch_radiance", "poa_irradiance", "POAResult",
            "circumsolar_quadrature", "PRESETS", "model_irradiance", "measured_scaling"]
 
+# poa_irradiance and POAResult live in irradiance.poa and irradiance.result (imported at the end)
+
 
 @dataclass(frozen=True)
 class IntegratorSettings:
@@ -195,7 +197,8 @@ def _radial_weights(edges, lq, sectors, nodes=6):
     return w
 
 
-def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, settings=None):
+def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, settings=None, *,
+                   sun_scale=None, sky_scale=None):
     """Mean sky radiance over every patch per step, the circumsolar peak split off, channels contracted.
 
     Inside ``circumsolar_radius`` of the sun the sky is split into ``min(L, L_edge)`` (``L_edge``: the
@@ -217,6 +220,12 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
         (C, R) contraction matrix applied to the channels; default identity (R = C).
     settings : IntegratorSettings, optional
         Sample counts.
+    sun_scale, sky_scale : array_like, optional
+        (T,) or (T, C) factors [1] on the sun's spectral direct normal irradiance and on the
+        spectral sky radiance, applied before the channels are contracted.
+
+    The sun and the sky are scaled by ``1 / earth_sun_distance**2`` (the states' Earth-Sun
+    distance [AU]; the sky model's extraterrestrial spectrum is at 1 AU).
 
     Returns
     -------
@@ -254,7 +263,10 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     qp = np.maximum(qp, 0)
     inside = (s @ reg_d.T) > cos_rad                                         # (T, n_reg + P)
     dirs = np.concatenate([np.broadcast_to(reg_d, (T,) + reg_d.shape), qd], axis=1)
-    L = sky.radiance(dirs, states) @ W                                       # (T, Nd, R)
+    r2 = 1.0 / np.asarray(states.earth_sun_distance, dtype=float) ** 2             # (T,)
+    f_sky = _step_channel_factor(sky_scale, T, C, "sky_scale") * r2[:, None]       # (T, C)
+    f_sun = _step_channel_factor(sun_scale, T, C, "sun_scale") * r2[:, None]
+    L = (sky.radiance(dirs, states) * f_sky[:, None, :]) @ W                 # (T, Nd, R)
     R = W.shape[1]
     nr = reg_p.size
     Lq = L[:, nr:]
@@ -280,8 +292,24 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     wl = (wts[..., None] * Lr).reshape(-1, R)
     num = np.stack([np.bincount(flat, weights=wl[:, j], minlength=T * P) for j in range(R)], 1)
     out = (num / den[:, None]).reshape(T, P, R)
-    dni = np.asarray(sky.direct_normal(states), dtype=float) @ W
+    dni = (np.asarray(sky.direct_normal(states), dtype=float) * f_sun) @ W
     return out, dni, circumsolar
+
+
+def _step_channel_factor(value, T, C, name):
+    """(T, C) from None (ones), (T,) or (T, C) factors [1], checked finite and >= 0."""
+    if value is None:
+        return np.ones((T, C))
+    v = np.asarray(value, dtype=float)
+    if v.ndim == 1:
+        v = v[:, None]
+    try:
+        v = np.broadcast_to(v, (T, C))
+    except ValueError:
+        raise ValueError(f"{name} has shape {np.shape(value)}, expected ({T},) or ({T}, {C})") from None
+    if not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise ValueError(f"{name} must be finite and >= 0")
+    return v
 
 
 def _horizontal_diffuse(patch_radiance, circumsolar, w_horizontal, sun_elevation):
@@ -354,86 +382,6 @@ def measured_scaling(sky, states: SkyStates, dni, dhi, settings=None, **kwargs):
     return measured_scale_factors(mdni, mdhi, dni, dhi, **kwargs), (mdni, mdhi)
 
 
-@dataclass(eq=False)
-class POAResult:
-    """Plane-of-array irradiance per analysis face and step (arrays shaped (T, F), time first).
-
-    Attributes
-    ----------
-    poa_global, poa_direct, poa_sky_diffuse, poa_ground_diffuse : numpy.ndarray
-        Broadband (channel-integrated, 280-2480 nm for the PSM) irradiance [W m-2];
-        ``poa_ground_diffuse`` holds all reflected light (ground and scene surfaces).
-    effective_irradiance : dict of str to numpy.ndarray
-        Global irradiance weighted by each response: ``sum_c SR_c E_c dlambda_c`` [W m-2].
-    spectral : numpy.ndarray or None
-        (T, F, C) spectral global irradiance [W m-2 nm-1] when requested.
-    wavelengths : numpy.ndarray
-        (C,) channel centres [nm].
-    times : pandas.DatetimeIndex or None
-        The steps.
-    face_area : numpy.ndarray
-        (F,) [m2].
-    face_group : numpy.ndarray
-        (F,) group index.
-    group_names : tuple of str
-    timings : dict
-        Wall seconds per phase and counts: ``rays`` (from submitting the ray-casting tasks until
-        their results are in; the sky evaluation of the first chunks runs meanwhile in this
-        process, ``sky_during_rays`` seconds of it), ``sky`` (all sky-model evaluation),
-        ``product``, ``total``; ``n_rays``, ``sun_bins`` (sun rays per point), ``steps``,
-        ``lit_steps``.
-    scaling : MeasuredScaling or None
-        With ``measured``: per-step factors, guard flags and unmatched irradiance (night steps:
-        factor 1).
-    """
-
-    poa_global: np.ndarray
-    poa_direct: np.ndarray
-    poa_sky_diffuse: np.ndarray
-    poa_ground_diffuse: np.ndarray
-    effective_irradiance: dict
-    spectral: object
-    wavelengths: np.ndarray
-    times: object
-    face_area: np.ndarray
-    face_group: np.ndarray
-    group_names: tuple
-    timings: dict = field(default_factory=dict)
-    scaling: object = None
-
-    QUANTITIES = ("poa_global", "poa_direct", "poa_sky_diffuse", "poa_ground_diffuse")
-
-    def aggregate(self):
-        """Area-weighted means per face group.
-
-        Returns
-        -------
-        dict
-            ``"area"``: (G,) group areas [m2]; each of ``poa_global``, ``poa_direct``,
-            ``poa_sky_diffuse``, ``poa_ground_diffuse`` and ``effective_irradiance:<name>``: (T, G)
-            area-weighted mean irradiance [W m-2] (multiply by ``area`` for power [W]).
-        """
-        G = len(self.group_names)
-        M = np.zeros((self.face_area.size, G))
-        M[np.arange(self.face_area.size), self.face_group] = self.face_area
-        area = M.sum(axis=0)
-        Mn = M / np.where(area > 0, area, 1.0)
-        out = {"area": area}
-        for q in self.QUANTITIES:
-            out[q] = getattr(self, q) @ Mn
-        for k, v in self.effective_irradiance.items():
-            out[f"effective_irradiance:{k}"] = v @ Mn
-        return out
-
-    def to_dataframe(self, face=0):
-        """pandas DataFrame of one face's series with pvlib column names [W m-2]."""
-        import pandas as pd
-        data = {q: getattr(self, q)[:, face] for q in self.QUANTITIES}
-        for k, v in self.effective_irradiance.items():
-            data[f"effective_irradiance_{k}"] = v[:, face]
-        return pd.DataFrame(data, index=self.times)
-
-
 def _lazy_zeros(shape, dtype):
     """A zero array; large ones live in anonymous memory mapped page by page on first write.
 
@@ -450,298 +398,5 @@ def _lazy_zeros(shape, dtype):
     return np.frombuffer(mmap.mmap(-1, nbytes), dtype=dtype).reshape(shape)
 
 
-def _responses(sky, responses):
-    C = sky.n_channels
-    names, rows = ["broadband"], [np.ones(C)]
-    for name, sr in (responses or {}).items():
-        a = np.asarray(sr, dtype=float)
-        if a.shape != (C,) or not np.all(np.isfinite(a)):
-            raise ValueError(f"response {name!r} must be finite with shape ({C},), got {a.shape}")
-        names.append(str(name))
-        rows.append(a)
-    return names, np.array(rows)
-
-
-def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, spectral=False,
-                   settings=None, dni_scale=None, diffuse_scale=None, measured=None, times=None,
-                   n_jobs=None,
-                   executor=None, progress=False, coefficients=None, dtype=np.float32):
-    """Plane-of-array irradiance on every analysis face for a series of sky states.
-
-    Parameters
-    ----------
-    scene : Scene
-        From :func:`irradiance.scene.make_scene`.
-    sky : sky source
-        :class:`irradiance.skies.PragueSky`, :class:`~irradiance.skies.UniformSky` ...
-    states : SkyStates
-        T per-step sky states (sun elevation/azimuth [deg], visibility [km], albedo [1], altitude [m]).
-    responses : dict of str to array_like, optional
-        Response vectors (C,) [1] (cell spectral response, glazing transmittance ...) per channel of
-        the sky; each gives ``effective_irradiance[name]`` [W m-2]. Channels are contracted with them
-        before the large products.
-    spectral : bool
-        Also return the spectral global irradiance (T, F, C) [W m-2 nm-1] (large: T x F x C).
-    settings : IntegratorSettings, optional
-        Resolution; default ``IntegratorSettings()`` (annual error measured against the
-        brute-force reference with the default dataset: 0.13 % on an unobstructed plane, up to
-        0.94 % per point on an obstructed facade; see docs).
-    dni_scale, diffuse_scale : array_like, optional
-        (T,) factors [1] on the sun's direct normal irradiance and on the sky radiance per step (to
-        match measured DNI / DHI); the ground and obstruction light follow.
-    measured : tuple of array_like, optional
-        (dni, dhi): (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN =
-        missing: the clear sky is kept). The factors are computed per step from the model's own
-        DNI and DHI with the same quadrature (:func:`model_irradiance`, no second sky
-        evaluation) by :func:`irradiance.measured_scale_factors` and kept in ``result.scaling``.
-        Not together with ``dni_scale``/``diffuse_scale``.
-    times : pandas.DatetimeIndex, optional
-        Labels kept on the result.
-    n_jobs : int, optional
-        Ray-casting processes (default all cores).
-    executor : concurrent.futures.Executor, optional
-        Runs the ray-casting tasks (e.g. a Dask client's executor).
-    progress : bool
-        Progress bars.
-    coefficients : Coefficients, optional
-        Precomputed for this scene, settings and these states' daylight sun directions.
-    dtype : numpy dtype
-        Output dtype (default float32).
-
-    Returns
-    -------
-    POAResult
-    """
-    t_start = time.perf_counter()
-    settings = settings or IntegratorSettings()
-    T = len(states)
-    names, Rmat = _responses(sky, responses)
-    R = len(names)
-    C = sky.n_channels
-    widths = np.diff(np.asarray(sky.channel_edges, dtype=float))
-    W = (Rmat * widths[None, :]).T                                          # (C, R): W m-2
-    cols = [W]
-    if spectral:
-        cols.append(np.eye(C))
-    ga = scene.ground_albedo
-    spectral_ground = ga is not None and np.ndim(ga) == 1
-    if spectral_ground:
-        if np.shape(ga) != (C,):
-            raise ValueError(f"ground_albedo has {np.shape(ga)[0]} channels, the sky {C}")
-        cols.append(np.asarray(ga)[:, None] * W)
-    Wall = np.concatenate(cols, axis=1)
-    scale_d = np.ones(T) if dni_scale is None else np.broadcast_to(np.asarray(dni_scale, float), (T,))
-    scale_s = (np.ones(T) if diffuse_scale is None
-               else np.broadcast_to(np.asarray(diffuse_scale, float), (T,)))
-    for name, v in (("dni_scale", scale_d), ("diffuse_scale", scale_s)):
-        if np.any(~np.isfinite(v)) or np.any(v < 0):
-            raise ValueError(f"{name} must be finite and >= 0")
-    scaling = None
-    if measured is not None:
-        if dni_scale is not None or diffuse_scale is not None:
-            raise ValueError("give measured=(dni, dhi) or dni_scale/diffuse_scale, not both")
-        m_dni, m_dhi = (np.broadcast_to(np.asarray(a, dtype=float), (T,)) for a in measured)
-        measured_scale_factors(np.ones(T), np.ones(T), m_dni, m_dhi)     # validates the inputs
-        scale_d, scale_s = np.ones(T), np.ones(T)
-        model_dni, model_dhi = np.zeros(T), np.zeros(T)
-
-    patches = reinhart(settings.mf)
-    w_horizontal = cosine_weights(patches, np.array([[0.0, 0.0, 1.0]]))[0]      # (P,) [sr]
-    el = states.sun_elevation
-    lit = np.nonzero(el > getattr(sky, "min_sun_elevation", 0.0))[0]
-    up = el > 0
-    sun_rank = np.cumsum(up) - 1
-    sun_dirs = states.sun_direction[up]
-    pending = None
-    if coefficients is None:
-        # the ray-casting tasks run in worker processes while this process evaluates the sky
-        pending = start_coefficients(scene, mf=settings.mf, rays_per_patch=settings.rays_per_patch,
-                                     sun_directions=sun_dirs, sun_bin=settings.sun_bin,
-                                     n_jobs=n_jobs, executor=executor, progress=progress)
-
-    # steps sorted by sky state, so that sources that share work between equal states (PragueSky
-    # groups equal elevations) see them in the same chunk
-    key_el = np.round(el[lit], 1)
-    lit = lit[np.lexsort((states.albedo[lit], states.visibility[lit], key_el))]
-    chunk_idx = [np.sort(lit[c0:c0 + settings.time_chunk])
-                 for c0 in range(0, lit.size, settings.time_chunk)]
-    t_sky = 0.0
-
-    def sky_chunk(idx):
-        nonlocal t_sky
-        t0 = time.perf_counter()
-        st = states.take(idx)
-        Lp, dni, cs = patch_radiance(sky, patches, st, Wall, settings)     # (Tc,P,R'), (Tc,R')
-        if measured is not None:                   # column 0 is broadband: the model's DNI, DHI
-            model_dni[idx] = dni[:, 0]
-            model_dhi[idx] = _horizontal_diffuse(Lp[..., 0], cs[:, 0], w_horizontal, st.sun_elevation)
-            f = measured_scale_factors(model_dni[idx], model_dhi[idx], m_dni[idx], m_dhi[idx],
-                                       missing="clear")
-            scale_d[idx], scale_s[idx] = f.sun_scale, f.sky_scale
-        # circumsolar light travels with the sun but is sky light: it takes the sky's scale
-        dni = dni * scale_d[idx][:, None] + cs * scale_s[idx][:, None]
-        Lp *= scale_s[idx][:, None, None]
-        t_sky += time.perf_counter() - t0
-        return Lp, dni
-
-    # evaluate the sky ahead (overlapping the ray casting) while it fits a memory budget
-    sky_ahead = []
-    budget = 256 << 20
-    if pending is not None and pending._futs is not None:
-        per_step = patches.n_patches * Wall.shape[1] * 8
-        n_ahead = min(len(chunk_idx), max(0, budget // max(per_step * settings.time_chunk, 1)))
-        sky_ahead = [sky_chunk(idx) for idx in chunk_idx[:n_ahead]]
-    t_sky_ahead = t_sky
-    if pending is not None:
-        coefficients = pending.result()
-    cf: Coefficients = coefficients
-    if cf.sky.shape != (scene.n_points, patches.n_patches) or cf.n_sun != sun_dirs.shape[0]:
-        raise ValueError("coefficients do not match this scene, settings and states")
-    t_rays = time.perf_counter()
-
-    F, k, N = scene.n_faces, scene.samples_per_face, scene.n_points
-    P = patches.n_patches
-    # sky: D (N, P); reflected sky: scene surfaces R (N, P) and ground A (N, P) (times the albedo:
-    # folded into R when it is one value for all steps); reflected ground light off walls (N,);
-    # reflected sun per shading cell (G, B+1, N)
-    D_T = np.ascontiguousarray(cf.sky.T, dtype=np.float32)                   # (P, N)
-    alb_lit = states.albedo[lit]
-    if ga is not None and np.ndim(ga) == 0:
-        fold = float(ga)
-    elif ga is None and (alb_lit.size == 0 or np.all(alb_lit == alb_lit[0])):
-        fold = float(alb_lit[0]) if alb_lit.size else 0.0
-    else:
-        fold = None
-    if fold is not None:
-        R_T = np.ascontiguousarray((cf.reflect_sky + fold * cf.ground_sky).T, dtype=np.float32)
-        A_T = None
-    else:
-        R_T = np.ascontiguousarray(cf.reflect_sky.T, dtype=np.float32)
-        A_T = np.ascontiguousarray(cf.ground_sky.T, dtype=np.float32)
-    wall_ground = cf.reflect_ground.astype(np.float32)                      # (N,)
-    Ksun_T = np.ascontiguousarray(np.concatenate(
-        [cf.reflect_sun / np.pi, cf.ground_sun[:, :, None]], axis=2).transpose(0, 2, 1),
-        dtype=np.float32)                                                   # (G, B+1, N)
-    normals_T = np.ascontiguousarray(scene.point_normal.T.astype(np.float32))     # (3, N)
-    Hb = patches.vector[:, 2]
-    sun_vis = cf.sun_visibility_bins()                                      # (S_b, N) bool
-    sun_bin_of = (np.arange(cf.n_sun) if cf.sun_index is None else cf.sun_index)
-
-    out = {q: _lazy_zeros((T, F), dtype) for q in POAResult.QUANTITIES}
-    eff = {n: _lazy_zeros((T, F), dtype) for n in names[1:]}
-    spec = _lazy_zeros((T, F, C), dtype) if spectral else None
-    t_prod = 0.0
-    chunks = range(len(chunk_idx))
-    if progress:
-        from tqdm.auto import tqdm
-        chunks = tqdm(chunks, unit="chunk", desc="time series")
-
-    def faces(a):                                  # (..., N) -> (..., F) mean over a face's points
-        return a if k == 1 else a.reshape(a.shape[:-1] + (F, k)).mean(axis=-1)
-
-    Rp_all = Wall.shape[1] - (R if spectral_ground else 0)
-    Tmax = settings.time_chunk
-    # work buffers reused by every chunk (fresh multi-MB temporaries per chunk are slow to fault in)
-    buf_sky = _lazy_zeros((Tmax * Rp_all, N), np.float32)
-    buf_refl = _lazy_zeros((Tmax * Rp_all, N), np.float32)
-    buf_aux = _lazy_zeros((Tmax * Rp_all, N), np.float32)
-    buf_beam = _lazy_zeros((Tmax, N), np.float32)
-    buf_tmp = _lazy_zeros((Tmax, N), np.float32)
-    for ci in chunks:
-        idx = chunk_idx[ci]
-        Lp, dni = sky_ahead[ci] if ci < len(sky_ahead) else sky_chunk(idx)
-        if ci < len(sky_ahead):
-            sky_ahead[ci] = None
-        t1 = time.perf_counter()
-        Tc = idx.size
-        st = states.take(idx)
-        s = st.sun_direction
-        sin_el = np.maximum(s[:, 2], 0.0)
-        Hs = np.einsum("tpr,p->tr", Lp, Hb)                                  # (Tc, R') sky GHI
-        Hd = dni * sin_el[:, None]                                           # sun GHI
-        if spectral_ground:                        # the last R columns are albedo-weighted
-            g_sky, g_sun = Hs[:, -R:] / np.pi, Hd[:, -R:] / np.pi
-            Lp_alb = Lp[..., -R:]
-            Lp, dni, Hs, Hd = Lp[..., :-R], dni[:, :-R], Hs[:, :-R], Hd[:, :-R]
-            if spectral:
-                gac = np.asarray(ga)[None, :]
-                g_sky = np.concatenate([g_sky, gac * Hs[:, R:] / np.pi], axis=1)
-                g_sun = np.concatenate([g_sun, gac * Hd[:, R:] / np.pi], axis=1)
-                Lp_alb = np.concatenate([Lp_alb, gac[:, None, :] * Lp[..., R:]], axis=2)
-        else:
-            alb = (st.albedo if ga is None else np.full(Tc, float(ga)))[:, None]
-            g_sky, g_sun = alb * Hs / np.pi, alb * Hd / np.pi               # (Tc, R')
-        Lg = g_sky + g_sun                         # unshaded ground radiance
-        Rp = Lp.shape[2]                           # R (+ C spectral)
-        cos_b = np.maximum(s @ cf.bins.T, 0.0)                               # (Tc, B)
-        Xs = np.ascontiguousarray(Lp.transpose(0, 2, 1).reshape(Tc * Rp, P), dtype=np.float32)
-        sky_all = np.matmul(Xs, D_T, out=buf_sky[:Tc * Rp]).reshape(Tc, Rp, N)
-        refl_all = np.matmul(Xs, R_T, out=buf_refl[:Tc * Rp]).reshape(Tc, Rp, N)
-        if A_T is not None:                        # the ground's albedo changes between steps
-            if spectral_ground:
-                Xa = Lp_alb
-            else:
-                Xa = alb[:, :, None] * Lp
-            Xa = np.ascontiguousarray(Xa.transpose(0, 2, 1).reshape(Tc * Rp, P), dtype=np.float32)
-            refl_all += np.matmul(Xa, A_T, out=buf_aux[:Tc * Rp]).reshape(Tc, Rp, N)
-        Lg32 = Lg.astype(np.float32)
-        for r in range(Rp):                        # walls pass on the unshaded ground's light
-            refl_all[:, r] += np.multiply(Lg32[:, r:r + 1], wall_ground, out=buf_tmp[:Tc])
-        # reflected sun, per shading cell with that cell's sunlit reflector coefficients
-        band = np.full(Tc, -1)
-        band[up[idx]] = cf.step_band(sun_rank[idx[up[idx]]])
-        for g in np.unique(band[band >= 0]):
-            rows = np.nonzero(band == g)[0]
-            Xu = np.concatenate([dni[rows, None, :] * cos_b[rows, :, None],
-                                 g_sun[rows, None, :]], axis=1)              # (Tg, B+1, R')
-            Xu = np.ascontiguousarray(Xu.transpose(0, 2, 1).reshape(rows.size * Rp, -1),
-                                      dtype=np.float32)
-            refl_all[rows] += np.matmul(Xu, Ksun_T[g], out=buf_aux[:rows.size * Rp]).reshape(
-                rows.size, Rp, N)
-        out["poa_sky_diffuse"][idx] = faces(sky_all[:, 0])
-        out["poa_ground_diffuse"][idx] = faces(refl_all[:, 0])
-        diffuse = sky_all
-        diffuse += refl_all                                                  # sky + reflected
-        # direct: E_n max(0, n . s) v, v from the step's sun-position bin
-        beam = buf_beam[:Tc]
-        beam[:] = 0.0
-        upc = np.nonzero(up[idx])[0]
-        if upc.size:
-            cosi = np.matmul(s[upc].astype(np.float32), normals_T, out=buf_tmp[:upc.size])
-            np.maximum(cosi, 0.0, out=cosi)
-            cosi *= sun_vis[sun_bin_of[sun_rank[idx[upc]]]]
-            beam[upc] = cosi
-        dni32 = dni.astype(np.float32)
-        tmp = buf_tmp[:Tc]
-        np.multiply(dni32[:, :1], beam, out=tmp)
-        out["poa_direct"][idx] = faces(tmp)
-        tmp += diffuse[:, 0]
-        out["poa_global"][idx] = faces(tmp)
-        for j, n in enumerate(names[1:], start=1):
-            np.multiply(dni32[:, j:j + 1], beam, out=tmp)
-            tmp += diffuse[:, j]
-            eff[n][idx] = faces(tmp)
-        if spectral:
-            glob = diffuse[:, R:R + C] + dni32[:, R:R + C, None] * beam[:, None, :]
-            spec[idx] = faces(glob).transpose(0, 2, 1)
-        t_prod += time.perf_counter() - t1
-    invalid = ~scene.face_valid
-    if np.any(invalid):
-        for a in list(out.values()) + list(eff.values()):
-            a[:, invalid] = 0
-        if spec is not None:
-            spec[:, invalid] = 0
-    timings = {"rays": (t_rays - t_start) if pending is not None else 0.0,
-               "sky_during_rays": t_sky_ahead, "n_rays": cf.n_rays, "sun_bins": cf.n_sun_bins,
-               "sky": t_sky, "product": t_prod, "total": time.perf_counter() - t_start,
-               "steps": T, "lit_steps": int(lit.size)}
-    if measured is not None:
-        dark = np.ones(T, dtype=bool)
-        dark[lit] = False
-        f = measured_scale_factors(model_dni, model_dhi, m_dni, m_dhi, missing="clear")
-        scaling = f._replace(sun_scale=scale_d, sky_scale=scale_s, sun_guarded=f.sun_guarded & ~dark,
-                             sky_guarded=f.sky_guarded & ~dark)
-    return POAResult(scaling=scaling, effective_irradiance=eff, spectral=spec,
-                     wavelengths=np.asarray(sky.wavelengths, dtype=float), times=times,
-                     face_area=scene.face_area, face_group=scene.face_group,
-                     group_names=scene.group_names, timings=timings, **out)
+from .poa import poa_irradiance  # noqa: E402  (its stages import this module)
+from .result import POAResult  # noqa: E402

@@ -312,6 +312,11 @@ class Coefficients:
         (S_b,) reflector shading cell of each bin (index into the G cells, -1 below the horizon).
     sun_bin : float
         Bin size [deg] (0: one bin per direction).
+    sky_optic : numpy.ndarray or None
+        (M, N, P) float32 sky coefficients of the M incidence-angle weight functions [sr]
+        (:mod:`irradiance.optics`).
+    reflect_optic : numpy.ndarray or None
+        (M, N) float32 their factors [1] on each point's reflected light.
     n_rays : int
         Rays cast.
     seconds : float
@@ -332,6 +337,8 @@ class Coefficients:
     sun_index: np.ndarray = None
     sun_bin: float = 0.0
     sun_band: np.ndarray = None
+    sky_optic: np.ndarray = None
+    reflect_optic: np.ndarray = None
 
     def step_band(self, sun_rank):
         """(n,) reflector shading cell of the sun directions ``sun_rank`` given (the cell of their
@@ -370,12 +377,14 @@ def _sample_directions(mf, k):
 
 
 def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first=0, sun_count=None,
-                sun_cell=None):
+                sun_cell=None, optics=None, optic_kq=4):
     """Coefficients for one chunk of points (runs in a worker process).
 
     ``sun_dirs`` (S_b, 3) are the sun-position bins' directions, ``sun_count`` (S_b,) their
     numbers of steps (the weights of the reflector shading samples) and ``sun_cell`` (S_b,) their
-    reflector shading cells (default :func:`shade_cells`).
+    reflector shading cells (default :func:`shade_cells`). ``optics`` (an
+    :class:`irradiance.optics.AngularWeights`) adds the sky coefficients and reflected-light factors
+    of its incidence-angle weight functions (:func:`irradiance.optics.optic_terms`).
     """
     t0 = time.perf_counter()
     patches, dirs, wcell = _sample_directions(mf, k)
@@ -452,6 +461,12 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
         extra = np.sum(np.where(sliver[:, P:], exact[:, P:], 0.0), axis=1) * f_lo
         with np.errstate(invalid="ignore", divide="ignore"):
             ground_sky *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[:, None]
+    sky_optic = reflect_optic = None
+    if optics is not None and optics.n:
+        from .optics import optic_terms
+        sky_optic, reflect_optic = optic_terms(optics, patches, normals, exact, w3, flat, miss,
+                                               r_pt, si[ri], r_share, kq=optic_kq)
+        sky_optic[:, buried] = 0.0
     sky[buried] = 0.0
     ground_sky[buried] = 0.0
     reflect_sky[buried] = 0.0
@@ -526,7 +541,8 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
     return {"sky": sky.astype(np.float32), "ground_sky": ground_sky.astype(np.float32),
             "reflect_sky": reflect_sky.astype(np.float32), "reflect_ground": reflect_ground,
             "ground_sun": ground_sun, "reflect_sun": reflect_sun.astype(np.float32),
-            "sun": np.packbits(vis, axis=1), "n_rays": n_rays,
+            "sun": np.packbits(vis, axis=1), "n_rays": n_rays, "sky_optic": sky_optic,
+            "reflect_optic": reflect_optic,
             "seconds": time.perf_counter() - t0}
 
 
@@ -536,7 +552,8 @@ def _default_executor(n_jobs):
 
 
 def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, sun_bin=0.0,
-                         n_jobs=None, chunk_size=None, executor=None, progress=False):
+                         n_jobs=None, chunk_size=None, executor=None, progress=False, optics=None,
+                         optic_kq=4):
     """Daylight coefficients, ground and reflection factors and sun visibility of every point.
 
     Parameters
@@ -559,6 +576,11 @@ def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, 
         Runs the tasks instead of a local process pool.
     progress : bool
         Show a progress bar.
+    optics : irradiance.optics.AngularWeights, optional
+        Incidence-angle weight functions whose coefficients to add (``sky_optic``,
+        ``reflect_optic``).
+    optic_kq : int
+        Sub-grid per patch side of their quadrature.
 
     Returns
     -------
@@ -566,7 +588,8 @@ def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, 
     """
     return start_coefficients(scene, mf=mf, rays_per_patch=rays_per_patch,
                               sun_directions=sun_directions, sun_bin=sun_bin, n_jobs=n_jobs,
-                              chunk_size=chunk_size, executor=executor, progress=progress).result()
+                              chunk_size=chunk_size, executor=executor, progress=progress,
+                              optics=optics, optic_kq=optic_kq).result()
 
 
 class PendingCoefficients:
@@ -635,12 +658,17 @@ class PendingCoefficients:
             bins=self._bins, sun_visible=np.concatenate([r["sun"] for r in results]),
             n_sun=int(self._sun.shape[0]), n_rays=int(sum(r["n_rays"] for r in results)),
             seconds=time.perf_counter() - self._t0, sun_index=self._sun_index,
-            sun_bin=float(self._sun_bin), sun_band=self._sun_band)
+            sun_bin=float(self._sun_bin), sun_band=self._sun_band,
+            sky_optic=(None if results[0]["sky_optic"] is None else
+                       np.concatenate([r["sky_optic"] for r in results], axis=1)),
+            reflect_optic=(None if results[0]["reflect_optic"] is None else
+                           np.concatenate([r["reflect_optic"] for r in results], axis=1)))
         return self._value
 
 
 def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, sun_bin=0.0,
-                       n_jobs=None, chunk_size=None, executor=None, progress=False):
+                       n_jobs=None, chunk_size=None, executor=None, progress=False, optics=None,
+                       optic_kq=4):
     """Submit the ray-casting tasks of :func:`compute_coefficients` and return at once.
 
     Same parameters; returns a :class:`PendingCoefficients` whose ``result()`` gives the
@@ -657,6 +685,8 @@ def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, su
     origins, normals, buried = scene.ray_origins, scene.point_normal, scene.point_buried
     n = scene.n_points
     n_jobs = (os.cpu_count() or 1) if n_jobs is None else int(n_jobs)
+    if n_jobs < 1:
+        raise ValueError(f"n_jobs={n_jobs} must be >= 1 (processes)")
     if chunk_size is None:
         n_dirs = 2 * (144 * mf * mf + 1) * rays_per_patch ** 2
         chunk_size = int(max(32, min(2000, 4_000_000 // n_dirs)))
@@ -667,6 +697,6 @@ def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, su
     sun_count = np.bincount(sun_index, minlength=sun_rep.shape[0]).astype(float)
     sun_band, _ = shade_cells(sun_rep)
     args = [(geom, origins[a:b], normals[a:b], buried[a:b], mf, rays_per_patch, sun_rep, bins, a,
-             sun_count, sun_band) for a, b in bounds]
+             sun_count, sun_band, optics, optic_kq) for a, b in bounds]
     return PendingCoefficients(t0, args, bounds, bins, sun, sun_index, sun_bin, sun_band, n_jobs,
                                executor, progress)

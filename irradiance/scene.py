@@ -42,7 +42,11 @@ def load_mesh(obj):
     if isinstance(obj, trimesh.Trimesh):
         return obj
     if isinstance(obj, (str, os.PathLike)):
-        loaded = trimesh.load(os.fspath(obj), force="mesh", process=False)
+        try:
+            loaded = trimesh.load(os.fspath(obj), force="mesh", process=False)
+        except IndexError as e:           # trimesh's OBJ reader on a face indexing no vertex
+            raise ValueError(f"mesh {os.fspath(obj)!r}: a face indexes a vertex that the file does "
+                             f"not have ({e})") from None
         if not isinstance(loaded, trimesh.Trimesh):
             raise ValueError(f"{os.fspath(obj)!r} holds no triangle mesh")
         return loaded

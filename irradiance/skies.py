@@ -43,7 +43,7 @@ def _edges(wavelengths, channel_edges):
 
 @dataclass(frozen=True, eq=False)
 class SkyStates:
-    """Per-step sky states, all arrays of shape (T,).
+    """Per-step sky states, all arrays of shape (T,); validated once where they are made.
 
     Attributes
     ----------
@@ -57,6 +57,14 @@ class SkyStates:
         Ground albedo [1] (the sky model's, also used for the Lambertian ground).
     altitude : numpy.ndarray
         Observer altitude [m].
+    earth_sun_distance : numpy.ndarray
+        Earth-Sun distance [AU] (NREL SPA); the integrator scales the sun and the sky by
+        ``1 / r**2`` (the dataset's extraterrestrial spectrum is at 1 AU).
+    clamped : dict of str to numpy.ndarray
+        Field name -> (T,) bool: steps whose value was clamped to the sky model's range
+        (``visibility``, ``albedo``, ``altitude``, ``sun_elevation``); empty when nothing was checked.
+    times : pandas.DatetimeIndex or None
+        The tz-aware steps (interval labels as given), when known.
     """
 
     sun_elevation: np.ndarray
@@ -64,9 +72,22 @@ class SkyStates:
     visibility: np.ndarray
     albedo: np.ndarray
     altitude: np.ndarray
+    earth_sun_distance: np.ndarray = None
+    clamped: dict = None
+    times: object = None
+
+    FIELDS = ("sun_elevation", "sun_azimuth", "visibility", "albedo", "altitude",
+              "earth_sun_distance")
+
+    def __post_init__(self):
+        if self.earth_sun_distance is None:
+            object.__setattr__(self, "earth_sun_distance", np.ones(self.sun_elevation.shape))
+        if self.clamped is None:
+            object.__setattr__(self, "clamped", {})
 
     @classmethod
-    def create(cls, sun_elevation, sun_azimuth, visibility=50.0, albedo=0.2, altitude=0.0):
+    def create(cls, sun_elevation, sun_azimuth, visibility=50.0, albedo=0.2, altitude=0.0,
+               earth_sun_distance=1.0, clamped=None, times=None):
         """Broadcast scalars and arrays to one length T and validate them.
 
         Parameters
@@ -81,14 +102,20 @@ class SkyStates:
             [1], within [0, 1].
         altitude : array_like
             [m].
+        earth_sun_distance : array_like
+            [AU], within [0.95, 1.05] (the Earth's orbit spans 0.983-1.017 AU).
+        clamped : dict of str to array_like, optional
+            (T,) bool flags per field name.
+        times : pandas.DatetimeIndex, optional
+            (T,) tz-aware steps.
         """
         arrs = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in
-                                     (sun_elevation, sun_azimuth, visibility, albedo, altitude)))
+                                     (sun_elevation, sun_azimuth, visibility, albedo, altitude,
+                                      earth_sun_distance)))
         if arrs[0].ndim != 1:
             raise ValueError(f"sky states must be one-dimensional, got shape {arrs[0].shape}")
-        el, az, vis, alb, alt = (np.array(a) for a in arrs)
-        for name, v in (("sun_elevation", el), ("sun_azimuth", az), ("visibility", vis),
-                        ("albedo", alb), ("altitude", alt)):
+        el, az, vis, alb, alt, r = (np.array(a) for a in arrs)
+        for name, v in zip(cls.FIELDS, (el, az, vis, alb, alt, r)):
             if not np.all(np.isfinite(v)):
                 raise ValueError(f"{name} has non-finite values")
         if np.any(np.abs(el) > 90):
@@ -97,7 +124,17 @@ class SkyStates:
             raise ValueError(f"visibility={vis[vis <= 0][0]} km must be > 0")
         if np.any((alb < 0) | (alb > 1)):
             raise ValueError(f"albedo={alb[(alb < 0) | (alb > 1)][0]} outside [0, 1]")
-        return cls(el, az, vis, alb, alt)
+        if np.any((r < 0.95) | (r > 1.05)):
+            raise ValueError(f"earth_sun_distance={r[(r < 0.95) | (r > 1.05)][0]} AU outside "
+                             "[0.95, 1.05]")
+        T = el.shape[0]
+        flags = {}
+        for k, v in (clamped or {}).items():
+            f = np.broadcast_to(np.asarray(v, dtype=bool), (T,)).copy()
+            flags[str(k)] = f
+        if times is not None and len(times) != T:
+            raise ValueError(f"times has {len(times)} steps, the states {T}")
+        return cls(el, az, vis, alb, alt, r, flags, times)
 
     def __len__(self) -> int:
         return int(self.sun_elevation.shape[0])
@@ -105,13 +142,20 @@ class SkyStates:
     def take(self, index):
         """The states at ``index`` (slice or integer array)."""
         return SkyStates(self.sun_elevation[index], self.sun_azimuth[index], self.visibility[index],
-                         self.albedo[index], self.altitude[index])
+                         self.albedo[index], self.altitude[index], self.earth_sun_distance[index],
+                         {k: v[index] for k, v in self.clamped.items()},
+                         None if self.times is None else self.times[index])
 
     @property
     def sun_direction(self):
         """(T, 3) ENU unit vectors towards the sun."""
         from .patches import direction_from_angles
         return direction_from_angles(self.sun_elevation, self.sun_azimuth)
+
+    @property
+    def n_clamped(self):
+        """dict field -> number of clamped steps (fields with at least one)."""
+        return {k: int(v.sum()) for k, v in self.clamped.items() if v.any()}
 
 
 class _Channels:

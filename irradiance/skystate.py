@@ -30,7 +30,7 @@ import pandas as pd
 
 from skymodel.visibility import aod_at_wavelength, visibility_from_aod550
 
-__all__ = ["SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "GroupingSteps",
+__all__ = ["SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "sky_states_for", "GroupingSteps",
            "DEFAULT_GROUPING", "SkyGroups", "group_sky_states", "SKY_STATE_COLUMNS"]
 
 
@@ -388,3 +388,86 @@ def group_sky_states(states: pd.DataFrame, steps: GroupingSteps = DEFAULT_GROUPI
         "count": counts,
     })
     return SkyGroups(table, inverse, states.index, steps)
+
+
+def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visibility=50.0,
+                   albedo=0.2, altitude=0.0, label="left", warn=True):
+    """Sky states for a site and period (clear sky) or for a weather file: the one path.
+
+    Parameters
+    ----------
+    source : Site, WeatherData or path
+        A :class:`irradiance.Site` (then ``start`` and ``end`` are required: a regular period), a
+        :class:`irradiance.WeatherData`, or a weather file path (EPW, TMY3, CSV with pvlib names;
+        :func:`irradiance.read_weather`): its steps, per-step visibility (or aerosol optical depth)
+        and albedo.
+    start, end : str or datetime-like, optional
+        Period [start, end) (naive times in the site's zone); with a weather file, a part of it.
+    step : str or pandas.Timedelta
+        Interval length for a site's period, e.g. "1h", "15min" (weather files carry their own).
+    model : object, optional
+        A loaded dataset (or anything with its range attributes, :func:`sky_ranges`); default the
+        full PSM ranges.
+    visibility : float
+        Visibility [km] where the weather gives none (and for a site's period), > 0.
+    albedo : float
+        Ground albedo [1] where the weather gives none (and for a site's period), in [0, 1].
+    altitude : float
+        Observer altitude above the model's ground [m] (see :func:`sky_states`).
+    label : {"left", "right", "center"}
+        What a site period's timestamps label (weather files carry their own).
+    warn : bool
+        Warn (UserWarning) with the number of steps clamped to the model's ranges.
+
+    Returns
+    -------
+    irradiance.skies.SkyStates
+        With ``times`` (tz-aware interval labels), the mid-interval apparent sun position [deg],
+        ``earth_sun_distance`` [AU] (NREL SPA), and ``clamped`` flags for ``visibility``,
+        ``albedo`` and ``altitude`` (values outside the model's ranges are clamped to them).
+    """
+    import warnings
+
+    from .location import Site, time_range
+    from .skies import SkyStates
+    from .weather import WeatherData, read_weather
+
+    if isinstance(source, Site):
+        if start is None or end is None:
+            raise ValueError("a site's sky states need start= and end= (the period)")
+        times = time_range(start, end, step, tz=source.tz, label=label)
+        sp = source.solar_position(times, label=label, step=step)
+        weather = None
+    else:
+        wd = source if isinstance(source, WeatherData) else read_weather(source)
+        data = wd.data
+        if start is not None or end is not None:
+            lo = data.index[0] if start is None else wd.site.localize([start])[0]
+            hi = None if end is None else wd.site.localize([end])[0]
+            keep = (data.index >= lo) & (True if hi is None else data.index < hi)
+            data = data[keep]
+            if data.empty:
+                raise ValueError(f"no steps of the weather file in the period {start} .. {end}")
+        times = data.index
+        sp = wd.site.solar_position(times, wd.label, wd.step)
+        weather = data
+    st = sky_states(sp, weather, model=model, altitude=altitude, default_visibility=visibility,
+                    default_albedo=albedo)
+    clamped = {"visibility": st["visibility_clamped"].to_numpy(),
+               "albedo": st["albedo_clamped"].to_numpy(),
+               "altitude": st["altitude_clamped"].to_numpy()}
+    states = SkyStates.create(st["solar_elevation"].to_numpy(), st["azimuth"].to_numpy(),
+                              st["visibility"].to_numpy(), st["albedo"].to_numpy(),
+                              st["altitude"].to_numpy(),
+                              earth_sun_distance=sp["earth_sun_distance"].to_numpy(),
+                              clamped=clamped, times=times)
+    n = states.n_clamped
+    if warn and n:
+        r = sky_ranges(model)
+        rng = {"visibility": (r.visibility_range, "km"), "albedo": (r.albedo_range, ""),
+               "altitude": (r.altitude_range, "m")}
+        parts = ", ".join(f"{k} {v} (range [{rng[k][0][0]:g}, {rng[k][0][1]:g}]{' ' if rng[k][1] else ''}"
+                          f"{rng[k][1]})" for k, v in n.items())
+        warnings.warn(f"{len(states)} steps: clamped to the sky model's ranges: {parts}; flagged in "
+                      "SkyStates.clamped", UserWarning, stacklevel=2)
+    return states

@@ -5,8 +5,9 @@ References and tolerances:
   ``DNI sin(elevation) + DHI`` (the measured weather the sky is scaled to; elevation mid-interval
   by NREL SPA) within 2e-3 wherever the sun is above 5 deg (the integrator's float32 products; the
   roof sees no ground);
-* a flat response of 1 over 200-3000 nm: effective irradiance = poa_global (same contraction);
-* night steps are 0; bad input gives exit status 2 and a message naming the problem.
+* a flat response of 1 over 200-3000 nm: its global part = poa_global (same contraction);
+* night steps are 0; bad input gives exit status 2 and a one-line message naming the problem,
+  before any computation (no output file is left behind).
 """
 
 import numpy as np
@@ -53,8 +54,8 @@ def test_weather_file_reproduces_measured_irradiance(roof, epw, tmp_path, capsys
                  "--jobs", "1", "-o", str(out)]) == 0
     assert "scaled to measured DNI/DHI" in capsys.readouterr().out
     res = pd.read_csv(out, index_col=0)
-    g = res.filter(like=":poa_global").iloc[:, 0].to_numpy()
-    eff = res.filter(like=":effective_irradiance:flat").iloc[:, 0].to_numpy()
+    g = res.filter(like=":broadband:poa_global").iloc[:, 0].to_numpy()
+    eff = res.filter(like=":flat:poa_global").iloc[:, 0].to_numpy()
     wd = read_weather(epw)
     el = wd.solar_position()["apparent_elevation"].to_numpy()
     want = wd.data["dni"].to_numpy() * np.sin(np.radians(el)) + wd.data["dhi"].to_numpy()
@@ -65,26 +66,73 @@ def test_weather_file_reproduces_measured_irradiance(roof, epw, tmp_path, capsys
     np.testing.assert_allclose(eff, g, rtol=1e-5, atol=1e-3)
 
 
-def test_clear_sky_period_npz(roof, tmp_path):
-    out = tmp_path / "poa.npz"
+def test_clear_sky_period_h5(roof, tmp_path):
+    from irradiance import POAResult
+    out = tmp_path / "poa.h5"
     assert main(["poa", str(roof), "--lat", "48", "--lon", "11", "--tz", "Europe/Berlin",
                  "--start", "2021-06-21", "--end", "2021-06-22", "--jobs", "1", "-o", str(out)]) == 0
-    z = np.load(out)
-    assert z["poa_global"].shape == (24, 2)
-    noon = list(z["times"]).index("2021-06-21 13:00:00+02:00")
-    # clear June noon at 48 N on a horizontal plane: about 900-1000 W m-2 (ASTM G173's global tilted
-    # is 1000 W m-2 at 48 deg zenith; here the sun is at 65 deg elevation)
-    assert 850 < z["poa_global"][noon, 0] < 1100
-    assert z["poa_global"][2, 0] == 0
-    np.testing.assert_allclose(z["face_area"], [6.0, 6.0])
+    with POAResult.load(out) as z:
+        assert z.poa_global.shape == (24, 2)
+        noon = list(z.times.astype(str)).index("2021-06-21 13:00:00+02:00")
+        # clear June noon at 48 N on a horizontal plane: about 900-1000 W m-2 (ASTM G173's global
+        # tilted is 1000 W m-2 at 48 deg zenith; here the sun is at 65 deg elevation)
+        assert 850 < z.poa_global[noon, 0] < 1100
+        assert z.poa_global[2, 0] == 0
+        np.testing.assert_allclose(z.faces.area, [6.0, 6.0])
+        assert z.states.earth_sun_distance[0] == pytest.approx(1.0163, abs=2e-4)
+        assert "widesky poa" in z.provenance["command"]
+
+
+def test_one_step_period_with_a_step(roof, tmp_path):
+    out = tmp_path / "one.csv"
+    assert main(["poa", str(roof), "--lat", "50", "--lon", "14", "--tz", "1", "--start",
+                 "2023-01-03T11:30", "--end", "2023-01-03T12:30", "--step", "1h", "--jobs", "1",
+                 "-o", str(out)]) == 0
+    assert len(pd.read_csv(out, index_col=0)) == 1
 
 
 def test_bad_input_is_a_clear_error(roof, tmp_path, capsys):
     assert main(["poa", str(roof), "--start", "2021-06-21", "--end", "2021-06-22",
-                 "-o", str(tmp_path / "x.npz")]) == 2
+                 "-o", str(tmp_path / "x.h5")]) == 2
     assert "--lat, --lon" in capsys.readouterr().err
     bad = tmp_path / "bad.csv"
     bad.write_text("wavelength,sr\n300,1\n400,oops\n")
     assert main(["poa", str(roof), "--lat", "48", "--lon", "11", "--start", "2021-06-21",
-                 "--end", "2021-06-22", "--response", f"x={bad}", "-o", str(tmp_path / "x.npz")]) == 2
+                 "--end", "2021-06-22", "--response", f"x={bad}", "-o", str(tmp_path / "x.h5")]) == 2
     assert "line 3" in capsys.readouterr().err
+
+
+CLEAR = ["--lat", "48", "--lon", "11", "--start", "2021-06-21", "--end", "2021-06-22"]
+
+
+@pytest.mark.parametrize("extra, out, msg", [
+    (["--jobs", "0"], "x.h5", "--jobs 0: must be >= 1"),
+    (["--ground-z", "nan"], "x.h5", "--ground-z nan"),
+    ([], "p.txt", "unknown suffix; valid: .h5, .hdf5, .csv"),
+    ([], "missing/dir/x.h5", "does not exist"),
+    (["--visibility", "-3"], "x.h5", "--visibility -3.0"),
+    (["--end", "2221-06-22", "--step", "1min"], "x.h5", "split the period"),
+])
+def test_bad_options_refused_first(roof, tmp_path, capsys, extra, out, msg):
+    assert main(["poa", str(roof), *CLEAR, *extra, "-o", str(tmp_path / out)]) == 2
+    err = capsys.readouterr().err
+    assert msg in err and err.count("\n") == 1 and "Traceback" not in err
+    assert not any(p.name.startswith((".tmp-", "x.")) for p in tmp_path.iterdir())
+
+
+def test_weather_with_lat_lon_and_repeated_response(roof, epw, tmp_path, capsys):
+    flat = tmp_path / "flat.csv"
+    flat.write_text("wavelength_nm,value\n200,1\n3000,1\n")
+    assert main(["poa", str(roof), "--weather", str(epw), "--lat", "48", "-o",
+                 str(tmp_path / "x.h5")]) == 2
+    assert "--weather gives the site: remove --lat" in capsys.readouterr().err
+    assert main(["poa", str(roof), *CLEAR, "--response", f"a={flat}", "--response", f"a={flat}",
+                 "-o", str(tmp_path / "x.h5")]) == 2
+    assert "given twice" in capsys.readouterr().err
+
+
+def test_mesh_indexing_a_missing_vertex(tmp_path, capsys):
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n")
+    assert main(["poa", str(bad), *CLEAR, "-o", str(tmp_path / "x.h5")]) == 2
+    assert "indexes a vertex" in capsys.readouterr().err

@@ -131,16 +131,19 @@ def test_responses_and_spectral_consistent():
     res = poa_irradiance(scene, sky, STATES, responses={"ramp": sr, "unit": np.ones(55)},
                          spectral=True, n_jobs=1)
     width = np.full(55, 40.0)
-    np.testing.assert_allclose(res.effective_irradiance["unit"], res.poa_global, rtol=1e-5)
-    np.testing.assert_allclose(res.spectral @ width, res.poa_global, rtol=1e-4)
-    np.testing.assert_allclose(res.spectral @ (sr * width), res.effective_irradiance["ramp"],
-                               rtol=1e-4, atol=1e-4)
+    np.testing.assert_allclose(res.weighted["unit"], res.poa_global, rtol=1e-5)
+    for part in ("direct", "sky_diffuse", "ground_diffuse", "global"):
+        np.testing.assert_allclose(res.spectral[part] @ width, res.get("broadband", part),
+                                   rtol=1e-4, atol=1e-4, err_msg=part)
+        np.testing.assert_allclose(res.spectral[part] @ (sr * width), res.get("ramp", part),
+                                   rtol=1e-4, atol=1e-4, err_msg=part)
     agg = res.aggregate()
     assert agg["area"] == pytest.approx([1.0, 1.0])
     np.testing.assert_allclose(agg["poa_global"][:, 0], res.poa_global[:, :2].mean(axis=1), rtol=1e-5)
-    df = res.to_dataframe(0)
-    assert list(df.columns[:4]) == ["poa_global", "poa_direct", "poa_sky_diffuse",
-                                    "poa_ground_diffuse"]
+    df = res.to_pvlib(face=0)
+    assert list(df.columns[:5]) == ["poa_global", "poa_direct", "poa_sky_diffuse",
+                                    "poa_ground_diffuse", "aoi"]
+    np.testing.assert_allclose(df["poa_global"], res.poa_global[:, 0], rtol=1e-6)
 
 
 def test_scales_are_linear():
@@ -213,4 +216,5 @@ def test_ground_albedo_paths_agree():
             for q in a.QUANTITIES:
                 np.testing.assert_allclose(getattr(b, q)[t], getattr(a, q)[t], rtol=2e-5,
                                            atol=1e-4, err_msg=q)
-            np.testing.assert_allclose(b.spectral[t], a.spectral[t], rtol=2e-5, atol=1e-6)
+            np.testing.assert_allclose(b.spectral["global"][t], a.spectral["global"][t], rtol=2e-5,
+                                       atol=1e-6)

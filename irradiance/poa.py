@@ -1,0 +1,626 @@
+"""``poa_irradiance``: per-face irradiance per response and part, in named stages.
+
+Stages (see :mod:`irradiance.integrator` for the method):
+
+1. **weights** (:func:`contraction_columns`): every response becomes one contraction column of the
+   sky's channels (or, for an angle x wavelength optic, one per incidence-angle class node), each
+   tied to the sky coefficients it multiplies (plain, or those of an optic's weight function);
+2. **sky chunks** (:func:`_SkyChunks`): the sky model per chunk of steps, contracted with the
+   columns, scaled by the Earth-Sun distance, the per-step (and per-channel) factors and the
+   measured-weather match; evaluated ahead while the ray-casting tasks run;
+3. **products** (:func:`chunk_products`): per chunk the sky, reflected and beam terms per column
+   (matrix products with the coefficients of :func:`irradiance.raycast.compute_coefficients`);
+4. **assembly** (:func:`assemble_parts`): columns into each response's direct, sky-diffuse and
+   reflected parts with the optics applied (the beam's exactly at each step's angle of incidence),
+   averaged over each face's points, written into a block of steps that a sink keeps in memory
+   or streams to the HDF5 result file (bounded memory: one block at a time).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+from dataclasses import asdict
+
+import numpy as np
+
+from .integrator import (IntegratorSettings, _horizontal_diffuse, _lazy_zeros, patch_radiance)
+from .measured import measured_scale_factors
+from .optics import DEFAULT_NODES, plan_optics
+from .patches import cosine_weights, reinhart
+from .raycast import Coefficients, start_coefficients
+from .response import Response
+from .result import PARTS, FaceTable, H5Writer, POAResult, _atomic_h5
+from .scene import Scene
+from .skies import SkyStates
+
+__all__ = ["poa_irradiance", "contraction_columns", "estimate_run"]
+
+#: Memory for one block of output steps held before it is written [bytes].
+BLOCK_BYTES = 384 << 20
+
+
+def _as_responses(sky, responses):
+    """[Response-like (name, weights (C,), unit, Response or None)], "broadband" first."""
+    edges = np.asarray(sky.channel_edges, dtype=float)
+    lo, hi = edges[:-1], edges[1:]
+    C = sky.n_channels
+    out = [("broadband", np.ones(C), "W m-2", None)]
+    if responses is None:
+        items = []
+    elif isinstance(responses, dict):
+        items = list(responses.items())
+    else:
+        items = []
+        for r in responses:
+            if not isinstance(r, Response):
+                raise TypeError(f"responses: expected Response objects, got {type(r).__name__}")
+            items.append((r.name, r))
+    seen = {"broadband"}
+    for name, r in items:
+        name = str(name)
+        if name in seen:
+            raise ValueError(f"response name {name!r} given twice (\"broadband\" is always computed)"
+                             if name != "broadband" else
+                             "response name 'broadband' is reserved (always computed first)")
+        seen.add(name)
+        if isinstance(r, Response):
+            out.append((name, r.channel_weights(lo, hi), r.output_unit, r))
+        else:
+            a = np.asarray(r, dtype=float)
+            if a.shape != (C,) or not np.all(np.isfinite(a)):
+                raise ValueError(f"response {name!r} must be finite with shape ({C},), got {a.shape}")
+            out.append((name, a, "W m-2", None))
+    return out
+
+
+def contraction_columns(sky, responses, optic_nodes=DEFAULT_NODES):
+    """Stage 1: contraction columns of the responses and the optics they need.
+
+    Returns
+    -------
+    resp : list
+        (name, weights (C,), unit, Response or None) per response.
+    W : numpy.ndarray
+        (C, J) contraction matrix [nm x weight unit]: sky spectral radiance -> contracted radiance.
+    col_matrix : numpy.ndarray
+        (J,) int: -1 for the plain sky coefficients, else the optic weight function.
+    col_of : list of list of int
+        Columns of each response (one, or one per class node).
+    plan : irradiance.optics.OpticPlan
+    """
+    resp = _as_responses(sky, responses)
+    plan = plan_optics([r[3] if r[3] is not None else _NoOptic for r in resp], optic_nodes)
+    edges = np.asarray(sky.channel_edges, dtype=float)
+    widths = np.diff(edges)
+    cols, mats, col_of = [], [], []
+    for i, (name, w, unit, r) in enumerate(resp):
+        kind = plan.kind[i]
+        if kind == "spectral":
+            tab = r.angular_factor(plan.nodes, edges[:-1], edges[1:])       # (A, C)
+            js = []
+            for a in range(plan.nodes.size):
+                js.append(len(cols))
+                cols.append(w * widths * tab[a])
+                mats.append(plan.index[i] + a)
+            col_of.append(js)
+        else:
+            col_of.append([len(cols)])
+            cols.append(w * widths)
+            mats.append(plan.index[i] if kind == "angular" else -1)
+    return resp, np.array(cols).T, np.array(mats, dtype=int), col_of, plan
+
+
+class _NoOptic:
+    angular = None
+    spectral_angular = False
+    name = "broadband"
+
+
+def estimate_run(n_faces, n_steps, n_responses=1, spectral=False, n_channels=55):
+    """Output size of a run: (bytes of the (T, F) float32 arrays, bytes of a spectral part)."""
+    per = 4 * int(n_faces) * int(n_steps)
+    return per * (3 * int(n_responses) + 2), (per * int(n_channels) * 4 if spectral else 0)
+
+
+def _dataset_provenance(sky):
+    model = getattr(sky, "model", None)
+    path = getattr(model, "path", None)
+    out = {"sky": type(sky).__name__}
+    if path and os.path.isfile(str(path)):
+        st = os.stat(str(path))
+        key = (str(path), st.st_size, st.st_mtime_ns)
+        if key not in _SHA1:
+            h = hashlib.sha1()
+            with open(str(path), "rb") as f:
+                for b in iter(lambda: f.read(1 << 22), b""):
+                    h.update(b)
+            _SHA1[key] = h.hexdigest()
+        out.update(dataset=str(path), dataset_sha1=_SHA1[key])
+    return out
+
+
+_SHA1: dict = {}
+
+
+def _versions():
+    import importlib.metadata as md
+    out = {}
+    for pkg in ("widesky", "numpy", "embreex", "h5py"):
+        try:
+            out[pkg] = md.version(pkg)
+        except md.PackageNotFoundError:
+            pass
+    return out
+
+
+class _Sink:
+    """Where the blocks of output steps go: arrays in memory, or the HDF5 file."""
+
+    def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral):
+        self.keys, self.T, self.F, self.C = keys, T, F, C
+        self.path, self.writer, self.ctx = path, None, None
+        self.spectral = spectral
+        if path is None:
+            self.full = {k: _lazy_zeros((T, F), np.float32) for k in keys}
+            self.full["aoi"] = _lazy_zeros((T, F), np.float32)
+            self.full["sun_visible"] = _lazy_zeros((T, F), np.float32)
+            if spectral:
+                for p in PARTS + ("global",):
+                    self.full[("spectral", p)] = _lazy_zeros((T, F, C), np.float32)
+        else:
+            self.ctx = _atomic_h5(path)
+            f = self.ctx.__enter__()
+            self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None)
+
+    def block(self, b0, b1):
+        """dict key -> (b1 - b0, F) zeroed arrays (aoi NaN) to fill for steps b0:b1."""
+        n = b1 - b0
+        if self.writer is None:
+            out = {k: v[b0:b1] for k, v in self.full.items()}
+            out["aoi"][:] = np.nan
+            return out
+        out = {k: np.zeros((n, self.F), np.float32) for k in self.keys}
+        out["aoi"] = np.full((n, self.F), np.nan, np.float32)
+        out["sun_visible"] = np.zeros((n, self.F), np.float32)
+        if self.spectral:
+            for p in PARTS + ("global",):
+                out[("spectral", p)] = np.zeros((n, self.F, self.C), np.float32)
+        return out
+
+    def flush(self, b0, block):
+        if self.writer is not None:
+            self.writer.write(b0, block)
+
+    def close(self, failed, **finish):
+        if self.writer is None:
+            return
+        if not failed:
+            self.writer.finish(**finish)
+        self.ctx.__exit__(RuntimeError if failed else None, None, None)
+
+
+def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, settings=None,
+                   measured=None, times=None, dni_scale=None, diffuse_scale=None, output=None,
+                   spectral=False, n_jobs=None, executor=None, progress=False, coefficients=None,
+                   optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None):
+    """Plane-of-array irradiance per face, step and response: direct, sky-diffuse and reflected parts.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`irradiance.make_scene`.
+    sky : sky source
+        :class:`irradiance.PragueSky`, :class:`~irradiance.UniformSky` ...
+    states : SkyStates
+        T sky states (e.g. from :func:`irradiance.sky_states_for`); the sun and sky are scaled by
+        ``1 / earth_sun_distance**2``.
+    responses : list of Response, or dict of str to Response or array_like, optional
+        Spectral responses with optional angular optics (:class:`irradiance.Response`); arrays (C,)
+        are channel weights [1] without optics. "broadband" (unit weight, no optics) is always
+        computed first.
+    settings : IntegratorSettings, optional
+        Resolution; default ``IntegratorSettings()``.
+    measured : tuple of array_like, optional
+        (dni, dhi): (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN =
+        missing: the clear sky is kept); the per-step factors (:func:`irradiance.measured_scale_factors`
+        on the model's own DNI/DHI from the same quadrature) are kept in ``result.scaling``. Not
+        together with ``dni_scale``/``diffuse_scale``.
+    times : pandas.DatetimeIndex, optional
+        (T,) labels of the steps (default ``states.times``).
+    dni_scale, diffuse_scale : array_like, optional
+        (T,) or (T, C) factors [1] on the sun's direct normal irradiance and on the sky radiance
+        ((T, C): per channel, applied to the spectral values before contraction); the reflected
+        light follows.
+    output : str or path-like, optional
+        HDF5 file the result streams to during the run (written atomically; the returned result
+        reads from it). None keeps the result in memory.
+    spectral : bool
+        Also keep the spectral parts (T, F, C) [W m-2 nm-1] (broadband, no optics; large).
+    n_jobs : int, optional
+        Ray-casting processes (default all cores), >= 1.
+    executor : concurrent.futures.Executor, optional
+        Runs the ray-casting tasks (e.g. a Dask client's executor).
+    progress : bool
+        Progress bars.
+    coefficients : Coefficients, optional
+        Precomputed for this scene, settings, these states' daylight sun directions and the
+        responses' optics.
+    optic_nodes : sequence of float
+        Incidence-angle class nodes [deg] of angle x wavelength optics (from 0 to 90).
+    provenance : dict, optional
+        Extra entries (e.g. the command line) for ``result.provenance``.
+    block_steps : int, optional
+        Steps per output block (default: a block of about 384 MB).
+
+    Returns
+    -------
+    POAResult
+    """
+    t_start = time.perf_counter()
+    settings = settings or IntegratorSettings()
+    if n_jobs is not None and int(n_jobs) < 1:
+        raise ValueError(f"n_jobs={n_jobs} must be >= 1 (processes)")
+    T, C = len(states), sky.n_channels
+    times = states.times if times is None else times
+    if times is not None and len(times) != T:
+        raise ValueError(f"times has {len(times)} steps, the states {T}")
+    resp, W, col_mat, col_of, plan = contraction_columns(sky, responses, optic_nodes)
+    J = W.shape[1]
+    Wall = np.concatenate([W, np.eye(C) if spectral else np.zeros((C, 0))], axis=1)
+    ga = scene.ground_albedo
+    spectral_ground = ga is not None and np.ndim(ga) == 1
+    if spectral_ground:
+        if np.shape(ga) != (C,):
+            raise ValueError(f"ground_albedo has {np.shape(ga)[0]} channels, the sky {C}")
+    J_all = Wall.shape[1]
+    if spectral_ground:
+        Wall = np.concatenate([Wall, np.asarray(ga)[:, None] * Wall], axis=1)
+
+    # per-step factors
+    scale_d, scale_s = np.ones(T), np.ones(T)
+    if measured is not None:
+        if dni_scale is not None or diffuse_scale is not None:
+            raise ValueError("give measured=(dni, dhi) or dni_scale/diffuse_scale, not both")
+        m_dni, m_dhi = (np.broadcast_to(np.asarray(a, dtype=float), (T,)) for a in measured)
+        measured_scale_factors(np.ones(T), np.ones(T), m_dni, m_dhi)     # validates the inputs
+        model_dni, model_dhi = np.zeros(T), np.zeros(T)
+    for name, v in (("dni_scale", dni_scale), ("diffuse_scale", diffuse_scale)):
+        if v is not None:
+            a = np.asarray(v, dtype=float)
+            if a.shape not in ((T,), (T, C)) and a.ndim != 0:
+                raise ValueError(f"{name} has shape {a.shape}, expected ({T},) or ({T}, {C})")
+            if not np.all(np.isfinite(a)) or np.any(a < 0):
+                raise ValueError(f"{name} must be finite and >= 0")
+    ch_sun = None if dni_scale is None else np.broadcast_to(
+        np.asarray(dni_scale, float).reshape((T, -1) if np.ndim(dni_scale) else (1, 1)), (T, C))
+    ch_sky = None if diffuse_scale is None else np.broadcast_to(
+        np.asarray(diffuse_scale, float).reshape((T, -1) if np.ndim(diffuse_scale) else (1, 1)),
+        (T, C))
+
+    patches = reinhart(settings.mf)
+    P = patches.n_patches
+    w_horizontal = cosine_weights(patches, np.array([[0.0, 0.0, 1.0]]))[0]      # (P,) [sr]
+    el = states.sun_elevation
+    lit = np.nonzero(el > getattr(sky, "min_sun_elevation", 0.0))[0]
+    up = el > 0
+    sun_rank = np.cumsum(up) - 1
+    sun_dirs = states.sun_direction[up]
+    F, k, N = scene.n_faces, scene.samples_per_face, scene.n_points
+    faces_tab = FaceTable.from_scene(scene)
+    names = [r[0] for r in resp]
+    units = {r[0]: r[2] for r in resp}
+    keys = [(n, p) for n in names for p in PARTS]
+
+    # output blocks of consecutive steps, each cut into chunks of lit steps sorted by sky state
+    # (sources that share work between equal states see them together)
+    n_arr = len(keys) + 2 + (4 * C if spectral else 0)
+    if block_steps is None:
+        block_steps = max(settings.time_chunk, BLOCK_BYTES // max(1, 4 * F * n_arr))
+    block_steps = int(max(1, block_steps))
+    blocks = [(b0, min(T, b0 + block_steps)) for b0 in range(0, T, block_steps)] or [(0, 0)]
+    lit_mask = np.zeros(T, bool)
+    lit_mask[lit] = True
+    chunk_plan = []                                   # (block index, step indices)
+    for bi, (b0, b1) in enumerate(blocks):
+        sel = np.nonzero(lit_mask[b0:b1])[0] + b0
+        key_el = np.round(el[sel], 1)
+        sel = sel[np.lexsort((states.albedo[sel], states.visibility[sel], key_el))]
+        for c0 in range(0, sel.size, settings.time_chunk):
+            chunk_plan.append((bi, np.sort(sel[c0:c0 + settings.time_chunk])))
+
+    pending = None
+    if coefficients is None:
+        pending = start_coefficients(scene, mf=settings.mf, rays_per_patch=settings.rays_per_patch,
+                                     sun_directions=sun_dirs, sun_bin=settings.sun_bin,
+                                     n_jobs=n_jobs, executor=executor, progress=progress,
+                                     optics=plan.weights)
+    t_sky = 0.0
+
+    def sky_chunk(idx):
+        """Stage 2: contracted patch radiance and direct normal irradiance of steps ``idx``."""
+        nonlocal t_sky
+        t0 = time.perf_counter()
+        st = states.take(idx)
+        Lp, dni, cs = patch_radiance(sky, patches, st, Wall, settings,
+                                     sun_scale=None if ch_sun is None else ch_sun[idx],
+                                     sky_scale=None if ch_sky is None else ch_sky[idx])
+        if measured is not None:                   # column 0 is broadband: the model's DNI, DHI
+            model_dni[idx] = dni[:, 0]
+            model_dhi[idx] = _horizontal_diffuse(Lp[..., 0], cs[:, 0], w_horizontal, st.sun_elevation)
+            f = measured_scale_factors(model_dni[idx], model_dhi[idx], m_dni[idx], m_dhi[idx],
+                                       missing="clear")
+            scale_d[idx], scale_s[idx] = f.sun_scale, f.sky_scale
+        # circumsolar light travels with the sun but is sky light: it takes the sky's scale
+        dni = dni * scale_d[idx][:, None] + cs * scale_s[idx][:, None]
+        Lp *= scale_s[idx][:, None, None]
+        t_sky += time.perf_counter() - t0
+        return Lp, dni
+
+    sky_ahead = []
+    if pending is not None and pending._futs is not None:
+        per_step = P * Wall.shape[1] * 8
+        n_ahead = min(len(chunk_plan), max(0, (256 << 20) // max(per_step * settings.time_chunk, 1)))
+        sky_ahead = [sky_chunk(idx) for _, idx in chunk_plan[:n_ahead]]
+    t_sky_ahead = t_sky
+    sink = None
+    failed = True
+    try:
+        if pending is not None:
+            coefficients = pending.result()
+        cf: Coefficients = coefficients
+        if cf.sky.shape != (N, P) or cf.n_sun != sun_dirs.shape[0]:
+            raise ValueError("coefficients do not match this scene, settings and states")
+        if plan.weights is not None and (cf.sky_optic is None or
+                                         cf.sky_optic.shape[0] != plan.weights.n):
+            raise ValueError("coefficients lack the optics of these responses")
+        t_rays = time.perf_counter()
+        ctx = _ProductContext(scene, cf, states, lit, J, J_all, col_mat, spectral,
+                              spectral_ground, settings.time_chunk)
+        sink = _Sink(keys, T, F, C, None if output is None else os.fspath(output), names, units,
+                     faces_tab, spectral)
+        t_prod = 0.0
+        ci = 0
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
+            bar = tqdm(total=len(chunk_plan), unit="chunk", desc="time series")
+        face_n = np.asarray(scene.face_normal, dtype=float)
+        invalid = ~scene.face_valid
+        for bi, (b0, b1) in enumerate(blocks):
+            if b1 <= b0:
+                continue
+            block = sink.block(b0, b1)
+            upb = np.nonzero(up[b0:b1])[0]
+            if upb.size:                           # beam angle of incidence of every face
+                cz = np.clip(states.sun_direction[b0 + upb] @ face_n.T, -1.0, 1.0)
+                block["aoi"][upb] = np.degrees(np.arccos(cz))
+            while ci < len(chunk_plan) and chunk_plan[ci][0] == bi:
+                idx = chunk_plan[ci][1]
+                Lp, dni = sky_ahead[ci] if ci < len(sky_ahead) else sky_chunk(idx)
+                if ci < len(sky_ahead):
+                    sky_ahead[ci] = None
+                t1 = time.perf_counter()
+                terms = chunk_products(ctx, idx, Lp, dni, up, sun_rank)
+                assemble_parts(ctx, resp, col_of, plan, terms, block, idx - b0, names)
+                t_prod += time.perf_counter() - t1
+                ci += 1
+                if bar is not None:
+                    bar.update(1)
+            if np.any(invalid):
+                for v in block.values():
+                    v[:, invalid] = 0
+            sink.flush(b0, block)
+        if bar is not None:
+            bar.close()
+        scaling = None
+        if measured is not None:
+            dark = ~lit_mask
+            f = measured_scale_factors(model_dni, model_dhi, m_dni, m_dhi, missing="clear")
+            scaling = f._replace(sun_scale=scale_d, sky_scale=scale_s,
+                                 sun_guarded=f.sun_guarded & ~dark, sky_guarded=f.sky_guarded & ~dark)
+        prov = {"settings": asdict(settings), "optic_nodes": list(map(float, optic_nodes)),
+                "versions": _versions(), **_dataset_provenance(sky), **(provenance or {})}
+        timings = {"rays": (t_rays - t_start) if pending is not None else 0.0,
+                   "sky_during_rays": t_sky_ahead, "n_rays": cf.n_rays, "sun_bins": cf.n_sun_bins,
+                   "sky": t_sky, "product": t_prod, "steps": T, "lit_steps": int(lit.size)}
+        finish = dict(times=times, states=states, scaling=scaling, provenance=prov,
+                      wavelengths=np.asarray(sky.wavelengths, dtype=float),
+                      channel_edges=np.asarray(sky.channel_edges, dtype=float))
+        sink.close(False, **finish)
+        failed = False
+    finally:
+        if failed and sink is not None:
+            sink.close(True)
+        if failed and pending is not None:
+            pending._close()
+    timings["total"] = time.perf_counter() - t_start
+    if output is not None:
+        res = POAResult.load(output)
+        res.timings = timings
+        return res
+    full = sink.full
+    spec = ({p: full[("spectral", p)] for p in PARTS + ("global",)} if spectral else None)
+    return POAResult(responses=names, units=units, data={k: full[k] for k in keys},
+                     aoi=full["aoi"], sun_visible=full["sun_visible"], faces=faces_tab, times=times,
+                     states=states, scaling=scaling, provenance=prov, spectral=spec,
+                     wavelengths=finish["wavelengths"], channel_edges=finish["channel_edges"],
+                     timings=timings)
+
+
+class _ProductContext:
+    """The coefficient matrices in the layout of the products, and reusable work buffers."""
+
+    def __init__(self, scene, cf, states, lit, J, J_all, col_mat, spectral, spectral_ground,
+                 tmax):
+        N, P = cf.sky.shape
+        self.N, self.P, self.F, self.k = N, P, scene.n_faces, scene.samples_per_face
+        self.J, self.J_all, self.C = J, J_all, J_all - J
+        self.spectral, self.spectral_ground = spectral, spectral_ground
+        self.ga = scene.ground_albedo
+        self.col_mat = np.concatenate([col_mat, -np.ones(J_all - J, dtype=int)])
+        self.cf = cf
+        self.D_T = {-1: np.ascontiguousarray(cf.sky.T, dtype=np.float32)}            # (P, N)
+        for m in np.unique(col_mat[col_mat >= 0]):
+            self.D_T[int(m)] = np.ascontiguousarray(cf.sky_optic[m].T, dtype=np.float32)
+        self.refl_factor = None if cf.reflect_optic is None else cf.reflect_optic.astype(np.float32)
+        self.sun_dir = states.sun_direction                                        # (T, 3)
+        self.albedo = states.albedo
+        alb = states.albedo[lit]
+        ga = self.ga
+        if ga is not None and np.ndim(ga) == 0:
+            fold = float(ga)
+        elif ga is None and (alb.size == 0 or np.all(alb == alb[0])):
+            fold = float(alb[0]) if alb.size else 0.0
+        else:
+            fold = None
+        if fold is not None:
+            self.R_T = np.ascontiguousarray((cf.reflect_sky + fold * cf.ground_sky).T, np.float32)
+            self.A_T = None
+        else:
+            self.R_T = np.ascontiguousarray(cf.reflect_sky.T, dtype=np.float32)
+            self.A_T = np.ascontiguousarray(cf.ground_sky.T, dtype=np.float32)
+        self.wall_ground = cf.reflect_ground.astype(np.float32)                     # (N,)
+        self.Ksun_T = np.ascontiguousarray(np.concatenate(
+            [cf.reflect_sun / np.pi, cf.ground_sun[:, :, None]], axis=2).transpose(0, 2, 1),
+            dtype=np.float32)                                                       # (G, B+1, N)
+        self.normals_T = np.ascontiguousarray(scene.point_normal.T.astype(np.float32))   # (3, N)
+        self.sun_vis = cf.sun_visibility_bins()                                      # (S_b, N)
+        self.sun_bin_of = np.arange(cf.n_sun) if cf.sun_index is None else cf.sun_index
+        self.Hb = reinhart_vector_z(P)
+        rows = tmax * J_all
+        self.buf_sky = _lazy_zeros((rows, N), np.float32)
+        self.buf_refl = _lazy_zeros((rows, N), np.float32)
+        self.buf_aux = _lazy_zeros((rows, N), np.float32)
+        self.buf_tmp = _lazy_zeros((tmax, N), np.float32)
+
+    def faces(self, a):
+        """(..., N) -> (..., F): mean over each face's points."""
+        k, F = self.k, self.F
+        return a if k == 1 else a.reshape(a.shape[:-1] + (F, k)).mean(axis=-1)
+
+
+def reinhart_vector_z(P):
+    """(P,) vertical components of the patches' solid-angle vectors [sr] (horizontal weights)."""
+    mf = int(round(np.sqrt((P - 1) / 144.0)))
+    return reinhart(mf).vector[:, 2]
+
+
+def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank):
+    """Stage 3: per column the sky, reflected and beam terms of the steps ``idx``.
+
+    Returns a dict: ``sky`` (Tc, J', N) sky-diffuse per column (the column's own coefficients),
+    ``refl`` (Tc, J', N) reflected light per column (no optic), ``beam`` (Tc, N) ``max(0, n . s)
+    x sun visibility`` [1], ``cos`` (Tc, N) ``n . s`` (for the optics' angles; 0 with the sun down),
+    ``dni`` (Tc, J') float32 contracted direct normal irradiance, ``vis`` (Tc, N) sun visibility.
+    """
+    cf = ctx.cf
+    Tc, N, P = idx.size, ctx.N, ctx.P
+    s = ctx.sun_dir[idx]
+    sin_el = np.maximum(s[:, 2], 0.0)
+    alb_steps = ctx.albedo[idx]
+    Hs = np.einsum("tpr,p->tr", Lp, ctx.Hb)                                 # (Tc, J') sky GHI
+    Hd = dni * sin_el[:, None]                                              # sun GHI
+    R = ctx.J_all
+    if ctx.spectral_ground:                        # the last columns are albedo-weighted
+        g_sky, g_sun = Hs[:, R:] / np.pi, Hd[:, R:] / np.pi
+        Lp_alb = Lp[..., R:]
+        Lp, dni = Lp[..., :R], dni[:, :R]
+    else:
+        alb = (alb_steps if ctx.ga is None else np.full(Tc, float(ctx.ga)))[:, None]
+        g_sky, g_sun = alb * Hs / np.pi, alb * Hd / np.pi                  # (Tc, J')
+    Lg = g_sky + g_sun                             # unshaded ground radiance
+    Rp = Lp.shape[2]
+    cos_b = np.maximum(s @ cf.bins.T, 0.0)                                  # (Tc, B)
+    Xs = np.ascontiguousarray(Lp.transpose(0, 2, 1), dtype=np.float32)      # (Tc, Rp, P)
+    sky_all = ctx.buf_sky[:Tc * Rp].reshape(Tc, Rp, N)
+    mats = ctx.col_mat[:Rp]
+    for m in np.unique(mats):
+        cols = np.nonzero(mats == m)[0]
+        if cols.size == Rp:
+            np.matmul(Xs.reshape(Tc * Rp, P), ctx.D_T[int(m)], out=sky_all.reshape(Tc * Rp, N))
+        else:
+            X = np.ascontiguousarray(Xs[:, cols]).reshape(Tc * cols.size, P)
+            sky_all[:, cols] = (X @ ctx.D_T[int(m)]).reshape(Tc, cols.size, N)
+    refl_all = np.matmul(Xs.reshape(Tc * Rp, P), ctx.R_T, out=ctx.buf_refl[:Tc * Rp]).reshape(
+        Tc, Rp, N)
+    if ctx.A_T is not None:                        # the ground's albedo changes between steps
+        Xa = Lp_alb if ctx.spectral_ground else alb[:, :, None] * Lp
+        Xa = np.ascontiguousarray(Xa.transpose(0, 2, 1).reshape(Tc * Rp, P), dtype=np.float32)
+        refl_all += np.matmul(Xa, ctx.A_T, out=ctx.buf_aux[:Tc * Rp]).reshape(Tc, Rp, N)
+    Lg32 = Lg.astype(np.float32)
+    tmp = ctx.buf_tmp[:Tc]
+    for r in range(Rp):                            # walls pass on the unshaded ground's light
+        refl_all[:, r] += np.multiply(Lg32[:, r:r + 1], ctx.wall_ground, out=tmp)
+    band = np.full(Tc, -1)
+    band[up[idx]] = cf.step_band(sun_rank[idx[up[idx]]])
+    for g in np.unique(band[band >= 0]):           # reflected sun per shading cell
+        rows = np.nonzero(band == g)[0]
+        Xu = np.concatenate([dni[rows, None, :] * cos_b[rows, :, None], g_sun[rows, None, :]],
+                            axis=1)                                         # (Tg, B+1, Rp)
+        Xu = np.ascontiguousarray(Xu.transpose(0, 2, 1).reshape(rows.size * Rp, -1),
+                                  dtype=np.float32)
+        refl_all[rows] += np.matmul(Xu, ctx.Ksun_T[g], out=ctx.buf_aux[:rows.size * Rp]).reshape(
+            rows.size, Rp, N)
+    cos = np.zeros((Tc, N), np.float32)
+    vis = np.zeros((Tc, N), np.float32)
+    upc = np.nonzero(up[idx])[0]
+    if upc.size:
+        cos[upc] = s[upc].astype(np.float32) @ ctx.normals_T
+        vis[upc] = ctx.sun_vis[ctx.sun_bin_of[sun_rank[idx[upc]]]]
+    beam = np.maximum(cos, 0.0) * vis
+    return {"sky": sky_all, "refl": refl_all, "beam": beam, "cos": cos, "vis": vis,
+            "dni": dni.astype(np.float32)}
+
+
+def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows, names):
+    """Stage 4: each response's direct, sky-diffuse and reflected parts from its columns, the
+    optics applied, averaged over each face's points, into ``block`` at ``rows``."""
+    sky_all, refl_all, beam, dni = terms["sky"], terms["refl"], terms["beam"], terms["dni"]
+    aoi_pt = None
+    f = ctx.faces
+    for i, (name, _w, _unit, r) in enumerate(resp):
+        kind = plan.kind[i]
+        js = col_of[i]
+        if kind != "none" and aoi_pt is None:
+            aoi_pt = np.degrees(np.arccos(np.clip(terms["cos"], -1.0, 1.0)))
+        if kind == "none":
+            j = js[0]
+            direct = dni[:, j:j + 1] * beam
+            skyd = sky_all[:, j]
+            refl = refl_all[:, j]
+        elif kind == "angular":
+            j = js[0]
+            g = np.asarray(r.angular(np.minimum(aoi_pt, 90.0)), dtype=np.float32)
+            direct = dni[:, j:j + 1] * beam * g
+            skyd = sky_all[:, j]
+            refl = refl_all[:, j] * ctx.refl_factor[plan.index[i]][None, :]
+        else:
+            direct = np.zeros_like(beam)
+            skyd = np.zeros_like(beam)
+            refl = np.zeros_like(beam)
+            eye = np.eye(plan.nodes.size)
+            for a, j in enumerate(js):
+                hat = np.interp(aoi_pt, plan.nodes, eye[a]).astype(np.float32)
+                direct += dni[:, j:j + 1] * beam * hat
+                skyd += sky_all[:, j]
+                refl += refl_all[:, j] * ctx.refl_factor[plan.index[i] + a][None, :]
+        block[(name, "direct")][rows] = f(direct)
+        block[(name, "sky_diffuse")][rows] = f(skyd)
+        block[(name, "ground_diffuse")][rows] = f(refl)
+    block["sun_visible"][rows] = f(terms["vis"])
+    if ctx.spectral:
+        J, C = ctx.J, ctx.C
+        sd = sky_all[:, J:J + C].transpose(0, 2, 1)
+        rd = refl_all[:, J:J + C].transpose(0, 2, 1)
+        dd = beam[:, :, None] * dni[:, None, J:J + C]
+        for p, v in (("direct", dd), ("sky_diffuse", sd), ("ground_diffuse", rd)):
+            block[("spectral", p)][rows] = _face_mean_spectral(ctx, v)
+        block[("spectral", "global")][rows] = sum(block[("spectral", p)][rows] for p in PARTS)
+
+
+def _face_mean_spectral(ctx, v):
+    """(Tc, N, C) -> (Tc, F, C)."""
+    k = ctx.k
+    return v if k == 1 else v.reshape(v.shape[0], ctx.F, k, v.shape[2]).mean(axis=2)
