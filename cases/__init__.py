@@ -4,7 +4,7 @@ Each case is a folder holding ``case.toml`` (validated against :data:`cases.conf
 geometry (``geometry.py`` with ``build(parameters)``, or a mesh file) and a ``README.md``.
 ``widesky run cases/<name>`` (or ``cases.run_case(folder)``) runs it end to end and writes a report
 folder atomically: an offline HTML report, time series (CSV, Parquet), the integrator result
-(``poa.npz``), a spectral EXR of one hour's sky, scene renders coloured by insolation and the coloured
+(``poa.h5``, :meth:`irradiance.POAResult.load` reads it), a spectral EXR of one hour's sky, scene renders coloured by insolation and the coloured
 mesh (PLY).
 """
 

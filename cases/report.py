@@ -54,13 +54,13 @@ def _table(header, rows):
 def _write_series(run: CaseRun, folder: Path):
     import pandas as pd
 
-    res, area = run.result, run.result.face_area
+    res, area = run.result, run.result.faces.area
     cols = {}
     for q in res.QUANTITIES:
         for lab, v in label_means(getattr(res, q), run.labels, area).items():
             cols[f"{lab}:{q} [W m-2]"] = v
-    for band, arr in res.effective_irradiance.items():
-        for lab, v in label_means(arr, run.labels, area).items():
+    for band in BANDS:
+        for lab, v in label_means(res.get(band, "global"), run.labels, area).items():
             cols[f"{lab}:{band} [W m-2]"] = v
     df = pd.DataFrame(cols, index=res.times)
     df.index.name = "time (interval start)"
@@ -74,16 +74,15 @@ def _write_series(run: CaseRun, folder: Path):
     return df, written
 
 
+def hour_spectrum(hour):
+    """(F, C) global spectral irradiance [W m-2 nm-1] of a one-step spectral result (the parts summed)."""
+    return sum(np.asarray(a[0], float) for a in hour.spectral.values())
+
+
 def _write_result(run: CaseRun, folder: Path, provenance):
-    res, sc = run.result, run.scene
-    day = np.any(res.poa_global > 0, axis=1) | np.any(res.poa_ground_diffuse > 0, axis=1)     # (T,) steps with light
-    np.savez_compressed(
-        folder / "poa.npz", times=np.asarray(res.times.astype(str), dtype=str), daylight=day,
-        **{q: getattr(res, q)[day] for q in res.QUANTITIES},
-        face_area=res.face_area, face_group=res.face_group, group_names=np.array(res.group_names),
-        face_side=sc.face_side, face_normal=sc.face_normal, face_label=np.array(run.labels),
-        wavelength_nm=res.wavelengths, spectral_hour=run.hour.spectral[0],
-        spectral_hour_time=str(run.hour.times[0]))
+    run.result.provenance.update(case=provenance)
+    run.result.save(folder / "poa.h5")                 # the integrator's own HDF5 layout (POAResult.load)
+    run.hour.save(folder / "spectral_hour.h5")         # the report hour with its spectral parts
     dump_json(folder / "provenance.json", provenance)
 
 
@@ -102,7 +101,7 @@ def write_report(run: CaseRun, folder, provenance):
 
     folder = Path(folder)
     cfg, res, sc = run.config, run.result, run.scene
-    area = res.face_area
+    area = res.faces.area
     kwh = res.poa_global.astype(float).sum(axis=0) * run.step_hours / 1000.0          # (F,) [kWh m-2]
     df, series_files = _write_series(run, folder)
     _write_result(run, folder, provenance)
@@ -171,17 +170,18 @@ def write_report(run: CaseRun, folder, provenance):
     step = max(1, len(days) // 8)
     charts.append(line_chart(dnum, daily, title="daily insolation", xlabel="day", ylabel="insolation [kWh m-2 day-1]",
                              xticks=[(i, days[i].strftime("%d %b")) for i in dnum[::step]]))
-    band_tot = {lab: [float(label_means(res.effective_irradiance[b], run.labels, area)[lab].sum()) for b in BANDS]
-                for lab in labels}
+    band_means = {b: label_means(res.get(b, "global"), run.labels, area) for b in BANDS}
+    band_tot = {lab: [float(band_means[b][lab].sum()) for b in BANDS] for lab in labels}
     band_frac = {lab: [100 * v / max(parts_total["poa_global"][lab].sum(), 1e-30) for v in vals]
                  for lab, vals in band_tot.items()}
     charts.append(bar_chart(list(BANDS), band_frac, title="spectral split of the period's irradiance",
                             xlabel="band", ylabel="share of 280-2480 nm [%]"))
-    spec = label_means(np.asarray(run.hour.spectral[0], float).T, run.labels, area)     # label -> (C,)
+    spec = label_means(hour_spectrum(run.hour).T, run.labels, area)                  # label -> (C,)
     charts.append(line_chart(res.wavelengths, spec, title=f"spectral irradiance at {st}",
                              xlabel="wavelength [nm]", ylabel="irradiance [W m-2 nm-1]"))
     s = _settings_text(run)
-    files = ["index.html", *series_files, "faces.csv", "poa.npz", "provenance.json", "case.toml", "sky.exr",
+    files = ["index.html", *series_files, "faces.csv", "poa.h5", "spectral_hour.h5", "provenance.json", "case.toml",
+             "sky.exr",
              "sky.png", *renders, "scene.ply"]
     parquet_note = "" if "timeseries.parquet" in series_files else (
         "<p class='note'>timeseries.parquet was not written: no Parquet engine is installed "

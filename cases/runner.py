@@ -37,7 +37,7 @@ class CaseRun:
     config: dict
     scene: object
     result: object                 # irradiance.POAResult of the period
-    hour: object                   # irradiance.POAResult of report.sky_time with spectral output
+    hour: object                   # irradiance.POAResult of report.sky_time with spectral parts
     hour_index: int
     hour_sun: tuple                # (apparent elevation, azimuth) [deg] of that hour (mid-interval)
     labels: list                   # per analysis face: its group label ("roof", "row1 back" ...)
@@ -86,7 +86,7 @@ def face_labels(scene):
     return list(names)
 
 
-def _times(cfg):
+def _site(cfg):
     import irradiance as ir
 
     s = cfg["site"]
@@ -99,9 +99,7 @@ def _times(cfg):
         site = ir.Site(s["latitude"], s["longitude"], s["altitude"], tz=tz, name=s["name"])
     except ValueError as exc:
         raise ConfigError(f"[site]: {exc}") from None
-    p = cfg["period"]
-    times = ir.time_range(str(p["start"]), str(p["end"]), p["step"], tz=site.tz, label="left")
-    return site, times
+    return site
 
 
 def _sha1(path, limit=1 << 26):
@@ -123,11 +121,12 @@ def compute(folder, *, n_jobs=None, progress=True) -> CaseRun:
     cfg = load_config(folder)
     t0 = time.perf_counter()
     timings = {}
-    site, times = _times(cfg)
+    site = _site(cfg)
     sky = ir.PragueSky(cfg["sky"]["dataset"])
-    sp = site.solar_position(times, label="left")
-    states = ir.SkyStates.create(sp["apparent_elevation"].to_numpy(), sp["azimuth"].to_numpy(),
-                                 cfg["sky"]["visibility"], cfg["sky"]["albedo"], 0.0)
+    p = cfg["period"]
+    states = ir.sky_states_for(site, str(p["start"]), str(p["end"]), p["step"], model=sky.model,
+                               visibility=cfg["sky"]["visibility"], albedo=cfg["sky"]["albedo"], warn=False)
+    times = states.times
     sky.check_states(states)
     geo = build_geometry(cfg["scene"]["geometry"], cfg["scene"]["parameters"])
     context = list(geo["context"].values())

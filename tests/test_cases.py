@@ -135,7 +135,8 @@ def small_report(tmp_path_factory):
 def test_report_folder_contents(small_report):
     rep, _ = small_report
     names = {p.name for p in rep.iterdir()}
-    assert {"index.html", "timeseries.csv", "timeseries.parquet", "faces.csv", "poa.npz", "provenance.json",
+    assert {"index.html", "timeseries.csv", "timeseries.parquet", "faces.csv", "poa.h5", "spectral_hour.h5",
+            "provenance.json",
             "case.toml", "sky.exr", "sky.png", "scene_south-west.png", "scene.ply"} <= names
     assert not [p for p in rep.parent.iterdir() if p.name.startswith(".")]          # no temporary folder left
     html = (rep / "index.html").read_text()
@@ -163,7 +164,9 @@ def test_roof_alone_receives_the_model_global_horizontal(small_report):
     assert list(ts.index) == [str(t) for t in times]
     sp = site.solar_position(times, label="left")
     el = sp["apparent_elevation"].to_numpy()
-    st = ir.SkyStates.create(el, sp["azimuth"].to_numpy(), 40.0, 0.2)
+    # the sun and the sky scale with the Earth-Sun distance (SPA, 1.016 AU in June: 3.2 % below 1 AU)
+    st = ir.SkyStates.create(el, sp["azimuth"].to_numpy(), 40.0, 0.2,
+                             earth_sun_distance=sp["earth_sun_distance"].to_numpy())
     dni, dhi = ir.model_irradiance(ir.PragueSky(), st)
     ghi = dni * np.sin(np.radians(np.maximum(el, 0))) + dhi
     day = ghi > 20
@@ -174,10 +177,11 @@ def test_roof_alone_receives_the_model_global_horizontal(small_report):
     r = faces[faces.label == "roof"]
     assert np.average(r.insolation_kwh_m2, weights=r.area_m2) == pytest.approx(roof.sum() / 1000, rel=1e-3)
     # the saved result holds the same numbers per face
-    z = np.load(rep / "poa.npz")
-    sel = z["face_label"] == "roof"
-    got = (z["poa_global"][:, sel] @ z["face_area"][sel]) / z["face_area"][sel].sum()
-    np.testing.assert_allclose(got, roof[z["daylight"]], rtol=1e-3, atol=0.05)
+    res = ir.POAResult.load(rep / "poa.h5", groups=["roof"])
+    got = res.to_pvlib(group="roof")["poa_global"].to_numpy()
+    np.testing.assert_allclose(got, roof, rtol=1e-3, atol=0.05)
+    hour = ir.POAResult.load(rep / "spectral_hour.h5")
+    assert hour.spectral is not None and len(hour.times) == 1 and str(hour.times[0]) == "2024-06-21 12:00:00+02:00"
 
 
 def test_spectral_split_sums_to_the_total(small_report):

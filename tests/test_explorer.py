@@ -249,3 +249,24 @@ def test_cli_errors_are_one_line():
     p = subprocess.run([sys.executable, "-m", "skymodel.cli", "gui", "--port", "70000", "--no-browser"],
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "--port 70000" in p.stderr
+
+
+def test_a_user_response_is_integrated(tmp_path):
+    """A glazing-like transmittance file: 0.6 over 400-760 nm, 0 elsewhere; its integral is 0.6 x the
+    global irradiance of the channels inside that range (channel edges lie on 400 and 760 nm)."""
+    from skymodel.explorer.cli import parse_response
+
+    f = tmp_path / "glass.csv"
+    f.write_text("wavelength_nm,value\n400,0.6\n760,0.6\n")
+    m = skymodel.load_dataset()
+    name, (w, unit) = parse_response(f"glass:transmittance={f}", m)
+    assert name == "glass" and unit == "W m-2"
+    ex = Explorer(responses={name: (w, unit)}, output_dir=tmp_path, threads=1)
+    r = ex.irradiance({"elevation": "40"})
+    g = np.array(r["horizontal"]["global"])
+    inside = (m.channel_lower >= 400) & (m.channel_lower + m.channel_width <= 760)
+    assert inside.sum() == 9
+    assert r["horizontal"]["integrated"]["glass"] == pytest.approx(0.6 * g[inside].sum() * m.channel_width, rel=1e-9)
+    assert r["units"]["glass"] == "W m-2"
+    with pytest.raises(ValueError, match="unit 'lux'"):
+        parse_response(f"glass:lux={f}", m)

@@ -54,9 +54,10 @@ class Explorer:
         Dataset files; default the embedded dataset (or ``WIDESKY_DATASET``).
     output_dir : str or Path
         Folder that ``/api/save`` writes into (created if missing).
-    responses : dict of str to ndarray, optional
-        Extra spectral responses [1] per channel of dataset 0 (e.g. a cell SR or a glazing
-        transmittance), integrated against the irradiance spectra as W m-2.
+    responses : dict of str to (ndarray, str), optional
+        Extra spectral responses: name -> (weights per channel of dataset 0, output unit), e.g. a cell SR
+        [A W-1] -> "A m-2" or a glazing transmittance [1] -> "W m-2"; the irradiance spectra are
+        integrated against them (see :func:`skymodel.explorer.cli.parse_response`).
     threads : int
         Evaluator threads (0: all cores).
     """
@@ -99,10 +100,10 @@ class Explorer:
 
     def _responses_for(self, model):
         out = {}
-        for name, w in self.responses.items():
+        for name, (w, unit) in self.responses.items():
             w = np.asarray(w, float)
-            if w.shape == (model.n_channels,):
-                out[name] = (w, "W m-2")
+            if w.shape == (model.n_channels,):      # responses are defined on dataset 0's channels
+                out[name] = (w, unit)
         return out
 
     def render(self, query):
