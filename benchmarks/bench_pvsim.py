@@ -1,0 +1,98 @@
+"""Benchmark: every library technology in one run vs the POA run with three responses (issue 12).
+
+Scene, sky and year as benchmarks/bench_poa.py (rows of PV modules, an analysed building, context;
+the Prague Sky Model; an hourly clear-sky year at Prague). Both runs in this process, one after the
+other, with the same settings:
+
+1. baseline: ``poa_irradiance`` with three responses (broadband, a c-Si-like SR and a glazing-like
+   transmittance: bench_poa.responses, channel weights without optics);
+2. pvsim: ``pvsim.simulate`` with all library technologies -- one integrator run with every distinct
+   sub-cell EQE as a response with the Fresnel cover optic applied per incoming direction, plus the
+   cover's unit weight -- followed by the yield model (cell temperature, DC, AC, waterfall) of every
+   technology on every module group.
+
+Both results stream to HDF5 files in a temporary folder (``output=``): the all-technology result of a
+20,000-face hourly year is about 13 x 3 (T, F) float32 arrays, more than this machine's memory.
+Printed: wall seconds of each, the ratio (target <= 1.25, issue 12), the phases, and throughput.
+
+Run: python benchmarks/bench_pvsim.py [--faces 20000] [--jobs 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import bench_poa  # noqa: E402
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--faces", type=int, default=20000)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--dataset", default=None, help="PSM dataset file (default: the embedded one)")
+    ap.add_argument("--order", choices=("baseline-first", "pvsim-first"), default="baseline-first",
+                    help="which run goes first (the second profits from warm caches)")
+    args = ap.parse_args(argv)
+    import pvsim
+    from irradiance import IntegratorSettings, make_scene, poa_irradiance
+
+    analysis, groups, context = bench_poa.benchmark_scene(args.faces)
+    scene = make_scene(analysis, context, groups=groups, ground_z=0.0)
+    times, states = bench_poa.year_states()
+    sky, which = bench_poa.sky_source(args.dataset)
+    settings = IntegratorSettings()
+    techs = list(pvsim.TECHNOLOGIES)
+    resp, sources = pvsim.technology_responses(techs)
+    print(f"scene: {scene.n_faces} analysis faces; {len(states)} hourly steps; sky: PSM {which}; "
+          f"{len(techs)} technologies -> {len(resp)} responses + broadband")
+    print(f"load average before: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores")
+    tmp = tempfile.mkdtemp(prefix="bench_pvsim.")
+
+    def baseline():
+        t0 = time.perf_counter()
+        r = poa_irradiance(scene, sky, states, responses=bench_poa.responses(sky.wavelengths), settings=settings,
+                           times=times, n_jobs=args.jobs, output=os.path.join(tmp, "base.h5"))
+        return time.perf_counter() - t0, r
+
+    def technologies():
+        t0 = time.perf_counter()
+        r = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times, n_jobs=args.jobs,
+                           output=os.path.join(tmp, "pv.h5"))
+        t_poa = time.perf_counter() - t0
+        y = pvsim.pv_yield(r, techs, 20.0, 1.0, sources=sources)
+        return time.perf_counter() - t0, t_poa, r, y
+
+    if args.order == "baseline-first":
+        t_base, rb = baseline()
+        t_pv, t_pv_poa, rp, y = technologies()
+    else:
+        t_pv, t_pv_poa, rp, y = technologies()
+        t_base, rb = baseline()
+    for name, t, r in (("baseline (3 responses)", t_base, rb), ("pvsim POA (all technologies)", t_pv_poa, rp)):
+        tm = r.timings
+        print(f"{name}: {t:.1f} s; " + ", ".join(f"{k} {v:.1f} s" for k, v in tm.items()
+                                               if isinstance(v, float) and k != "total"))
+    print(f"pvsim yield model: {t_pv - t_pv_poa:.1f} s for {len(techs)} technologies x {len(y.groups)} groups "
+          f"({scene.n_faces * len(states) * len(techs) / max(t_pv - t_pv_poa, 1e-9) / 1e6:.1f} M face-steps/s)")
+    print(f"ratio all technologies (POA + yield) / POA with three responses = {t_pv / t_base:.2f} "
+          f"(POA alone {t_pv_poa / t_base:.2f}; target <= 1.25)")
+    g = y.groups[0]
+    print("specific yield of group " + g + " [kWh/kWp]: " +
+          ", ".join(f"{n} {ty.specific_yield(g):.0f}" for n, ty in y.technologies.items()))
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
+    for f in ("base.h5", "pv.h5"):
+        try:
+            os.remove(os.path.join(tmp, f))
+        except OSError:
+            pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

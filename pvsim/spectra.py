@@ -1,0 +1,236 @@
+"""Spectral bookkeeping for PV: SR <-> EQE, photon flux, band averages and the AM1.5G reference.
+
+Conventions: wavelength [nm], spectral irradiance [W m-2 nm-1], spectral response SR [A W-1],
+external quantum efficiency EQE [1]. ``qe_to_sr`` and ``sr_to_qe`` carry pvlib's names and meaning
+(pvlib.spectrum.qe_to_sr / sr_to_qe): SR = EQE * lambda * q / (h c).
+
+The reference spectrum (ASTM G173-03 / IEC 60904-3 AM1.5 global tilted) is read from a file the user
+names, or from ``solar/ASTMG173.csv`` in the input data directory (argument, ``WIDESKY_DATA_DIR`` or
+``../shared/data``); the package does not ship a copy.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["PLANCK", "SPEED_OF_LIGHT", "ELEMENTARY_CHARGE", "HC_EV_NM", "qe_to_sr", "sr_to_qe",
+           "photon_flux", "band_average", "channel_edges", "read_astm_g173", "am15g",
+           "am15g_channels", "find_data_file"]
+
+PLANCK = 6.62607015e-34          # h [J s] (SI 2019, exact)
+SPEED_OF_LIGHT = 299792458.0     # c [m s-1] (exact)
+ELEMENTARY_CHARGE = 1.602176634e-19  # q [C] (exact)
+HC_EV_NM = PLANCK * SPEED_OF_LIGHT / ELEMENTARY_CHARGE * 1e9  # h c / q = 1239.84 [eV nm]
+
+_SR_PER_QE_PER_NM = ELEMENTARY_CHARGE / (PLANCK * SPEED_OF_LIGHT) * 1e-9   # [A W-1 nm-1]
+
+
+def _wavelength_array(wavelength, n, name="wavelength"):
+    w = np.asarray(wavelength, dtype=float)
+    if w.shape != (n,) and w.shape != ():
+        raise ValueError(f"{name} must have shape ({n},) like the curve, got {w.shape}")
+    if np.any(~np.isfinite(w)) or np.any(w <= 0):
+        raise ValueError(f"{name} must be positive and finite [nm], got min {np.nanmin(w)!r}")
+    return w
+
+
+def _normalize(a):
+    m = np.max(a, axis=-1, keepdims=True) if a.ndim else a
+    return a / np.where(m > 0, m, 1.0)
+
+
+def qe_to_sr(qe, wavelength, normalize=False):
+    """Spectral response from quantum efficiency, SR = EQE * lambda * q / (h c).
+
+    Parameters
+    ----------
+    qe : array_like (..., K)
+        Quantum efficiency [1].
+    wavelength : array_like (K,)
+        [nm].
+    normalize : bool
+        Divide by the maximum along the last axis (as pvlib).
+
+    Returns
+    -------
+    numpy.ndarray (..., K)
+        Spectral response [A W-1] (relative [1] when normalised).
+    """
+    q = np.asarray(qe, dtype=float)
+    w = _wavelength_array(wavelength, q.shape[-1] if q.ndim else 1)
+    sr = q * w * _SR_PER_QE_PER_NM
+    return _normalize(sr) if normalize else sr
+
+
+def sr_to_qe(sr, wavelength, normalize=False):
+    """Quantum efficiency from spectral response, EQE = SR * h c / (q lambda).
+
+    Parameters
+    ----------
+    sr : array_like (..., K)
+        Spectral response [A W-1].
+    wavelength : array_like (K,)
+        [nm].
+    normalize : bool
+        Divide by the maximum along the last axis (as pvlib).
+
+    Returns
+    -------
+    numpy.ndarray (..., K)
+        Quantum efficiency [1].
+    """
+    s = np.asarray(sr, dtype=float)
+    w = _wavelength_array(wavelength, s.shape[-1] if s.ndim else 1)
+    qe = s / (w * _SR_PER_QE_PER_NM)
+    return _normalize(qe) if normalize else qe
+
+
+def photon_flux(spectral_irradiance, wavelength):
+    """Spectral photon flux density Phi = E lambda / (h c).
+
+    Parameters
+    ----------
+    spectral_irradiance : array_like (..., K)
+        [W m-2 nm-1].
+    wavelength : array_like (K,)
+        [nm].
+
+    Returns
+    -------
+    numpy.ndarray (..., K)
+        [photons s-1 m-2 nm-1].
+    """
+    e = np.asarray(spectral_irradiance, dtype=float)
+    w = _wavelength_array(wavelength, e.shape[-1] if e.ndim else 1)
+    return e * w * 1e-9 / (PLANCK * SPEED_OF_LIGHT)
+
+
+def channel_edges():
+    """The Prague Sky Model's channel edges: 55 channels of 40 nm, 280-2480 nm, (56,) [nm]."""
+    return np.arange(280.0, 2480.0 + 1e-9, 40.0)
+
+
+def band_average(wavelength, values, lower_nm, upper_nm):
+    """Band averages of a tabulated curve: the integral over each band divided by its width.
+
+    The curve is linear between its points and zero outside ``[wavelength[0], wavelength[-1]]``.
+    The integral is exact for that piecewise linear function.
+
+    Parameters
+    ----------
+    wavelength : array_like (K,)
+        Strictly increasing [nm].
+    values : array_like (..., K)
+        The curve (any unit).
+    lower_nm, upper_nm : array_like (C,)
+        Band limits [nm], ``upper > lower``.
+
+    Returns
+    -------
+    numpy.ndarray (..., C)
+        Band-averaged values, same unit as ``values``.
+    """
+    w = np.asarray(wavelength, dtype=float)
+    v = np.asarray(values, dtype=float)
+    lo = np.atleast_1d(np.asarray(lower_nm, dtype=float))
+    hi = np.atleast_1d(np.asarray(upper_nm, dtype=float))
+    if w.ndim != 1 or w.size < 2 or np.any(np.diff(w) <= 0):
+        raise ValueError("wavelength must be strictly increasing with >= 2 points [nm]")
+    if v.shape[-1] != w.size:
+        raise ValueError(f"values must end in an axis of {w.size} like wavelength, got {v.shape}")
+    if lo.shape != hi.shape or np.any(hi <= lo):
+        raise ValueError("band limits must have equal shapes with upper_nm > lower_nm [nm]")
+    # cumulative integral of the piecewise linear curve at its own knots, then at arbitrary points
+    seg = 0.5 * (v[..., 1:] + v[..., :-1]) * np.diff(w)
+    cum = np.concatenate([np.zeros(v.shape[:-1] + (1,)), np.cumsum(seg, axis=-1)], axis=-1)
+
+    def integral_to(x):
+        xc = np.clip(x, w[0], w[-1])
+        i = np.clip(np.searchsorted(w, xc, side="right") - 1, 0, w.size - 2)
+        t = xc - w[i]
+        slope = (v[..., i + 1] - v[..., i]) / (w[i + 1] - w[i])
+        return cum[..., i] + v[..., i] * t + 0.5 * slope * t * t
+
+    return (integral_to(hi) - integral_to(lo)) / (hi - lo)
+
+
+def find_data_file(relative, data_dir=None):
+    """Path of ``relative`` inside the input data directory.
+
+    The directory is ``data_dir``, else the environment variable ``WIDESKY_DATA_DIR``, else
+    ``../shared/data`` beside the checkout. Raises FileNotFoundError naming what was tried.
+    """
+    tried = []
+    here = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+    for cand in (data_dir, os.environ.get("WIDESKY_DATA_DIR"), here):
+        if not cand:
+            continue
+        p = Path(cand).expanduser() / relative
+        if p.is_file():
+            return p
+        tried.append(str(p))
+        if cand is data_dir:
+            break
+    raise FileNotFoundError(f"{relative!r} not found (tried {', '.join(tried) or 'no directory'}); "
+                            "pass the file's path, data_dir=..., or set WIDESKY_DATA_DIR")
+
+
+def read_astm_g173(path=None, data_dir=None):
+    """Read the ASTM G173-03 reference spectra.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        The CSV as distributed by NREL (two header lines; columns wavelength [nm], extraterrestrial,
+        global 37 deg tilt, direct + circumsolar [W m-2 nm-1]). Default ``solar/ASTMG173.csv`` in the
+        input data directory.
+    data_dir : str or Path, optional
+        Input data directory (see :func:`find_data_file`).
+
+    Returns
+    -------
+    dict
+        ``wavelength`` (K,) [nm]; ``extraterrestrial``, ``global``, ``direct`` (K,) [W m-2 nm-1].
+    """
+    import pandas as pd
+    p = Path(path) if path is not None else find_data_file("solar/ASTMG173.csv", data_dir)
+    try:
+        df = pd.read_csv(p, skiprows=1)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"cannot read ASTM G173 file {str(p)!r}: {exc}") from exc
+    cols = [c.strip().lower() for c in df.columns]
+    need = ("wavelength", "extraterrestrial", "global", "direct")
+    if tuple(cols[:4]) != need:
+        raise ValueError(f"ASTM G173 file {str(p)!r}: expected columns {need}, got {tuple(cols)}")
+    arr = df.to_numpy(dtype=float)
+    if np.any(np.diff(arr[:, 0]) <= 0) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"ASTM G173 file {str(p)!r}: wavelengths must increase and values be finite")
+    return {k: arr[:, i] for i, k in enumerate(need)}
+
+
+def am15g(path=None, data_dir=None):
+    """AM1.5 global tilted reference spectrum (ASTM G173-03): (wavelength (K,) [nm], E (K,) [W m-2 nm-1])."""
+    g = read_astm_g173(path, data_dir)
+    return g["wavelength"], g["global"]
+
+
+def am15g_channels(edges=None, path=None, data_dir=None):
+    """AM1.5G band-averaged onto channels.
+
+    Parameters
+    ----------
+    edges : array_like (C+1,), optional
+        Channel edges [nm] (default the PSM's 55 channels, 280-2480 nm).
+
+    Returns
+    -------
+    numpy.ndarray (C,)
+        Mean spectral irradiance per channel [W m-2 nm-1]; times the channel widths and summed, the
+        G173 global integral over the channels' range (991.3 W m-2 for 280-2480 nm, of 1000.4 in all).
+    """
+    e = channel_edges() if edges is None else np.asarray(edges, dtype=float)
+    w, g = am15g(path, data_dir)
+    return band_average(w, g, e[:-1], e[1:])
