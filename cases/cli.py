@@ -41,7 +41,11 @@ def _run(args) -> int:
             print(f"[{section}]")
             for key, f in fields.items():
                 rng = f" [{f.lo:g}, {f.hi:g}]" if f.lo is not None else ""
-                ch = f" one of {', '.join(f.choices)}" if f.choices else ""
+                choices = f.choices
+                if section == "pv" and key == "technologies":
+                    from .config import _technology_choices
+                    choices = _technology_choices()
+                ch = f" one of {', '.join(choices)}" if choices else ""
                 unit = f" {f.unit}" if f.unit else ""
                 print(f"  {key:18s} {f.kind}{unit}{rng}{ch}: {f.help}")
         return 0

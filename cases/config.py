@@ -89,12 +89,33 @@ SCHEMA = {
         "tolerance": Field("float", 0.02, "", 0.006, 0.5,
                            help="target relative annual error per face: picks the integrator preset"),
     },
+    "pv": {
+        "technologies": Field("list", ["topcon", "cdte", "cigs"], choices=(), help="cell technologies compared "
+                              "(pvsim presets); the section is optional: without it a case computes irradiance only"),
+        "temp_air": Field("float", 20.0, "degC", -40.0, 50.0, help="air temperature (constant: clear-sky cases carry "
+                          "no weather)"),
+        "wind_speed": Field("float", 1.0, "m s-1", 0.0, 30.0, help="wind speed (constant)"),
+        "temperature_model": Field("str", "faiman", choices=("faiman", "pvsyst"), help="cell temperature model"),
+        "dc_loss": Field("float", 0.02, "", 0.0, 0.5, help="DC losses (wiring, mismatch, soiling)"),
+        "reference": Field("str", "widesky", choices=("widesky", "astm_g173"),
+                           help="STC reference spectrum: the sky model's AM1.5G (no data needed) or ASTM G173 "
+                                "(read from the data directory)"),
+    },
     "report": {
         "sky_time": Field("time", REQUIRED, help="the hour whose sky is rendered (spectral EXR and PNG)"),
         "views": Field("list", ["south-west", "top"], choices=_VIEWS, help="scene renders coloured by irradiance"),
         "render_size": Field("int", 720, "pixels", 128, 2048, help="width of the scene renders"),
     },
 }
+
+# sections that are filled with defaults only when the file has them
+OPTIONAL_SECTIONS = ("pv",)
+
+
+def _technology_choices():
+    import pvsim
+    return tuple(pvsim.technology_names())
+
 
 _NUM_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s].*?)?\s*$")
 
@@ -202,6 +223,9 @@ def validate(data: dict, folder, source="case.toml") -> dict:
         if not isinstance(data[section], dict):
             raise ConfigError(f"{source}: {section} must be a section [{section}], not a value")
     for section, fields in SCHEMA.items():
+        if section in OPTIONAL_SECTIONS and section not in data:
+            out[section] = None
+            continue
         given = data.get(section, {})
         for key in given:
             if key not in fields:
@@ -210,6 +234,8 @@ def validate(data: dict, folder, source="case.toml") -> dict:
         vals = {}
         for key, f in fields.items():
             where = f"{source}: {section}.{key}"
+            if section == "pv" and key == "technologies":
+                f = Field(f.kind, f.default, choices=_technology_choices(), help=f.help)
             if key in given:
                 vals[key] = _value(where, f, given[key], folder)
             elif f.default is REQUIRED:

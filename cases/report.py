@@ -62,6 +62,10 @@ def _write_series(run: CaseRun, folder: Path):
     for band in BANDS:
         for lab, v in label_means(res.get(band, "global"), run.labels, area).items():
             cols[f"{lab}:{band} [W m-2]"] = v
+    if run.pv is not None:
+        for name, ty in run.pv.technologies.items():
+            for kind in ("dc", "ac"):
+                cols[f"plant:{name}:{kind} [W]"] = sum(ty.series[g][kind].to_numpy() for g in run.pv.groups)
     df = pd.DataFrame(cols, index=res.times)
     df.index.name = "time (interval start)"
     df.to_csv(folder / "timeseries.csv", float_format="%.4g")
@@ -84,6 +88,57 @@ def _write_result(run: CaseRun, folder: Path, provenance):
     run.result.save(folder / "poa.h5")                 # the integrator's own HDF5 layout (POAResult.load)
     run.hour.save(folder / "spectral_hour.h5")         # the report hour with its spectral parts
     dump_json(folder / "provenance.json", provenance)
+
+
+_STAGE_TEXT = {"unshaded": "unshaded POA", "poa": "POA (after shading)", "cover": "after cover optics",
+               "effective": "effective (spectral)", "bifacial": "with rear gain", "low_irradiance": "low irradiance",
+               "temperature": "temperature", "dc": "DC", "ac": "AC"}
+
+
+def _pv_section(run: CaseRun):
+    """HTML of the PV yield: per technology the plant's rating, energy, specific yield and loss waterfall."""
+    from pvsim import WATERFALL_STAGES
+
+    y = run.pv
+    groups = y.groups
+    rows, wf, monthly = [], {}, {}
+    months = y.times.month
+    month_names = sorted(set(months))
+    for name, ty in y.technologies.items():
+        kwp = sum(ty.pdc0[g] for g in groups) / 1000.0
+        e_ac = sum(ty.energy(g, "ac") for g in groups)
+        e_dc = sum(ty.energy(g, "dc") for g in groups)
+        w = {st: sum(ty.waterfall[g][st] * ty.pdc0[g] for g in groups) / (1000.0 * kwp) for st in WATERFALL_STAGES}
+        wf[name] = w
+        ac = sum(ty.series[g]["ac"].to_numpy() for g in groups) * ty.series[groups[0]].attrs["step_hours"] / 1000.0
+        monthly[ty.technology.label] = [float(ac[months == m].sum() / kwp) for m in month_names]
+        spectral = w["effective"] / w["cover"] - 1.0 if w["cover"] > 0 else 0.0
+        rear = w["bifacial"] / w["effective"] - 1.0 if w["effective"] > 0 else 0.0
+        rows.append([ty.technology.label, f"{100 * ty.eta_stc:.1f}", f"{kwp:.2f}", f"{e_dc / 1000:.2f}",
+                     f"{e_ac / 1000:.2f}", e_ac / kwp, f"{100 * spectral:+.2f}", f"{100 * rear:+.2f}"])
+    order = sorted(range(len(rows)), key=lambda i: -rows[i][5])
+    for rank, i in enumerate(order, 1):
+        rows[i] = rows[i][:5] + [f"{rows[i][5]:.1f}", str(rank)] + rows[i][6:]
+    table = _table(["technology", "STC efficiency [%]", "rating [kWp]", "DC [MWh]", "AC [MWh]",
+                    "specific yield [kWh/kWp]", "rank", "spectral gain [%]", "rear gain [%]"], rows)
+    stage_rows = [[_STAGE_TEXT[st], *(f"{wf[n][st]:.1f}" for n in wf)] for st in WATERFALL_STAGES]
+    waterfall = _table(["stage [kWh/kWp]", *(y.technologies[n].technology.label for n in wf)], stage_rows)
+    month_label = ["Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"]
+    chart = bar_chart([month_label[m - 1] for m in month_names], monthly, title="monthly specific yield (AC)",
+                      xlabel="month", ylabel="specific yield [kWh/kWp]") if len(month_names) > 1 else ""
+    pv = run.config["pv"]
+    return f"""<h2>PV yield per technology</h2>
+{table}
+<p class="note">The plant: every analysed module group ({', '.join(groups)}), front faces rated at STC
+(front area x STC efficiency x 1000 W m-2), rear light added with each technology's bifaciality. Spectral gain:
+the cell's effective irradiance against the same broadband light at the AM1.5G spectrum
+({'the sky model' if pv['reference'] == 'widesky' else 'ASTM G173'} reference). Air temperature
+{pv['temp_air']:g} degC and wind {pv['wind_speed']:g} m s-1 (constant), {pv['temperature_model']} cell temperature,
+DC losses {100 * pv['dc_loss']:g} %, PVWatts inverter (pvsim, docs/pvsim.md).</p>
+<h3>Loss waterfall (reference yield per stage)</h3>
+{waterfall}
+{chart}
+"""
 
 
 def _orientation(normals):
@@ -201,8 +256,10 @@ def write_report(run: CaseRun, folder, provenance):
             f"{Path(str(run.dataset.model.path)).name}"],
     ["scene", f"{sc.n_faces} analysed faces in {len(labels)} groups, {len(sc.triangles)} triangles in all"],
     ["run time", f"{tm.get('compute_total', 0):.1f} s (integrator {tm.get('integrator', 0):.1f} s, spectral hour "
-                 f"{tm.get('spectral_hour', 0):.1f} s)"],
+                 f"{tm.get('spectral_hour', 0):.1f} s" + (f", PV yield {tm['pv_yield']:.1f} s" if "pv_yield" in tm else "")
+                 + ")"],
 ])}
+{_pv_section(run) if run.pv is not None else ""}
 <h2>Irradiance per group</h2>
 {summary}
 <p class="note">Insolation: the period's sum of plane-of-array global irradiance (280-2480 nm) per m2,

@@ -45,6 +45,7 @@ class CaseRun:
     dataset: object
     settings: object
     timings: dict = field(default_factory=dict)
+    pv: object = None              # pvsim.YieldResult when the case has a [pv] section
 
 
 def build_geometry(path: Path, parameters: dict):
@@ -68,13 +69,10 @@ def build_geometry(path: Path, parameters: dict):
     return geo
 
 
-def band_responses(wavelengths, channel_edges):
-    """Per-channel weights [1] of :data:`BANDS`: the fraction of each channel inside the band."""
-    lo, hi = np.asarray(channel_edges[:-1], float), np.asarray(channel_edges[1:], float)
-    out = {}
-    for name, (a, b) in BANDS.items():
-        out[name] = np.clip((np.minimum(hi, b) - np.maximum(lo, a)) / (hi - lo), 0.0, 1.0)
-    return out
+def band_responses():
+    """:data:`BANDS` as unit-weight responses (no optics): 1 inside the band, 0 outside [1]."""
+    from irradiance import Response
+    return [Response(name, [a, b], [1.0, 1.0], unit="weight") for name, (a, b) in BANDS.items()]
 
 
 def face_labels(scene):
@@ -135,11 +133,24 @@ def compute(folder, *, n_jobs=None, progress=True) -> CaseRun:
                           context_reflectance=cfg["scene"]["reflectance"] if context else 0.2)
     timings["setup"] = time.perf_counter() - t0
     settings = ir.IntegratorSettings.for_tolerance(cfg["accuracy"]["tolerance"])
-    bands = band_responses(sky.wavelengths, sky.channel_edges)
+    responses = band_responses()
+    pv = cfg.get("pv")
+    if pv is not None:
+        import pvsim
+        pv_resp, pv_sources = pvsim.technology_responses(pv["technologies"])
+        responses = pv_resp + responses
     t1 = time.perf_counter()
-    res = ir.poa_irradiance(scene, sky, states, responses=bands, settings=settings, times=times,
+    res = ir.poa_irradiance(scene, sky, states, responses=responses, settings=settings, times=times,
                             n_jobs=n_jobs, progress=progress)
     timings["integrator"] = time.perf_counter() - t1
+    pv_result = None
+    if pv is not None:
+        t3 = time.perf_counter()
+        reference = pvsim.widesky_am15g(sky)["scaled"] if pv["reference"] == "widesky" else None
+        system = pvsim.SystemSpec(temperature_model=pv["temperature_model"], dc_loss=pv["dc_loss"])
+        pv_result = pvsim.pv_yield(res, pv["technologies"], pv["temp_air"], pv["wind_speed"], sources=pv_sources,
+                                   system=system, reference=reference, progress=progress)
+        timings["pv_yield"] = time.perf_counter() - t3
     # the report's hour: the step whose interval holds report.sky_time
     st = site.localize([cfg["report"]["sky_time"]])[0]
     hi = int(np.searchsorted(times, st, side="right")) - 1
@@ -157,7 +168,7 @@ def compute(folder, *, n_jobs=None, progress=True) -> CaseRun:
     step_h = (times[1] - times[0]).total_seconds() / 3600.0 if len(times) > 1 else 1.0
     return CaseRun(folder, cfg, scene, res, hour, hi,
                    (float(states.sun_elevation[hi]), float(states.sun_azimuth[hi])),
-                   face_labels(scene), step_h, sky, settings, timings)
+                   face_labels(scene), step_h, sky, settings, timings, pv_result)
 
 
 def _atomic_folder(dest: Path, fill):

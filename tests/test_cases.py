@@ -218,3 +218,72 @@ def test_cli_errors_are_one_line(tmp_path, folder):
     p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", "no_such_case"], capture_output=True,
                        text=True, timeout=120)
     assert p.returncode == 2 and "solar_potential" in p.stderr
+
+
+PV = """
+[case]
+title = "small pv"
+[site]
+latitude = 50.08
+longitude = 14.42
+tz = "Europe/Prague"
+[period]
+start = "2024-06-20"
+end = "2024-06-22"
+[sky]
+visibility = 40
+albedo = 0.25
+[scene]
+geometry = "geometry.py"
+two_sided = true
+[scene.parameters]
+rows = 2
+row_length = 8.0
+cell = 4.0
+[pv]
+technologies = ["topcon", "cdte"]
+temp_air = "15 degC"
+[report]
+sky_time = "2024-06-21T10:00"
+views = ["south-west"]
+render_size = 200
+"""
+
+
+@pytest.fixture(scope="module")
+def pv_report(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("pvcase")
+    shutil.copy(SHIPPED / "pv_plant" / "geometry.py", folder / "geometry.py")
+    _write_case(folder, PV)
+    out = tmp_path_factory.mktemp("pvreports") / "rep"
+    return cases.run_case(folder, out, n_jobs=1, progress=False, log=lambda m: None)
+
+
+def test_pv_technologies_are_validated(folder):
+    with pytest.raises(ConfigError) as e:
+        validate(cfg(pv__technologies=["topcon", "silicon"]), folder)
+    assert "'silicon'" in str(e.value) and "perc" in str(e.value) and "cdte" in str(e.value)
+    with pytest.raises(ConfigError, match=r"pv.temp_air = '15 K': unit 'K' is not valid here; expected degC"):
+        validate(cfg(pv__temp_air="15 K"), folder)
+    assert validate(cfg(), folder)["pv"] is None                   # optional section: irradiance only
+
+
+def test_pv_report_energy_bookkeeping(pv_report):
+    """The report's AC energy per technology is the time series' plant AC power summed over the hours;
+    AC < DC; a technology without bifaciality (CdTe) gets no rear gain, the bifacial one does."""
+    html = (pv_report / "index.html").read_text()
+    assert "PV yield per technology" in html and "Loss waterfall" in html
+    ts = pd.read_csv(pv_report / "timeseries.csv", index_col=0)
+    import pvsim
+    labels = {n: pvsim.get_technology(n).label for n in ("topcon", "cdte")}
+    rows = re.findall(r"<tr><td>([^<]+)</td><td>([\d.]+)</td><td>([\d.]+)</td><td>([\d.]+)</td><td>([\d.]+)</td>"
+                      r"<td>([\d.]+)</td><td>(\d)</td><td>([-+\d.]+)</td><td>([-+\d.]+)</td></tr>", html)
+    table = {r[0]: r for r in rows}
+    for name, label in labels.items():
+        r = table[label]
+        e_ac = ts[f"plant:{name}:ac [W]"].sum() / 1e6                # 1 h steps -> MWh
+        e_dc = ts[f"plant:{name}:dc [W]"].sum() / 1e6
+        assert float(r[4]) == pytest.approx(e_ac, abs=0.006)
+        assert float(r[3]) == pytest.approx(e_dc, abs=0.006) and e_ac < e_dc
+        assert float(r[5]) == pytest.approx(e_ac * 1000 / float(r[2]), rel=2e-2)   # kWh/kWp (rounded kWp)
+    assert float(table[labels["cdte"]][8]) == 0.0 and float(table[labels["topcon"]][8]) > 1.0
