@@ -77,6 +77,8 @@ sphinx_gallery_conf = {
     "matplotlib_animations": False,
     "image_scrapers": ("matplotlib",),
     "within_subsection_order": "FileNameSortKey",
+    # no generated sg_execution_times page in docs/: the top-level glob of index.md would list it
+    "write_computation_times": False,
 }
 
 # --- HTML (pydata-sphinx-theme, offline: no analytics, no external fonts or icons) -----------------

@@ -120,16 +120,21 @@ render_size = 200
 """
 
 
-@pytest.fixture(scope="module")
-def small_report(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("case")
-    shutil.copy(SHIPPED / "solar_potential" / "geometry.py", folder / "geometry.py")
-    # no context: the roof is an unobstructed horizontal plane
-    geo = (folder / "geometry.py").read_text().replace('    context = {', '    context = {} if parameters.get("alone") else {')
-    (folder / "geometry.py").write_text(geo)
-    _write_case(folder, SMALL.format(extra="alone = true"))
+def _run_small(tmp_path_factory, shipped, toml, edit_geometry=None):
+    """Copy a shipped case's geometry beside ``toml``, run it, return (report folder, case folder)."""
+    folder = tmp_path_factory.mktemp(shipped)
+    geo = (SHIPPED / shipped / "geometry.py").read_text()
+    (folder / "geometry.py").write_text(edit_geometry(geo) if edit_geometry else geo)
+    _write_case(folder, toml)
     out = tmp_path_factory.mktemp("reports") / "rep"
     return cases.run_case(folder, out, n_jobs=1, progress=False, log=lambda m: None), folder
+
+
+@pytest.fixture(scope="module")
+def small_report(tmp_path_factory):
+    # no context: the roof is an unobstructed horizontal plane
+    return _run_small(tmp_path_factory, "solar_potential", SMALL.format(extra="alone = true"),
+                      lambda g: g.replace('    context = {', '    context = {} if parameters.get("alone") else {'))
 
 
 def test_report_folder_contents(small_report):
@@ -220,16 +225,7 @@ def test_cli_errors_are_one_line(tmp_path, folder):
     assert p.returncode == 2 and "solar_potential" in p.stderr
 
 
-PV = """
-[case]
-title = "small pv"
-[site]
-latitude = 50.08
-longitude = 14.42
-tz = "Europe/Prague"
-[period]
-start = "2024-06-20"
-end = "2024-06-22"
+PV = SMALL.split("[sky]")[0] + """
 [sky]
 visibility = 40
 albedo = 0.25
@@ -252,11 +248,7 @@ render_size = 200
 
 @pytest.fixture(scope="module")
 def pv_report(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("pvcase")
-    shutil.copy(SHIPPED / "pv_plant" / "geometry.py", folder / "geometry.py")
-    _write_case(folder, PV)
-    out = tmp_path_factory.mktemp("pvreports") / "rep"
-    return cases.run_case(folder, out, n_jobs=1, progress=False, log=lambda m: None)
+    return _run_small(tmp_path_factory, "pv_plant", PV)[0]
 
 
 def test_pv_technologies_are_validated(folder):

@@ -9,16 +9,22 @@ shape and colour, not its absolute brightness.
 """
 
 import matplotlib.pyplot as plt
+import numpy as np
 
 import skymodel
-from skymodel.render import _display, render_sky
+from skymodel.colour import srgb_encode
+from skymodel.render import render_sky
 
 model = skymodel.load_dataset()
 fig, axes = plt.subplots(1, 3, figsize=(9, 3.3))
 for ax, elevation in zip(axes, (60.0, 20.0, 4.0)):
     r = render_sky(model, sun_elevation=elevation, sun_azimuth=135.0, visibility=40.0, albedo=0.2,
                    resolution=160)
-    ax.imshow(_display(r, composite=True, exposure=0.0))
+    rgb = r.rgb_linear()                                     # linear sRGB of the visible channels
+    scale = 1.0 / np.percentile(r.luminance_like()[r.mask], 99.0)
+    img = srgb_encode(rgb * scale)
+    img[~r.mask] = 0.0
+    ax.imshow(img)
     ax.set_title(f"sun {elevation:g} deg, azimuth 135 deg", fontsize=9)
     ax.set_axis_off()
 fig.suptitle("sky radiance, visibility 40 km, albedo 0.2 (sRGB composite)", fontsize=10)
