@@ -270,3 +270,19 @@ def test_a_user_response_is_integrated(tmp_path):
     assert r["units"]["glass"] == "W m-2"
     with pytest.raises(ValueError, match="unit 'lux'"):
         parse_response(f"glass:lux={f}", m)
+
+
+def test_part_of_a_dataset(tmp_path):
+    """Loading part of a dataset: the channels and visibility slabs asked for, and the ranges follow."""
+    ex = Explorer(output_dir=tmp_path, threads=1, load_options={"wavelength_range": (380.0, 780.0),
+                                                                "visibility": (30.0, 60.0)})
+    info = ex.info()["datasets"][0]
+    assert min(info["wavelength_nm"]) >= 360 and max(info["wavelength_nm"]) <= 800
+    assert min(info["visibility_km"]) <= 30 and max(info["visibility_km"]) >= 60 and max(info["visibility_km"]) < 131
+    body, dt, total = ex.render({"elevation": "30", "visibility": "40", "resolution": "64"})
+    assert body[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(ValueError, match=r"visibility=100 km outside \["):
+        ex.render({"visibility": "100"})
+    # a subset's sRGB render equals the full dataset's (the composite uses the visible channels only)
+    full = Explorer(output_dir=tmp_path, threads=1).render({"elevation": "30", "visibility": "40", "resolution": "64"})
+    np.testing.assert_array_equal(png(body), png(full[0]))

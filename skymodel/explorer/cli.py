@@ -16,6 +16,12 @@ def register(subparsers) -> None:
                    help="spectral response CSV (wavelength_nm,value) to integrate the irradiance spectra against; "
                         "UNIT weight (default) or transmittance [1] -> W m-2, sr [A W-1] or qe [1] -> A m-2 "
                         "(e.g. c-Si:sr=csi.csv, low-e:transmittance=glass.csv); repeatable")
+    p.add_argument("--wavelength-range", type=float, nargs=2, metavar=("LO", "HI"), default=None,
+                   help="load only the channels overlapping LO-HI [nm] (part of a large dataset)")
+    p.add_argument("--visibility-range", type=float, nargs=2, metavar=("LO", "HI"), default=None,
+                   help="load only the visibility slabs bracketing LO-HI [km]")
+    p.add_argument("--albedo-range", type=float, nargs=2, metavar=("LO", "HI"), default=None,
+                   help="load only the albedo slabs bracketing LO-HI [1]")
     p.add_argument("--port", type=int, default=8765, help="TCP port on 127.0.0.1 (default 8765; 0 = any free)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser tab")
     p.add_argument("--threads", type=int, default=0, help="evaluator threads (default 0: all cores)")
@@ -46,7 +52,10 @@ def _run(args) -> int:
 
     if not 0 <= args.port <= 65535:
         raise ValueError(f"--port {args.port} outside [0, 65535]")
-    ex = Explorer(args.dataset or None, output_dir=args.output_dir, threads=args.threads)
+    part = {k: tuple(v) for k, v in (("wavelength_range", args.wavelength_range),
+                                      ("visibility", args.visibility_range), ("albedo", args.albedo_range))
+            if v is not None}
+    ex = Explorer(args.dataset or None, output_dir=args.output_dir, threads=args.threads, load_options=part)
     for item in args.response:
         name, value = parse_response(item, ex.model(0))
         ex.responses[name] = value

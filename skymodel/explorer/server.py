@@ -60,9 +60,12 @@ class Explorer:
         integrated against them (see :func:`skymodel.explorer.cli.parse_response`).
     threads : int
         Evaluator threads (0: all cores).
+    load_options : dict, optional
+        Passed to :func:`skymodel.load_dataset` for every dataset, to load part of it:
+        ``wavelength_range`` (lo, hi) [nm], ``visibility`` (lo, hi) [km], ``albedo`` (lo, hi) [1].
     """
 
-    def __init__(self, datasets=None, output_dir=".", responses=None, threads=0):
+    def __init__(self, datasets=None, output_dir=".", responses=None, threads=0, load_options=None):
         import skymodel
 
         self.paths = [None] if not datasets else [Path(p) for p in datasets]
@@ -72,6 +75,7 @@ class Explorer:
         self.output_dir = Path(output_dir).resolve()
         self.responses = dict(responses or {})
         self.threads = int(threads)
+        self.load_options = dict(load_options or {})
         for i in range(len(self.paths)):     # open (memory-map and validate) now: a bad file fails at start-up
             self.model(i)
 
@@ -79,7 +83,7 @@ class Explorer:
         """The :class:`skymodel.SkyModel` of dataset ``index`` (opened once, decoded on first use)."""
         with self._lock:
             if self._models[index] is None:
-                self._models[index] = self._load(self.paths[index])
+                self._models[index] = self._load(self.paths[index], **self.load_options)
             return self._models[index]
 
     def view(self, query):
