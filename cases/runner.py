@@ -126,6 +126,16 @@ def compute(folder, *, n_jobs=None, progress=True) -> CaseRun:
                                visibility=cfg["sky"]["visibility"], albedo=cfg["sky"]["albedo"], warn=False)
     times = states.times
     sky.check_states(states)
+    # the report's hour: the step whose interval holds report.sky_time
+    st = site.localize([cfg["report"]["sky_time"]])[0]
+    hi = int(np.searchsorted(times, st, side="right")) - 1
+    if hi < 0 or hi >= len(times) or not times[hi] <= st < times[hi] + (times[1] - times[0] if len(times) > 1
+                                                                     else np.timedelta64(1, "h")):
+        raise ConfigError(f"report.sky_time = {cfg['report']['sky_time']} is not inside the period "
+                          f"{cfg['period']['start']} .. {cfg['period']['end']}")
+    if states.sun_elevation[hi] <= sky.min_sun_elevation:
+        raise ConfigError(f"report.sky_time = {cfg['report']['sky_time']}: the sun is below the horizon "
+                          f"(elevation {states.sun_elevation[hi]:.1f} deg); choose a daylight hour")
     geo = build_geometry(cfg["scene"]["geometry"], cfg["scene"]["parameters"])
     context = list(geo["context"].values())
     scene = ir.make_scene(list(geo["analysis"].values()), context, groups=list(geo["analysis"]),
@@ -151,16 +161,6 @@ def compute(folder, *, n_jobs=None, progress=True) -> CaseRun:
         pv_result = pvsim.pv_yield(res, pv["technologies"], pv["temp_air"], pv["wind_speed"], sources=pv_sources,
                                    system=system, reference=reference, progress=progress)
         timings["pv_yield"] = time.perf_counter() - t3
-    # the report's hour: the step whose interval holds report.sky_time
-    st = site.localize([cfg["report"]["sky_time"]])[0]
-    hi = int(np.searchsorted(times, st, side="right")) - 1
-    if hi < 0 or hi >= len(times) or not times[hi] <= st < times[hi] + (times[1] - times[0] if len(times) > 1
-                                                                     else np.timedelta64(1, "h")):
-        raise ConfigError(f"report.sky_time = {cfg['report']['sky_time']} is not inside the period "
-                          f"{cfg['period']['start']} .. {cfg['period']['end']}")
-    if states.sun_elevation[hi] <= sky.min_sun_elevation:
-        raise ConfigError(f"report.sky_time = {cfg['report']['sky_time']}: the sun is below the horizon "
-                          f"(elevation {states.sun_elevation[hi]:.1f} deg); choose a daylight hour")
     t2 = time.perf_counter()
     hour = ir.poa_irradiance(scene, sky, states.take(slice(hi, hi + 1)), settings=settings, times=times[hi:hi + 1],
                              spectral=True, n_jobs=n_jobs, progress=False)

@@ -279,3 +279,24 @@ def test_pv_report_energy_bookkeeping(pv_report):
         assert float(r[3]) == pytest.approx(e_dc, abs=0.006) and e_ac < e_dc
         assert float(r[5]) == pytest.approx(e_ac * 1000 / float(r[2]), rel=2e-2)   # kWh/kWp (rounded kWp)
     assert float(table[labels["cdte"]][8]) == 0.0 and float(table[labels["topcon"]][8]) > 1.0
+
+
+def test_the_report_hour_is_checked_before_the_run(folder):
+    """A report hour outside the period or at night is refused before any ray is cast."""
+    _write_case(folder, SMALL.format(extra="").replace('sky_time = "2024-06-21T12:30"', 'sky_time = "2024-07-01T12:00"'))
+    with pytest.raises(ConfigError, match=r"report.sky_time = 2024-07-01 12:00:00 is not inside the period"):
+        cases.runner.compute(folder, n_jobs=1, progress=False)
+    _write_case(folder, SMALL.format(extra="").replace('sky_time = "2024-06-21T12:30"', 'sky_time = "2024-06-21T01:00"'))
+    with pytest.raises(ConfigError, match=r"the sun is below the horizon"):
+        cases.runner.compute(folder, n_jobs=1, progress=False)
+
+
+def test_a_mesh_file_is_one_group(tmp_path):
+    import trimesh
+    from cases.runner import build_geometry
+    trimesh.creation.box((2, 2, 2)).export(tmp_path / "hut.obj")
+    geo = build_geometry(tmp_path / "hut.obj", {})
+    assert list(geo["analysis"]) == ["hut"] and geo["context"] == {}
+    (tmp_path / "bad.py").write_text("def build(p):\n    return {'context': {}}\n")
+    with pytest.raises(ConfigError, match=r"build\(\) must return"):
+        build_geometry(tmp_path / "bad.py", {})
