@@ -191,6 +191,7 @@ def _worker(mode, faces, jobs, output):
     import skymodel
     sky = skies.PragueSky(skymodel.load_dataset())
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    ru0 = resource.getrusage(resource.RUSAGE_SELF)
     t0 = time.perf_counter()
     if mode == "today":
         poa_irradiance = importlib.import_module(pkg + ".integrator").poa_irradiance
@@ -204,10 +205,15 @@ def _worker(mode, faces, jobs, output):
         total = float(sum(res.poa_global[a:a + 512].sum(dtype=np.float64)
                           for a in range(0, res.n_steps, 512)))
     sec = time.perf_counter() - t0
+    ru1 = resource.getrusage(resource.RUSAGE_SELF)
+    ruc = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu_main = (ru1.ru_utime + ru1.ru_stime) - (ru0.ru_utime + ru0.ru_stime)
+    cpu_workers = ruc.ru_utime + ruc.ru_stime
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     size = os.path.getsize(output) if output and os.path.exists(output) else 0
-    print("RESULT " + json.dumps({"mode": mode, "seconds": sec, "peak_rss_mb": rss / 1024,
+    print("RESULT " + json.dumps({"mode": mode, "seconds": sec, "cpu_main": cpu_main,
+                                  "cpu_workers": cpu_workers, "peak_rss_mb": rss / 1024,
                                   "rss_before_run_mb": rss0 / 1024, "worker_peak_rss_mb": kids / 1024,
                                   "file_mb": size / 2 ** 20, "sum_poa_global": total,
                                   "timings": {k: v for k, v in res.timings.items()
@@ -247,7 +253,9 @@ def compare(args):
             r = json.loads(line[-1][7:])
             r["load"] = load
             runs.append(r)
-            print(f"  {mode:9s} {r['seconds']:7.1f} s, peak RSS main {r['peak_rss_mb']:7.0f} MB "
+            cpu = (f", CPU main {r['cpu_main']:.1f} s + workers {r['cpu_workers']:.1f} s"
+                   if "cpu_main" in r else "")
+            print(f"  {mode:9s} {r['seconds']:7.1f} s wall{cpu}, peak RSS main {r['peak_rss_mb']:7.0f} MB "
                   f"(before the run {r['rss_before_run_mb']:.0f} MB), workers {r['worker_peak_rss_mb']:.0f} MB, "
                   f"file {r['file_mb']:.0f} MB, load {load:.1f}", flush=True)
             if os.path.exists(out):
@@ -255,9 +263,13 @@ def compare(args):
     t = {m: [r["seconds"] for r in runs if r["mode"] == m] for m in ("today", "streamed", "optics")}
     m = {k: max(r["peak_rss_mb"] for r in runs if r["mode"] == k) for k in t}
     sums = {k: [r["sum_poa_global"] for r in runs if r["mode"] == k][0] for k in t}
-    print(f"time ratio streamed / today = {np.median(t['streamed']) / np.median(t['today']):.2f} "
+    print(f"wall-time ratio streamed / today = {np.median(t['streamed']) / np.median(t['today']):.2f} "
           f"(medians of {args.repeat}), optics / today = "
           f"{np.median(t['optics']) / np.median(t['today']):.2f}")
+    c = {m: [r["cpu_main"] + r["cpu_workers"] for r in runs if r["mode"] == m] for m in t}
+    print(f"CPU-time ratio (main + workers; robust on a shared machine) streamed / today = "
+          f"{np.median(c['streamed']) / np.median(c['today']):.2f}, optics / today = "
+          f"{np.median(c['optics']) / np.median(c['today']):.2f}")
     print(f"peak RSS of the main process [MB]: today {m['today']:.0f}, streamed {m['streamed']:.0f}, "
           f"optics {m['optics']:.0f}")
     print(f"broadband poa_global sums agree: streamed / today - 1 = "

@@ -312,7 +312,7 @@ def _step_channel_factor(value, T, C, name):
     return v
 
 
-def _horizontal_diffuse(patch_radiance, circumsolar, w_horizontal, sun_elevation):
+def horizontal_diffuse(patch_radiance, circumsolar, w_horizontal, sun_elevation):
     """(T,) diffuse horizontal irradiance [W m-2] from (T, P) broadband patch radiance, (T,)
     circumsolar normal irradiance, (P,) horizontal cosine weights [sr] and sun elevations [deg]."""
     return patch_radiance @ w_horizontal + circumsolar * np.sin(np.radians(sun_elevation))
@@ -355,7 +355,7 @@ def model_irradiance(sky, states: SkyStates, settings=None, chunk: int = 256):
         st = states.take(idx)
         Lp, dn, cs = patch_radiance(sky, patches, st, widths, settings)
         dni[idx] = dn[:, 0]
-        dhi[idx] = _horizontal_diffuse(Lp[..., 0], cs[:, 0], w_h, st.sun_elevation)
+        dhi[idx] = horizontal_diffuse(Lp[..., 0], cs[:, 0], w_h, st.sun_elevation)
     return dni, dhi
 
 
@@ -382,7 +382,7 @@ def measured_scaling(sky, states: SkyStates, dni, dhi, settings=None, **kwargs):
     return measured_scale_factors(mdni, mdhi, dni, dhi, **kwargs), (mdni, mdhi)
 
 
-def _lazy_zeros(shape, dtype):
+def lazy_zeros(shape, dtype):
     """A zero array; large ones live in anonymous memory mapped page by page on first write.
 
     numpy asks the kernel for transparent huge pages on large allocations, and on systems with

@@ -40,7 +40,7 @@ __all__ = ["AngularWeights", "OpticPlan", "plan_optics", "optic_terms", "hat_wei
 GRID_STEP = 0.05                          # [deg] tabulation step of the weight functions
 #: Default incidence-angle nodes [deg] of the angle x wavelength classes (denser where glazing
 #: transmittance falls off).
-DEFAULT_NODES = (0.0, 30.0, 45.0, 55.0, 65.0, 72.0, 78.0, 84.0, 90.0)
+DEFAULT_NODES = (0.0, 20.0, 35.0, 45.0, 52.0, 58.0, 64.0, 70.0, 75.0, 80.0, 84.0, 87.0, 90.0)
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,13 +25,13 @@ from dataclasses import asdict
 
 import numpy as np
 
-from .integrator import (IntegratorSettings, _horizontal_diffuse, _lazy_zeros, patch_radiance)
+from .integrator import (IntegratorSettings, horizontal_diffuse, lazy_zeros, patch_radiance)
 from .measured import measured_scale_factors
 from .optics import DEFAULT_NODES, plan_optics
 from .patches import cosine_weights, reinhart
 from .raycast import Coefficients, start_coefficients
 from .response import Response
-from .result import PARTS, FaceTable, H5Writer, POAResult, _atomic_h5
+from .result import PARTS, FaceTable, H5Writer, POAResult, atomic_h5
 from .scene import Scene
 from .skies import SkyStates
 
@@ -163,14 +163,14 @@ class _Sink:
         self.path, self.writer, self.ctx = path, None, None
         self.spectral = spectral
         if path is None:
-            self.full = {k: _lazy_zeros((T, F), np.float32) for k in keys}
-            self.full["aoi"] = _lazy_zeros((T, F), np.float32)
-            self.full["sun_visible"] = _lazy_zeros((T, F), np.float32)
+            self.full = {k: lazy_zeros((T, F), np.float32) for k in keys}
+            self.full["aoi"] = lazy_zeros((T, F), np.float32)
+            self.full["sun_visible"] = lazy_zeros((T, F), np.float32)
             if spectral:
                 for p in PARTS + ("global",):
-                    self.full[("spectral", p)] = _lazy_zeros((T, F, C), np.float32)
+                    self.full[("spectral", p)] = lazy_zeros((T, F, C), np.float32)
         else:
-            self.ctx = _atomic_h5(path)
+            self.ctx = atomic_h5(path)
             f = self.ctx.__enter__()
             self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None)
 
@@ -348,7 +348,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
                                      sky_scale=None if ch_sky is None else ch_sky[idx])
         if measured is not None:                   # column 0 is broadband: the model's DNI, DHI
             model_dni[idx] = dni[:, 0]
-            model_dhi[idx] = _horizontal_diffuse(Lp[..., 0], cs[:, 0], w_horizontal, st.sun_elevation)
+            model_dhi[idx] = horizontal_diffuse(Lp[..., 0], cs[:, 0], w_horizontal, st.sun_elevation)
             f = measured_scale_factors(model_dni[idx], model_dhi[idx], m_dni[idx], m_dhi[idx],
                                        missing="clear")
             scale_d[idx], scale_s[idx] = f.sun_scale, f.sky_scale
@@ -359,7 +359,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         return Lp, dni
 
     sky_ahead = []
-    if pending is not None and pending._futs is not None:
+    if pending is not None and pending.running:
         per_step = P * Wall.shape[1] * 8
         n_ahead = min(len(chunk_plan), max(0, (256 << 20) // max(per_step * settings.time_chunk, 1)))
         sky_ahead = [sky_chunk(idx) for _, idx in chunk_plan[:n_ahead]]
@@ -434,7 +434,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         if failed and sink is not None:
             sink.close(True)
         if failed and pending is not None:
-            pending._close()
+            pending.cancel()
     timings["total"] = time.perf_counter() - t_start
     if output is not None:
         res = POAResult.load(output)
@@ -490,10 +490,10 @@ class _ProductContext:
         self.sun_bin_of = np.arange(cf.n_sun) if cf.sun_index is None else cf.sun_index
         self.Hb = reinhart_vector_z(P)
         rows = tmax * J_all
-        self.buf_sky = _lazy_zeros((rows, N), np.float32)
-        self.buf_refl = _lazy_zeros((rows, N), np.float32)
-        self.buf_aux = _lazy_zeros((rows, N), np.float32)
-        self.buf_tmp = _lazy_zeros((tmax, N), np.float32)
+        self.buf_sky = lazy_zeros((rows, N), np.float32)
+        self.buf_refl = lazy_zeros((rows, N), np.float32)
+        self.buf_aux = lazy_zeros((rows, N), np.float32)
+        self.buf_tmp = lazy_zeros((tmax, N), np.float32)
 
     def faces(self, a):
         """(..., N) -> (..., F): mean over each face's points."""

@@ -619,6 +619,15 @@ class PendingCoefficients:
                 self._close()
                 raise
 
+    @property
+    def running(self) -> bool:
+        """True when the tasks run elsewhere (a pool or an executor) while the caller works."""
+        return self._futs is not None
+
+    def cancel(self):
+        """Stop the pool this object started (pending tasks are dropped) and close the progress bar."""
+        self._close()
+
     def _close(self):
         if self._own is not None:
             self._own.shutdown(cancel_futures=True)

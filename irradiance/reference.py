@@ -123,6 +123,15 @@ def _hemisphere_rays(geom, origins, normals, dirs, w_dir):
 _CONTEXT: dict = {}
 
 
+def _optic(angular, cos):
+    """The optic at the incidence angles of cosines ``cos`` (1 without an optic; 0 behind)."""
+    if angular is None:
+        return 1.0
+    c = np.asarray(cos, dtype=float)
+    f = np.asarray(angular(np.degrees(np.arccos(np.clip(c, 0.0, 1.0)))), dtype=float)
+    return np.where(c > 0, f, 0.0)
+
+
 def _chunk_worker(t0, t1):
     return _steps(_CONTEXT, t0, t1)
 
@@ -181,7 +190,7 @@ def _steps(ctx, t0, t1):
             vis[ti, qi] = ~cast_rays(geom, np.broadcast_to(origins[i], (ti.size, 3)),
                                      qd[ti, qi], occluded=True)
             n_rays += ti.size
-        f = Lq * vis * c.clip(min=0.0) * w_q
+        f = Lq * vis * c.clip(min=0.0) * w_q * _optic(ctx["angular"], c)
         disc[:, i] = f.sum(axis=1)
         ring_lv[:, i] = np.sum((Lq * vis * w_q)[:, outer], axis=1)
         ring_w[:, i] = np.sum(w_q[:, outer], axis=1)
@@ -190,7 +199,8 @@ def _steps(ctx, t0, t1):
     wcells = excl.astype(float) @ W1                                               # (Tc, n)
     cosw_disc = np.zeros((Tc, n))
     for i in range(n):
-        cosw_disc[:, i] = np.sum(w_q * np.maximum(qd @ normals[i], 0.0), axis=1)
+        ci = qd @ normals[i]
+        cosw_disc[:, i] = np.sum(w_q * np.maximum(ci, 0.0) * _optic(ctx["angular"], ci), axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         edge = np.where(ring_w > 0, ring_lv / ring_w, 0.0)
     corr = (wcells - cosw_disc) * edge
@@ -205,7 +215,7 @@ def _steps(ctx, t0, t1):
     if ti.size:
         vis_s[ti, pi] = ~cast_rays(geom, origins[pi], s[ti], occluded=True)
         n_rays += ti.size
-    out["direct"] = dni[:, None] * np.maximum(cs_n, 0.0) * vis_s
+    out["direct"] = dni[:, None] * np.maximum(cs_n, 0.0) * vis_s * _optic(ctx["angular"], cs_n)
 
     # reflected: second level at every reflector point y
     Y = ctx["y_pos"].shape[0]
@@ -245,7 +255,8 @@ def _steps(ctx, t0, t1):
 
 def reference_poa(scene, sky, states: SkyStates, *, points=None, weights=None, sky_mf=16,
                   sky_rays=4, disc_radius=5.0, disc_rings=12, disc_sectors=16, reflect_mf=8,
-                  reflect_samples=1, reflect_sky_mf=2, time_chunk=8, n_jobs=1, progress=False):
+                  reflect_samples=1, reflect_sky_mf=2, time_chunk=8, n_jobs=1, progress=False,
+                  angular=None):
     """Brute-force per-step irradiance at a few analysis points (see the module docstring).
 
     Parameters
@@ -281,6 +292,11 @@ def reference_poa(scene, sky, states: SkyStates, *, points=None, weights=None, s
         Processes for the per-step work (fork; 1 runs here).
     progress : bool
         Progress bar.
+    angular : callable, optional
+        An incidence-angle optic ``f(aoi_deg) -> factor [1]`` applied per ray at the analysis
+        point: to the sun at its angle of incidence, to every sky-grid ray and circumsolar node at
+        its angle, and to every ray that reaches a reflector at the angle it arrives (the
+        integrator's ``Response.angular``, here without the integrator's approximations).
 
     Returns
     -------
@@ -312,6 +328,7 @@ def reference_poa(scene, sky, states: SkyStates, *, points=None, weights=None, s
     pi_, di, w, kind, _, _ = _hemisphere_rays(geom, origins, normals, sub_d.reshape(-1, 3),
                                               sub_w.reshape(-1))
     n_rays += pi_.size
+    w = w * _optic(angular, np.sum(normals[pi_] * sub_d.reshape(-1, 3)[di], axis=1))
     A1 = np.zeros((g1.shape[0], n))
     W1 = np.zeros((g1.shape[0], n))
     np.add.at(W1, (cell[di], pi_), w)
@@ -342,6 +359,7 @@ def reference_poa(scene, sky, states: SkyStates, *, points=None, weights=None, s
     got = np.bincount(pi_ * 2 + hemi, weights=w, minlength=2 * n)
     want = np.stack([exact[:, :rp.n_patches].sum(1), exact[:, rp.n_patches:].sum(1)], 1).ravel()
     w = w * np.where(got > 0, want / np.where(got > 0, got, 1.0), 0.0)[pi_ * 2 + hemi]
+    w = w * _optic(angular, np.sum(normals[pi_] * rdir[di], axis=1))
     hit = kind > 0
     pi_, di, w, kind, prim, dist = (a[hit] for a in (pi_, di, w, kind, prim, dist))
     d = rdir[di]
@@ -380,7 +398,7 @@ def reference_poa(scene, sky, states: SkyStates, *, points=None, weights=None, s
            "y_ground": y_ground, "y_refl": y_refl, "y_ground_view": y_ground_view,
            "ground_albedo": scene.ground_albedo, "disc_radius": float(disc_radius),
            "disc": _disc_nodes(disc_radius, disc_rings, disc_sectors),
-           "min_el": getattr(sky, "min_sun_elevation", 0.0)}
+           "min_el": getattr(sky, "min_sun_elevation", 0.0), "angular": angular}
     T = len(states)
     bounds = [(a, min(a + time_chunk, T)) for a in range(0, T, time_chunk)]
     # skip chunks with no lit step cheaply

@@ -310,7 +310,7 @@ class POAResult:
     def save(self, path):
         """Write the result to one HDF5 file (atomically: a temporary file, then ``os.replace``)."""
         path = os.fspath(path)
-        with _atomic_h5(path) as f:
+        with atomic_h5(path) as f:
             w = H5Writer(f, self.responses, self.units, self.faces, self.n_steps,
                          spectral_channels=None if self.spectral is None else len(self.wavelengths))
             step = max(1, (64 << 20) // max(1, 4 * self.n_faces * (3 * len(self.responses) + 2)))
@@ -434,7 +434,7 @@ def _stamp(t, tz):
 
 
 # -- HDF5 writing ----------------------------------------------------------------------------------
-class _atomic_h5:
+class atomic_h5:
     """Context manager: an h5py.File on a temporary file in the target's folder, moved onto the
     target with ``os.replace`` on success and removed on failure."""
 
