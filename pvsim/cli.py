@@ -16,7 +16,6 @@ temperature uses its temp_air and wind_speed (docs/pvsim.md).
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 import numpy as np

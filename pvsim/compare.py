@@ -210,6 +210,8 @@ def _write_text(path, text):
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)
+        from .plots import _umask_mode
+        os.chmod(tmp, _umask_mode())
         os.replace(tmp, p)
     finally:
         if os.path.exists(tmp):

@@ -13,6 +13,12 @@ from .technologies import TECHNOLOGIES, TandemTechnology, get_technology
 __all__ = ["save_figure", "plot_technologies"]
 
 
+def _umask_mode():
+    um = os.umask(0)
+    os.umask(um)
+    return 0o666 & ~um
+
+
 def save_figure(fig, path, dpi=130):
     """Write a matplotlib figure to ``path`` atomically (temporary file in the same folder, then
     os.replace), and close it."""
@@ -23,6 +29,7 @@ def save_figure(fig, path, dpi=130):
     os.close(fd)
     try:
         fig.savefig(tmp, dpi=dpi)
+        os.chmod(tmp, _umask_mode())          # mkstemp makes 0600 files
         os.replace(tmp, p)
     finally:
         plt.close(fig)

@@ -18,7 +18,7 @@ import numpy as np
 
 __all__ = ["PLANCK", "SPEED_OF_LIGHT", "ELEMENTARY_CHARGE", "HC_EV_NM", "qe_to_sr", "sr_to_qe",
            "photon_flux", "band_average", "channel_edges", "read_astm_g173", "am15g",
-           "am15g_channels", "find_data_file"]
+           "am15g_channels", "find_data_file", "has_data_file"]
 
 PLANCK = 6.62607015e-34          # h [J s] (SI 2019, exact)
 SPEED_OF_LIGHT = 299792458.0     # c [m s-1] (exact)
@@ -42,6 +42,13 @@ def _normalize(a):
     return a / np.where(m > 0, m, 1.0)
 
 
+def _convert(values, wavelength, to_sr, normalize):
+    v = np.asarray(values, dtype=float)
+    w = _wavelength_array(wavelength, v.shape[-1] if v.ndim else 1)
+    out = v * w * _SR_PER_QE_PER_NM if to_sr else v / (w * _SR_PER_QE_PER_NM)
+    return _normalize(out) if normalize else out
+
+
 def qe_to_sr(qe, wavelength, normalize=False):
     """Spectral response from quantum efficiency, SR = EQE * lambda * q / (h c).
 
@@ -59,10 +66,7 @@ def qe_to_sr(qe, wavelength, normalize=False):
     numpy.ndarray (..., K)
         Spectral response [A W-1] (relative [1] when normalised).
     """
-    q = np.asarray(qe, dtype=float)
-    w = _wavelength_array(wavelength, q.shape[-1] if q.ndim else 1)
-    sr = q * w * _SR_PER_QE_PER_NM
-    return _normalize(sr) if normalize else sr
+    return _convert(qe, wavelength, True, normalize)
 
 
 def sr_to_qe(sr, wavelength, normalize=False):
@@ -82,10 +86,7 @@ def sr_to_qe(sr, wavelength, normalize=False):
     numpy.ndarray (..., K)
         Quantum efficiency [1].
     """
-    s = np.asarray(sr, dtype=float)
-    w = _wavelength_array(wavelength, s.shape[-1] if s.ndim else 1)
-    qe = s / (w * _SR_PER_QE_PER_NM)
-    return _normalize(qe) if normalize else qe
+    return _convert(sr, wavelength, False, normalize)
 
 
 def photon_flux(spectral_irradiance, wavelength):
@@ -176,6 +177,15 @@ def find_data_file(relative, data_dir=None):
             break
     raise FileNotFoundError(f"{relative!r} not found (tried {', '.join(tried) or 'no directory'}); "
                             "pass the file's path, data_dir=..., or set WIDESKY_DATA_DIR")
+
+
+def has_data_file(relative, data_dir=None):
+    """True when :func:`find_data_file` finds ``relative``."""
+    try:
+        find_data_file(relative, data_dir)
+    except FileNotFoundError:
+        return False
+    return True
 
 
 def read_astm_g173(path=None, data_dir=None):

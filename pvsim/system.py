@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .module import (G_STC, channel_sr, current_mismatch_loss, effective_irradiance, low_irradiance_factor,
+from .module import (G_STC, current_mismatch_loss, effective_irradiance, low_irradiance_factor,
                      pvwatts_inverter, reference_currents, temperature_factor)
 from .optics import cover_iam, rubin_soda_lime_index, spectral_cover_iam
 from .spectra import am15g_channels, channel_edges
@@ -76,11 +76,10 @@ class CoverOptics:
             return _Iam(self.n, self.K, self.L, self.n_ar)
         from irradiance import SpectralAngularTable
         ang = np.concatenate([np.arange(0.0, 80.0, 5.0), np.arange(80.0, 90.01, 1.0)])
-        w = np.arange(300.0, 2500.0, 20.0)
-        fac = spectral_cover_iam(ang, w, rubin_soda_lime_index(w), k=0.0, L=self.L, n_ar=self.n_ar)
-        # K enters as a grey absorption on top of the spectral Fresnel part
-        grey = cover_iam(ang, 1.5, self.K, self.L) / cover_iam(ang, 1.5, 0.0, self.L)
-        return SpectralAngularTable(ang, w, fac * grey[:, None])
+        w = np.arange(280.0, 2480.5, 20.0)           # the PSM range (Rubin n extrapolated below 310 nm)
+        k = self.K * w * 1e-9 / (4.0 * np.pi)          # the grey absorption coefficient as extinction k
+        fac = spectral_cover_iam(ang, w, rubin_soda_lime_index(w), k=k, L=self.L, n_ar=self.n_ar)
+        return SpectralAngularTable(ang, w, fac)
 
 
 @dataclass(frozen=True)
@@ -317,7 +316,6 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
     -------
     YieldResult
     """
-    import pandas as pd
     system = system or SystemSpec()
     techs = _techs(technologies)
     if sources is None:
@@ -345,28 +343,32 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
     faces = result.faces
     side = np.asarray(faces.side)
     dni = _dni_estimate(result, face_chunk)
-    out = {}
-    jobs = [(t, g) for t in techs for g in range(len(faces.group_names))]
+    prep = {}
+    for t in techs:
+        prep[t.name] = (_eta_stc(t, edges, g_ref), reference_currents(t, edges, reference=g_ref))
+    per = {t.name: ({}, {}, {}, {}) for t in techs}          # pdc0, series, waterfall, mismatch
     bar = None
     if progress:
         from tqdm import tqdm
-        bar = tqdm(total=len(jobs), desc="pv yield", unit="group")
-    for t in techs:
-        eta = _eta_stc(t, edges, g_ref)
-        jref = reference_currents(t, edges, reference=g_ref)
-        phi = t.bifaciality
-        pdc0, series, waterfall, cml = {}, {}, {}, {}
-        for g, gname in enumerate(faces.group_names):
-            acc = _GroupAccumulator(T)
-            idx_all = np.nonzero(faces.group == g)[0]
-            front = idx_all[side[idx_all] == "front"]
-            back = idx_all[side[idx_all] == "back"]
-            back_of = {int(faces.parent[b]): b for b in back}
-            for f0 in range(0, front.size, face_chunk):
-                fi = front[f0:f0 + face_chunk]
-                bi = np.array([back_of.get(int(p), -1) for p in faces.parent[fi]])
-                acc.add(result, t, sources, jref, fi, bi, phi, eta, ta, ws, system, dni, kb)
-            area = float(faces.area[front].sum())
+        bar = tqdm(total=len(faces.group_names), desc="pv yield", unit="group")
+    for g, gname in enumerate(faces.group_names):
+        accs = {t.name: _GroupAccumulator(T, kb) for t in techs}
+        idx_all = np.nonzero(faces.group == g)[0]
+        front = idx_all[side[idx_all] == "front"]
+        back_of = {int(faces.parent[b]): b for b in idx_all[side[idx_all] == "back"]}
+        for f0 in range(0, front.size, face_chunk):
+            fi = front[f0:f0 + face_chunk]
+            bi = np.array([back_of.get(int(p), -1) for p in faces.parent[fi]], dtype=int)
+            chunk = _Chunk(result, fi, bi, dni, ta, ws, any(t.bifaciality > 0 for t in techs))
+            if chunk.rows.size == 0:
+                continue
+            for t in techs:
+                accs[t.name].add(chunk, t, sources, *prep[t.name], system)
+        area = float(faces.area[front].sum())
+        for t in techs:
+            eta = prep[t.name][0]
+            pdc0, series, waterfall, cml = per[t.name]
+            acc = accs[t.name]
             pdc0[gname] = eta * area * G_STC
             s = acc.series(area, result.times, ta, ws)
             dc_net = s["dc"] * (1.0 - system.dc_loss)
@@ -377,14 +379,44 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
             series[gname] = s
             waterfall[gname] = acc.waterfall(area, eta, hours, s, pdc0[gname])
             cml[gname] = acc.mismatch_loss(t)
-            if bar is not None:
-                bar.update(1)
-        out[t.name] = TechnologyYield(t, eta, pdc0, series, waterfall, cml)
+        if bar is not None:
+            bar.update(1)
     if bar is not None:
         bar.close()
+    out = {t.name: TechnologyYield(t, prep[t.name][0], *per[t.name]) for t in techs}
     vis = np.asarray(result.states.visibility, dtype=float) if result.states is not None else np.full(T, np.nan)
     return YieldResult(out, tuple(faces.group_names), result.times, np.broadcast_to(vis, (T,)).copy(),
                        g_ref_band)
+
+
+class _Chunk:
+    """One chunk of a group's front faces (and their rear sides): the arrays every technology needs,
+    read once, restricted to the steps with light (``rows``); response currents read on first use."""
+
+    def __init__(self, res, fi, bi, dni, ta, ws, want_back):
+        self.res, self.fi, self.area = res, fi, res.faces.area[fi]
+        parts = {p: res.get("broadband", p, faces=fi) for p in ("direct", "sky_diffuse", "ground_diffuse")}
+        g = parts["direct"].astype(float) + parts["sky_diffuse"] + parts["ground_diffuse"]
+        self.rows = np.nonzero(g.max(axis=1) > 0)[0] if g.size else np.zeros(0, int)
+        r = self.rows
+        self.parts = {p: v[r].astype(float) for p, v in parts.items()}
+        self.g = g[r]
+        self.cover = res.get(COVER_RESPONSE, "global", faces=fi)[r].astype(float)
+        self.aoi = _columns(res, "aoi", fi)[r]
+        cos_aoi = np.maximum(np.cos(np.radians(np.nan_to_num(self.aoi, nan=90.0))), 0.0)
+        d = self.parts["direct"]
+        self.unshaded = self.g - d + np.maximum(dni[r, None] * cos_aoi, d)
+        self.ta, self.ws = ta[r, None], ws[r, None]
+        self.has_back = (bi >= 0) if want_back else np.zeros(fi.size, bool)
+        self.bsel = bi[self.has_back]
+        self._cache = {}
+
+    def current(self, name, back=False):
+        key = (name, back)
+        if key not in self._cache:
+            faces = self.bsel if back else self.fi
+            self._cache[key] = self.res.get(name, "global", faces=faces)[self.rows].astype(float)
+        return self._cache[key]
 
 
 def _eta_stc(tech, edges, g_ref):
@@ -397,55 +429,39 @@ def _eta_stc(tech, edges, g_ref):
 class _GroupAccumulator:
     """Sums over a group's faces (area-weighted (T,) series and waterfall energies)."""
 
-    def __init__(self, T):
-        z = lambda: np.zeros(T)  # noqa: E731
-        self.q = {k: z() for k in ("poa_global", "poa_direct", "poa_sky_diffuse", "poa_ground_diffuse",
-                                   "aoi_w", "aoi_a", "cover", "effective_front", "effective", "tc",
-                                   "unshaded", "low", "dc")}
+    def __init__(self, T, kb):
+        self.q = {k: np.zeros(T) for k in ("poa_global", "poa_direct", "poa_sky_diffuse", "poa_ground_diffuse",
+                                           "aoi_w", "aoi_a", "cover", "effective_front", "effective", "tc",
+                                           "unshaded", "low", "dc")}
+        self.kb = kb
         self.j_sum = None
 
-    def add(self, res, tech, sources, jref, fi, bi, phi, eta, ta, ws, system, dni, kb):
-        a = res.faces.area[fi]
-        cur = {sub: res.get(sources[sub][0], "global", faces=fi).astype(float) * sources[sub][1]
-               for sub in tech.subcells}
+    def add(self, c: _Chunk, tech, sources, eta, jref, system):
+        a, r = c.area, c.rows
+        cur = {sub: c.current(sources[sub][0]) * sources[sub][1] for sub in tech.subcells}
         e_front = effective_irradiance(tech, cur, jref)
         e_tot = e_front
-        has_back = bi >= 0
-        if phi > 0 and has_back.any():
-            bsel = bi[has_back]
-            curb = {sub: res.get(sources[sub][0], "global", faces=bsel).astype(float) * sources[sub][1]
-                    for sub in tech.subcells}
+        if tech.bifaciality > 0 and c.has_back.any():
+            curb = {sub: c.current(sources[sub][0], back=True) * sources[sub][1] for sub in tech.subcells}
             e_tot = e_front.copy()
-            e_tot[:, has_back] += phi * effective_irradiance(tech, curb, jref)
-        parts = {p: res.get("broadband", p, faces=fi).astype(float)
-                 for p in ("direct", "sky_diffuse", "ground_diffuse")}
-        g = parts["direct"] + parts["sky_diffuse"] + parts["ground_diffuse"]
-        cover = res.get(COVER_RESPONSE, "global", faces=fi).astype(float)
-        aoi = _columns(res, "aoi", fi)
-        cos_aoi = np.maximum(np.cos(np.radians(np.nan_to_num(aoi, nan=90.0))), 0.0)
-        unshaded = g - parts["direct"] + np.maximum(dni[:, None] * cos_aoi, parts["direct"])
-        tc = system.cell_temperature(g, ta[:, None], ws[:, None], eta)
+            e_tot[:, c.has_back] += tech.bifaciality * effective_irradiance(tech, curb, jref)
+        tc = system.cell_temperature(c.g, c.ta, c.ws, eta)
         low = e_tot * low_irradiance_factor(e_tot, tech.low_irradiance_200)
         dc = eta * low * temperature_factor(tc, tech.gamma_pdc)          # W m-2 of module
         q = self.q
-        q["poa_global"] += g @ a
-        q["poa_direct"] += parts["direct"] @ a
-        q["poa_sky_diffuse"] += parts["sky_diffuse"] @ a
-        q["poa_ground_diffuse"] += parts["ground_diffuse"] @ a
-        day = np.isfinite(aoi)
-        q["aoi_w"] += np.where(day, np.nan_to_num(aoi), 0.0) @ a
-        q["aoi_a"] += day @ a
-        q["cover"] += cover @ a
-        q["effective_front"] += e_front @ a
-        q["effective"] += e_tot @ a
-        q["tc"] += tc @ a
-        q["unshaded"] += unshaded @ a
-        q["low"] += low @ a
-        q["dc"] += dc @ a
-        self.kb = kb
+        day = np.isfinite(c.aoi)
+        for k, v in (("poa_global", c.g), ("poa_direct", c.parts["direct"]),
+                     ("poa_sky_diffuse", c.parts["sky_diffuse"]), ("poa_ground_diffuse", c.parts["ground_diffuse"]),
+                     ("aoi_w", np.where(day, np.nan_to_num(c.aoi), 0.0)), ("aoi_a", day), ("cover", c.cover),
+                     ("effective_front", e_front), ("effective", e_tot), ("tc", tc), ("unshaded", c.unshaded),
+                     ("low", low), ("dc", dc)):
+            q[k][r] += v @ a
         if isinstance(tech, TandemTechnology):
             js = {k: v @ a for k, v in cur.items()}
-            self.j_sum = js if self.j_sum is None else {k: self.j_sum[k] + js[k] for k in js}
+            if self.j_sum is None:
+                self.j_sum = {k: np.zeros(len(q["dc"])) for k in js}
+            for k, v in js.items():
+                self.j_sum[k][r] += v
 
     def series(self, area, times, ta, ws):
         import pandas as pd
@@ -460,7 +476,8 @@ class _GroupAccumulator:
             "aoi": aoi, "effective_irradiance": q["effective"] / A,
             "effective_irradiance_front": q["effective_front"] / A, "poa_global_cover": q["cover"] / A,
             "spectral_factor": sf,
-            "temp_air": ta, "wind_speed": ws, "cell_temperature": q["tc"] / A, "dc": q["dc"]}, index=times)
+            "temp_air": ta, "wind_speed": ws, "cell_temperature": np.where(q["poa_global"] > 0, q["tc"] / A, ta),
+            "dc": q["dc"]}, index=times)
 
     def waterfall(self, area, eta, hours, s, pdc0):
         q = self.q

@@ -8,21 +8,13 @@ import pytest
 import pvsim
 from pvsim import (EQEParameters, TECHNOLOGIES, band_average, get_technology, parametric_eqe,
                    perovskite, perovskite_silicon_tandem, qe_to_sr, sr_to_qe)
-from pvsim.spectra import PLANCK, SPEED_OF_LIGHT, ELEMENTARY_CHARGE, find_data_file, photon_flux
+from pvsim.spectra import PLANCK, SPEED_OF_LIGHT, find_data_file, has_data_file, photon_flux
 
 pvlib = pytest.importorskip("pvlib")
 
 
-def _have(rel):
-    try:
-        find_data_file(rel)
-    except FileNotFoundError:
-        return False
-    return True
-
-
-needs_g173 = pytest.mark.skipif(not _have("solar/ASTMG173.csv"), reason="../shared/data absent")
-needs_pv = pytest.mark.skipif(not _have("pv/PVcircuit_Si_EQE.csv"), reason="../shared/data absent")
+needs_g173 = pytest.mark.skipif(not has_data_file("solar/ASTMG173.csv"), reason="../shared/data absent")
+needs_pv = pytest.mark.skipif(not has_data_file("pv/PVcircuit_Si_EQE.csv"), reason="../shared/data absent")
 
 
 def _g173_fine():

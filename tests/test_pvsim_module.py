@@ -10,20 +10,12 @@ import pytest
 import pvsim
 from pvsim import (channel_sr, cover_iam, cover_transmittance, faiman, get_technology, pvsyst_cell,
                    short_circuit_current, spectral_mismatch)
-from pvsim.spectra import ELEMENTARY_CHARGE, PLANCK, SPEED_OF_LIGHT, find_data_file
+from pvsim.spectra import ELEMENTARY_CHARGE, PLANCK, SPEED_OF_LIGHT, has_data_file
 
 pvlib = pytest.importorskip("pvlib")
 
 
-def _have(rel):
-    try:
-        find_data_file(rel)
-    except FileNotFoundError:
-        return False
-    return True
-
-
-needs_g173 = pytest.mark.skipif(not _have("solar/ASTMG173.csv"), reason="../shared/data absent")
+needs_g173 = pytest.mark.skipif(not has_data_file("solar/ASTMG173.csv"), reason="../shared/data absent")
 
 
 # --- cover optics --------------------------------------------------------------------------------
