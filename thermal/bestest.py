@@ -27,8 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .glazing import Gap, GlazingUnit, layer_from_broadband
-from .loads import opaque_gains, sky_losses, window_gains
-from .optics import hemispherical
+from .loads import glazing_g_table, opaque_gains, sky_losses, window_gains
 from .surface import sky_temperature, surface_irradiance
 from .zone import ZoneParameters, simulate_5r1c
 
@@ -87,9 +86,8 @@ def read_mos(path):
     if loc is None or not rows:
         raise ValueError(f"{path}: no #LOCATION header or no data rows")
     a = np.array(rows)
-    tz = f"Etc/GMT{-int(loc['tz']):+d}" if loc["tz"] != int(loc["tz"]) else None
     from irradiance import fixed_offset_tz
-    start = pd.Timestamp("2001-01-01", tz=fixed_offset_tz(loc["tz"]) if tz is None else tz)
+    start = pd.Timestamp("2001-01-01", tz=fixed_offset_tz(loc["tz"]))
     idx = start + pd.to_timedelta(a[:, 0], unit="s")
     cols = ["temp_air", "temp_dew", "relative_humidity", "pressure", "ghi_infrared", "ghi", "dni",
             "dhi", "wind_speed"]
@@ -256,12 +254,8 @@ def reference_results(data_dir=None):
 # --------------------------------------------------------------------------- run
 
 def _window_g(unit):
-    """Broadband g(aoi) table and its hemispherical value for a flat-spectrum unit."""
-    from .glazing import ANGLES
-    o = unit.optics(ANGLES, [1000.0])
-    g = o["shgc"][:, 0]
-    t = o["transmittance"][:, 0]
-    return ANGLES, g, float(hemispherical(ANGLES, g)), float(hemispherical(ANGLES, t))
+    """g(aoi) table of a flat-spectrum (broadband-record) unit: angles, g, g_diffuse, tau_diffuse."""
+    return glazing_g_table(unit, np.array([280.0, 2500.0]), np.ones(2))
 
 
 def solar_escape_fraction(tau_diffuse, window_area, interior_area, absorptance):
@@ -297,14 +291,18 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None):
         ``opaque`` (absorbed on walls and roof, ISO 13790 11.3.4), ``sky_loss`` (long-wave to the
         sky, ISO 13790 11.3.5) [W]; ``incident_south`` [W m-2]; ``temp_sky`` [degC].
     """
-    from irradiance import dni_extra, solar_position, sun_times
-    times = sun_times(weather.index, label="right")
-    sp = solar_position(times, site["latitude"], site["longitude"], site["altitude"])
     surf = [(90.0, az) for az, _, _ in case.walls] + [(0.0, 180.0)]
-    irr = poa if poa is not None else surface_irradiance([s[0] for s in surf], [s[1] for s in surf], sp["zenith"].to_numpy(),
-                             sp["azimuth"].to_numpy(), weather["dni"].to_numpy(),
-                             weather["dhi"].to_numpy(), weather["ghi"].to_numpy(),
-                             dni_extra(sp["earth_sun_distance"].to_numpy()), GROUND_REFLECTANCE)
+    if poa is not None:
+        irr = poa
+    else:
+        from irradiance import dni_extra, solar_position, sun_times
+        times = sun_times(weather.index, label="right")
+        sp = solar_position(times, site["latitude"], site["longitude"], site["altitude"])
+        irr = surface_irradiance([s[0] for s in surf], [s[1] for s in surf],
+                                 sp["zenith"].to_numpy(), sp["azimuth"].to_numpy(),
+                                 weather["dni"].to_numpy(), weather["dhi"].to_numpy(),
+                                 weather["ghi"].to_numpy(),
+                                 dni_extra(sp["earth_sun_distance"].to_numpy()), GROUND_REFLECTANCE)
     ang, g, g_d, tau_d = _window_g(case.window) if g_table is None else g_table
     esc = solar_escape_fraction(tau_d, case.window_area, case.interior_area,
                                 INTERIOR_SOLAR_ABSORPTANCE)

@@ -30,7 +30,8 @@ def register(subparsers) -> None:
     b.add_argument("--case", nargs="+", default=["600", "660", "670", "900"])
     b.add_argument("--weather", default="tmy3", choices=("tmy3", "drycold"),
                    help="tmy3: Denver Intl AP TMY3 (the 140-2020 weather, default); drycold: older")
-    b.add_argument("--data-dir", default=None, help="data directory (default WIDESKY_DATA_DIR or ../shared/data)")
+    b.add_argument("--data-dir", default=None,
+                   help="data directory (default WIDESKY_DATA_DIR or ../shared/data)")
     b.set_defaults(func=_bestest)
 
     lo = sub.add_parser("loads", help="hourly gains and loads of a box building for a weather file")

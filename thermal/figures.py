@@ -100,6 +100,14 @@ def fig_bestest(outdir, integrator=None, data_dir=None):
     return table
 
 
+def _climate(folder):
+    """'San Francisco' from 'study_USA_CA_San.Francisco.Intl.AP.724940_TMY3' and the like."""
+    stem = Path(folder).name.replace("study_", "")
+    parts = stem.split("_", 2)
+    core = parts[2] if len(parts) == 3 else stem
+    return core.split(".Intl")[0].split("-OHare")[0].replace(".", " ")
+
+
 def fig_study(outdir, study_dirs):
     """Effective g per month, south and north facades, spectral vs rated route, per climate."""
     import matplotlib
@@ -109,8 +117,8 @@ def fig_study(outdir, study_dirs):
     fig, axs = plt.subplots(2, len(study_dirs), figsize=(4.2 * len(study_dirs), 6.5), sharey="row",
                             squeeze=False)
     for j, d in enumerate(study_dirs):
-        eff = pd.read_csv(Path(d) / "effective_g.csv", index_col=[0, 1, 2])
-        name = Path(d).name.replace("study_", "").split(".")[0].replace("USA_", "")
+        eff = pd.read_csv(Path(d) / "effective_g.csv", index_col=[0, 1, 2]).sort_index()
+        name = _climate(d)
         for i, o in enumerate(("south", "north")):
             ax = axs[i, j]
             for unit, col in zip(eff.index.get_level_values(0).unique(), ("C0", "C1", "C2")):
@@ -119,6 +127,7 @@ def fig_study(outdir, study_dirs):
                 ax.plot(e.index, e["rated_route"], color=col, ls="--", label=f"{unit} rated g(angle)")
                 ax.axhline(e["rated_normal"].iloc[0], color=col, ls=":", lw=1)
             ax.set_title(f"{name}: {o} facade", fontsize=9)
+            ax.set_xticks(range(1, 13, 2))
             ax.grid(alpha=0.3)
             if j == 0:
                 ax.set_ylabel("effective g [1]")
@@ -174,7 +183,7 @@ def study_table(study_dirs):
              "|---|---|---|---|---|---|---|---|"]
     for d in study_dirs:
         a = pd.read_csv(Path(d) / "annual.csv", index_col=[0, 1])
-        name = Path(d).name.replace("study_USA_", "").split(".")[0]
+        name = _climate(d)
         for unit in a.index.get_level_values(0).unique():
             s, r = a.loc[(unit, "spectral")], a.loc[(unit, "rated")]
             cells = []
