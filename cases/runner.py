@@ -207,6 +207,8 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
     run = compute(folder, n_jobs=n_jobs, progress=progress)
     out = Path(output) if output else Path.cwd() / f"report-{folder.resolve().name}"
     run.timings["compute_total"] = time.perf_counter() - t0
+    log(f"{folder.name}: computed in {run.timings['compute_total']:.1f} s; writing the report (time series, "
+        "integrator result, renders, HTML) ...")
     provenance = {
         "case": str(folder.resolve()), "command": " ".join(sys.argv),
         "dataset": str(run.dataset.model.path), "dataset_sha1": _sha1(run.dataset.model.path),
