@@ -286,3 +286,17 @@ def test_part_of_a_dataset(tmp_path):
     # a subset's sRGB render equals the full dataset's (the composite uses the visible channels only)
     full = Explorer(output_dir=tmp_path, threads=1).render({"elevation": "30", "visibility": "40", "resolution": "64"})
     np.testing.assert_array_equal(png(body), png(full[0]))
+
+
+def test_concurrent_requests(server):
+    """The page sends render, irradiance and spectrum requests at once: all answer, and the same state gives
+    the same image whatever ran beside it."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    q = "elevation=33&azimuth=140&visibility=45&resolution=96"
+    paths = [f"/api/render?{q}", f"/api/irradiance?{q}", f"/api/spectrum?{q}&u=0.5&v=0.4"] * 3
+    with ThreadPoolExecutor(6) as pool:
+        answers = list(pool.map(lambda p: request(server, p), paths))
+    assert all(a[0] == 200 for a in answers)
+    images = [png(a[2]) for p, a in zip(paths, answers) if p.startswith("/api/render")]
+    assert all(np.array_equal(images[0], im) for im in images[1:])

@@ -71,6 +71,8 @@ class Explorer:
         self.paths = [None] if not datasets else [Path(p) for p in datasets]
         self._models = [None] * len(self.paths)
         self._lock = threading.Lock()
+        # one evaluation at a time: each already uses every core, and a dataset decodes its slabs on first use
+        self._eval = threading.Lock()
         self._load = skymodel.load_dataset
         self.output_dir = Path(output_dir).resolve()
         self.responses = dict(responses or {})
@@ -113,7 +115,8 @@ class Explorer:
     def render(self, query):
         v = self.view(query)
         t0 = time.perf_counter()
-        r, composite, dt = render_view(self.model(v.dataset), v, self.threads)
+        with self._eval:
+            r, composite, dt = render_view(self.model(v.dataset), v, self.threads)
         png = png_bytes(r, composite, v.exposure)
         return png, dt, time.perf_counter() - t0
 
@@ -123,22 +126,22 @@ class Explorer:
         d = direction_at(v, u, w)
         if d is None:
             raise ParameterError(f"u={u:g}, v={w:g} lies outside the fisheye disc")
-        out = spectrum_at(self.model(v.dataset), v, d, self.threads)
+        with self._eval:
+            out = spectrum_at(self.model(v.dataset), v, d, self.threads)
         out.update(u=u, v=w)
         return out
 
     def irradiance(self, query):
         v = self.view(query)
         m = self.model(v.dataset)
-        out = plane_irradiance(m, v, self._responses_for(m))
+        with self._eval:
+            out = plane_irradiance(m, v, self._responses_for(m))
         out.update(surface_tilt=v.surface_tilt, surface_azimuth=v.surface_azimuth,
                    sun_elevation=v.sun_elevation, sun_azimuth=v.sun_azimuth)
         return out
 
     def save(self, query):
         """Write the view as PNG and/or spectral EXR (all channels) into the output folder, atomically."""
-        from ..render import render_sky, write_exr, write_png
-
         v = self.view(query)
         name = query.get("name", "sky")
         if not _SAFE_NAME.match(name) or ".." in name:
@@ -149,6 +152,12 @@ class Explorer:
             raise ParameterError(f"format={query.get('format')!r}: expected png, exr or png,exr")
         m = self.model(v.dataset)
         self.output_dir.mkdir(parents=True, exist_ok=True)
+        with self._eval:
+            return self._save(m, v, name, formats)
+
+    def _save(self, m, v, name, formats):
+        from ..render import render_sky, write_exr, write_png
+
         written = []
         if "png" in formats:
             r, composite, _ = render_view(m, v, self.threads)
