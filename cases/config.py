@@ -101,6 +101,10 @@ SCHEMA = {
                            help="STC reference spectrum: the sky model's AM1.5G (no data needed) or ASTM G173 "
                                 "(read from the data directory)"),
     },
+    "compare": {
+        "sites": Field("sites", REQUIRED, help="other sites to run the same case at: a list of tables with the "
+                       "[site] keys (name, latitude, longitude, altitude, tz); the [site] section is the first"),
+    },
     "report": {
         "sky_time": Field("time", REQUIRED, help="the hour whose sky is rendered (spectral EXR and PNG)"),
         "views": Field("list", ["south-west", "top"], choices=_VIEWS, help="scene renders coloured by irradiance"),
@@ -109,7 +113,7 @@ SCHEMA = {
 }
 
 # sections that are filled with defaults only when the file has them
-OPTIONAL_SECTIONS = ("pv",)
+OPTIONAL_SECTIONS = ("pv", "compare")
 
 
 def _technology_choices():
@@ -166,6 +170,26 @@ def _value(where, f: Field, raw, folder: Path):
         if not isinstance(raw, bool):
             raise ConfigError(f"{where} = {raw!r}: expected true or false")
         return raw
+    if f.kind == "sites":
+        if not isinstance(raw, list) or not raw or not all(isinstance(x, dict) for x in raw):
+            raise ConfigError(f"{where}: expected a list of tables such as "
+                              "[{name = \"Madrid\", latitude = 40.4, longitude = -3.7, tz = \"Europe/Madrid\"}]")
+        out = []
+        for i, entry in enumerate(raw):
+            item = {}
+            for key in entry:
+                if key not in SCHEMA["site"]:
+                    raise ConfigError(f"{where}[{i}]: unknown key {key}{_suggest(key, SCHEMA['site'])}; valid keys: "
+                                      f"{', '.join(SCHEMA['site'])}")
+            for key, sf in SCHEMA["site"].items():
+                if key in entry:
+                    item[key] = _value(f"{where}[{i}].{key}", sf, entry[key], folder)
+                elif sf.default is REQUIRED:
+                    raise ConfigError(f"{where}[{i}].{key} is required ({sf.help})")
+                else:
+                    item[key] = sf.default
+            out.append(item)
+        return out
     if f.kind == "table":
         if not isinstance(raw, dict):
             raise ConfigError(f"{where}: expected a table")

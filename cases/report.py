@@ -148,8 +148,60 @@ def _orientation(normals):
     return tilt, az
 
 
-def write_report(run: CaseRun, folder, provenance):
-    """Write every output of ``run`` into ``folder`` (an empty temporary folder)."""
+def _site_name(run):
+    s = run.config["site"]
+    return s["name"] or f"{s['latitude']:.2f}, {s['longitude']:.2f}"
+
+
+def _compare_section(runs, folder: Path):
+    """HTML (and ``sites.csv``) comparing the same case at several sites: per site the specific yield of each
+    technology and its rank (with a [pv] section), else the insolation per group."""
+    import pandas as pd
+
+    rows, table = [], {}
+    if runs[0].pv is not None:
+        names = list(runs[0].pv.technologies)
+        labels = [runs[0].pv.technologies[n].technology.label for n in names]
+        for r in runs:
+            y = r.pv
+            sy = []
+            for n in names:
+                ty = y.technologies[n]
+                kwp = sum(ty.pdc0[g] for g in y.groups) / 1000.0
+                sy.append(sum(ty.energy(g, "ac") for g in y.groups) / kwp)
+            order = np.argsort(-np.asarray(sy))
+            rank = {names[i]: k + 1 for k, i in enumerate(order)}
+            table[_site_name(r)] = sy
+            rows.append([_site_name(r), f"{r.config['site']['latitude']:.2f}", f"{r.config['site']['longitude']:.2f}",
+                         *(f"{v:.1f} ({rank[n]})" for n, v in zip(names, sy)), labels[int(order[0])]])
+        header = ["site", "latitude [deg]", "longitude [deg]", *(f"{lab} [kWh/kWp] (rank)" for lab in labels), "best"]
+        ylabel, cats = "specific yield [kWh/kWp]", labels
+    else:
+        labels = list(dict.fromkeys(runs[0].labels))
+        for r in runs:
+            kwh = r.result.poa_global.astype(float).sum(axis=0) * r.step_hours / 1000.0
+            lab = np.asarray(r.labels, dtype=object)
+            a = r.result.faces.area
+            vals = [float((kwh[lab == g] * a[lab == g]).sum() / a[lab == g].sum()) for g in labels]
+            table[_site_name(r)] = vals
+            rows.append([_site_name(r), f"{r.config['site']['latitude']:.2f}", f"{r.config['site']['longitude']:.2f}",
+                         *(f"{v:.1f}" for v in vals), labels[int(np.argmax(vals))]])
+        header = ["site", "latitude [deg]", "longitude [deg]", *(f"{g} [kWh m-2]" for g in labels), "highest"]
+        ylabel, cats = "insolation [kWh m-2]", labels
+    pd.DataFrame({k: v for k, v in table.items()}, index=cats).to_csv(folder / "sites.csv", float_format="%.5g")
+    chart = bar_chart(cats, table, title="the same case at each site", xlabel="", ylabel=ylabel)
+    return f"""<h2>Sites compared</h2>
+{_table(header, rows)}
+{chart}
+<p class="note">The same scene, period (local time at each site), sky settings and accuracy at every site; the
+sections below are those of the first site, {escape(_site_name(runs[0]))}. Per-site values in
+<code>sites.csv</code>.</p>
+"""
+
+
+def write_report(run: CaseRun, folder, provenance, others=None):
+    """Write every output of ``run`` into ``folder`` (an empty temporary folder); ``others``: the same case at
+    more sites (a "Sites compared" section and ``sites.csv``)."""
     import pandas as pd
 
     from skymodel.render import render_sky, write_exr, write_png
@@ -242,6 +294,9 @@ def write_report(run: CaseRun, folder, provenance):
         "<p class='note'>timeseries.parquet was not written: no Parquet engine is installed "
         "(<code>pip install pyarrow</code>).</p>")
     tm = run.timings
+    compare = _compare_section([run, *others], folder) if others else ""
+    if others:
+        files.append("sites.csv")
     html = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{escape(cfg['case']['title'])}</title>
 <style>{_CSS}</style></head><body>
@@ -255,10 +310,12 @@ def write_report(run: CaseRun, folder, provenance):
     ["sky", f"clear sky, visibility {cfg['sky']['visibility']:g} km, albedo {cfg['sky']['albedo']:g}, dataset "
             f"{Path(str(run.dataset.model.path)).name}"],
     ["scene", f"{sc.n_faces} analysed faces in {len(labels)} groups, {len(sc.triangles)} triangles in all"],
-    ["run time", f"{tm.get('compute_total', 0):.1f} s (integrator {tm.get('integrator', 0):.1f} s, spectral hour "
+    ["run time", f"{tm.get('compute_total', 0):.1f} s" + (f" for {1 + len(others)} sites; this site:" if others else "")
+                 + f" (integrator {tm.get('integrator', 0):.1f} s, spectral hour "
                  f"{tm.get('spectral_hour', 0):.1f} s" + (f", PV yield {tm['pv_yield']:.1f} s" if "pv_yield" in tm else "")
                  + ")"],
 ])}
+{compare}
 {_pv_section(run) if run.pv is not None else ""}
 <h2>Irradiance per group</h2>
 {summary}

@@ -111,12 +111,13 @@ def _sha1(path, limit=1 << 26):
     return h.hexdigest()
 
 
-def compute(folder, *, n_jobs=None, progress=True) -> CaseRun:
-    """Validate the case in ``folder`` and compute its irradiance (no files written)."""
+def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
+    """Validate the case in ``folder`` and compute its irradiance and yield (no files written); ``cfg``: an
+    already validated configuration (default: read ``folder/case.toml``)."""
     import irradiance as ir
 
     folder = Path(folder).resolve()
-    cfg = load_config(folder)
+    cfg = load_config(folder) if cfg is None else cfg
     t0 = time.perf_counter()
     timings = {}
     site = _site(cfg)
@@ -205,6 +206,10 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
     log = log or (lambda msg: print(msg, file=sys.stderr))
     t0 = time.perf_counter()
     run = compute(folder, n_jobs=n_jobs, progress=progress)
+    others = []
+    for site in (run.config.get("compare") or {}).get("sites", []):
+        log(f"{folder.name}: the same case at {site['name'] or (site['latitude'], site['longitude'])} ...")
+        others.append(compute(folder, n_jobs=n_jobs, progress=progress, cfg={**run.config, "site": site}))
     out = Path(output) if output else Path.cwd() / f"report-{folder.resolve().name}"
     run.timings["compute_total"] = time.perf_counter() - t0
     log(f"{folder.name}: computed in {run.timings['compute_total']:.1f} s; writing the report (time series, "
@@ -216,7 +221,7 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
         "versions": _versions(), "timings_s": run.timings,
         "faces": int(run.scene.n_faces), "steps": int(len(run.result.times)),
     }
-    report = _atomic_folder(out, lambda tmp: write_report(run, tmp, provenance))
+    report = _atomic_folder(out, lambda tmp: write_report(run, tmp, provenance, others))
     log(f"{folder.name}: {run.scene.n_faces} faces x {len(run.result.times)} steps in "
         f"{time.perf_counter() - t0:.1f} s -> {report}/index.html")
     return report

@@ -300,3 +300,48 @@ def test_a_mesh_file_is_one_group(tmp_path):
     (tmp_path / "bad.py").write_text("def build(p):\n    return {'context': {}}\n")
     with pytest.raises(ConfigError, match=r"build\(\) must return"):
         build_geometry(tmp_path / "bad.py", {})
+
+
+def test_compare_sites_are_validated(folder):
+    ok = validate(cfg(compare__sites=[{"name": "Madrid", "latitude": 40.4, "longitude": -3.7, "tz": "Europe/Madrid"}]),
+                  folder)
+    assert ok["compare"]["sites"][0]["latitude"] == 40.4 and ok["compare"]["sites"][0]["altitude"] == 0.0
+    with pytest.raises(ConfigError, match=r"compare.sites\[0\]: unknown key lat \(did you mean 'latitude'\?\)"):
+        validate(cfg(compare__sites=[{"lat": 40.4, "longitude": -3.7}]), folder)
+    with pytest.raises(ConfigError, match=r"compare.sites\[1\].latitude = 91 outside the valid range \[-90, 90\] deg"):
+        validate(cfg(compare__sites=[{"latitude": 40, "longitude": 0}, {"latitude": 91, "longitude": 0}]), folder)
+    with pytest.raises(ConfigError, match=r"compare.sites: expected a list of tables"):
+        validate(cfg(compare__sites="Madrid"), folder)
+
+
+def test_compare_sites_report(tmp_path_factory):
+    """Two sites, two June days: a "Sites compared" table and sites.csv; the first site's column holds the
+    specific yield of its own yield table (wiring), and the other site's differs."""
+    toml = (SMALL.split("[sky]")[0].replace('title = "small"', 'title = "two sites"') + """
+[compare]
+sites = [{ name = "Helsinki", latitude = 60.17, longitude = 24.94, tz = "Europe/Helsinki" }]
+[sky]
+visibility = 40
+[scene]
+geometry = "geometry.py"
+[scene.parameters]
+row_length = 6.0
+cell = 3.0
+[pv]
+technologies = ["topcon", "a_si"]
+[report]
+sky_time = "2024-06-21T12:00"
+views = ["south-west"]
+render_size = 160
+""")
+    rep, _ = _run_small(tmp_path_factory, "compare_sites", toml)
+    sites = pd.read_csv(rep / "sites.csv", index_col=0)
+    assert list(sites.columns) == ["50.08, 14.42", "Helsinki"]        # an unnamed site is named by its position
+    html = (rep / "index.html").read_text()
+    assert "Sites compared" in html
+    # the first site's own yield table holds the same TOPCon value as sites.csv's Prague column
+    import pvsim
+    label = pvsim.get_technology("topcon").label
+    m = re.search(rf"<tr><td>{re.escape(label)}</td>(?:<td>[^<]*</td>){{4}}<td>([\d.]+)</td>", html)
+    assert m and float(m.group(1)) == pytest.approx(sites.loc[label, "50.08, 14.42"], abs=0.06)
+    assert sites.loc[label, "50.08, 14.42"] != sites.loc[label, "Helsinki"]
