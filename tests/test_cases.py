@@ -203,7 +203,7 @@ def test_a_failed_run_leaves_the_previous_report_untouched(small_report, monkeyp
     stamp = (rep / "index.html").stat().st_mtime_ns
     import cases.report
 
-    def boom(run, tmp, provenance):
+    def boom(run, tmp, provenance, others=None):
         (Path(tmp) / "index.html").write_text("half")
         raise KeyboardInterrupt                           # as if interrupted while writing
     monkeypatch.setattr(cases.report, "write_report", boom)
