@@ -8,31 +8,7 @@ slope; analysed two-sided (front and rear).
 
 import numpy as np
 
-
-def _quad_grid(p0, u, v, nu, nv):
-    """Rectangle p0 + [0,1] u + [0,1] v as nu x nv quads (two triangles each); normals follow u x v."""
-    p0, u, v = (np.asarray(a, float) for a in (p0, u, v))
-    i, j = np.meshgrid(np.arange(nu + 1), np.arange(nv + 1), indexing="ij")
-    verts = (p0 + (i / nu)[..., None] * u + (j / nv)[..., None] * v).reshape(-1, 3)
-    k = lambda a, b: a * (nv + 1) + b  # noqa: E731
-    faces = [f for a in range(nu) for b in range(nv)
-             for f in ([k(a, b), k(a + 1, b), k(a + 1, b + 1)], [k(a, b), k(a + 1, b + 1), k(a, b + 1)])]
-    return verts, np.array(faces)
-
-
-def _box(x0, y0, z0, x1, y1, height):
-    """Walls and a flat roof of a box standing at height z0, outward normals."""
-    parts = [_quad_grid((x0, y0, z0 + height), (x1 - x0, 0, 0), (0, y1 - y0, 0), 1, 1),
-             _quad_grid((x0, y0, z0), (x1 - x0, 0, 0), (0, 0, height), 1, 1),
-             _quad_grid((x1, y1, z0), (x0 - x1, 0, 0), (0, 0, height), 1, 1),
-             _quad_grid((x1, y0, z0), (0, y1 - y0, 0), (0, 0, height), 1, 1),
-             _quad_grid((x0, y1, z0), (0, y0 - y1, 0), (0, 0, height), 1, 1)]
-    verts, faces, base = [], [], 0
-    for v, f in parts:
-        verts.append(v)
-        faces.append(f + base)
-        base += len(v)
-    return np.concatenate(verts), np.concatenate(faces)
+from cases.shapes import box, quad_grid
 
 
 def build(parameters):
@@ -52,11 +28,11 @@ def build(parameters):
         p0 = (0.0, y0, ground(y0) + clearance)
         u = (length, 0.0, 0.0)                                              # along the row (east)
         v = (0.0, width * np.cos(tilt), width * np.sin(tilt))               # up the table (north, up)
-        analysis[f"row{r + 1}"] = _quad_grid(p0, u, v, max(1, int(round(length / cell))), 2)
+        analysis[f"row{r + 1}"] = quad_grid(p0, u, v, max(1, int(round(length / cell))), 2)
     # the slope: a plane from 20 m south of the first row to 15 m north of the last, 20 m beyond each row end
     ys, yn, xw, xe = -20.0, (rows - 1) * pitch + 15.0, -20.0, length + 20.0
-    slope_mesh = _quad_grid((xw, ys, ground(ys)), (xe - xw, 0, 0), (0, yn - ys, ground(yn) - ground(ys)), 4, 4)
+    slope_mesh = quad_grid((xw, ys, ground(ys)), (xe - xw, 0, 0), (0, yn - ys, ground(yn) - ground(ys)), 4, 4)
     # a farm building south-east of the first row, standing on the slope
     bx, by = length + 3.0, -14.0
-    building = _box(bx, by, ground(by) - 0.5, bx + 12.0, by + 9.0, float(parameters.get("building_height", 8.0)))
+    building = box(bx, by, ground(by) - 0.5, bx + 12.0, by + 9.0, float(parameters.get("building_height", 8.0)))
     return {"analysis": analysis, "context": {"slope": slope_mesh, "building": building}}
