@@ -35,10 +35,15 @@ __all__ = ["MeasuredScaling", "measured_scale_factors", "clearness_index", "isot
 class MeasuredScaling(NamedTuple):
     """Per-step outputs of :func:`measured_scale_factors` (arrays of the broadcast shape).
 
-    sun_scale, sky_scale : multipliers [1] of the model's sun spectrum and sky radiance.
-    sun_guarded, sky_guarded : bool, a floor or the cap acted (the match is not exact).
-    unmatched_dni, unmatched_dhi : measured minus reproduced irradiance [W m-2]
-        (``dni - sun_scale * model_dni``), 0 where the match is exact.
+    Attributes
+    ----------
+    sun_scale, sky_scale : numpy.ndarray
+        Multipliers [1] of the model's sun spectrum and sky radiance.
+    sun_guarded, sky_guarded : numpy.ndarray
+        bool: a floor or the cap acted (the match is not exact).
+    unmatched_dni, unmatched_dhi : numpy.ndarray
+        Measured minus reproduced irradiance [W m-2] (``dni - sun_scale * model_dni``), 0 where the
+        match is exact.
     """
 
     sun_scale: np.ndarray

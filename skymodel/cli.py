@@ -15,6 +15,7 @@ SUBCOMMAND_MODULES = (
     "skymodel.generator.cli",
     "irradiance.cli_sun",
     "irradiance.cli_poa",
+    "skymodel.explorer.cli", "cases.cli",
     "pvsim.cli",
     "thermal.cli",
 )

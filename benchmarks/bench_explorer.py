@@ -1,0 +1,97 @@
+"""Benchmark: a slider move in the sky explorer (widesky gui) -> the new 512 x 512 image.
+
+Measured in the same run, on the embedded dataset, for a sequence of slider positions that each give a new
+sky state (solar elevation 5 ... 65 deg in steps of 3.1 deg, between the grid's elevations):
+  explorer  the HTTP round trip of ``GET /api/render`` through the explorer's server on 127.0.0.1
+            (parameter checks, the visible channels only for the sRGB composite, display mapping, PNG encoding);
+  baseline  the same image the way ``widesky sky render`` computes it: all 55 channels evaluated, then the
+            same display mapping and PNG encoding (in process, no HTTP);
+plus the ``/api/irradiance`` (horizontal and tilted spectra, 577 patches) and ``/api/spectrum`` round trips.
+Median of the requests; the ratio is baseline / explorer.
+
+    python benchmarks/bench_explorer.py [--resolution 512] [--threads 0] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import http.client
+import io
+import json
+import os
+import platform
+import threading
+import time
+
+import numpy as np
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--resolution", type=int, default=512)
+    ap.add_argument("--threads", type=int, default=0, help="evaluator threads (0: all cores)")
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+
+    from PIL import Image
+
+    import skymodel
+    from skymodel.explorer import Explorer, make_server
+    from skymodel.render import _display, render_sky
+
+    ex = Explorer(threads=args.threads)
+    m = ex.model(0)
+    srv = make_server(ex, port=0)
+    threading.Thread(target=srv.serve_forever, daemon=True).start()
+    port = srv.server_address[1]
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=120)
+
+    def get(path):
+        t0 = time.perf_counter()
+        conn.request("GET", path, headers={"Host": f"127.0.0.1:{port}"})
+        r = conn.getresponse()
+        body = r.read()
+        assert r.status == 200, body[:200]
+        return time.perf_counter() - t0, r, body
+
+    elevations = np.arange(5.0, 66.0, 3.1)
+    base = f"azimuth=200&visibility=37&albedo=0.25&resolution={args.resolution}"
+    get(f"/api/render?elevation=30&{base}")                 # warm-up: first decode of the dataset slabs
+    t_ex, t_eval = [], []
+    for el in elevations:
+        dt, r, _ = get(f"/api/render?elevation={el:.2f}&{base}")
+        t_ex.append(dt)
+        t_eval.append(float(r.getheader("X-Render-Seconds")))
+    t_base = []
+    for el in elevations:
+        t0 = time.perf_counter()
+        rr = render_sky(m, sun_elevation=el, sun_azimuth=200, visibility=37, albedo=0.25,
+                        resolution=args.resolution, threads=args.threads)
+        buf = io.BytesIO()
+        Image.fromarray(_display(rr, True, 0.0)).save(buf, format="PNG", compress_level=1)
+        t_base.append(time.perf_counter() - t0)
+    t_irr = [get(f"/api/irradiance?elevation={el:.2f}&{base}")[0] for el in elevations[::3]]
+    t_spec = [get(f"/api/spectrum?elevation={el:.2f}&{base}&u=0.4&v=0.6")[0] for el in elevations[::3]]
+    srv.shutdown()
+    out = {
+        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+        "resolution": args.resolution, "threads": args.threads, "steps": len(elevations),
+        "explorer_render_ms": 1e3 * float(np.median(t_ex)), "explorer_eval_ms": 1e3 * float(np.median(t_eval)),
+        "baseline_all_channels_ms": 1e3 * float(np.median(t_base)),
+        "irradiance_ms": 1e3 * float(np.median(t_irr)), "spectrum_ms": 1e3 * float(np.median(t_spec)),
+        "dataset": str(m.path),
+    }
+    out["ratio"] = out["baseline_all_channels_ms"] / out["explorer_render_ms"]
+    print(f"slider move -> {args.resolution}x{args.resolution} image: {out['explorer_render_ms']:.0f} ms round trip "
+          f"(sky evaluation {out['explorer_eval_ms']:.0f} ms); baseline (all 55 channels, widesky sky render's path) "
+          f"{out['baseline_all_channels_ms']:.0f} ms: {out['ratio']:.1f}x")
+    print(f"irradiance readout {out['irradiance_ms']:.0f} ms, clicked spectrum {out['spectrum_ms']:.1f} ms "
+          f"({out['machine']}, threads={args.threads}, median of {len(elevations)} / {len(t_irr)} requests)")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=2)
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,110 @@
+"""Pictures of a scene coloured by a per-face value (Pillow only), and the coloured mesh as PLY.
+
+Orthographic views drawn with the painter's algorithm (triangles sorted far to near, 2x supersampled):
+enough for the small case scenes; context geometry is grey, shaded by its orientation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["VIEWS", "colour_ramp", "render_scene", "write_ply"]
+
+# camera azimuth [deg, clockwise from north] and elevation [deg] of the viewing position
+VIEWS = {"south-east": (135.0, 30.0), "south-west": (225.0, 30.0), "north-east": (45.0, 30.0),
+         "north-west": (315.0, 30.0), "top": (180.0, 89.0)}
+
+# a monotone dark-blue -> teal -> yellow ramp (lightness increasing), anchors in sRGB
+_RAMP = np.array([[0.07, 0.06, 0.29], [0.18, 0.25, 0.55], [0.13, 0.47, 0.56], [0.20, 0.64, 0.47],
+                  [0.56, 0.78, 0.29], [0.99, 0.91, 0.15]])
+
+
+def colour_ramp(t):
+    """Colours (..., 3) in [0, 1] for values ``t`` in [0, 1] (clipped)."""
+    t = np.clip(np.nan_to_num(np.asarray(t, float)), 0.0, 1.0) * (len(_RAMP) - 1)
+    i = np.minimum(t.astype(int), len(_RAMP) - 2)
+    f = (t - i)[..., None]
+    return _RAMP[i] * (1 - f) + _RAMP[i + 1] * f
+
+
+def _camera(view):
+    az, el = (np.radians(v) for v in VIEWS[view])
+    to_cam = np.array([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)])
+    right = np.cross([0.0, 0.0, 1.0], to_cam)
+    if np.linalg.norm(right) < 1e-6:
+        right = np.array([1.0, 0.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(to_cam, right)
+    return to_cam, right, up
+
+
+def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-west", size=720,
+                 label="", unit=""):
+    """A PIL image of the scene.
+
+    Parameters
+    ----------
+    vertices : ndarray (V, 3)  [m], east-north-up
+    triangles : ndarray (M, 3)  vertex indices
+    face_values : ndarray (M,)  value per triangle (NaN: context, drawn grey)
+    vmin, vmax : float  colour range (same unit as the values)
+    view : str  a key of :data:`VIEWS`
+    size : int  image width [pixels]
+    label, unit : str  caption of the colour bar
+    """
+    from PIL import Image, ImageDraw
+
+    if view not in VIEWS:
+        raise ValueError(f"view={view!r}: expected one of {', '.join(VIEWS)}")
+    to_cam, right, up = _camera(view)
+    tri = np.asarray(vertices, float)[np.asarray(triangles)]                    # (M, 3, 3)
+    xy = np.stack([tri @ right, tri @ up], axis=-1)                            # (M, 3, 2)
+    depth = (tri @ to_cam).mean(axis=1)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    ss = 2
+    W = int(size) * ss
+    bar = int(0.16 * W)
+    lo, hi = xy.reshape(-1, 2).min(axis=0), xy.reshape(-1, 2).max(axis=0)
+    scale = 0.92 * (W - bar) / max(hi[0] - lo[0], 1e-9)
+    H = int(min(max((hi[1] - lo[1]) * scale / 0.92, 0.5 * W), 1.2 * W))
+    scale = min(scale, 0.92 * H / max(hi[1] - lo[1], 1e-9))
+    centre = np.array([(W - bar) / 2, H / 2])
+    px = (xy - 0.5 * (lo + hi)) * scale * np.array([1.0, -1.0]) + centre
+    img = Image.new("RGB", (W, H), (246, 246, 244))
+    draw = ImageDraw.Draw(img)
+    vals = np.asarray(face_values, float)
+    t = (vals - vmin) / (vmax - vmin if vmax > vmin else 1.0)
+    rgb = colour_ramp(t)
+    shade = 0.55 + 0.45 * np.abs(n @ np.array([0.3, -0.5, 0.81]))
+    grey = np.repeat((0.78 * shade)[:, None], 3, axis=1)
+    col = np.where(np.isfinite(vals)[:, None], rgb, grey)
+    for k in np.argsort(depth):
+        draw.polygon([tuple(p) for p in px[k]], fill=tuple(int(255 * c) for c in col[k]))
+    # colour bar
+    x0, y0, y1 = W - bar + int(0.25 * bar), int(0.12 * H), int(0.88 * H)
+    for y in range(y0, y1):
+        c = colour_ramp(1.0 - (y - y0) / max(y1 - y0 - 1, 1))
+        draw.line([(x0, y), (x0 + int(0.22 * bar), y)], fill=tuple(int(255 * v) for v in c))
+    try:
+        from PIL import ImageFont
+        font = ImageFont.load_default(size=12 * ss)
+    except TypeError:          # Pillow < 10.1
+        font = None
+    draw.text((x0 + int(0.26 * bar), y0 - 6 * ss), f"{vmax:.4g}", fill=(30, 30, 30), font=font)
+    draw.text((x0 + int(0.26 * bar), y1 - 6 * ss), f"{vmin:.4g}", fill=(30, 30, 30), font=font)
+    draw.text((int(0.02 * W), int(0.02 * H)), f"{label} [{unit}], view from the {view}", fill=(30, 30, 30), font=font)
+    return img.resize((W // ss, H // ss), Image.LANCZOS)
+
+
+def write_ply(path, vertices, triangles, face_values, *, vmin, vmax):
+    """Write the mesh with per-face colours (the ramp of :func:`render_scene`; NaN grey) as binary PLY."""
+    import trimesh
+
+    vals = np.asarray(face_values, float)
+    rgb = colour_ramp((vals - vmin) / (vmax - vmin if vmax > vmin else 1.0))
+    rgb[~np.isfinite(vals)] = 0.7
+    colours = np.concatenate([np.round(rgb * 255), np.full((len(vals), 1), 255)], axis=1).astype(np.uint8)
+    mesh = trimesh.Trimesh(np.asarray(vertices, float), np.asarray(triangles), face_colors=colours, process=False)
+    mesh.export(str(path), file_type="ply")
+    return path

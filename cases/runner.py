@@ -1,0 +1,249 @@
+"""Run a case end to end: configuration -> geometry -> sky states -> per-face irradiance -> report folder.
+
+The report folder is written into a temporary folder beside its destination and renamed into place
+only when complete, so an interrupted or failed run leaves no half-written report (and an earlier
+report stays as it was until the new one replaces it).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import os
+import shutil
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .config import ConfigError, load_config
+
+__all__ = ["BANDS", "CaseRun", "run_case", "build_geometry", "band_responses", "face_labels"]
+
+# broad spectral bands of the report's spectral split [nm]
+BANDS = {"UV 280-400 nm": (280.0, 400.0), "visible 400-700 nm": (400.0, 700.0),
+         "NIR 700-1100 nm": (700.0, 1100.0), "SWIR 1100-2480 nm": (1100.0, 2480.0)}
+
+
+@dataclass
+class CaseRun:
+    """Everything a case run computed (what the report shows)."""
+
+    folder: Path
+    config: dict
+    scene: object
+    result: object                 # irradiance.POAResult of the period
+    hour: object                   # irradiance.POAResult of report.sky_time with spectral parts
+    hour_index: int
+    hour_sun: tuple                # (apparent elevation, azimuth) [deg] of that hour (mid-interval)
+    labels: list                   # per analysis face: its group label ("roof", "row1 back" ...)
+    step_hours: float
+    dataset: object
+    settings: object
+    timings: dict = field(default_factory=dict)
+    pv: object = None              # pvsim.YieldResult when the case has a [pv] section
+
+
+def build_geometry(path: Path, parameters: dict):
+    """The meshes of a case: ``{"analysis": {name: mesh}, "context": {name: mesh}}``.
+
+    ``path`` is a Python file defining ``build(parameters) -> dict`` as above (meshes as trimesh meshes
+    or (vertices, faces) pairs, metres east-north-up), or a mesh file analysed as one group.
+    """
+    path = Path(path)
+    if path.suffix != ".py":
+        return {"analysis": {path.stem: str(path)}, "context": {}}
+    spec = importlib.util.spec_from_file_location(f"widesky_case_geometry_{path.parent.name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    if not hasattr(module, "build"):
+        raise ConfigError(f"{path}: defines no build(parameters) function")
+    geo = module.build(dict(parameters))
+    if not isinstance(geo, dict) or not isinstance(geo.get("analysis"), dict) or not geo["analysis"]:
+        raise ConfigError(f"{path}: build() must return {{'analysis': {{name: mesh}}, 'context': {{...}}}}")
+    geo.setdefault("context", {})
+    return geo
+
+
+def band_responses():
+    """:data:`BANDS` as unit-weight responses (no optics): 1 inside the band, 0 outside [1]."""
+    from irradiance import Response
+    return [Response(name, [a, b], [1.0, 1.0], unit="weight") for name, (a, b) in BANDS.items()]
+
+
+def face_labels(scene):
+    """Group label of every analysed face side: the mesh name, with " front"/" back" when two-sided."""
+    names = np.array(scene.group_names, dtype=object)[scene.face_group]
+    if np.any(scene.face_side == 1):
+        sides = np.where(scene.face_side == 1, " back", " front")
+        return [f"{n}{s}" for n, s in zip(names, sides)]
+    return list(names)
+
+
+def _site(cfg):
+    import irradiance as ir
+
+    s = cfg["site"]
+    tz = s["tz"]
+    try:
+        tz = float(tz)
+    except ValueError:
+        pass
+    try:
+        site = ir.Site(s["latitude"], s["longitude"], s["altitude"], tz=tz, name=s["name"])
+    except ValueError as exc:
+        raise ConfigError(f"[site]: {exc}") from None
+    return site
+
+
+def _sha1(path, limit=1 << 26):
+    h = hashlib.sha1()
+    with open(path, "rb") as f:
+        while chunk := f.read(1 << 20):
+            h.update(chunk)
+            limit -= len(chunk)
+            if limit <= 0:
+                return h.hexdigest() + " (first 64 MiB)"
+    return h.hexdigest()
+
+
+def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
+    """Validate the case in ``folder`` and compute its irradiance and yield (no files written); ``cfg``: an
+    already validated configuration (default: read ``folder/case.toml``)."""
+    import irradiance as ir
+
+    folder = Path(folder).resolve()
+    cfg = load_config(folder) if cfg is None else cfg
+    t0 = time.perf_counter()
+    timings = {}
+    site = _site(cfg)
+    sky = ir.PragueSky(cfg["sky"]["dataset"])
+    p = cfg["period"]
+    states = ir.sky_states_for(site, str(p["start"]), str(p["end"]), p["step"], model=sky.model,
+                               visibility=cfg["sky"]["visibility"], albedo=cfg["sky"]["albedo"], warn=False)
+    times = states.times
+    sky.check_states(states)
+    # the report's hour: the step whose interval holds report.sky_time
+    st = site.localize([cfg["report"]["sky_time"]])[0]
+    hi = int(np.searchsorted(times, st, side="right")) - 1
+    if hi < 0 or hi >= len(times) or not times[hi] <= st < times[hi] + (times[1] - times[0] if len(times) > 1
+                                                                     else np.timedelta64(1, "h")):
+        raise ConfigError(f"report.sky_time = {cfg['report']['sky_time']} is not inside the period "
+                          f"{cfg['period']['start']} .. {cfg['period']['end']}")
+    if states.sun_elevation[hi] <= sky.min_sun_elevation:
+        raise ConfigError(f"report.sky_time = {cfg['report']['sky_time']}: the sun is below the horizon "
+                          f"(elevation {states.sun_elevation[hi]:.1f} deg); choose a daylight hour")
+    geo = build_geometry(cfg["scene"]["geometry"], cfg["scene"]["parameters"])
+    context = list(geo["context"].values())
+    scene = ir.make_scene(list(geo["analysis"].values()), context, groups=list(geo["analysis"]),
+                          samples_per_face=cfg["scene"]["samples_per_face"], two_sided=cfg["scene"]["two_sided"],
+                          context_reflectance=cfg["scene"]["reflectance"] if context else 0.2)
+    timings["setup"] = time.perf_counter() - t0
+    settings = ir.IntegratorSettings.for_tolerance(cfg["accuracy"]["tolerance"])
+    responses = band_responses()
+    pv = cfg.get("pv")
+    if pv is not None:
+        import pvsim
+        pv_resp, pv_sources = pvsim.technology_responses(pv["technologies"])
+        responses = pv_resp + responses
+    t1 = time.perf_counter()
+    res = ir.poa_irradiance(scene, sky, states, responses=responses, settings=settings, times=times,
+                            n_jobs=n_jobs, progress=progress)
+    timings["integrator"] = time.perf_counter() - t1
+    pv_result = None
+    if pv is not None:
+        t3 = time.perf_counter()
+        reference = pvsim.widesky_am15g(sky)["scaled"] if pv["reference"] == "widesky" else None
+        system = pvsim.SystemSpec(temperature_model=pv["temperature_model"], dc_loss=pv["dc_loss"])
+        pv_result = pvsim.pv_yield(res, pv["technologies"], pv["temp_air"], pv["wind_speed"], sources=pv_sources,
+                                   system=system, reference=reference, progress=progress)
+        timings["pv_yield"] = time.perf_counter() - t3
+    t2 = time.perf_counter()
+    hour = ir.poa_irradiance(scene, sky, states.take(slice(hi, hi + 1)), settings=settings, times=times[hi:hi + 1],
+                             spectral=True, n_jobs=n_jobs, progress=False)
+    timings["spectral_hour"] = time.perf_counter() - t2
+    step_h = (times[1] - times[0]).total_seconds() / 3600.0 if len(times) > 1 else 1.0
+    return CaseRun(folder, cfg, scene, res, hour, hi,
+                   (float(states.sun_elevation[hi]), float(states.sun_azimuth[hi])),
+                   face_labels(scene), step_h, sky, settings, timings, pv_result)
+
+
+def _atomic_folder(dest: Path, fill):
+    """Call ``fill(tmp)`` on a fresh temporary folder beside ``dest``; rename it to ``dest`` when done."""
+    dest = Path(dest).resolve()
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=dest.parent, prefix=f".{dest.name}.tmp-"))
+    try:
+        fill(tmp)
+        old = None
+        if dest.exists():
+            old = dest.with_name(f".{dest.name}.old-{os.getpid()}")
+            os.rename(dest, old)
+        os.rename(tmp, dest)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return dest
+
+
+def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Path:
+    """Run the case in ``folder`` and write its report folder (default ``./report-<case name>``).
+
+    Returns the report folder. Raises :class:`cases.config.ConfigError` (a ``ValueError``) for an
+    invalid configuration, naming the key and its valid values.
+    """
+    from .report import write_report
+
+    folder = Path(folder)
+    if progress is None:
+        progress = sys.stderr.isatty()
+    log = log or (lambda msg: print(msg, file=sys.stderr))
+    t0 = time.perf_counter()
+    run = compute(folder, n_jobs=n_jobs, progress=progress)
+    others = []
+    for site in (run.config.get("compare") or {}).get("sites", []):
+        log(f"{folder.name}: the same case at {site['name'] or (site['latitude'], site['longitude'])} ...")
+        others.append(compute(folder, n_jobs=n_jobs, progress=progress, cfg={**run.config, "site": site}))
+    out = Path(output) if output else Path.cwd() / f"report-{folder.resolve().name}"
+    run.timings["compute_total"] = time.perf_counter() - t0
+    log(f"{folder.name}: computed in {run.timings['compute_total']:.1f} s; writing the report (time series, "
+        "integrator result, renders, HTML) ...")
+    provenance = {
+        "case": str(folder.resolve()), "command": " ".join(sys.argv),
+        "dataset": str(run.dataset.model.path), "dataset_sha1": _sha1(run.dataset.model.path),
+        "settings": {k: getattr(run.settings, k) for k in run.settings.__dataclass_fields__},
+        "versions": _versions(), "timings_s": run.timings,
+        "faces": int(run.scene.n_faces), "steps": int(len(run.result.times)),
+    }
+    report = _atomic_folder(out, lambda tmp: write_report(run, tmp, provenance, others))
+    log(f"{folder.name}: {run.scene.n_faces} faces x {len(run.result.times)} steps in "
+        f"{time.perf_counter() - t0:.1f} s -> {report}/index.html")
+    return report
+
+
+def _versions():
+    from importlib.metadata import PackageNotFoundError, version
+    out = {"python": sys.version.split()[0]}
+    for pkg in ("widesky", "numpy", "pandas", "trimesh", "embreex"):
+        try:
+            out[pkg] = version(pkg)
+        except PackageNotFoundError:
+            out[pkg] = None
+    return out
+
+
+def dump_json(path, obj):
+    """Write JSON (numpy scalars converted)."""
+    def conv(o):
+        if isinstance(o, (np.integer, np.floating)):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        return str(o)
+    Path(path).write_text(json.dumps(obj, indent=2, default=conv), encoding="utf-8")

@@ -1,0 +1,347 @@
+"""The case runner (cases/): configuration validation, the report folder, and its numbers.
+
+Physics reference: an unobstructed horizontal roof must receive the sky model's own global horizontal
+irradiance (irradiance.model_irradiance, the integrator's quadrature: DNI sin(elevation) + DHI) at every
+step, to 0.5 % (the integrator's measured error on an unobstructed plane is 0.13 % annually; the test
+checks the runner's wiring of sites, interval labels, times and units, which would shift whole hours).
+"""
+
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import cases
+from cases.config import ConfigError, validate
+
+SHIPPED = Path(cases.__file__).parent
+
+BASE = {
+    "case": {"title": "t"},
+    "site": {"latitude": 50.08, "longitude": 14.42, "tz": "Europe/Prague"},
+    "period": {"start": "2024-06-20", "end": "2024-06-22"},
+    "scene": {"geometry": "geometry.py"},
+    "report": {"sky_time": "2024-06-21T12:00"},
+}
+
+
+def cfg(**changes):
+    d = {k: dict(v) for k, v in BASE.items()}
+    for path, value in changes.items():
+        section, key = path.split("__")
+        d.setdefault(section, {})[key] = value
+    return d
+
+
+@pytest.fixture
+def folder(tmp_path):
+    shutil.copy(SHIPPED / "solar_potential" / "geometry.py", tmp_path / "geometry.py")
+    return tmp_path
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"sky__visiblity": 40}, ["sky.visiblity", "did you mean 'visibility'", "valid keys in [sky]"]),
+    ({"sky__visibility": "40 m"}, ["sky.visibility", "'m'", "expected km"]),
+    ({"sky__visibility": 5}, ["sky.visibility = 5", "[20, 131.8] km"]),
+    ({"sky__visibility": "150 km"}, ["sky.visibility = '150 km'", "[20, 131.8] km"]),
+    ({"sky__albedo": "0.3 km"}, ["sky.albedo", "'km'", "dimensionless"]),
+    ({"site__latitude": 95}, ["site.latitude = 95", "[-90, 90] deg"]),
+    ({"site__latitude": "50 rad"}, ["site.latitude", "'rad'", "expected deg"]),
+    ({"period__step": "2h"}, ["period.step = '2h'", "10min, 15min, 30min, 1h"]),
+    ({"period__end": "2024-06-19"}, ["period.end", "must be after period.start"]),
+    ({"period__start": "midsummer"}, ["period.start = 'midsummer'", "ISO 8601"]),
+    ({"scene__two_sided": "yes"}, ["scene.two_sided = 'yes'", "true or false"]),
+    ({"scene__samples_per_face": 3}, ["scene.samples_per_face = 3", "square number"]),
+    ({"scene__samples_per_face": 2.5}, ["scene.samples_per_face = 2.5", "integer"]),
+    ({"scene__geometry": "nothere.py"}, ["scene.geometry = 'nothere.py'", "no such file"]),
+    ({"report__views": ["south-west", "up"]}, ["report.views", "'up'", "south-east", "top"]),
+    ({"accuracy__tolerance": 0.001}, ["accuracy.tolerance = 0.001", "[0.006, 0.5]"]),
+    ({"skies__visibility": 40}, ["unknown section [skies]", "did you mean 'sky'", "valid sections"]),
+])
+def test_config_errors_name_the_key_and_the_valid_values(folder, changes, words):
+    with pytest.raises(ConfigError) as e:
+        validate(cfg(**changes), folder, source="case.toml")
+    for w in words:
+        assert w in str(e.value), str(e.value)
+
+
+def test_config_required_keys_and_defaults(folder):
+    d = cfg()
+    del d["site"]["latitude"]
+    with pytest.raises(ConfigError, match=r"site.latitude is required"):
+        validate(d, folder)
+    ok = validate(cfg(sky__visibility="35.5 km", sky__albedo="0.25"), folder)
+    assert ok["sky"]["visibility"] == 35.5 and ok["sky"]["albedo"] == 0.25
+    assert ok["period"]["step"] == "1h" and ok["accuracy"]["tolerance"] == 0.02 and ok["sky"]["dataset"] is None
+    assert ok["scene"]["geometry"] == (folder / "geometry.py").resolve()
+
+
+def test_shipped_cases_validate():
+    assert "solar_potential" in cases.list_cases()
+    for name in cases.list_cases():
+        c = cases.load_config(SHIPPED / name)
+        assert c["case"]["title"]
+        assert (SHIPPED / name / "README.md").is_file()
+
+
+def _write_case(folder, toml):
+    (folder / "case.toml").write_text(toml, encoding="utf-8")
+    return folder
+
+
+SMALL = """
+[case]
+title = "small"
+[site]
+latitude = 50.08
+longitude = 14.42
+tz = "Europe/Prague"
+[period]
+start = "2024-06-20"
+end = "2024-06-22"
+step = "1h"
+[sky]
+visibility = "40 km"
+albedo = 0.2
+[scene]
+geometry = "geometry.py"
+[scene.parameters]
+cell = 6.0
+{extra}
+[report]
+sky_time = "2024-06-21T12:30"
+views = ["south-west"]
+render_size = 200
+"""
+
+
+def _run_small(tmp_path_factory, shipped, toml, edit_geometry=None):
+    """Copy a shipped case's geometry beside ``toml``, run it, return (report folder, case folder)."""
+    folder = tmp_path_factory.mktemp(shipped)
+    geo = (SHIPPED / shipped / "geometry.py").read_text()
+    (folder / "geometry.py").write_text(edit_geometry(geo) if edit_geometry else geo)
+    _write_case(folder, toml)
+    out = tmp_path_factory.mktemp("reports") / "rep"
+    return cases.run_case(folder, out, n_jobs=1, progress=False, log=lambda m: None), folder
+
+
+@pytest.fixture(scope="module")
+def small_report(tmp_path_factory):
+    # no context: the roof is an unobstructed horizontal plane
+    return _run_small(tmp_path_factory, "solar_potential", SMALL.format(extra="alone = true"),
+                      lambda g: g.replace('    context = {', '    context = {} if parameters.get("alone") else {'))
+
+
+def test_report_folder_contents(small_report):
+    rep, _ = small_report
+    names = {p.name for p in rep.iterdir()}
+    assert {"index.html", "timeseries.csv", "timeseries.parquet", "faces.csv", "poa.h5", "spectral_hour.h5",
+            "provenance.json",
+            "case.toml", "sky.exr", "sky.png", "scene_south-west.png", "scene.ply"} <= names
+    assert not [p for p in rep.parent.iterdir() if p.name.startswith(".")]          # no temporary folder left
+    html = (rep / "index.html").read_text()
+    # self-contained: no script, no stylesheet link, no image or link to another origin
+    assert "<script" not in html and "<link" not in html
+    assert not re.search(r'(src|href)="(https?:)?//', html)
+    assert html.count("data:image/png;base64,") == 2                                 # one render and the sky
+    assert "Accuracy and limits" in html and "tolerance 0.02" in html
+    import trimesh
+    m = trimesh.load(rep / "scene.ply", process=False)
+    assert len(m.faces) > 0 and m.visual.face_colors.shape[0] == len(m.faces)
+    pq = pd.read_parquet(rep / "timeseries.parquet")
+    csv = pd.read_csv(rep / "timeseries.csv", index_col=0)
+    np.testing.assert_allclose(csv.to_numpy(), pq.to_numpy(), rtol=1e-3, atol=1e-3)  # CSV keeps 4 digits
+
+
+def test_roof_alone_receives_the_model_global_horizontal(small_report):
+    import irradiance as ir
+
+    rep, _ = small_report
+    ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
+    roof = ts["roof:poa_global [W m-2]"].to_numpy()
+    site = ir.Site(50.08, 14.42, tz="Europe/Prague")
+    times = ir.time_range("2024-06-20", "2024-06-22", "1h", tz=site.tz, label="left")
+    assert list(ts.index) == [str(t) for t in times]
+    sp = site.solar_position(times, label="left")
+    el = sp["apparent_elevation"].to_numpy()
+    # the sun and the sky scale with the Earth-Sun distance (SPA, 1.016 AU in June: 3.2 % below 1 AU)
+    st = ir.SkyStates.create(el, sp["azimuth"].to_numpy(), 40.0, 0.2,
+                             earth_sun_distance=sp["earth_sun_distance"].to_numpy())
+    dni, dhi = ir.model_irradiance(ir.PragueSky(), st)
+    ghi = dni * np.sin(np.radians(np.maximum(el, 0))) + dhi
+    day = ghi > 20
+    np.testing.assert_allclose(roof[day], ghi[day], rtol=5e-3)
+    assert np.all(roof[~day] < 25)
+    # a period's insolation per face equals the time series summed (faces.csv vs timeseries.csv)
+    faces = pd.read_csv(rep / "faces.csv")
+    r = faces[faces.label == "roof"]
+    assert np.average(r.insolation_kwh_m2, weights=r.area_m2) == pytest.approx(roof.sum() / 1000, rel=1e-3)
+    # the saved result holds the same numbers per face
+    res = ir.POAResult.load(rep / "poa.h5", groups=["roof"])
+    got = res.to_pvlib(group="roof")["poa_global"].to_numpy()
+    np.testing.assert_allclose(got, roof, rtol=1e-3, atol=0.05)
+    hour = ir.POAResult.load(rep / "spectral_hour.h5")
+    assert hour.spectral is not None and len(hour.times) == 1 and str(hour.times[0]) == "2024-06-21 12:00:00+02:00"
+
+
+def test_spectral_split_sums_to_the_total(small_report):
+    rep, _ = small_report
+    ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
+    for lab in ("roof", "facade_south", "facade_north"):
+        bands = sum(ts[f"{lab}:{b} [W m-2]"] for b in cases.BANDS)
+        np.testing.assert_allclose(bands, ts[f"{lab}:poa_global [W m-2]"], rtol=2e-3, atol=0.05)
+
+
+def test_a_failed_run_leaves_the_previous_report_untouched(small_report, monkeypatch):
+    rep, folder = small_report
+    before = sorted(p.name for p in rep.iterdir())
+    stamp = (rep / "index.html").stat().st_mtime_ns
+    import cases.report
+
+    def boom(run, tmp, provenance, others=None):
+        (Path(tmp) / "index.html").write_text("half")
+        raise KeyboardInterrupt                           # as if interrupted while writing
+    monkeypatch.setattr(cases.report, "write_report", boom)
+    with pytest.raises(KeyboardInterrupt):
+        cases.run_case(folder, rep, n_jobs=1, progress=False, log=lambda m: None)
+    assert sorted(p.name for p in rep.iterdir()) == before and (rep / "index.html").stat().st_mtime_ns == stamp
+    assert not [p for p in rep.parent.iterdir() if p.name.startswith(".")]
+
+
+def test_cli_errors_are_one_line(tmp_path, folder):
+    _write_case(folder, SMALL.format(extra="").replace('visibility = "40 km"', 'visibility = "40 m"'))
+    p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", str(folder), "-o", str(tmp_path / "r")],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2, p.stderr
+    assert p.stderr.strip().count("\n") == 0 and "sky.visibility" in p.stderr and "expected km" in p.stderr
+    assert not (tmp_path / "r").exists()
+    p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", "no_such_case"], capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 2 and "solar_potential" in p.stderr
+
+
+PV = SMALL.split("[sky]")[0] + """
+[sky]
+visibility = 40
+albedo = 0.25
+[scene]
+geometry = "geometry.py"
+two_sided = true
+[scene.parameters]
+rows = 2
+row_length = 8.0
+cell = 4.0
+[pv]
+technologies = ["topcon", "cdte"]
+temp_air = "15 degC"
+[report]
+sky_time = "2024-06-21T10:00"
+views = ["south-west"]
+render_size = 200
+"""
+
+
+@pytest.fixture(scope="module")
+def pv_report(tmp_path_factory):
+    return _run_small(tmp_path_factory, "pv_plant", PV)[0]
+
+
+def test_pv_technologies_are_validated(folder):
+    with pytest.raises(ConfigError) as e:
+        validate(cfg(pv__technologies=["topcon", "silicon"]), folder)
+    assert "'silicon'" in str(e.value) and "perc" in str(e.value) and "cdte" in str(e.value)
+    with pytest.raises(ConfigError, match=r"pv.temp_air = '15 K': unit 'K' is not valid here; expected degC"):
+        validate(cfg(pv__temp_air="15 K"), folder)
+    assert validate(cfg(), folder)["pv"] is None                   # optional section: irradiance only
+
+
+def test_pv_report_energy_bookkeeping(pv_report):
+    """The report's AC energy per technology is the time series' plant AC power summed over the hours;
+    AC < DC; a technology without bifaciality (CdTe) gets no rear gain, the bifacial one does."""
+    html = (pv_report / "index.html").read_text()
+    assert "PV yield per technology" in html and "Loss waterfall" in html
+    ts = pd.read_csv(pv_report / "timeseries.csv", index_col=0)
+    import pvsim
+    labels = {n: pvsim.get_technology(n).label for n in ("topcon", "cdte")}
+    rows = re.findall(r"<tr><td>([^<]+)</td><td>([\d.]+)</td><td>([\d.]+)</td><td>([\d.]+)</td><td>([\d.]+)</td>"
+                      r"<td>([\d.]+)</td><td>(\d)</td><td>([-+\d.]+)</td><td>([-+\d.]+)</td></tr>", html)
+    table = {r[0]: r for r in rows}
+    for name, label in labels.items():
+        r = table[label]
+        e_ac = ts[f"plant:{name}:ac [W]"].sum() / 1e6                # 1 h steps -> MWh
+        e_dc = ts[f"plant:{name}:dc [W]"].sum() / 1e6
+        assert float(r[4]) == pytest.approx(e_ac, abs=0.006)
+        assert float(r[3]) == pytest.approx(e_dc, abs=0.006) and e_ac < e_dc
+        assert float(r[5]) == pytest.approx(e_ac * 1000 / float(r[2]), rel=2e-2)   # kWh/kWp (rounded kWp)
+    assert float(table[labels["cdte"]][8]) == 0.0 and float(table[labels["topcon"]][8]) > 1.0
+
+
+def test_the_report_hour_is_checked_before_the_run(folder):
+    """A report hour outside the period or at night is refused before any ray is cast."""
+    _write_case(folder, SMALL.format(extra="").replace('sky_time = "2024-06-21T12:30"', 'sky_time = "2024-07-01T12:00"'))
+    with pytest.raises(ConfigError, match=r"report.sky_time = 2024-07-01 12:00:00 is not inside the period"):
+        cases.runner.compute(folder, n_jobs=1, progress=False)
+    _write_case(folder, SMALL.format(extra="").replace('sky_time = "2024-06-21T12:30"', 'sky_time = "2024-06-21T01:00"'))
+    with pytest.raises(ConfigError, match=r"the sun is below the horizon"):
+        cases.runner.compute(folder, n_jobs=1, progress=False)
+
+
+def test_a_mesh_file_is_one_group(tmp_path):
+    import trimesh
+    from cases.runner import build_geometry
+    trimesh.creation.box((2, 2, 2)).export(tmp_path / "hut.obj")
+    geo = build_geometry(tmp_path / "hut.obj", {})
+    assert list(geo["analysis"]) == ["hut"] and geo["context"] == {}
+    (tmp_path / "bad.py").write_text("def build(p):\n    return {'context': {}}\n")
+    with pytest.raises(ConfigError, match=r"build\(\) must return"):
+        build_geometry(tmp_path / "bad.py", {})
+
+
+def test_compare_sites_are_validated(folder):
+    ok = validate(cfg(compare__sites=[{"name": "Madrid", "latitude": 40.4, "longitude": -3.7, "tz": "Europe/Madrid"}]),
+                  folder)
+    assert ok["compare"]["sites"][0]["latitude"] == 40.4 and ok["compare"]["sites"][0]["altitude"] == 0.0
+    with pytest.raises(ConfigError, match=r"compare.sites\[0\]: unknown key lat \(did you mean 'latitude'\?\)"):
+        validate(cfg(compare__sites=[{"lat": 40.4, "longitude": -3.7}]), folder)
+    with pytest.raises(ConfigError, match=r"compare.sites\[1\].latitude = 91 outside the valid range \[-90, 90\] deg"):
+        validate(cfg(compare__sites=[{"latitude": 40, "longitude": 0}, {"latitude": 91, "longitude": 0}]), folder)
+    with pytest.raises(ConfigError, match=r"compare.sites: expected a list of tables"):
+        validate(cfg(compare__sites="Madrid"), folder)
+
+
+def test_compare_sites_report(tmp_path_factory):
+    """Two sites, two June days: a "Sites compared" table and sites.csv; the first site's column holds the
+    specific yield of its own yield table (wiring), and the other site's differs."""
+    toml = (SMALL.split("[sky]")[0].replace('title = "small"', 'title = "two sites"') + """
+[compare]
+sites = [{ name = "Helsinki", latitude = 60.17, longitude = 24.94, tz = "Europe/Helsinki" }]
+[sky]
+visibility = 40
+[scene]
+geometry = "geometry.py"
+[scene.parameters]
+row_length = 6.0
+cell = 3.0
+[pv]
+technologies = ["topcon", "a_si"]
+[report]
+sky_time = "2024-06-21T12:00"
+views = ["south-west"]
+render_size = 160
+""")
+    rep, _ = _run_small(tmp_path_factory, "compare_sites", toml)
+    sites = pd.read_csv(rep / "sites.csv", index_col=0)
+    assert list(sites.columns) == ["50.08, 14.42", "Helsinki"]        # an unnamed site is named by its position
+    html = (rep / "index.html").read_text()
+    assert "Sites compared" in html
+    # the first site's own yield table holds the same TOPCon value as sites.csv's Prague column
+    import pvsim
+    label = pvsim.get_technology("topcon").label
+    m = re.search(rf"<tr><td>{re.escape(label)}</td>(?:<td>[^<]*</td>){{4}}<td>([\d.]+)</td>", html)
+    assert m and float(m.group(1)) == pytest.approx(sites.loc[label, "50.08, 14.42"], abs=0.06)
+    assert sites.loc[label, "50.08, 14.42"] != sites.loc[label, "Helsinki"]
