@@ -197,15 +197,17 @@ def _worker(mode, faces, jobs, output):
         poa_irradiance = importlib.import_module(pkg + ".integrator").poa_irradiance
         res = poa_irradiance(scene, sky, states, responses=responses(sky.wavelengths),
                              times=times, n_jobs=jobs)
-        total = float(res.poa_global.sum(dtype=np.float64))
     else:
         from irradiance import poa_irradiance
         res = poa_irradiance(scene, sky, states, responses=response_objects(
             sky.wavelengths, mode == "optics"), times=times, n_jobs=jobs, output=output)
-        total = float(sum(res.poa_global[a:a + 512].sum(dtype=np.float64)
-                          for a in range(0, res.n_steps, 512)))
     sec = time.perf_counter() - t0
     ru1 = resource.getrusage(resource.RUSAGE_SELF)
+    if mode == "today":
+        total = float(res.poa_global.sum(dtype=np.float64))
+    else:                                    # the check sum after the timing, by blocks of steps
+        total = float(sum(res.get("broadband", "global", steps=slice(a, a + 512)).sum(
+            dtype=np.float64) for a in range(0, res.n_steps, 512)))
     ruc = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu_main = (ru1.ru_utime + ru1.ru_stime) - (ru0.ru_utime + ru0.ru_stime)
     cpu_workers = ruc.ru_utime + ruc.ru_stime
