@@ -328,6 +328,11 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     if block_steps is None:
         block_steps = max(settings.time_chunk, BLOCK_BYTES // max(1, 4 * F * n_arr))
     block_steps = int(max(1, block_steps))
+    if output is not None:
+        # whole HDF5 chunks per block: a block edge inside a chunk makes HDF5 read it back
+        from .result import chunk_shape
+        tc = chunk_shape(max(T, 1), max(F, 1))[0]
+        block_steps = max(tc, block_steps // tc * tc)
     blocks = [(b0, min(T, b0 + block_steps)) for b0 in range(0, T, block_steps)] or [(0, 0)]
     lit_mask = np.zeros(T, bool)
     lit_mask[lit] = True

@@ -470,7 +470,7 @@ class atomic_h5:
         return False
 
 
-def _chunks(T, F, C=None):
+def chunk_shape(T, F, C=None):
     """Chunk shape of about 1 MB for (T, F) (or (T, F, C)) float32 datasets."""
     fc = int(min(F, 4096)) or 1
     per = fc * (C or 1) * 4
@@ -499,7 +499,7 @@ class H5Writer:
         f.attrs["parts"] = json.dumps(list(PARTS))
         kw = dict(dtype="f4")
         if T and F:
-            kw["chunks"] = _chunks(T, F)
+            kw["chunks"] = chunk_shape(T, F)
             if compression is not None:
                 kw.update(compression=compression, shuffle=True)
         self.ds = {}
@@ -517,7 +517,7 @@ class H5Writer:
             gs = f.create_group("spectral")
             skw = dict(kw)
             if T and F:
-                skw["chunks"] = _chunks(T, F, C)
+                skw["chunks"] = chunk_shape(T, F, C)
             for p in ALL_PARTS:
                 self.ds[("spectral", p)] = gs.create_dataset(p, shape=(T, F, C), fillvalue=0.0,
                                                              **skw)
