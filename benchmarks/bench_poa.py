@@ -197,15 +197,17 @@ def _worker(mode, faces, jobs, output):
         poa_irradiance = importlib.import_module(pkg + ".integrator").poa_irradiance
         res = poa_irradiance(scene, sky, states, responses=responses(sky.wavelengths),
                              times=times, n_jobs=jobs)
-        total = float(res.poa_global.sum(dtype=np.float64))
     else:
         from irradiance import poa_irradiance
         res = poa_irradiance(scene, sky, states, responses=response_objects(
             sky.wavelengths, mode == "optics"), times=times, n_jobs=jobs, output=output)
-        total = float(sum(res.poa_global[a:a + 512].sum(dtype=np.float64)
-                          for a in range(0, res.n_steps, 512)))
     sec = time.perf_counter() - t0
     ru1 = resource.getrusage(resource.RUSAGE_SELF)
+    if mode == "today":
+        total = float(res.poa_global.sum(dtype=np.float64))
+    else:                                    # the check sum after the timing, by blocks of steps
+        total = float(sum(res.get("broadband", "global", steps=slice(a, a + 512)).sum(
+            dtype=np.float64) for a in range(0, res.n_steps, 512)))
     ruc = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu_main = (ru1.ru_utime + ru1.ru_stime) - (ru0.ru_utime + ru0.ru_stime)
     cpu_workers = ruc.ru_utime + ruc.ru_stime
@@ -236,7 +238,7 @@ def compare(args):
     os.rename(os.path.join(base, "irradiance"), os.path.join(base, "irradiance_baseline"))
     runs = []
     for rep in range(args.repeat):
-        for mode in ("today", "streamed", "optics"):
+        for mode in args.modes.split(","):
             env = dict(os.environ)
             env.pop("BENCH_POA_BASELINE", None)
             if mode == "today":
@@ -260,13 +262,22 @@ def compare(args):
                   f"file {r['file_mb']:.0f} MB, load {load:.1f}", flush=True)
             if os.path.exists(out):
                 os.unlink(out)
-    t = {m: [r["seconds"] for r in runs if r["mode"] == m] for m in ("today", "streamed", "optics")}
-    m = {k: max(r["peak_rss_mb"] for r in runs if r["mode"] == k) for k in t}
-    sums = {k: [r["sum_poa_global"] for r in runs if r["mode"] == k][0] for k in t}
+    modes = [m for m in ("today", "streamed", "optics") if any(r["mode"] == m for r in runs)]
+    t = {m: [r["seconds"] for r in runs if r["mode"] == m] for m in modes}
+    if "today" not in t:
+        return 0
+    t.setdefault("streamed", t["today"])
+    t.setdefault("optics", t["today"])
+    m = {k: max([r["peak_rss_mb"] for r in runs if r["mode"] == k] or [np.nan]) for k in t}
+    sums = {k: ([r["sum_poa_global"] for r in runs if r["mode"] == k] or [np.nan])[0] for k in t}
     print(f"wall-time ratio streamed / today = {np.median(t['streamed']) / np.median(t['today']):.2f} "
           f"(medians of {args.repeat}), optics / today = "
           f"{np.median(t['optics']) / np.median(t['today']):.2f}")
-    c = {m: [r["cpu_main"] + r["cpu_workers"] for r in runs if r["mode"] == m] for m in t}
+    c = {m: [r["cpu_main"] + r["cpu_workers"] for r in runs if r["mode"] == m] or [np.nan]
+         for m in t}
+    cm = {m: [r["cpu_main"] for r in runs if r["mode"] == m] or [np.nan] for m in t}
+    print(f"main-process CPU ratio streamed / today = "
+          f"{np.median(cm['streamed']) / np.median(cm['today']):.2f}")
     print(f"CPU-time ratio (main + workers; robust on a shared machine) streamed / today = "
           f"{np.median(c['streamed']) / np.median(c['today']):.2f}, optics / today = "
           f"{np.median(c['optics']) / np.median(c['today']):.2f}")
@@ -284,6 +295,8 @@ def main(argv=None):
                     help="memory and time against today's code path (see the module docstring)")
     ap.add_argument("--baseline-commit", default="46f5284")
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--modes", default="today,streamed,optics",
+                    help="comma-separated subset of today, streamed, optics")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--worker-output", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--faces", type=int, default=20000)

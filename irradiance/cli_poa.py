@@ -155,9 +155,10 @@ def _refuse_huge(n_steps, n_faces, n_responses, what):
     if n_steps <= MAX_STEPS:
         return
     out_bytes, _ = estimate_run(n_faces, n_steps, n_responses)
-    # measured on the 20,000-face benchmark: about 1.5e-9 s per face, daylight step and column
-    # on 2 cores (docs/irradiance-integrator.md); half the steps are daylight
-    secs = 1.5e-9 * n_faces * n_steps * 0.5 * (n_responses + 1) * 3
+    # measured on the 20,000-face benchmark (docs/irradiance-integrator.md): about 26 s for
+    # 20,000 faces x 4,444 daylight steps x 3 responses on 2 quiet cores, i.e. 1e-7 s per face,
+    # daylight step and response; half the steps are daylight
+    secs = 1e-7 * n_faces * n_steps * 0.5 * (n_responses + 1)
     raise ValueError(f"{what}: {n_steps:,} steps x {n_faces:,} faces would write about "
                      f"{out_bytes / 1e9:,.0f} GB and take about {secs / 3600:,.1f} h; the CLI "
                      f"runs at most {MAX_STEPS:,} steps: split the period")

@@ -355,6 +355,11 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     if block_steps is None:
         block_steps = max(settings.time_chunk, BLOCK_BYTES // max(1, 4 * F * n_arr))
     block_steps = int(max(1, block_steps))
+    if output is not None:
+        # whole HDF5 chunks per block: a block edge inside a chunk makes HDF5 read it back
+        from .result import chunk_shape
+        tc = chunk_shape(max(T, 1), max(F, 1))[0]
+        block_steps = max(tc, block_steps // tc * tc)
     blocks = [(b0, min(T, b0 + block_steps)) for b0 in range(0, T, block_steps)] or [(0, 0)]
     lit_mask = np.zeros(T, bool)
     lit_mask[lit] = True
@@ -401,12 +406,20 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         t_sky += time.perf_counter() - t0
         return Lp, dni
 
-    sky_ahead = []
-    if pending is not None and pending.running:
-        per_step = P * Wall.shape[1] * 8
-        n_ahead = min(len(chunk_plan), max(0, (256 << 20) // max(per_step * settings.time_chunk, 1)))
-        sky_ahead = [sky_chunk(idx) for _, idx in chunk_plan[:n_ahead]]
-    t_sky_ahead = t_sky
+    # the sky of every daylight step, evaluated in chunks sorted by sky state over the whole period
+    # (equal states share a sky-model call; output blocks of consecutive steps would split them),
+    # while the ray-casting tasks run; kept contracted (T_lit x P x columns, float32: small)
+    pos = np.full(T, -1)
+    pos[lit] = np.arange(lit.size)
+    Lp_all = np.zeros((lit.size, P, Wall.shape[1]), np.float32)
+    dni_all = np.zeros((lit.size, Wall.shape[1]))
+    order = lit[np.lexsort((states.albedo[lit], states.visibility[lit], np.round(el[lit], 1)))]
+    for c0 in range(0, order.size, settings.time_chunk):
+        idx = np.sort(order[c0:c0 + settings.time_chunk])
+        Lp_c, dni_c = sky_chunk(idx)
+        Lp_all[pos[idx]] = Lp_c
+        dni_all[pos[idx]] = dni_c
+    t_sky_ahead = t_sky if (pending is not None and pending.running) else 0.0
     sink = None
     failed = True
     try:
@@ -445,9 +458,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
                 block["aoi"][upb] = cz
             while ci < len(chunk_plan) and chunk_plan[ci][0] == bi:
                 idx = chunk_plan[ci][1]
-                Lp, dni = sky_ahead[ci] if ci < len(sky_ahead) else sky_chunk(idx)
-                if ci < len(sky_ahead):
-                    sky_ahead[ci] = None
+                Lp, dni = Lp_all[pos[idx]].astype(np.float64), dni_all[pos[idx]]
                 t1 = time.perf_counter()
                 terms = chunk_products(ctx, idx, Lp, dni, up, sun_rank)
                 assemble_parts(ctx, resp, col_of, plan, terms, block, idx - b0, names)

@@ -165,26 +165,29 @@ class POAResult:
         if part not in ALL_PARTS:
             raise ValueError(f"part={part!r} not one of {ALL_PARTS}")
 
-    def get(self, response="broadband", part="global", faces=None):
-        """(T, F) float32 part of a response [``units[response]``]; ``faces`` selects columns."""
+    def get(self, response="broadband", part="global", faces=None, steps=None):
+        """(T, F) float32 part of a response [``units[response]``]; ``faces`` (indices) selects
+        columns and ``steps`` (a slice) rows, read from the file without the rest."""
         self._check(response, part)
         sel = slice(None) if faces is None else np.asarray(faces)
+        rows = slice(None) if steps is None else steps
         if part == "global":
-            out = self._read(self._data[(response, "direct")], sel).astype(np.float32, copy=True)
+            out = self._read(self._data[(response, "direct")], sel, rows).astype(np.float32,
+                                                                                 copy=True)
             for p in PARTS[1:]:
-                out += self._read(self._data[(response, p)], sel)
+                out += self._read(self._data[(response, p)], sel, rows)
             return out
-        return self._read(self._data[(response, part)], sel)
+        return self._read(self._data[(response, part)], sel, rows)
 
     @staticmethod
-    def _read(a, sel):
+    def _read(a, sel, rows=slice(None)):
         if isinstance(sel, slice):
-            return np.asarray(a[:, sel])
+            return np.asarray(a[rows, sel])
         if sel.size == 0:
-            return np.zeros((a.shape[0], 0), np.float32)
+            return np.zeros((len(range(*rows.indices(a.shape[0]))), 0), np.float32)
         # h5py wants increasing indices: read the covering range, then pick
         lo, hi = int(sel.min()), int(sel.max()) + 1
-        return np.asarray(a[:, lo:hi])[:, sel - lo]
+        return np.asarray(a[rows, lo:hi])[:, sel - lo]
 
     def parts(self, response="broadband"):
         """dict part -> (T, F) for ``direct``, ``sky_diffuse``, ``ground_diffuse``, ``global``."""
@@ -467,7 +470,7 @@ class atomic_h5:
         return False
 
 
-def _chunks(T, F, C=None):
+def chunk_shape(T, F, C=None):
     """Chunk shape of about 1 MB for (T, F) (or (T, F, C)) float32 datasets."""
     fc = int(min(F, 4096)) or 1
     per = fc * (C or 1) * 4
@@ -496,7 +499,7 @@ class H5Writer:
         f.attrs["parts"] = json.dumps(list(PARTS))
         kw = dict(dtype="f4")
         if T and F:
-            kw["chunks"] = _chunks(T, F)
+            kw["chunks"] = chunk_shape(T, F)
             if compression is not None:
                 kw.update(compression=compression, shuffle=True)
         self.ds = {}
@@ -514,7 +517,7 @@ class H5Writer:
             gs = f.create_group("spectral")
             skw = dict(kw)
             if T and F:
-                skw["chunks"] = _chunks(T, F, C)
+                skw["chunks"] = chunk_shape(T, F, C)
             for p in ALL_PARTS:
                 self.ds[("spectral", p)] = gs.create_dataset(p, shape=(T, F, C), fillvalue=0.0,
                                                              **skw)
