@@ -112,18 +112,17 @@ CLEAR_SHAPE = AllSkyOptions(cloud_spectrum=False, cloud_absorption=False, cloud_
 
 
 class AllSkyFactors(NamedTuple):
-    """Output of :func:`allsky_factors`.
+    """Output of :func:`allsky_factors` (fields in order):
 
-    dni_scale, diffuse_scale : (T, C) factors [1] on the clear-sky sun spectrum and sky radiance.
-    overcast_dhi : (T, C) diffuse horizontal spectrum [W m-2 nm-1] of the cloud-scattered light, to be
-        distributed as the CIE overcast sky (:mod:`irradiance.overcast_sky`); zero with
-        ``angular="clear"``, where it is folded into ``diffuse_scale`` instead (it then takes each
-        channel's clear-sky angular distribution).
-    cloud_index : (T,) Ernst cloud index N [1] in [0, 1] (0 where nothing is measured).
-    cloud_tau : (T,) cloud optical depth [1] used for the absorption (0 where none).
-    cloud_vapour : (T,) extra water-vapour path in the cloud [cm].
-    haze : HazeCorrection or None.
-    scaling : MeasuredScaling of the broadband factors (guards, unmatched irradiance).
+    - ``dni_scale``, ``diffuse_scale``: (T, C) factors [1] on the clear-sky sun spectrum and sky radiance;
+    - ``overcast_dhi``: (T, C) diffuse horizontal spectrum [W m-2 nm-1] of the cloud-scattered light, to be
+      distributed as the CIE overcast sky (:mod:`irradiance.overcast_sky`); zero with ``angular="clear"``,
+      where it is folded into ``diffuse_scale`` instead (each channel's clear-sky angular distribution);
+    - ``cloud_index``: (T,) Ernst cloud index N [1] in [0, 1] (0 where nothing is measured);
+    - ``cloud_tau``: (T,) cloud optical depth [1] used for the absorption (0 where none);
+    - ``cloud_vapour``: (T,) extra water-vapour path in the cloud [cm];
+    - ``haze``: HazeCorrection or None (the below-20 km visibility correction, when applied);
+    - ``scaling``: MeasuredScaling of the broadband factors (guards, unmatched irradiance).
     """
 
     dni_scale: np.ndarray

@@ -229,6 +229,14 @@ class POAResult:
         """(T, F) fraction of each face's points that see the sun [1]."""
         return np.asarray(self._sun_visible[:])
 
+    def face_columns(self, name, faces):
+        """(T, len(faces)) of ``"aoi"`` [deg] or ``"sun_visible"`` [1] for some faces, reading only those
+        columns from a file-backed result."""
+        arrays = {"aoi": self._aoi, "sun_visible": self._sun_visible}
+        if name not in arrays:
+            raise ValueError(f"face_columns: name must be one of {sorted(arrays)}, got {name!r}")
+        return self._read(arrays[name], np.asarray(faces))
+
     @property
     def n_steps(self):
         return int(self._aoi.shape[0])

@@ -250,12 +250,8 @@ def _step_hours(times, T):
 
 
 def _columns(res, attr, idx):
-    """(T, len(idx)) of ``res.aoi`` or ``res.sun_visible`` for some faces, reading only those columns
-    from a file-backed result."""
-    a = getattr(res, "_" + attr, None)
-    if a is not None and hasattr(res, "_read"):
-        return np.asarray(res._read(a, np.asarray(idx)), dtype=float)
-    return np.asarray(getattr(res, attr), dtype=float)[:, idx]
+    """(T, len(idx)) of ``res.aoi`` or ``res.sun_visible`` for some faces (only those columns are read)."""
+    return np.asarray(res.face_columns(attr, idx), dtype=float)
 
 
 def _dni_estimate(res, chunk):
