@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from skymodel.outputs import plain_mode
+
 from .config import ConfigError, load_config
 
 __all__ = ["BANDS", "CaseRun", "run_case", "build_geometry", "band_responses", "face_labels"]
@@ -177,6 +179,7 @@ def _atomic_folder(dest: Path, fill):
     dest = Path(dest).resolve()
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=dest.parent, prefix=f".{dest.name}.tmp-"))
+    plain_mode(tmp, folder=True)
     try:
         fill(tmp)
         old = None

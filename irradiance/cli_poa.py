@@ -207,6 +207,8 @@ def _write_csv(res, path, group=None):
     import tempfile
 
     import pandas as pd
+
+    from skymodel.outputs import plain_mode
     agg = res.aggregate()
     groups = list(enumerate(res.group_names))
     if group is not None:
@@ -221,6 +223,7 @@ def _write_csv(res, path, group=None):
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".csv", dir=folder)
     os.close(fd)
+    plain_mode(tmp)
     try:
         pd.DataFrame(cols, index=res.times).to_csv(tmp)
         os.replace(tmp, path)

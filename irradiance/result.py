@@ -384,7 +384,6 @@ class POAResult:
     def subset(self, groups=None, start=None, end=None):
         """An in-memory result holding only the faces of ``groups`` (names or indices) and the
         steps in [start, end) (times or anything ``pandas.Timestamp`` reads, in the result's zone)."""
-        import pandas as pd
         T = self.n_steps
         t0, t1 = 0, T
         if (start is not None or end is not None) and self.times is None:
@@ -461,6 +460,8 @@ class atomic_h5:
         folder = os.path.dirname(os.path.abspath(self.path))
         fd, self.tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".h5", dir=folder)
         os.close(fd)
+        from skymodel.outputs import plain_mode
+        plain_mode(self.tmp)
         self.f = h5py.File(self.tmp, "w")
         return self.f
 

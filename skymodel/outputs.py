@@ -44,6 +44,12 @@ def _umask() -> int:
     return mask
 
 
+def plain_mode(path, folder=False):
+    """Give a file made by ``tempfile.mkstemp`` (0600) or a folder made by ``mkdtemp`` (0700) the mode a plain
+    ``open()`` / ``mkdir()`` would have given it under the current umask."""
+    os.chmod(path, (0o777 if folder else 0o666) & ~_umask())
+
+
 @contextlib.contextmanager
 def atomic_outputs(*paths):
     """Context manager yielding one temporary path per destination (same folder, ending in the same suffix, so tools that go by the suffix still work); on a
