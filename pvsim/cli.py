@@ -26,6 +26,13 @@ def _site_args(p):
     p.add_argument("--context", action="append", default=[], help="occluding mesh file (repeatable)")
     p.add_argument("--weather", default=None, help="weather file (EPW, TMY3, CSV)")
     p.add_argument("--clear-sky", action="store_true", help="with --weather: keep the unscaled clear sky")
+    p.add_argument("--spectral-model", default="allsky", choices=("allsky", "clear"),
+                   help="with --weather: 'allsky' (default) the all-sky spectra (cloud-scattered light, CIE "
+                        "overcast distribution, haze; docs/all-sky.md), 'clear' the clear-sky spectra scaled "
+                        "to the measured DNI/DHI")
+    p.add_argument("--aerosol", default="aod", choices=("aod", "visibility"),
+                   help="with --weather: each step's aerosol from the file's aerosol optical depth column "
+                        "where valid (default, recommended by docs/all-sky.md) or its station visibility")
     p.add_argument("--lat", type=float, default=None, help="latitude [deg], north positive")
     p.add_argument("--lon", type=float, default=None, help="longitude [deg], east positive")
     p.add_argument("--site-altitude", type=float, default=0.0, help="site altitude [m]")
@@ -173,14 +180,21 @@ def _sky_states(args, sky):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         states = sky_states_for(wd, args.start, args.end, model=sky.model, visibility=args.visibility,
-                                albedo=args.albedo)
+                                albedo=args.albedo, prefer=args.aerosol)
     for w in caught:
         print(f"widesky: warning: {w.message}", file=sys.stderr)
     note = f"weather {args.weather} ({wd.site.latitude:.3f}, {wd.site.longitude:.3f})"
     data = wd.data.loc[states.times]
     if args.clear_sky or not {"dni", "dhi"} <= set(data.columns):
         return states, None, note + ", clear sky"
-    return states, (data["dni"].to_numpy(), data["dhi"].to_numpy()), note + ", scaled to measured DNI/DHI"
+    measured = (data["dni"].to_numpy(), data["dhi"].to_numpy())
+    if args.spectral_model == "allsky":
+        from irradiance.allsky_sky import AllSkyWeather
+        col = {c: data[c].to_numpy() if c in data else None for c in ("ghi", "visibility", "temp_dew")}
+        if args.aerosol == "aod":                  # the haze extension works from station visibility
+            col["visibility"] = None
+        return states, AllSkyWeather(*measured, **col), note + ", all-sky spectra scaled to measured DNI/DHI"
+    return states, measured, note + ", clear-sky spectra scaled to measured DNI/DHI"
 
 
 def _setup(args):
@@ -202,7 +216,10 @@ def _setup(args):
     groups = stems if len(set(stems)) == len(stems) else [str(m) for m in args.mesh]
     scene = make_scene(args.mesh, args.context, groups=groups, ground_z=args.ground_z, two_sided=args.two_sided)
     ta, ws = _weather_series(args, times)
+    from irradiance.allsky_sky import AllSkyWeather
+    spectral_model = "allsky" if isinstance(measured, AllSkyWeather) else "clear"
     return dict(scene=scene, sky=sky, states=states, measured=measured, times=times, note=note,
+                spectral_model=spectral_model,
                 cover=cover, system=system, settings=IntegratorSettings.for_tolerance(args.tolerance),
                 temp_air=ta, wind_speed=ws)
 
@@ -212,7 +229,7 @@ def _run_yield(args, techs):
     c = _setup(args)
     res, y = simulate(c["scene"], c["sky"], c["states"], techs, c["temp_air"], c["wind_speed"],
                       cover=c["cover"], system=c["system"], measured=c["measured"], times=c["times"],
-                      settings=c["settings"], n_jobs=args.jobs, progress=sys.stderr.isatty(),
+                      spectral_model=c["spectral_model"], settings=c["settings"], n_jobs=args.jobs, progress=sys.stderr.isatty(),
                       reference=None if args.reference == "g173" else "widesky", reference_path=args.g173)
     return res, y, c["note"] + ("" if args.reference == "g173" else ", reference: widesky AM1.5G")
 
@@ -260,6 +277,7 @@ def _sweep(args) -> int:
     df = bandgap_sweep(c["scene"], c["sky"], c["states"], gaps, args.terminals, args.group, cover=c["cover"],
                        settings=c["settings"], measured=c["measured"], times=c["times"],
                        temp_air=c["temp_air"], wind_speed=c["wind_speed"], n_jobs=args.jobs,
+                       spectral_model=c["spectral_model"],
                        progress=sys.stderr.isatty())
     _write_text(args.output, df.to_csv(float_format="%.6g"))
     best = df["dc_kwh_per_m2"].idxmax()

@@ -513,7 +513,7 @@ class _GroupAccumulator:
 
 def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *, cover=None, system=None,
              measured=None, times=None, settings=None, output=None, n_jobs=None, progress=False,
-             reference=None, reference_path=None):
+             reference=None, reference_path=None, spectral_model="clear"):
     """One integrator run for all ``technologies`` (shared geometry and sky), then :func:`pv_yield`.
 
     Parameters
@@ -523,8 +523,12 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     temp_air, wind_speed : float or (T,) [degC], [m s-1]
     cover : CoverOptics, optional
     system : SystemSpec, optional
-    measured : (dni, dhi), optional
-        Measured irradiance (T,) [W m-2] the clear sky is scaled to.
+    measured : (dni, dhi) or irradiance.AllSkyWeather, optional
+        Measured irradiance (T,) [W m-2] the sky is scaled to (an ``AllSkyWeather`` with
+        ``spectral_model="allsky"``).
+    spectral_model : {"clear", "allsky"}
+        Spectral shape under measured weather (``irradiance.poa_irradiance``; docs/all-sky.md). The
+        ``widesky pv`` commands use "allsky" whenever a weather file gives DNI and DHI.
     output : str, optional
         HDF5 file for the POA result (streams; bounded memory).
     reference : None, "widesky" or array_like (C,)
@@ -539,7 +543,8 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     techs = _techs(technologies)
     resp, sources = technology_responses(techs, cover)
     res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
-                         times=times, output=output, n_jobs=n_jobs, progress=progress)
+                         times=times, output=output, n_jobs=n_jobs, progress=progress,
+                         spectral_model=spectral_model)
     if isinstance(reference, str):
         if reference != "widesky":
             raise ValueError(f"reference={reference!r} must be None, 'widesky' or an array")

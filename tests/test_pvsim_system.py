@@ -296,3 +296,27 @@ def test_widesky_am15g_deviation():
         e = pvsim.effective_irradiance(t, j, pvsim.reference_currents(t))
         m[name] = float(pvsim.spectral_mismatch(e, ref["broadband"], 992.5))
     assert 0.97 < m["perc"] < 1.0 < m["a_si"] < 1.05
+
+
+def test_cli_compare_under_weather_uses_the_allsky_model_by_default(capsys, tmp_path):
+    """Under a weather file `widesky pv compare` uses the all-sky spectra (issue 16) unless told
+    `--spectral-model clear`. Scaling the clear sky's Rayleigh-blue diffuse to cloudy hours' DHI makes that
+    light too blue (Dirnberger et al. 2015 measure a-Si gains of a few per cent, the clear path gives several
+    times more, docs/all-sky.md), so the all-sky model must lower a-Si's spectral factor against the clear
+    path on the same sky, and name its spectral model in the note."""
+    from importlib.resources import files
+    weather = str(files("irradiance.data") / "sample_golden_june.epw")
+    obj = tmp_path / "roof.obj"
+    quad(35, 180).export(obj)
+    factors = {}
+    for model in (None, "clear"):
+        argv = ["pv", "compare", str(obj), "--weather", weather, "--technology", "perc", "--technology",
+                "a_si", "--jobs", "1", "-o", str(tmp_path / f"cmp_{model}")]
+        if model:
+            argv += ["--spectral-model", model]
+        rc, out, _ = _cli(argv, capsys)
+        assert rc == 0
+        assert ("all-sky spectra" in out) == (model is None)
+        t = pd.read_csv(tmp_path / f"cmp_{model}" / "summary.csv", index_col=0)
+        factors[model] = t.loc["a_si", "spectral_factor"]
+    assert factors[None] < factors["clear"] - 0.005
