@@ -42,6 +42,41 @@ class AllSkyWeather(NamedTuple):
         return AllSkyWeather(*(None if v is None else np.asarray(v, dtype=float)[idx] for v in self))
 
 
+def weather_measurements(data, spectral_model="clear", aerosol="visibility", clear_sky=False):
+    """What the integrator's ``measured=`` takes from a weather file's rows, and how to describe it.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        The weather rows of the steps (columns ``dni``, ``dhi`` [W m-2]; ``ghi`` [W m-2], ``visibility``
+        [km], ``temp_dew`` [degC] where present).
+    spectral_model : {"clear", "allsky"}
+        Clear-sky spectra scaled to the measured DNI/DHI, or the all-sky spectra (docs/all-sky.md).
+    aerosol : {"visibility", "aod"}
+        Where the steps' aerosol came from; with "aod" the haze extension (which works from station
+        visibility) is not applied.
+    clear_sky : bool
+        Ignore the measurements (the unscaled clear sky).
+
+    Returns
+    -------
+    (measured, description)
+        ``measured``: None, (dni, dhi) (T,) arrays, or an :class:`AllSkyWeather`; ``description``: a phrase
+        for reports, e.g. "scaled to measured DNI/DHI".
+    """
+    if clear_sky or not {"dni", "dhi"} <= set(data.columns):
+        return None, "clear sky"
+    measured = (data["dni"].to_numpy(), data["dhi"].to_numpy())
+    if spectral_model == "allsky":
+        col = {c: data[c].to_numpy() if c in data else None for c in ("ghi", "visibility", "temp_dew")}
+        if aerosol == "aod":
+            col["visibility"] = None
+        return AllSkyWeather(*measured, **col), "all-sky spectra scaled to measured DNI/DHI"
+    if spectral_model != "clear":
+        raise ValueError(f"spectral_model={spectral_model!r} is not one of ('clear', 'allsky')")
+    return measured, "scaled to measured DNI/DHI"
+
+
 def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllSkyWeather,
                           options=AllSkyOptions(), min_visibility=20.0):
     """All-sky patch radiance and beam of one chunk of steps, contracted with ``weights``.

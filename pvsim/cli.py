@@ -184,17 +184,10 @@ def _sky_states(args, sky):
     for w in caught:
         print(f"widesky: warning: {w.message}", file=sys.stderr)
     note = f"weather {args.weather} ({wd.site.latitude:.3f}, {wd.site.longitude:.3f})"
-    data = wd.data.loc[states.times]
-    if args.clear_sky or not {"dni", "dhi"} <= set(data.columns):
-        return states, None, note + ", clear sky"
-    measured = (data["dni"].to_numpy(), data["dhi"].to_numpy())
-    if args.spectral_model == "allsky":
-        from irradiance.allsky_sky import AllSkyWeather
-        col = {c: data[c].to_numpy() if c in data else None for c in ("ghi", "visibility", "temp_dew")}
-        if args.aerosol == "aod":                  # the haze extension works from station visibility
-            col["visibility"] = None
-        return states, AllSkyWeather(*measured, **col), note + ", all-sky spectra scaled to measured DNI/DHI"
-    return states, measured, note + ", clear-sky spectra scaled to measured DNI/DHI"
+    from irradiance.allsky_sky import weather_measurements
+    measured, how = weather_measurements(wd.data.loc[states.times], args.spectral_model, args.aerosol,
+                                         args.clear_sky)
+    return states, measured, f"{note}, {how}"
 
 
 def _setup(args):
