@@ -37,8 +37,9 @@ bits.
 
 Embree (through embreex) is single-threaded and holds the GIL, so the work is split into independent
 tasks over chunks of points that each worker process runs on its own copy of the scene (cached per
-process): a local process pool by default, or any ``concurrent.futures.Executor`` (e.g.
-``dask.distributed.Client.get_executor()``).
+process): a local process pool by default, whose workers receive the scene once (the pool's
+initializer) and tasks carry only its key, or any ``concurrent.futures.Executor`` (e.g.
+``dask.distributed.Client.get_executor()``), whose tasks carry the scene's arrays.
 """
 
 from __future__ import annotations
@@ -58,6 +59,9 @@ __all__ = ["Coefficients", "compute_coefficients", "start_coefficients", "Pendin
            "SHADE_SECTORS"]
 
 _SCENE_CACHE: dict = {}
+#: The scene geometry a pool worker holds (set once by the pool's initializer, :func:`_hold_geometry`), so
+#: the tasks of the default process pool carry the scene's key instead of its arrays.
+_WORKER_GEOMETRY: dict = {}
 
 #: Sun-elevation band edges [deg] of the reflector shading cells and the azimuth sector width [deg]
 #: of each band (cells are narrower where the sun moves faster across the sky and shadows change most).
@@ -389,6 +393,8 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
     from .raystages import primary_rays, reflected_sky, reflected_sun, sun_visibility
 
     t0 = time.perf_counter()
+    if isinstance(geometry, str):                 # a pool worker's task: the key of the scene it holds
+        geometry = _WORKER_GEOMETRY[geometry]
     patches, dirs, wcell = _sample_directions(mf, k)
     P, K = patches.n_patches, dirs.shape[1]
     n = origins.shape[0]
@@ -407,9 +413,22 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
             "seconds": time.perf_counter() - t0}
 
 
-def _default_executor(n_jobs):
+def _hold_geometry(geometry):
+    """Process-pool initializer: keep the scene's geometry in this worker (shipped once per worker)."""
+    _WORKER_GEOMETRY.clear()
+    _WORKER_GEOMETRY[geometry["key"]] = geometry
+
+
+def _default_executor(n_jobs, geometry):
+    """A local process pool whose workers each receive ``geometry`` once, at start."""
     ctx = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-    return ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
+    return ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx, initializer=_hold_geometry,
+                               initargs=(geometry,))
+
+
+def _pool_task_args(args):
+    """Task arguments for the default pool: the scene's key in place of its geometry arrays."""
+    return [(a[0]["key"],) + tuple(a[1:]) for a in args]
 
 
 def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, sun_bin=0.0,
@@ -472,10 +491,12 @@ class PendingCoefficients:
             self._bar = tqdm(total=bounds[-1][1] if bounds else 0, unit="point",
                              desc="ray casting")
         if executor is not None or (n_jobs > 1 and len(args) > 1):
-            ex = executor if executor is not None else _default_executor(n_jobs)
+            ex = executor if executor is not None else _default_executor(n_jobs, args[0][0])
             self._own = ex if executor is None else None
+            # the default pool's workers hold the scene (initializer); a user's executor gets it per task
+            tasks = args if executor is not None else _pool_task_args(args)
             try:
-                self._futs = {ex.submit(_chunk_task, *a): i for i, a in enumerate(args)}
+                self._futs = {ex.submit(_chunk_task, *a): i for i, a in enumerate(tasks)}
             except BaseException:
                 self._close()
                 raise
