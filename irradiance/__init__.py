@@ -2,8 +2,7 @@
 
 from .location import (LABELS, Location, Site, daytime_steps, ensure_tz_aware, fixed_offset_tz,
                        infer_step, sun_times, time_range)
-from .measured import (MeasuredScaling, blend_toward_isotropic, clearness_index,
-                       isotropic_blend_weight, measured_scale_factors)
+from .measured import MeasuredScaling, clearness_index, measured_scale_factors
 from .skystate import (DEFAULT_GROUPING, PSM_RANGES, GroupingSteps, SkyGroups, SkyRanges,
                        group_sky_states, sky_ranges, sky_states, sky_states_for)
 from .solarposition import (SOLAR_CONSTANT, SpaResult, delta_t_estimate, dni_extra, julian_day,
@@ -38,8 +37,7 @@ __all__ = [
     "sky_states_for", "SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "GroupingSteps", "DEFAULT_GROUPING",
     "SkyGroups", "group_sky_states",
     # measured weather on the clear-sky model
-    "MeasuredScaling", "measured_scale_factors", "clearness_index", "isotropic_blend_weight",
-    "blend_toward_isotropic",
+    "MeasuredScaling", "measured_scale_factors", "clearness_index",
     # scenes, sky patches, ray casting and per-face irradiance
     "make_scene", "Scene", "load_mesh", "reinhart", "tregenza", "SkyPatches", "cosine_weights",
     "SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "compute_coefficients", "Coefficients",

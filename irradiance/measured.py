@@ -8,10 +8,9 @@ bifacial_radiance and Radiance's ``gendaymtx``/``gensdaymtx`` rescale their sky 
 - the sky radiance by ``sky_scale = dhi / model_dhi``;
 
 where ``model_dni`` and ``model_dhi`` [W m-2] are the model's own broadband direct-normal and
-diffuse-horizontal irradiance for the step's sky state. Optionally the sky's angular shape is
-blended toward an isotropic sky as the clearness index falls (overcast skies are far closer to
-uniform than to a clear sky's circumsolar-and-horizon pattern); the blend preserves the spectral
-diffuse horizontal irradiance, so ``dhi`` is still matched.
+diffuse-horizontal irradiance for the step's sky state. (Overcast skies are far closer to uniform
+than a scaled clear sky: the all-sky path, :mod:`irradiance.allsky`, blends toward the CIE overcast
+sky for that.)
 
 This is an approximation: clouds change the spectrum (diffuse light under overcast is bluer, water
 absorption bands deepen) and the angular distribution in ways a scaled clear sky does not capture.
@@ -28,8 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["MeasuredScaling", "measured_scale_factors", "clearness_index", "isotropic_blend_weight",
-           "blend_toward_isotropic"]
+__all__ = ["MeasuredScaling", "measured_scale_factors", "clearness_index"]
 
 
 class MeasuredScaling(NamedTuple):
@@ -143,61 +141,3 @@ def clearness_index(ghi, solar_zenith, dni_extra, min_cos_zenith=0.065, max_clea
     cz = np.maximum(np.cos(np.radians(np.asarray(solar_zenith, dtype=float))), float(min_cos_zenith))
     kt = np.asarray(ghi, dtype=float) / (np.asarray(dni_extra, dtype=float) * cz)
     return np.clip(kt, 0.0, float(max_clearness_index))
-
-
-def isotropic_blend_weight(clearness_index, kt_clear=0.65, kt_overcast=0.25):
-    """Weight [1] of an isotropic sky in the blended sky shape, from the clearness index.
-
-    Linear from 0 at ``kt >= kt_clear`` to 1 at ``kt <= kt_overcast``. The defaults follow the
-    common classification of hourly skies (kt above about 0.65 clear, below about 0.25 overcast;
-    e.g. Reindl et al. 1990, Solar Energy 45, 1-7): a heuristic, not a fitted model. NaN stays NaN.
-    """
-    if not 0.0 <= kt_overcast < kt_clear <= 2.0:
-        raise ValueError(f"need 0 <= kt_overcast < kt_clear <= 2, got kt_overcast={kt_overcast!r}, "
-                         f"kt_clear={kt_clear!r}")
-    kt = np.asarray(clearness_index, dtype=float)
-    return np.clip((kt_clear - kt) / (kt_clear - kt_overcast), 0.0, 1.0)
-
-
-def blend_toward_isotropic(sky_radiance, weight, solid_angle, cos_zenith):
-    """Blend a sky's angular shape toward isotropic, keeping its spectral diffuse horizontal irradiance.
-
-    ``L' = (1 - w) L + w DHI / pi`` per channel, where ``DHI = sum(L cos(theta) dOmega)`` over the
-    patches, so the horizontal diffuse irradiance of ``L'`` equals that of ``L`` in every channel.
-
-    Parameters
-    ----------
-    sky_radiance : array_like
-        Patch radiance, shape (n_steps, n_patches) or (n_steps, n_patches, n_channels)
-        [W m-2 sr-1] or [W m-2 sr-1 nm-1].
-    weight : array_like
-        Isotropic weight per step [1] in [0, 1], shape (n_steps,).
-    solid_angle : array_like
-        Patch solid angles [sr], shape (n_patches,), summing to 2 pi for a full upper hemisphere.
-    cos_zenith : array_like
-        Cosine of each patch centre's zenith angle [1], shape (n_patches,).
-
-    Returns
-    -------
-    numpy.ndarray
-        Blended radiance, the shape of ``sky_radiance``.
-    """
-    L = np.asarray(sky_radiance, dtype=float)
-    w = np.asarray(weight, dtype=float)
-    om = np.asarray(solid_angle, dtype=float)
-    cz = np.asarray(cos_zenith, dtype=float)
-    if L.ndim not in (2, 3):
-        raise ValueError(f"sky_radiance must have 2 or 3 dimensions, got shape {L.shape}")
-    if w.shape != L.shape[:1]:
-        raise ValueError(f"weight has shape {w.shape}, expected ({L.shape[0]},)")
-    if om.shape != L.shape[1:2] or cz.shape != L.shape[1:2]:
-        raise ValueError(f"solid_angle and cos_zenith must have shape ({L.shape[1]},)")
-    if np.any((w < 0) | (w > 1)):
-        raise ValueError("weight outside the valid range [0, 1]")
-    proj = om * np.clip(cz, 0.0, None)
-    dhi = np.tensordot(proj, L, axes=([0], [1]))  # (n_steps,) or (n_steps, n_ch)
-    # isotropic radiance giving the same DHI on this discretisation: DHI / sum(proj) (= DHI / pi
-    # exactly for a discretisation whose projected solid angles sum to pi)
-    iso = dhi / proj.sum()
-    wb = w.reshape((-1,) + (1,) * (L.ndim - 1))
-    return (1.0 - wb) * L + wb * iso[:, None, ...]

@@ -37,8 +37,9 @@ bits.
 
 Embree (through embreex) is single-threaded and holds the GIL, so the work is split into independent
 tasks over chunks of points that each worker process runs on its own copy of the scene (cached per
-process): a local process pool by default, or any ``concurrent.futures.Executor`` (e.g.
-``dask.distributed.Client.get_executor()``).
+process): a local process pool by default, whose workers receive the scene once (the pool's
+initializer) and tasks carry only its key, or any ``concurrent.futures.Executor`` (e.g.
+``dask.distributed.Client.get_executor()``), whose tasks carry the scene's arrays.
 """
 
 from __future__ import annotations
@@ -58,6 +59,9 @@ __all__ = ["Coefficients", "compute_coefficients", "start_coefficients", "Pendin
            "SHADE_SECTORS"]
 
 _SCENE_CACHE: dict = {}
+#: The scene geometry a pool worker holds (set once by the pool's initializer, :func:`_hold_geometry`), so
+#: the tasks of the default process pool carry the scene's key instead of its arrays.
+_WORKER_GEOMETRY: dict = {}
 
 #: Sun-elevation band edges [deg] of the reflector shading cells and the azimuth sector width [deg]
 #: of each band (cells are narrower where the sun moves faster across the sky and shadows change most).
@@ -386,169 +390,45 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
     :class:`irradiance.optics.AngularWeights`) adds the sky coefficients and reflected-light factors
     of its incidence-angle weight functions (:func:`irradiance.optics.optic_terms`).
     """
+    from .raystages import primary_rays, reflected_sky, reflected_sun, sun_visibility
+
     t0 = time.perf_counter()
+    if isinstance(geometry, str):                 # a pool worker's task: the key of the scene it holds
+        geometry = _WORKER_GEOMETRY[geometry]
     patches, dirs, wcell = _sample_directions(mf, k)
     P, K = patches.n_patches, dirs.shape[1]
     n = origins.shape[0]
-    exact = np.concatenate([cosine_weights(patches, normals),
-                            cosine_weights(patches, normals, lower=True)], axis=1)   # (n, 2P)
-    flat = dirs.reshape(-1, 3)
-    w = np.maximum(normals @ flat.T, 0.0) * wcell.reshape(-1)[None, :]               # (n, 2PK)
-    w[buried] = 0.0
-    fi, si = np.nonzero(w > 0)
-    o, d = origins[fi], flat[si]
-    down = d[:, 2] < 0
-    maxd = np.full(fi.size, np.inf)
-    gz = geometry["ground_z"]
-    maxd[down] = np.maximum((gz - o[down, 2]) / d[down, 2], 1e-9)
-    hit = np.full((n, 2 * P * K), -2, dtype=np.int32)
-    prim, dist = cast_rays(geometry, o, d, maxd, distance=True)
-    hit[fi, si] = prim
-    n_rays = fi.size
-    # one bounce: every reflecting point (scene hit or ground) casts one cosine-distributed secondary
-    # ray, its direction fixed by the ray's identity; where it escapes to the sky it makes the
-    # reflector's sky irradiance a one-sample estimate pi L(patch) (so the reflected sky is a
-    # daylight coefficient of that patch), where a wall's ray reaches the ground it samples the
-    # (unshaded) ground radiance, where it hits the scene it brings nothing (one reflection)
-    on_ground = (prim < 0) & down
-    refl_ray = (prim >= 0) | on_ground
-    ri = np.nonzero(refl_ray)[0]
-    sel_scene = prim[ri] >= 0
-    t_hit = np.where(sel_scene, dist[ri], maxd[ri])
-    x, tn = reflector_points(geometry, o[ri], d[ri], t_hit, prim[ri])
-    sd = _cosine_directions(tn, (fi[ri] + first) * (2 * P * K) + si[ri])
-    smax = np.full(ri.size, np.inf)
-    sdown = sd[:, 2] < 0
-    smax[sdown] = np.maximum((gz - x[sdown, 2]) / sd[sdown, 2], 1e-9)
-    s_free = ~cast_rays(geometry, x, sd, smax, occluded=True)
-    n_rays += ri.size
-    s_patch = np.where(s_free & ~sdown, patches.index(sd), -1)   # secondary ray's sky patch
-    s_ground = s_free & sdown
-    w3 = w.reshape(n, 2 * P, K)
-    wsum = w3.sum(axis=2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.where(wsum[..., None] > 0, exact[..., None] * w3 / wsum[..., None], 0.0)
-    hit3 = hit.reshape(n, 2 * P, K)
-    miss = hit3 == -1
-    sky = np.sum(share[:, :P] * miss[:, :P], axis=2)
-    ground_geo = np.sum(share[:, P:] * miss[:, P:], axis=(1, 2))
-    r_pt = fi[ri]
-    r_share = share.reshape(n, -1)[r_pt, si[ri]]
-    r_rho = np.ones(ri.size)
-    r_rho[sel_scene] = geometry["reflectance"][prim[ri[sel_scene]]]
-    to_sky = s_patch >= 0
-    gs = ~sel_scene & to_sky
-    ground_sky = _fbincount(r_pt[gs] * P + s_patch[gs], weights=r_share[gs],
-                             minlength=n * P).reshape(n, P)
-    ws = sel_scene & to_sky
-    reflect_sky = _fbincount(r_pt[ws] * P + s_patch[ws], weights=r_share[ws] * r_rho[ws],
-                              minlength=n * P).reshape(n, P)
-    wg = sel_scene & s_ground
-    reflect_ground = _fbincount(r_pt[wg], weights=r_share[wg] * r_rho[wg], minlength=n)
-    # patches with a positive exact weight but no sample in front of the face (slivers at the face's
-    # horizon): the face's mean visible fraction of that hemisphere; a lower sliver's ground is lit
-    # like the point's other ground hits
-    sliver = (wsum <= 0) & (exact > 0)
-    f_lo = np.ones(n)
-    extra = np.zeros(n)
-    gsh = _fbincount(r_pt[~sel_scene], weights=r_share[~sel_scene], minlength=n)
-    if np.any(sliver):
-        tot_up, tot_lo = share[:, :P].sum(axis=(1, 2)), share[:, P:].sum(axis=(1, 2))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            f_up = np.where(tot_up > 0, sky.sum(axis=1) / tot_up, 1.0)
-            f_lo = np.where(tot_lo > 0, ground_geo / tot_lo, 1.0)
-        sky = sky + np.where(sliver[:, :P], exact[:, :P] * f_up[:, None], 0.0)
-        extra = np.sum(np.where(sliver[:, P:], exact[:, P:], 0.0), axis=1) * f_lo
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ground_sky *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[:, None]
-    sky_optic = reflect_optic = None
-    if optics is not None and optics.n:
-        from .optics import optic_terms
-        sky_optic, reflect_optic = optic_terms(optics, patches, normals, exact, w3, flat, miss,
-                                               r_pt, si[ri], r_share, kq=optic_kq)
-        sky_optic[:, buried] = 0.0
-    sky[buried] = 0.0
-    ground_sky[buried] = 0.0
-    reflect_sky[buried] = 0.0
-    reflect_ground[buried] = 0.0
-
-    B = bins.shape[0]
-    # sun on the reflectors: per shading cell, one ray per reflecting hit towards a sun bin of the
-    # cell drawn ~ steps x clear-sky DNI x cos(binned reflector normal, sun), fixed by the ray's
-    # identity; the lit hits carry the cell's reflected sun
-    S = sun_dirs.shape[0]
-    if sun_cell is None:
-        sun_cell, G = shade_cells(sun_dirs)
-    else:
-        sun_cell = np.asarray(sun_cell)
-        G = int(sun_cell.max()) + 1 if sun_cell.size else 0
-    ground_sun = np.zeros((G, n))
-    reflect_sun = np.zeros((G, n * B))
-    if S and ri.size and G:
-        cnt = np.ones(S) if sun_count is None else np.asarray(sun_count, dtype=float)
-        el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
-        r_ob = np.zeros(ri.size, dtype=np.int64)                     # ground: bin 0 (up)
-        r_ob[sel_scene] = np.argmax(tn[sel_scene] @ bins.T, axis=1)
-        live = (r_share > 0) & (r_rho > 0)
-        ident = (r_pt + first) * (2 * P * K) + si[ri]
-        for g in range(G):
-            cg = np.nonzero(sun_cell == g)[0]
-            if cg.size == 0:
-                continue
-            wq = (cnt[cg] * _clear_dni(el_b[cg]))[None, :] * np.maximum(bins @ sun_dirs[cg].T, 0.0)
-            cdf = np.cumsum(wq, axis=1)                               # (B, C_g)
-            tot = cdf[:, -1]
-            ok = live & (tot[r_ob] > 0)
-            j = np.nonzero(ok)[0]
-            u = np.mod(0.5 + (ident[j] + 7919 * (g + 1)) * 0.6180339887498949, 1.0)
-            pick = np.empty(j.size, dtype=np.int64)
-            for b in np.unique(r_ob[j]):                              # per orientation bin
-                m = r_ob[j] == b
-                pick[m] = np.minimum(np.searchsorted(cdf[b], u[m] * tot[b], side="right"),
-                                     cg.size - 1)
-            sd = sun_dirs[cg[pick]]
-            front = np.sum(tn[j] * sd, axis=1) > 0
-            lit = np.zeros(j.size, dtype=bool)
-            jf = np.nonzero(front)[0]
-            if jf.size:
-                lit[jf] = ~cast_rays(geometry, x[j[jf]].astype(np.float32),
-                                     sd[jf].astype(np.float32), occluded=True)
-                n_rays += jf.size
-            wl = r_share[j] * r_rho[j] * lit
-            on_g = ~sel_scene[j]
-            ground_sun[g] = _fbincount(r_pt[j[on_g]], weights=wl[on_g], minlength=n)
-            reflect_sun[g] = _fbincount(r_pt[j[~on_g]] * B + r_ob[j[~on_g]],
-                                         weights=wl[~on_g], minlength=n * B)
-    if np.any(extra > 0):
-        # sliver patches of the lower hemisphere: their ground share at the band's mean sunlit
-        # share of the point's ground hits
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ground_sun *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[None, :]
-    ground_sun[:, buried] = 0.0
-    reflect_sun = reflect_sun.reshape(G, n, B)
-    reflect_sun[:, buried] = 0.0
-
-    # sun visibility
-    S = sun_dirs.shape[0]
-    vis = np.zeros((n, S), dtype=bool)
-    if S:
-        cs = normals @ sun_dirs.T
-        ok = (cs > 0) & ~buried[:, None] & (sun_dirs[:, 2] > 0)[None, :]
-        pf, ps = np.nonzero(ok)
-        o32, d32 = origins.astype(np.float32), sun_dirs.astype(np.float32)
-        vis[pf, ps] = ~cast_rays(geometry, o32[pf], d32[ps], occluded=True)
-        n_rays += pf.size
-    return {"sky": sky.astype(np.float32), "ground_sky": ground_sky.astype(np.float32),
-            "reflect_sky": reflect_sky.astype(np.float32), "reflect_ground": reflect_ground,
+    pr = primary_rays(geometry, origins, normals, buried, patches, dirs, wcell)
+    coeffs, bounce, gsh, extra, n_bounce = reflected_sky(geometry, pr, patches, K, normals, buried, first,
+                                                         optics, optic_kq)
+    ident = (bounce.r_pt + first) * (2 * P * K) + pr.si[bounce.ri]
+    ground_sun, reflect_sun, n_sun = reflected_sun(geometry, bounce, sun_dirs, bins, sun_count, sun_cell, n,
+                                                   ident, buried, gsh, extra)
+    vis, n_vis = sun_visibility(geometry, origins, normals, buried, sun_dirs)
+    return {"sky": coeffs["sky"].astype(np.float32), "ground_sky": coeffs["ground_sky"].astype(np.float32),
+            "reflect_sky": coeffs["reflect_sky"].astype(np.float32), "reflect_ground": coeffs["reflect_ground"],
             "ground_sun": ground_sun, "reflect_sun": reflect_sun.astype(np.float32),
-            "sun": np.packbits(vis, axis=1), "n_rays": n_rays, "sky_optic": sky_optic,
-            "reflect_optic": reflect_optic,
+            "sun": np.packbits(vis, axis=1), "n_rays": pr.fi.size + n_bounce + n_sun + n_vis,
+            "sky_optic": coeffs["sky_optic"], "reflect_optic": coeffs["reflect_optic"],
             "seconds": time.perf_counter() - t0}
 
 
-def _default_executor(n_jobs):
+def _hold_geometry(geometry):
+    """Process-pool initializer: keep the scene's geometry in this worker (shipped once per worker)."""
+    _WORKER_GEOMETRY.clear()
+    _WORKER_GEOMETRY[geometry["key"]] = geometry
+
+
+def _default_executor(n_jobs, geometry):
+    """A local process pool whose workers each receive ``geometry`` once, at start."""
     ctx = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-    return ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
+    return ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx, initializer=_hold_geometry,
+                               initargs=(geometry,))
+
+
+def _pool_task_args(args):
+    """Task arguments for the default pool: the scene's key in place of its geometry arrays."""
+    return [(a[0]["key"],) + tuple(a[1:]) for a in args]
 
 
 def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, sun_bin=0.0,
@@ -611,10 +491,12 @@ class PendingCoefficients:
             self._bar = tqdm(total=bounds[-1][1] if bounds else 0, unit="point",
                              desc="ray casting")
         if executor is not None or (n_jobs > 1 and len(args) > 1):
-            ex = executor if executor is not None else _default_executor(n_jobs)
+            ex = executor if executor is not None else _default_executor(n_jobs, args[0][0])
             self._own = ex if executor is None else None
+            # the default pool's workers hold the scene (initializer); a user's executor gets it per task
+            tasks = args if executor is not None else _pool_task_args(args)
             try:
-                self._futs = {ex.submit(_chunk_task, *a): i for i, a in enumerate(args)}
+                self._futs = {ex.submit(_chunk_task, *a): i for i, a in enumerate(tasks)}
             except BaseException:
                 self._close()
                 raise

@@ -178,6 +178,20 @@ def _check_clamp(model: SkyModel, el, vis, alb, alt, quantity):
     return out
 
 
+def _check_trans_clamp(model: SkyModel, vis, alt):
+    """Names of the transmittance's parameters outside the dataset's transmittance grids (for the warning
+    / flag): visibility [km], and the observer altitude [m] above the highest transmittance altitude (as
+    :func:`_check_clamp` tests the radiance's altitude)."""
+    out = []
+    lo, hi = float(model.trans_visibilities[0]), float(model.trans_visibilities[-1])
+    if vis < lo - 1e-6 or vis > hi + 1e-6:
+        out.append(f"visibility={vis:g} km outside the transmittance range [{lo:g}, {hi:g}]")
+    top = float(model.trans_altitudes[-1])
+    if alt > top + 1e-9:
+        out.append(f"altitude={alt:g} m above the dataset's highest transmittance altitude {top:g} m")
+    return out
+
+
 def _state_params(el_deg, az_deg, alt):
     """Reference sky-state parameters: radians in the reference's azimuth convention, the altitude
     parameter (with the 50 m safety altitude) and the solar elevation at the view point [deg]."""
@@ -376,10 +390,10 @@ def transmittance(model: SkyModel, directions, sun_elevation, sun_azimuth, visib
     msgs = []
     for si, idx in enumerate(np.ndindex(S)):
         _, _, vis, _, alt = (float(a[idx]) for a in state)
-        lo, hi = float(model.trans_visibilities[0]), float(model.trans_visibilities[-1])
-        if vis < lo - 1e-6 or vis > hi + 1e-6:
+        m = _check_trans_clamp(model, vis, alt)
+        if m:
             flags[idx] = True
-            msgs.append(f"visibility={vis:g} km outside the transmittance range [{lo:g}, {hi:g}]")
+            msgs += m
         alt_param = max((alt + PLANET_RADIUS) + SAFETY_ALTITUDE - PLANET_RADIUS, 0.0)
         pv, pa, pw = _trans_weights(model, vis, alt_param)
         _core.transmittance(U, V, model.trans_d_dim, model.trans_a_dim, U.shape[0], model.trans_rank,
@@ -418,6 +432,7 @@ def sun_radiance(model: SkyModel, directions, sun_elevation, sun_azimuth, visibi
     res = np.zeros(S + (dirs.shape[0], chi.size), dtype)
     unit = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
     flags = np.zeros(S, dtype=bool)
+    msgs = []
     for idx in np.ndindex(S):
         el, az, vis, alb, alt = (float(a[idx]) for a in state)
         s = sun_direction(el, az)
@@ -427,11 +442,10 @@ def sun_radiance(model: SkyModel, directions, sun_elevation, sun_azimuth, visibi
             t, fl = transmittance(model, dirs[hit], el, az, vis, alb, alt, channels=chi, threads=threads,
                                   return_clamped=True)
             flags[idx] = bool(fl)
+            msgs += _check_trans_clamp(model, vis, alt)
             res[idx][hit] = et * t
     res = res.reshape(S + dshape + (chi.size,))
-    if flags.any() and not return_clamped:
-        warnings.warn("sun radiance: visibility outside the transmittance range; clamped as the reference does",
-                      SkyStateClampedWarning, stacklevel=2)
+    _report_clamped(flags, msgs, return_clamped, "sun radiance")
     return (res, flags) if return_clamped else res
 
 
@@ -451,13 +465,13 @@ def solar_direct_normal(model: SkyModel, sun_elevation, sun_azimuth, visibility,
     S = st[0].shape
     res = np.zeros(S + (chi.size,))
     flags = np.zeros(S, dtype=bool)
+    msgs = []
     for idx in np.ndindex(S):
         el, az, vis, alb, alt = (float(a[idx]) for a in st)
         t, fl = transmittance(model, sun_direction(el, az)[None], el, az, vis, alb, alt, channels=chi,
                               threads=threads, return_clamped=True)
         flags[idx] = bool(fl)
+        msgs += _check_trans_clamp(model, vis, alt)
         res[idx] = et * t[0]
-    if flags.any() and not return_clamped:
-        warnings.warn("solar_direct_normal: visibility outside the transmittance range; clamped",
-                      SkyStateClampedWarning, stacklevel=2)
+    _report_clamped(flags, msgs, return_clamped, "solar_direct_normal")
     return (res, flags) if return_clamped else res

@@ -1,12 +1,11 @@
-"""Measured DNI/DHI on the clear-sky model: scale factors, guards and the isotropic blend."""
+"""Measured DNI/DHI on the clear-sky model: scale factors, guards and the clearness index."""
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from irradiance.measured import (blend_toward_isotropic, clearness_index, isotropic_blend_weight,
-                                 measured_scale_factors)
+from irradiance.measured import clearness_index, measured_scale_factors
 
 
 def test_scaling_reproduces_measured_irradiance():
@@ -78,49 +77,3 @@ def test_clearness_index():
     assert float(clearness_index(50.0, 89.9, 1361.0)) == pytest.approx(50 / (1361 * 0.065))
     assert float(clearness_index(500.0, 89.9, 1361.0)) == 2.0
     assert np.isnan(clearness_index(np.nan, 30.0, 1361.0))
-
-
-def test_blend_weight():
-    w = isotropic_blend_weight([0.8, 0.65, 0.45, 0.25, 0.1, np.nan])
-    np.testing.assert_allclose(w[:5], [0.0, 0.0, 0.5, 1.0, 1.0])
-    assert np.isnan(w[5])
-    with pytest.raises(ValueError, match="kt_overcast"):
-        isotropic_blend_weight(0.5, kt_clear=0.2, kt_overcast=0.4)
-
-
-def _hemisphere(n_theta=18, n_phi=36):
-    """Exact-solid-angle lat-long patches of the upper hemisphere."""
-    t = np.linspace(0, np.pi / 2, n_theta + 1)
-    om_ring = 2 * np.pi * (np.cos(t[:-1]) - np.cos(t[1:])) / n_phi
-    theta = 0.5 * (t[:-1] + t[1:])
-    # cos of the ring centre, corrected so sum(cos * omega) over the ring is exact
-    cz_ring = np.pi * (np.sin(t[1:]) ** 2 - np.sin(t[:-1]) ** 2) / (2 * np.pi * (np.cos(t[:-1]) - np.cos(t[1:])))
-    om = np.repeat(om_ring, n_phi)
-    cz = np.repeat(cz_ring, n_phi)
-    phi = np.tile((np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi, n_theta)
-    return om, cz, np.repeat(theta, n_phi), phi
-
-
-def test_blend_furnace_and_dhi_preserved():
-    om, cz, theta, phi = _hemisphere()
-    assert om.sum() == pytest.approx(2 * np.pi) and (om * cz).sum() == pytest.approx(np.pi)
-    # furnace: a uniform sky is unchanged by any blend
-    uniform = np.full((3, om.size, 2), 7.0)
-    np.testing.assert_allclose(blend_toward_isotropic(uniform, np.array([0, 0.5, 1]), om, cz), 7.0)
-    # a circumsolar-peaked, horizon-brightened spectral sky: DHI per channel is preserved exactly
-    sun = np.array([np.sin(np.radians(30)), 0, np.cos(np.radians(60))])
-    d = np.stack([np.sin(theta) * np.sin(phi), np.sin(theta) * np.cos(phi), np.cos(theta)], -1)
-    cosg = d @ (sun / np.linalg.norm(sun))
-    shape = (1 + 10 * np.exp(-3 * np.arccos(np.clip(cosg, -1, 1)))) * (1 + 0.5 * (1 - cz))
-    L = np.stack([shape[:, None] * np.array(s) for s in ([1.0, 0.5], [2.0, 0.7])])  # (2 steps, n, 2 ch)
-    w = np.array([0.3, 1.0])
-    B = blend_toward_isotropic(L, w, om, cz)
-    dhi = np.einsum("p,spc->sc", om * cz, L)
-    np.testing.assert_allclose(np.einsum("p,spc->sc", om * cz, B), dhi, rtol=1e-12)
-    np.testing.assert_allclose(B[1], np.broadcast_to(dhi[1] / np.pi, B[1].shape), rtol=1e-12)
-    # partial blend flattens the peak
-    assert B[0].max() < L[0].max() and B[0].min() > L[0].min()
-    with pytest.raises(ValueError, match="weight outside"):
-        blend_toward_isotropic(L, np.array([0.3, 1.5]), om, cz)
-    with pytest.raises(ValueError, match="weight has shape"):
-        blend_toward_isotropic(L, np.array([0.3]), om, cz)

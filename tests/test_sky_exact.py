@@ -493,3 +493,24 @@ def test_vertical_ray_to_a_finite_distance_is_the_limit_of_tilted_rays(datasets)
             t = skymodel.transmittance(m, rays, 30.0, 180.0, 45.5, 0.5, 1000.0, distance=dist)
             np.testing.assert_allclose(t[0], t[1], rtol=1e-6)
             assert np.all(t[0] != t[2])  # the tilt matters at all: the check above is not vacuous
+
+
+def test_direct_normal_reports_altitude_clamp(datasets):
+    """An altitude above the dataset's highest (6000 m here) is clamped in the transmittance's coefficient
+    lookup, so solar_direct_normal (and sun_radiance) warn and flag it as sky_radiance does; at the
+    highest altitude itself nothing warns."""
+    m = skymodel.load_dataset(datasets["full"])
+    with pytest.warns(skymodel.SkyStateClampedWarning, match=r"altitude=9000 m above the dataset's highest "):
+        skymodel.sky_radiance(m, [0, 0, 1], 35.0, 150.0, 50.0, 0.3, 9000.0)
+    with pytest.warns(skymodel.SkyStateClampedWarning,
+                      match=r"solar_direct_normal: altitude=9000 m above the dataset's highest transmittance "
+                            r"altitude 6000 m; clamped"):
+        skymodel.solar_direct_normal(m, 35.0, 150.0, 50.0, 0.3, 9000.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        skymodel.solar_direct_normal(m, 35.0, 150.0, 50.0, 0.3, 6000.0)
+    _, flags = skymodel.solar_direct_normal(m, 35.0, 150.0, 50.0, 0.3, [0.0, 9000.0], return_clamped=True)
+    assert flags.tolist() == [False, True]
+    s = skymodel.sun_direction(35.0, 150.0)
+    with pytest.warns(skymodel.SkyStateClampedWarning, match=r"sun radiance: altitude=9000 m"):
+        skymodel.sun_radiance(m, s, 35.0, 150.0, 50.0, 0.3, 9000.0)

@@ -1,0 +1,233 @@
+"""The stages of one ray-casting task (one chunk of analysis points), run by :func:`raycast._chunk_task`.
+
+1. :func:`primary_rays` -- the stratified rays over both hemispheres in front of each point: which
+   sample cells see the sky, the ground or a scene surface.
+2. :func:`reflected_sky` -- one cosine-distributed secondary ray from every reflecting hit, and from
+   them and the primary hits the sky, ground and reflected-sky coefficients (and the optics' terms).
+3. :func:`reflected_sun` -- per shading cell one ray from every reflecting hit towards a sun bin of
+   that cell: the reflected-sun factors.
+4. :func:`sun_visibility` -- one ray per point and sun-position bin.
+
+The physics and the sampling are described in :mod:`irradiance.raycast`; these functions only name
+its steps. All are pure numpy functions of their arrays and the scene's geometry dictionary.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .patches import cosine_weights
+from .raycast import _clear_dni, _cosine_directions, _fbincount, cast_rays, reflector_points, shade_cells
+
+__all__ = ["PrimaryRays", "Bounce", "primary_rays", "reflected_sky", "reflected_sun", "sun_visibility"]
+
+
+class PrimaryRays(NamedTuple):
+    """The primary rays of a chunk of ``n`` points over ``2P`` patches (upper, then lower hemisphere)
+    of ``K`` sample cells each."""
+    exact: np.ndarray    # (n, 2P) exact projected solid angles [sr]
+    flat: np.ndarray     # (2PK, 3) sample directions
+    w: np.ndarray        # (n, 2PK) sample weights (cell solid angle x cos), 0 for buried points
+    fi: np.ndarray       # (R,) point of each ray cast
+    si: np.ndarray       # (R,) sample index of each ray cast
+    o: np.ndarray        # (R, 3) ray origins
+    d: np.ndarray        # (R, 3) ray directions
+    down: np.ndarray     # (R,) ray points downwards
+    maxd: np.ndarray     # (R,) distance to the ground plane [m] (inf upwards)
+    hit: np.ndarray      # (n, 2PK) primitive hit, -1 nothing, -2 not cast
+    prim: np.ndarray     # (R,) primitive hit per ray (-1: none)
+    dist: np.ndarray     # (R,) hit distance [m]
+
+
+class Bounce(NamedTuple):
+    """The reflecting hits of the primary rays (scene surfaces and the ground)."""
+    ri: np.ndarray         # (H,) index into the primary rays
+    sel_scene: np.ndarray  # (H,) the hit is a scene surface (else the ground)
+    x: np.ndarray          # (H, 3) reflecting points
+    tn: np.ndarray         # (H, 3) their normals towards the ray
+    r_pt: np.ndarray       # (H,) the analysis point of each hit
+    r_share: np.ndarray    # (H,) the hit's share of its patch's exact weight [sr]
+    r_rho: np.ndarray      # (H,) reflectance (1 for the ground: its albedo is applied later)
+
+
+def primary_rays(geometry, origins, normals, buried, patches, dirs, wcell):
+    """Cast the primary rays; returns the :class:`PrimaryRays`."""
+    P = patches.n_patches
+    n = origins.shape[0]
+    exact = np.concatenate([cosine_weights(patches, normals),
+                            cosine_weights(patches, normals, lower=True)], axis=1)   # (n, 2P)
+    flat = dirs.reshape(-1, 3)
+    w = np.maximum(normals @ flat.T, 0.0) * wcell.reshape(-1)[None, :]               # (n, 2PK)
+    w[buried] = 0.0
+    fi, si = np.nonzero(w > 0)
+    o, d = origins[fi], flat[si]
+    down = d[:, 2] < 0
+    maxd = np.full(fi.size, np.inf)
+    gz = geometry["ground_z"]
+    maxd[down] = np.maximum((gz - o[down, 2]) / d[down, 2], 1e-9)
+    hit = np.full((n, 2 * P * dirs.shape[1]), -2, dtype=np.int32)
+    prim, dist = cast_rays(geometry, o, d, maxd, distance=True)
+    hit[fi, si] = prim
+    return PrimaryRays(exact, flat, w, fi, si, o, d, down, maxd, hit, prim, dist)
+
+
+def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first, optics=None, optic_kq=4):
+    """Secondary rays from the reflecting hits and the sky-side coefficients.
+
+    One bounce: every reflecting point (scene hit or ground) casts one cosine-distributed secondary
+    ray, its direction fixed by the ray's identity; where it escapes to the sky it makes the
+    reflector's sky irradiance a one-sample estimate pi L(patch) (so the reflected sky is a daylight
+    coefficient of that patch), where a wall's ray reaches the ground it samples the (unshaded) ground
+    radiance, where it hits the scene it brings nothing (one reflection).
+
+    Returns
+    -------
+    (dict of coefficient arrays, Bounce, gsh, extra, n_rays) where ``gsh`` (n,) is each point's share
+    of ground hits and ``extra`` (n,) the ground share of its lower-hemisphere slivers.
+    """
+    P = patches.n_patches
+    n = pr.w.shape[0]
+    fi, si, prim = pr.fi, pr.si, pr.prim
+    on_ground = (prim < 0) & pr.down
+    refl_ray = (prim >= 0) | on_ground
+    ri = np.nonzero(refl_ray)[0]
+    sel_scene = prim[ri] >= 0
+    t_hit = np.where(sel_scene, pr.dist[ri], pr.maxd[ri])
+    x, tn = reflector_points(geometry, pr.o[ri], pr.d[ri], t_hit, prim[ri])
+    sd = _cosine_directions(tn, (fi[ri] + first) * (2 * P * K) + si[ri])
+    smax = np.full(ri.size, np.inf)
+    sdown = sd[:, 2] < 0
+    smax[sdown] = np.maximum((geometry["ground_z"] - x[sdown, 2]) / sd[sdown, 2], 1e-9)
+    s_free = ~cast_rays(geometry, x, sd, smax, occluded=True)
+    s_patch = np.where(s_free & ~sdown, patches.index(sd), -1)   # secondary ray's sky patch
+    s_ground = s_free & sdown
+    exact = pr.exact
+    w3 = pr.w.reshape(n, 2 * P, K)
+    wsum = w3.sum(axis=2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(wsum[..., None] > 0, exact[..., None] * w3 / wsum[..., None], 0.0)
+    miss = pr.hit.reshape(n, 2 * P, K) == -1
+    sky = np.sum(share[:, :P] * miss[:, :P], axis=2)
+    ground_geo = np.sum(share[:, P:] * miss[:, P:], axis=(1, 2))
+    r_pt = fi[ri]
+    r_share = share.reshape(n, -1)[r_pt, si[ri]]
+    r_rho = np.ones(ri.size)
+    r_rho[sel_scene] = geometry["reflectance"][prim[ri[sel_scene]]]
+    to_sky = s_patch >= 0
+    gs = ~sel_scene & to_sky
+    ground_sky = _fbincount(r_pt[gs] * P + s_patch[gs], weights=r_share[gs],
+                             minlength=n * P).reshape(n, P)
+    ws = sel_scene & to_sky
+    reflect_sky = _fbincount(r_pt[ws] * P + s_patch[ws], weights=r_share[ws] * r_rho[ws],
+                              minlength=n * P).reshape(n, P)
+    wg = sel_scene & s_ground
+    reflect_ground = _fbincount(r_pt[wg], weights=r_share[wg] * r_rho[wg], minlength=n)
+    # patches with a positive exact weight but no sample in front of the face (slivers at the face's
+    # horizon): the face's mean visible fraction of that hemisphere; a lower sliver's ground is lit
+    # like the point's other ground hits
+    sliver = (wsum <= 0) & (exact > 0)
+    extra = np.zeros(n)
+    gsh = _fbincount(r_pt[~sel_scene], weights=r_share[~sel_scene], minlength=n)
+    if np.any(sliver):
+        tot_up, tot_lo = share[:, :P].sum(axis=(1, 2)), share[:, P:].sum(axis=(1, 2))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            f_up = np.where(tot_up > 0, sky.sum(axis=1) / tot_up, 1.0)
+            f_lo = np.where(tot_lo > 0, ground_geo / tot_lo, 1.0)
+        sky = sky + np.where(sliver[:, :P], exact[:, :P] * f_up[:, None], 0.0)
+        extra = np.sum(np.where(sliver[:, P:], exact[:, P:], 0.0), axis=1) * f_lo
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ground_sky *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[:, None]
+    sky_optic = reflect_optic = None
+    if optics is not None and optics.n:
+        from .optics import optic_terms
+        sky_optic, reflect_optic = optic_terms(optics, patches, normals, exact, w3, pr.flat,
+                                               miss, r_pt, si[ri], r_share, kq=optic_kq)
+        sky_optic[:, buried] = 0.0
+    sky[buried] = 0.0
+    ground_sky[buried] = 0.0
+    reflect_sky[buried] = 0.0
+    reflect_ground[buried] = 0.0
+    coeffs = {"sky": sky, "ground_sky": ground_sky, "reflect_sky": reflect_sky,
+              "reflect_ground": reflect_ground, "sky_optic": sky_optic, "reflect_optic": reflect_optic}
+    return coeffs, Bounce(ri, sel_scene, x, tn, r_pt, r_share, r_rho), gsh, extra, ri.size
+
+
+def reflected_sun(geometry, b: Bounce, sun_dirs, bins, sun_count, sun_cell, n, ident, buried, gsh, extra):
+    """Sun on the reflectors: per shading cell, one ray per reflecting hit towards a sun bin of the
+    cell drawn ~ steps x clear-sky DNI x cos(binned reflector normal, sun), fixed by the ray's
+    identity ``ident`` (H,); the lit hits carry the cell's reflected sun.
+
+    Returns
+    -------
+    (ground_sun (G, n), reflect_sun (G, n, B), n_rays)
+    """
+    B = bins.shape[0]
+    S = sun_dirs.shape[0]
+    if sun_cell is None:
+        sun_cell, G = shade_cells(sun_dirs)
+    else:
+        sun_cell = np.asarray(sun_cell)
+        G = int(sun_cell.max()) + 1 if sun_cell.size else 0
+    ground_sun = np.zeros((G, n))
+    reflect_sun = np.zeros((G, n * B))
+    n_rays = 0
+    sel_scene, tn, r_pt, r_share, r_rho = b.sel_scene, b.tn, b.r_pt, b.r_share, b.r_rho
+    if S and b.ri.size and G:
+        cnt = np.ones(S) if sun_count is None else np.asarray(sun_count, dtype=float)
+        el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
+        r_ob = np.zeros(b.ri.size, dtype=np.int64)                   # ground: bin 0 (up)
+        r_ob[sel_scene] = np.argmax(tn[sel_scene] @ bins.T, axis=1)
+        live = (r_share > 0) & (r_rho > 0)
+        for g in range(G):
+            cg = np.nonzero(sun_cell == g)[0]
+            if cg.size == 0:
+                continue
+            wq = (cnt[cg] * _clear_dni(el_b[cg]))[None, :] * np.maximum(bins @ sun_dirs[cg].T, 0.0)
+            cdf = np.cumsum(wq, axis=1)                               # (B, C_g)
+            tot = cdf[:, -1]
+            ok = live & (tot[r_ob] > 0)
+            j = np.nonzero(ok)[0]
+            u = np.mod(0.5 + (ident[j] + 7919 * (g + 1)) * 0.6180339887498949, 1.0)
+            pick = np.empty(j.size, dtype=np.int64)
+            for ob in np.unique(r_ob[j]):                             # per orientation bin
+                m = r_ob[j] == ob
+                pick[m] = np.minimum(np.searchsorted(cdf[ob], u[m] * tot[ob], side="right"),
+                                     cg.size - 1)
+            sd = sun_dirs[cg[pick]]
+            front = np.sum(tn[j] * sd, axis=1) > 0
+            lit = np.zeros(j.size, dtype=bool)
+            jf = np.nonzero(front)[0]
+            if jf.size:
+                lit[jf] = ~cast_rays(geometry, b.x[j[jf]].astype(np.float32),
+                                     sd[jf].astype(np.float32), occluded=True)
+                n_rays += jf.size
+            wl = r_share[j] * r_rho[j] * lit
+            on_g = ~sel_scene[j]
+            ground_sun[g] = _fbincount(r_pt[j[on_g]], weights=wl[on_g], minlength=n)
+            reflect_sun[g] = _fbincount(r_pt[j[~on_g]] * B + r_ob[j[~on_g]],
+                                         weights=wl[~on_g], minlength=n * B)
+    if np.any(extra > 0):
+        # sliver patches of the lower hemisphere: their ground share at the band's mean sunlit
+        # share of the point's ground hits
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ground_sun *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[None, :]
+    ground_sun[:, buried] = 0.0
+    reflect_sun = reflect_sun.reshape(G, n, B)
+    reflect_sun[:, buried] = 0.0
+    return ground_sun, reflect_sun, n_rays
+
+
+def sun_visibility(geometry, origins, normals, buried, sun_dirs):
+    """Whether each point sees each sun-position bin: (n, S) bool, and the number of rays cast."""
+    n, S = origins.shape[0], sun_dirs.shape[0]
+    vis = np.zeros((n, S), dtype=bool)
+    if not S:
+        return vis, 0
+    cs = normals @ sun_dirs.T
+    ok = (cs > 0) & ~buried[:, None] & (sun_dirs[:, 2] > 0)[None, :]
+    pf, ps = np.nonzero(ok)
+    o32, d32 = origins.astype(np.float32), sun_dirs.astype(np.float32)
+    vis[pf, ps] = ~cast_rays(geometry, o32[pf], d32[ps], occluded=True)
+    return vis, pf.size
