@@ -24,6 +24,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -220,8 +221,10 @@ def component_optics(component: str, relative_humidity: int = 50, data_dir=None,
         z = np.load(path)
         return {k: z[k] for k in z.files}
     args = [(component, rh, float(w), None if data_dir is None else str(data_dir)) for w in MIE_WAVELENGTHS_NM]
-    if processes > 1:
-        import multiprocessing as mp
+    import multiprocessing as mp
+    # inside a pool worker (a dataset build's solve job meeting an empty Mie cache) a nested pool is not
+    # allowed: compute serially there
+    if processes > 1 and not mp.current_process().daemon:
         with mp.get_context("spawn").Pool(processes) as pool:
             res = list(_progress(pool.imap(_component_optics_one, args), len(args), progress, f"Mie {component}"))
     else:
@@ -234,7 +237,7 @@ def component_optics(component: str, relative_humidity: int = 50, data_dir=None,
            "quadrature_error": np.array([r["csca_quad_um2"] / r["csca_um2"] - 1 for r in res])}
     out["ssa"] = out["csca"] / out["cext"]
     out["g"] = out["moments"][:, 1]
-    tmp = path.with_suffix(".tmp.npz")
+    tmp = path.with_name(f"{path.stem}.tmp-{os.getpid()}.npz")     # workers may race to fill the cache
     np.savez(tmp, **out)
     tmp.replace(path)
     return out
