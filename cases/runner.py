@@ -207,13 +207,14 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
     if progress is None:
         progress = sys.stderr.isatty()
     log = log or (lambda msg: print(msg, file=sys.stderr))
+    out = Path(output) if output else Path.cwd() / f"report-{folder.resolve().name}"
+    _check_output(out)                            # before the computation, not after it
     t0 = time.perf_counter()
     run = compute(folder, n_jobs=n_jobs, progress=progress)
     others = []
     for site in (run.config.get("compare") or {}).get("sites", []):
         log(f"{folder.name}: the same case at {site['name'] or (site['latitude'], site['longitude'])} ...")
         others.append(compute(folder, n_jobs=n_jobs, progress=progress, cfg={**run.config, "site": site}))
-    out = Path(output) if output else Path.cwd() / f"report-{folder.resolve().name}"
     run.timings["compute_total"] = time.perf_counter() - t0
     log(f"{folder.name}: computed in {run.timings['compute_total']:.1f} s; writing the report (time series, "
         "integrator result, renders, HTML) ...")
@@ -228,6 +229,19 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
     log(f"{folder.name}: {run.scene.n_faces} faces x {len(run.result.times)} steps in "
         f"{time.perf_counter() - t0:.1f} s -> {report}/index.html")
     return report
+
+
+def _check_output(out: Path):
+    """Refuse a report folder that cannot be written (a file in the way, an unwritable parent) up front."""
+    out = Path(out).resolve()
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--output {str(out)!r} is a file, not a report folder")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        probe = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.probe-"))
+        probe.rmdir()
+    except OSError as e:
+        raise ValueError(f"--output {str(out)!r}: cannot write a report folder there ({e.strerror})") from None
 
 
 def _versions():

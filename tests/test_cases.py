@@ -225,6 +225,22 @@ def test_cli_errors_are_one_line(tmp_path, folder):
     assert p.returncode == 2 and "solar_potential" in p.stderr
 
 
+def test_unwritable_report_folder_is_refused_before_the_run(tmp_path, folder):
+    """A file where the report folder should go, or a parent that cannot hold it, is a one-line error
+    before any computation (no "computed in" line), and nothing is left behind."""
+    _write_case(folder, SMALL.format(extra=""))
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    before = sorted(x.name for x in tmp_path.iterdir())
+    for out, words in ((blocker, "is a file"), (blocker / "r", "cannot write a report folder")):
+        p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", str(folder), "-o", str(out)],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 2, p.stderr
+        assert words in p.stderr and "computed in" not in p.stderr
+        assert p.stderr.strip().count("\n") == 0
+    assert sorted(x.name for x in tmp_path.iterdir()) == before
+
+
 PV = SMALL.split("[sky]")[0] + """
 [sky]
 visibility = 40
