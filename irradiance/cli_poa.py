@@ -28,23 +28,21 @@ import sys
 import numpy as np
 
 
-def register(subparsers) -> None:
-    """Add the ``poa`` command to the ``widesky`` parser."""
-    p = subparsers.add_parser("poa", help="per-face plane-of-array irradiance on a 3D mesh",
-                              description=__doc__.split("\n\n")[0])
-    p.add_argument("mesh", nargs="+", help="analysis mesh file(s) (OBJ, PLY, STL, GLB ...)")
-    p.add_argument("--context", action="append", default=[], help="occluding mesh file (repeatable)")
+def add_site_options(p, spectral_model="clear", aerosol="visibility"):
+    """The site, period and weather options shared by ``widesky poa`` and ``widesky pv`` (argparse
+    parser ``p``); ``spectral_model`` and ``aerosol`` are the defaults of ``--spectral-model`` and
+    ``--aerosol`` under a weather file."""
     p.add_argument("--weather", default=None,
                    help="weather file (EPW, TMY3, CSV): site, steps, visibility/AOD, albedo, measured DNI/DHI")
     p.add_argument("--clear-sky", action="store_true",
                    help="with --weather: do not scale the clear sky to the measured DNI/DHI")
-    p.add_argument("--spectral-model", default="clear", choices=("clear", "allsky"),
-                   help="with --weather: 'clear' keeps the clear sky's spectral and angular shape, "
-                        "'allsky' the all-sky model (cloud spectra, CIE overcast light, haze below "
-                        "the dataset's visibility; docs/all-sky.md); the same measured DNI/DHI")
-    p.add_argument("--aerosol", default="visibility", choices=("visibility", "aod"),
-                   help="with --weather: the aerosol of each step from the file's station visibility "
-                        "(default) or its aerosol optical depth column where valid (recommended with "
+    p.add_argument("--spectral-model", default=spectral_model, choices=("clear", "allsky"),
+                   help=f"with --weather (default {spectral_model}): 'clear' keeps the clear sky's spectral and "
+                        "angular shape, 'allsky' the all-sky model (cloud spectra, CIE overcast light, haze "
+                        "below the dataset's visibility; docs/all-sky.md); the same measured DNI/DHI")
+    p.add_argument("--aerosol", default=aerosol, choices=("visibility", "aod"),
+                   help=f"with --weather (default {aerosol}): the aerosol of each step from the file's station "
+                        "visibility or its aerosol optical depth column where valid (recommended with "
                         "--spectral-model allsky, docs/all-sky.md)")
     p.add_argument("--lat", type=float, default=None, help="latitude [deg], north positive")
     p.add_argument("--lon", type=float, default=None, help="longitude [deg], east positive")
@@ -53,6 +51,15 @@ def register(subparsers) -> None:
     p.add_argument("--start", default=None, help="period start (required without --weather)")
     p.add_argument("--end", default=None, help="period end, exclusive (required without --weather)")
     p.add_argument("--step", default="1h", help="step, e.g. 1h or 15min")
+
+
+def register(subparsers) -> None:
+    """Add the ``poa`` command to the ``widesky`` parser."""
+    p = subparsers.add_parser("poa", help="per-face plane-of-array irradiance on a 3D mesh",
+                              description=__doc__.split("\n\n")[0])
+    p.add_argument("mesh", nargs="+", help="analysis mesh file(s) (OBJ, PLY, STL, GLB ...)")
+    p.add_argument("--context", action="append", default=[], help="occluding mesh file (repeatable)")
+    add_site_options(p, spectral_model="clear", aerosol="visibility")
     p.add_argument("--visibility", type=float, default=50.0,
                    help="visibility [km] (with --weather: where the file gives none)")
     p.add_argument("--albedo", type=float, default=0.2,

@@ -24,22 +24,8 @@ import numpy as np
 def _site_args(p):
     p.add_argument("mesh", nargs="+", help="analysis mesh file(s) (OBJ, PLY, STL, GLB ...): one module group each")
     p.add_argument("--context", action="append", default=[], help="occluding mesh file (repeatable)")
-    p.add_argument("--weather", default=None, help="weather file (EPW, TMY3, CSV)")
-    p.add_argument("--clear-sky", action="store_true", help="with --weather: keep the unscaled clear sky")
-    p.add_argument("--spectral-model", default="allsky", choices=("allsky", "clear"),
-                   help="with --weather: 'allsky' (default) the all-sky spectra (cloud-scattered light, CIE "
-                        "overcast distribution, haze; docs/all-sky.md), 'clear' the clear-sky spectra scaled "
-                        "to the measured DNI/DHI")
-    p.add_argument("--aerosol", default="aod", choices=("aod", "visibility"),
-                   help="with --weather: each step's aerosol from the file's aerosol optical depth column "
-                        "where valid (default, recommended by docs/all-sky.md) or its station visibility")
-    p.add_argument("--lat", type=float, default=None, help="latitude [deg], north positive")
-    p.add_argument("--lon", type=float, default=None, help="longitude [deg], east positive")
-    p.add_argument("--site-altitude", type=float, default=0.0, help="site altitude [m]")
-    p.add_argument("--tz", default="UTC", help="time zone: IANA name or hours east of UTC")
-    p.add_argument("--start", default=None, help="period start (required without --weather)")
-    p.add_argument("--end", default=None, help="period end, exclusive (required without --weather)")
-    p.add_argument("--step", default="1h", help="step, e.g. 1h or 15min")
+    from irradiance.cli_poa import add_site_options
+    add_site_options(p, spectral_model="allsky", aerosol="aod")
     p.add_argument("--visibility", type=float, default=50.0, help="visibility [km] where the file gives none")
     p.add_argument("--albedo", type=float, default=0.2, help="ground albedo [1] where the file gives none")
     p.add_argument("--temp-air", type=float, default=20.0, help="air temperature without --weather [degC]")
