@@ -20,7 +20,10 @@ import matplotlib
 matplotlib.use("Agg")
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))  # the checkout's packages when widesky is not installed
+try:                                   # the installed widesky (its C core built) ...
+    import skymodel._core  # noqa: F401
+except ImportError:                    # ... else the checkout's packages (an in-place build)
+    sys.path.insert(0, str(HERE.parent))
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 project = "widesky"

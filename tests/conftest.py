@@ -10,6 +10,11 @@ when it is absent.
 import os
 from pathlib import Path
 
+# Subprocesses the tests start (`python -m skymodel.cli ...`, sphinx) must import the installed package, not
+# the checkout's source folders, which lack the compiled C core in a non-editable install (as in CI):
+# Python 3.11+ leaves the working directory off sys.path with PYTHONSAFEPATH set.
+os.environ.setdefault("PYTHONSAFEPATH", "1")
+
 _SIBLING = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 if not os.environ.get("WIDESKY_DATA_DIR") and _SIBLING.is_dir():
