@@ -37,7 +37,7 @@ def add_site_options(p, spectral_model="clear", aerosol="visibility"):
     p.add_argument("--clear-sky", action="store_true",
                    help="with --weather: do not scale the clear sky to the measured DNI/DHI")
     p.add_argument("--spectral-model", default=spectral_model, choices=("clear", "allsky"),
-                   help=f"with --weather (default {spectral_model}): 'clear' keeps the clear sky's spectral and "
+                   help=f"with --weather (default {spectral_model or 'allsky where the input data directory is available (WIDESKY_DATA_DIR), else clear'}): 'clear' keeps the clear sky's spectral and "
                         "angular shape, 'allsky' the all-sky model (cloud spectra, CIE overcast light, haze "
                         "below the dataset's visibility; docs/all-sky.md); the same measured DNI/DHI")
     p.add_argument("--aerosol", default=aerosol, choices=("visibility", "aod"),

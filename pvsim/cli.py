@@ -25,7 +25,7 @@ def _site_args(p):
     p.add_argument("mesh", nargs="+", help="analysis mesh file(s) (OBJ, PLY, STL, GLB ...): one module group each")
     p.add_argument("--context", action="append", default=[], help="occluding mesh file (repeatable)")
     from irradiance.cli_poa import add_site_options
-    add_site_options(p, spectral_model="allsky", aerosol="aod")
+    add_site_options(p, spectral_model=None, aerosol="aod")
     p.add_argument("--visibility", type=float, default=50.0, help="visibility [km] where the file gives none")
     p.add_argument("--albedo", type=float, default=0.2, help="ground albedo [1] where the file gives none")
     p.add_argument("--temp-air", type=float, default=20.0, help="air temperature without --weather [degC]")
@@ -171,8 +171,14 @@ def _sky_states(args, sky):
         print(f"widesky: warning: {w.message}", file=sys.stderr)
     note = f"weather {args.weather} ({wd.site.latitude:.3f}, {wd.site.longitude:.3f})"
     from irradiance.allsky_sky import weather_measurements
-    measured, how = weather_measurements(wd.data.loc[states.times], args.spectral_model, args.aerosol,
-                                         args.clear_sky)
+    model = args.spectral_model
+    if model is None:                  # the all-sky model reads cloud-water optics from the data directory
+        from skymodel.generator.paths import has_data
+        model = "allsky" if has_data() else "clear"
+        if model == "clear" and not args.clear_sky:
+            print("widesky: warning: no input data directory (WIDESKY_DATA_DIR) for the all-sky model: "
+                  "clear-sky spectra scaled to the measured DNI/DHI", file=sys.stderr)
+    measured, how = weather_measurements(wd.data.loc[states.times], model, args.aerosol, args.clear_sky)
     return states, measured, f"{note}, {how}"
 
 
