@@ -71,7 +71,8 @@ def _fit(rad, th, ph, ele, cfg, half=False):
 
     smp = direction_samples(th, ph, ele)
     br = config_knots(cfg)
-    sun, zen, emph, _ = fit_sky(rad, smp, br, cfg.rank, cfg.smoothing, cfg.iterations, cfg.refine)
+    sun, zen, emph, _ = fit_sky(rad, smp, br, cfg.rank, cfg.smoothing, cfg.iterations, cfg.refine,
+                                cfg.sun_penalty_order)
     if half:
         b = encode_radiance_blocks(sun, zen, emph)
         sun, emph = b["r"]["sun"].astype(float), b["emph"].astype(float)

@@ -71,3 +71,39 @@ def test_refinement_never_increases_the_error():
     refined = fit_radiance(g, z, z, y, sb, zb, eb, 2, iterations=3, refine=2)
     assert refined.nmae <= plain.nmae + 1e-12
     assert refined.nmae < 0.05
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_banded_penalty_matches_the_dense_difference_operators(order):
+    """The banded storage of the smoothness penalty equals the dense quadratic form built from difference matrices
+    (reference: ||D_sun M||^2 + ||M D_zen^T||^2 with D of the stated order along the sun axis and second
+    differences along the zenith axis), and the second-order penalty vanishes on M linear along the sun axis."""
+    from skymodel.generator.fit import _regulariser_banded
+
+    ns, nz = 6, 5
+    band = nz + 1 if order == 1 else 2 * nz
+    ab = _regulariser_banded(ns, nz, band, order)
+    N = ns * nz
+    dense = np.zeros((N, N))
+    for d in range(band + 1):
+        idx = np.arange(N - d)
+        dense[idx, idx + d] = ab[band - d, d:]
+        dense[idx + d, idx] = ab[band - d, d:]
+
+    def diff(n, k):
+        return np.diff(np.eye(n), n=k, axis=0)
+
+    Ds, Dz = diff(ns, order), diff(nz, 2)
+    ref = np.kron(Ds.T @ Ds, np.eye(nz)) + np.kron(np.eye(ns), Dz.T @ Dz)
+    np.testing.assert_allclose(dense, ref, atol=1e-12)
+    linear = np.outer(np.arange(ns, dtype=float), np.ones(nz)).ravel()  # M[i, j] = i
+    q = linear @ dense @ linear
+    assert q == (pytest.approx(0.0, abs=1e-12) if order == 2 else pytest.approx(nz * (ns - 1)))
+
+
+def test_sun_penalty_order_is_checked():
+    g = np.linspace(0, np.pi, 50)
+    z = np.linspace(0, 1.5, 50)
+    kn = np.linspace(0, np.pi, 5)
+    with pytest.raises(ValueError, match="sun_penalty_order"):
+        fit_radiance(g, z, z, np.ones(50), kn, kn / 2, kn / 2, 1, sun_penalty_order=3)

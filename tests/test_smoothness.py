@@ -131,7 +131,7 @@ def test_default_fit_settings_give_a_smooth_accurate_sky(solved_channels):
     smp = direction_samples(solved_channels["zenith"], solved_channels["azimuth"], 8.0)
     br = config_knots(cfg)
     sun, zen, emph, _ = fit_sky(solved_channels["tab"]["grid"], smp, br, cfg.rank, cfg.smoothing, cfg.iterations,
-                                cfg.refine)
+                                cfg.refine, cfg.sun_penalty_order)
     d = S.profile_directions(8.0)
     rad = {}
     for k in ("almucantar", "vertical", "aureole", "zenith"):

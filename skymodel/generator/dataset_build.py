@@ -61,7 +61,7 @@ class BuildConfig:
     visibilities_km [km], albedos [1], elevations_deg [deg] (ascending; values below ``min_solve_elevation_deg``
     are solved at that elevation; values above ``max_fit_elevation_deg`` hold the fit of the highest elevation
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), rank,
-    smoothing [1], iterations, refine (see :func:`skymodel.generator.fit.fit_radiance`); solver settings (n_streams, n_moments); atmosphere (AtmosphereSpec fields);
+    smoothing [1], sun_penalty_order, iterations, refine (see :func:`skymodel.generator.fit.fit_radiance`); solver settings (n_streams, n_moments); atmosphere (AtmosphereSpec fields);
     trans_dims (dDim, aDim), trans_rank; direction grid steps [deg]; validation (counts, seed); seed.
     """
 
@@ -75,6 +75,7 @@ class BuildConfig:
     knot_powers: tuple = (2.0, 1.6, 1.6)
     rank: int = 6
     smoothing: float = 1e-6
+    sun_penalty_order: int = 1
     iterations: int = 4
     refine: int = 2
     n_streams: int = 16
@@ -427,7 +428,7 @@ def fit_weights(solid_angle):
     return np.maximum(w, 0.25 * np.median(w))
 
 
-def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refine=2):
+def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refine=2, sun_penalty_order=1):
     """Fit every channel of one configuration.
 
     Parameters
@@ -453,7 +454,8 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
         if not np.any(y[:, c] > 0):
             continue
         f = fit_radiance(samples["gamma"], samples["zero"], samples["zero"], y[:, c], sb, zb, eb, rank,
-                         weights=w, smoothing=smoothing, iterations=iterations, refine=refine)
+                         weights=w, smoothing=smoothing, iterations=iterations, refine=refine,
+                         sun_penalty_order=sun_penalty_order)
         sun[c], zen[c], emph[c] = f.sun, f.zen, f.emph
         pred = f.evaluate(samples["gamma"], samples["zero"], samples["zero"], sb, zb, eb)
         sw = samples["weights"]
@@ -466,6 +468,8 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
     d = {"knots": list(config.knots), "powers": list(config.knot_powers), "rank": config.rank,
          "smoothing": config.smoothing, "iterations": config.iterations, "refine": config.refine,
          "albedos": list(config.albedos), "v": 1}
+    if config.sun_penalty_order != 1:  # (absent for first-order builds: their cached fits keep their names)
+        d["sun_penalty_order"] = config.sun_penalty_order
     key = hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
     return cache_root(config) / f"fitted_{key}_v{visibility_km:.4f}_e{elevation_deg:.4f}.npz"
 
@@ -484,7 +488,7 @@ def _fit_job(job):
         rad = radiance_with_albedo(s, g, a)
         for k, v in zip(("sun", "zen", "emph", "nmae"), fit_sky(rad, samples, breaks, config.rank,
                                                                 config.smoothing, config.iterations,
-                                                                config.refine)):
+                                                                config.refine, config.sun_penalty_order)):
             out[k].append(v)
     save_state(path, {k: np.stack(v) for k, v in out.items()})
     return vis, ele, path

@@ -47,11 +47,18 @@ def _design(i, wl, wh, n):
     return A
 
 
-def _regulariser_banded(ns, nz, band):
-    """Banded upper storage of the smoothness penalty on M (row-major vec, i * nz + j): first differences
-    along the sun-angle axis (keeps the bandwidth at nz + 1) and second differences along the zenith axis."""
+def _regulariser_banded(ns, nz, band, sun_order=1):
+    """Banded upper storage of the smoothness penalty on M (row-major vec, i * nz + j): differences of order
+    ``sun_order`` (1 or 2) along the sun-angle axis and second differences along the zenith axis. First
+    differences keep the bandwidth at nz + 1, second differences need 2 nz."""
     N = ns * nz
     ab = np.zeros((band + 1, N))
+    if sun_order == 2:
+        Ds, Dz = _second_difference(ns), _second_difference(nz)
+        R = np.kron(Ds.T @ Ds, np.eye(nz)) + np.kron(np.eye(ns), Dz.T @ Dz)
+        for d in range(min(band, N - 1) + 1):
+            ab[band - d, d:] = np.diagonal(R, d)
+        return ab
     # first differences along i: (x[i+1, j] - x[i, j])^2 -> diagonal +1 / +1, off-diagonal (distance nz) -1
     diag = np.zeros(N)
     for i in range(ns - 1):
@@ -98,7 +105,7 @@ class RadianceFit:
 
 
 def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks, rank, *, weights=None,
-                 smoothing=1e-6, iterations=2, refine=0):
+                 smoothing=1e-6, iterations=2, refine=0, sun_penalty_order=1):
     """Fit one configuration's radiance samples into the PSM form (see module docstring).
 
     Parameters
@@ -119,6 +126,10 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
         on the samples is kept).
     refine : int
         Sweeps of alternating least squares on the sun and zenith factors afterwards (0: none).
+    sun_penalty_order : int
+        Order of the differences penalised along the sun-angle axis of M: 1 (slopes; the first builds) or 2
+        (curvature, as along the zenith axis: damps the ripple of knot-spacing period that first differences
+        leave in the rank-truncated factors; docs/default-dataset.md, "Smoothness").
 
     Returns
     -------
@@ -134,9 +145,12 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
     scale = float(np.sqrt(np.sum(w * y * y) / max(np.sum(w), 1e-300))) or 1.0
     yn = y / scale
     N = ns * nz
-    band = nz + 1  # bandwidth of the normal matrix in row-major (i * nz + j) order
+    if sun_penalty_order not in (1, 2):
+        raise ValueError(f"sun_penalty_order must be 1 or 2, got {sun_penalty_order!r}")
+    # bandwidth of the normal matrix in row-major (i * nz + j) order (the data couple i, i+1: nz + 1)
+    band = nz + 1 if sun_penalty_order == 1 else 2 * nz
     lam = smoothing * np.sum(w)
-    reg_ab = _regulariser_banded(ns, nz, band)
+    reg_ab = _regulariser_banded(ns, nz, band, sun_penalty_order)
     # the four M entries each sample touches and their bilinear weights
     cols = np.stack([ig * nz + ia, ig * nz + ia + 1, (ig + 1) * nz + ia, (ig + 1) * nz + ia + 1], axis=1)
     bil = np.stack([gl * al, gl * ah, gh * al, gh * ah], axis=1)
