@@ -19,6 +19,7 @@ every (visibility, altitude, channel) is factored by a truncated SVD into U . V.
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass
 
@@ -47,6 +48,7 @@ def _design(i, wl, wh, n):
     return A
 
 
+@functools.lru_cache(maxsize=8)
 def _regulariser_banded(ns, nz, band, sun_order=1):
     """Banded upper storage of the smoothness penalty on M (row-major vec, i * nz + j): differences of order
     ``sun_order`` (1 or 2) along the sun-angle axis and second differences along the zenith axis. First
@@ -58,6 +60,7 @@ def _regulariser_banded(ns, nz, band, sun_order=1):
         R = np.kron(Ds.T @ Ds, np.eye(nz)) + np.kron(np.eye(ns), Dz.T @ Dz)
         for d in range(min(band, N - 1) + 1):
             ab[band - d, d:] = np.diagonal(R, d)
+        ab.flags.writeable = False  # cached: shared by every fit of this shape
         return ab
     # first differences along i: (x[i+1, j] - x[i, j])^2 -> diagonal +1 / +1, off-diagonal (distance nz) -1
     diag = np.zeros(N)
@@ -73,6 +76,7 @@ def _regulariser_banded(ns, nz, band, sun_order=1):
         for i in range(ns):
             ab[band - d, i * nz + d:(i + 1) * nz] += dd
     ab[band] += diag
+    ab.flags.writeable = False  # cached: shared by every fit of this shape
     return ab
 
 
