@@ -293,7 +293,36 @@ def run_disort(problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config: S
     cfg.bc.surface_albedo = float(albedo)
     r = _disort().solve(cfg)
     rad = np.asarray(r.intensity)[0]
+    if table is not None and not np.isfinite(rad).all():
+        rad = _repair_nonfinite(rad, problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config)
     return rad, float(r.flux_down[-1]), float(r.flux_direct_beam[-1])
+
+
+NUDGE_DEG = 1e-3
+"""Azimuth offset [deg] for re-solving a direction where disortpp returns NaN (:func:`_repair_nonfinite`)."""
+
+
+def _repair_nonfinite(rad, problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config):
+    """disortpp 1.2.1's Buras-Emde correction with a tabulated phase function returns NaN at isolated directions
+    (seen once in the default build: 300 nm, one sub-problem, view zenith 63.75 deg, relative azimuth 0.125 deg, sun
+    at 24.606 deg; the neighbours 0.025 deg away are finite and smooth). Those entries are solved again with the
+    azimuth moved by :data:`NUDGE_DEG` (a radiance change below 1e-6 relative there), and only if that is not
+    finite either with the Legendre-series (Nakajima-Tanaka) correction; anything still not finite is an error."""
+    rad = np.array(rad, float)
+    th = np.asarray(view_zenith_deg, float)
+    ph = np.asarray(rel_azimuth_deg, float)
+    for i, j in np.argwhere(~np.isfinite(rad)):
+        a = ph[j] + NUDGE_DEG if ph[j] + NUDGE_DEG <= 180.0 else ph[j] - NUDGE_DEG
+        v = run_disort(problem, mu0, albedo, th[i:i + 1], np.array([a]), config)[0][0, 0]
+        if not np.isfinite(v):
+            nt = SolverConfig(config.n_streams, config.n_moments, config.intensity_correction, config.skip_tau,
+                              tabulated_phase=False)
+            v = run_disort(problem, mu0, albedo, th[i:i + 1], ph[j:j + 1], nt)[0][0, 0]
+        if not np.isfinite(v):
+            raise RuntimeError(f"DISORT returned a non-finite radiance at view zenith {th[i]} deg, relative "
+                               f"azimuth {ph[j]} deg (mu0 {mu0}, albedo {albedo}) that re-solving did not repair")
+        rad[i, j] = v
+    return rad
 
 
 def _worker_init():

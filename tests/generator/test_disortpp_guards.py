@@ -85,3 +85,30 @@ def test_generator_never_uses_defective_modes():
     src = "\n".join(p.read_text() for p in (pathlib.Path(__file__).parents[2] / "skymodel" / "build").glob("*.py"))
     assert "solve_spectral(" not in src
     assert "use_spherical_beam = True" not in src
+
+
+@pytest.mark.reference
+def test_isolated_nan_of_the_tabulated_correction_is_repaired():
+    """disortpp 1.2.1 returns NaN for one direction of one sub-problem in the default build (300 nm sub-problem 5,
+    43.374 km, sun 24.606 deg, view zenith 63.75 deg, relative azimuth 0.125 deg). run_disort re-solves that entry:
+    the result must be finite and continuous with its neighbours 0.025 deg away (reference: the mean of the two
+    azimuth neighbours, within 0.1 %; the radiance changes by 0.07 % over the 0.05 deg between them)."""
+    import skymodel.generator.solver as solver
+    from skymodel.generator.dataset_build import _problems, load_config
+
+    cfg = load_config(pathlib.Path(__file__).parents[2] / "skymodel" / "data" / "default-dataset.json")
+    probs, _, _ = _problems(43.374, cfg)
+    p = probs[0][5]
+    mu0 = np.cos(np.radians(90.0 - 24.606))
+    th, ph = np.array([63.75]), np.array([0.1, 0.125, 0.15])
+    r, _, _ = solver.run_disort(p, mu0, 0.201, th, ph, cfg.solver_config())
+    assert np.isfinite(r).all()
+    assert r[0, 1] == pytest.approx(0.5 * (r[0, 0] + r[0, 2]), rel=1e-3)
+    # the defect is still there without the repair (if disortpp fixes it, this guard can go)
+    orig = solver._repair_nonfinite
+    try:
+        solver._repair_nonfinite = lambda rad, *a: rad
+        r0, _, _ = solver.run_disort(p, mu0, 0.201, th, ph, cfg.solver_config())
+    finally:
+        solver._repair_nonfinite = orig
+    assert np.isnan(r0[0, 1])
