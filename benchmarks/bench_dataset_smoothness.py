@@ -5,8 +5,12 @@ energy) with its wall time, and draws a contact sheet: up-facing fisheye renders
 (columns) x the sRGB composite and single channels (rows), at 30 km and albedo 0.3 (between grid points of the
 default dataset). With ``--before OLD.dat`` the sheet shows OLD's row block above DATASET's.
 
+With ``--issue-renders PATH`` it draws the three renders issue 11 names (the sRGB sky at 8 deg sun, 30 km; the
+side view toward azimuth 200 deg at 540 nm, 8 deg sun, 50 km; the 1260 nm sky at 45 deg sun, 40 km; albedo 0.3, as
+``widesky sky render`` gives them), before above after when ``--before`` is given.
+
 Run:  python benchmarks/bench_dataset_smoothness.py skymodel/data/default.dat --json /tmp/smooth.json \
-          --sheet docs/figures/dataset_contact_sheet.png [--before old.dat]
+          --sheet docs/figures/dataset_contact_sheet.png [--before old.dat] [--issue-renders PATH]
 """
 
 from __future__ import annotations
@@ -20,6 +24,51 @@ import numpy as np
 
 ELEVATIONS = (0.0, 2.0, 5.0, 8.0, 13.5, 25.0, 45.0, 70.0, 90.0)
 ROWS = ("sRGB", 540.0, 1260.0, 2220.0)
+
+
+ISSUE_RENDERS = (  # (title, render_sky keywords) of the renders issue 11 names
+    ("sRGB, sun 8 deg, 30 km", {"sun_elevation": 8.0, "visibility": 30.0}),
+    ("side view to 200 deg, 540 nm, sun 8 deg, 50 km",
+     {"sun_elevation": 8.0, "visibility": 50.0, "view": "side", "view_azimuth": 200.0, "wavelengths": [540.0]}),
+    ("1260 nm, sun 45 deg, 40 km", {"sun_elevation": 45.0, "visibility": 40.0, "wavelengths": [1260.0]}),
+)
+
+
+def issue_renders(models, labels, path, resolution=300):
+    """The renders of :data:`ISSUE_RENDERS` for each of ``models`` (rows labelled ``labels``) to ``path`` [PNG]."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from skymodel.colour import srgb_encode
+    from skymodel.render import render_sky
+
+    fig, axes = plt.subplots(len(models), len(ISSUE_RENDERS), figsize=(3.2 * len(ISSUE_RENDERS), 3.3 * len(models)),
+                             squeeze=False)
+    for i, (model, label) in enumerate(zip(models, labels)):
+        for j, (title, kw) in enumerate(ISSUE_RENDERS):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                r = render_sky(model, albedo=0.3, resolution=resolution, threads=1, **kw)
+            if "wavelengths" in kw:
+                lum = r.values[..., 0].astype(float)
+                rgb = np.repeat(lum[..., None], 3, axis=-1)
+            else:
+                lum, rgb = r.luminance_like(), r.rgb_linear()
+            v = lum[r.mask]
+            ref = np.percentile(v[v > 0], 99.0) if np.any(v > 0) else 1.0
+            img = np.clip(srgb_encode(rgb / ref), 0, 1)
+            img[~r.mask] = 0.0
+            ax = axes[i, j]
+            ax.imshow(img)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if i == 0:
+                ax.set_title(title, fontsize=8)
+            if j == 0:
+                ax.set_ylabel(label, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
 
 
 def _image(model, elevation, row, visibility, albedo, resolution):
@@ -82,6 +131,7 @@ def main(argv=None):
     ap.add_argument("--sheet", default=None, help="contact sheet PNG")
     ap.add_argument("--before", default=None, help="a second dataset drawn above (the sheet's 'before')")
     ap.add_argument("--no-check", action="store_true", help="only draw the sheet")
+    ap.add_argument("--issue-renders", default=None, help="PNG of the three renders issue 11 names")
     ap.add_argument("--visibility", type=float, default=30.0, help="visibility of the sheet [km]")
     ap.add_argument("--albedo", type=float, default=0.3, help="ground albedo of the sheet [1]")
     a = ap.parse_args(argv)
@@ -108,6 +158,12 @@ def main(argv=None):
             models, labels = [load_dataset(a.before), model], ["before", "after"]
         contact_sheet(models, labels, a.sheet, a.visibility, a.albedo)
         print("wrote", a.sheet)
+    if a.issue_renders:
+        models, labels = [model], ["after" if a.before else ""]
+        if a.before:
+            models, labels = [load_dataset(a.before), model], ["before (first file)", "after (rebuilt)"]
+        issue_renders(models, labels, a.issue_renders)
+        print("wrote", a.issue_renders)
 
 
 if __name__ == "__main__":
