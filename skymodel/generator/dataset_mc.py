@@ -187,7 +187,7 @@ def stored_polarisation(state: dict, albedo: float):
 
 def polarisation_summary(state: dict, albedo: float) -> dict:
     """Figures of one state's polarisation for the sidecar: per channel (55,) the solid-angle mean of the degree of
-    linear polarisation sqrt(Q^2 + U^2) / I, of |Q_s| / I, of the circular part |V| / I, and of the standard error of
+    linear polarisation sqrt(Q^2 + U^2) / I, of abs(Q_s) / I, of the circular part abs(V) / I, and of the standard error of
     P [1]."""
     from .dataset_build import direction_samples
 
