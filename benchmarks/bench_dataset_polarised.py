@@ -107,12 +107,12 @@ def main(argv=None):
         ax[0].plot(CHANNEL_CENTERS_NM, 100 * nm, "o-", label="radiance fit NMAE (median over states)")
         if nz["rel_se_i_median"]:
             ax[0].plot(CHANNEL_CENTERS_NM, 100 * np.asarray(nz["rel_se_i_median"]), "s:",
-                       label="Monte Carlo se(I)/I (median, MC radiance states)")
+                       label="Monte Carlo se(I)/I bound (median, MC radiance states)")
         ax[0].set_ylabel("%")
         ax[0].set_yscale("log")
         ax[0].legend(fontsize=8)
         ax[1].plot(CHANNEL_CENTERS_NM, pm, "o-", label="polarisation fit MAE (median over states)")
-        ax[1].plot(CHANNEL_CENTERS_NM, nz["se_p_median"], "s:", label="Monte Carlo se of the target (median)")
+        ax[1].plot(CHANNEL_CENTERS_NM, nz["se_p_median"], "s:", label="Monte Carlo se bound of the target (median)")
         ax[1].plot(CHANNEL_CENTERS_NM, out["dolp_mean"], "^-", alpha=0.6, label="mean degree of linear polarisation")
         ax[1].set_ylabel("degree of polarisation [1]")
         ax[1].set_xlabel("channel centre [nm]")
