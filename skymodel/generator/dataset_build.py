@@ -22,6 +22,10 @@ Pipeline (docs/default-dataset.md):
 Every solved state is cached as ``.npz`` under ``~/.cache/widesky/dataset-build/<hash>/`` (hash of the
 solver-relevant settings), so an interrupted build resumes where it stopped, and changing knots or ranks
 refits without solving again.
+
+With the Monte Carlo keys of :class:`BuildConfig` (``polarisation``, ``mc_below_elevation_deg``, ...) the build also
+solves polarised Monte Carlo states in spherical shells (:mod:`skymodel.generator.dataset_mc`): the polarisation
+section, and the radiance of low-sun and twilight elevations.
 """
 
 from __future__ import annotations
