@@ -185,6 +185,7 @@ typedef struct {
     const int32_t *cch;                /* (K,) output channel of each component */
     const double *cw;                  /* (K,) weight of each component in its channel */
     int polarised;
+    int nbins; /* >= 1: output cch[k] + min(ground reflections of the path so far, nbins - 1) (1: no binning) */
 } optics_t;
 
 /* Rayleigh scattering matrix elements at cosine mu: P11, P12, P33, P44 (P22 = P11 - (1 - Delta)) */
@@ -341,8 +342,16 @@ typedef struct {
     double *tau;  /* (K,) */
     double *tot;  /* (K,) */
     double *acc;  /* (C, 4) per-sample contribution */
+    int bounces;  /* ground reflections of the current path so far */
     path_t path, sunp;
 } work_t;
+
+/* output row of component k for light that has been reflected ``extra`` more times by the ground */
+static inline int out_row(const optics_t *o, const work_t *w, int k, int extra)
+{
+    int b = w->bounces + extra;
+    return o->cch[k] + (b < o->nbins - 1 ? b : o->nbins - 1);
+}
 
 static inline double clamp_exp(double x) { return exp(x > 700 ? 700 : (x < -745 ? -745 : x)); }
 
@@ -388,7 +397,7 @@ static void nee_scatter(const job_t *jb, work_t *w, const double *x, int l, cons
         double f = t * o->cw[k] / denom;
         double col[4] = {z6[0], c2 * z6[1], -s2 * z6[1], 0};
         if (!o->polarised) col[1] = col[2] = 0;
-        double *acc = w->acc + 4 * o->cch[k];
+        double *acc = w->acc + 4 * out_row(o, w, k, 0);
         for (int i = 0; i < 4; ++i)
             acc[i] += f * (M[4 * i] * col[0] + M[4 * i + 1] * col[1] + M[4 * i + 2] * col[2]);
     }
@@ -406,7 +415,7 @@ static void nee_ground(const job_t *jb, work_t *w, const double *x, const double
         double t = clamp_exp(-w->tot[k]);
         double f = t * o->albedo[k] / M_PI * cs * o->cw[k] / denom;
         const double *M = w->M + 16 * k;
-        double *acc = w->acc + 4 * o->cch[k];
+        double *acc = w->acc + 4 * out_row(o, w, k, 1);
         for (int i = 0; i < 4; ++i) acc[i] += f * M[4 * i];
     }
 }
@@ -422,6 +431,7 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
     for (long smp = 0; smp < jb->n_samples; ++smp) {
         int h = (int)(smp % K);
         memset(w->acc, 0, sizeof(double) * 4 * C);
+        w->bounces = 0;
         for (int k = 0; k < K; ++k) {
             double *M = w->M + 16 * k;
             memset(M, 0, sizeof(double) * 16);
@@ -486,6 +496,7 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
                     tmax = fmax(tmax, fabs(M[0]));
                 }
                 perpendicular(d, a_cur);
+                w->bounces++;
                 l = 0;
                 if (tmax / denom <= 0) break;
                 if (order >= 2 && tmax / denom < ROULETTE) {
@@ -624,29 +635,30 @@ static int get_buf(PyObject *o, buf_t *bb, int writable, const char *name, Py_ss
 #define NB 17
 
 /* trace(radii, planar, ext, sca_r, sca_a, ray, amu, atab, acdf, ctab, albedo, cch, cw, n_channels, sun,
- *       obs_r, obs_layer, views, frames, n_samples, seed, max_order, polarised, nthreads, sum, sumsq)
+ *       obs_r, obs_layer, views, frames, n_samples, seed, max_order, polarised, nthreads, sum, sumsq, nbins)
  * shapes: radii (L+1,), ext/sca_r/sca_a (L, K), ray (K, 2), amu (NA,), atab (G, NA, 4), acdf (G, NA),
  * ctab (K,) int32, albedo (K,), cch (K,) int32, cw (K,), sun (3,), views/frames (N, 3),
- * sum/sumsq (N, C, 4) float64, accumulated in place. */
+ * sum/sumsq (N, C, 4) float64, accumulated in place; nbins >= 1 output rows per channel (cch[k] + nbins - 1 < C)
+ * split by the number of ground reflections before the light reaches the observer (the last row holds the rest). */
 static PyObject *py_trace(PyObject *self, PyObject *args)
 {
     (void)self;
     PyObject *o[NB];
-    int planar, nch, obs_layer, max_order, polarised, nthreads, L, K, G, NA;
+    int planar, nch, obs_layer, max_order, polarised, nthreads, L, K, G, NA, nbins;
     long nsamp;
     double obs_r;
     unsigned long long seed;
     int N;
-    if (!PyArg_ParseTuple(args, "iiiiiOiOOOOOOOOOOOiOdiOOlKiiiOO", &L, &K, &G, &NA, &planar, &o[0], &nch, &o[1],
+    if (!PyArg_ParseTuple(args, "iiiiiOiOOOOOOOOOOOiOdiOOlKiiiOOi", &L, &K, &G, &NA, &planar, &o[0], &nch, &o[1],
                           &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &N, &o[12],
                           &obs_r, &obs_layer, &o[13], &o[14], &nsamp, &seed, &max_order, &polarised, &nthreads,
-                          &o[15], &o[16]))
+                          &o[15], &o[16], &nbins))
         return NULL;
     buf_t b[NB];
     memset(b, 0, sizeof(b));
     PyObject *ret = NULL;
     if (L < 1 || K < 1 || G < 1 || NA < 2 || nch < 1 || N < 0 || nsamp < 1 || obs_layer < 0 || obs_layer >= L ||
-        max_order < 1) {
+        max_order < 1 || nbins < 1) {
         PyErr_SetString(PyExc_ValueError, "montecarlo trace: invalid sizes");
         return NULL;
     }
@@ -663,7 +675,7 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
     {
         const int32_t *ctab = (const int32_t *)b[8].b.buf, *cch = (const int32_t *)b[10].b.buf;
         for (int k = 0; k < K; ++k)
-            if (ctab[k] < 0 || ctab[k] >= G || cch[k] < 0 || cch[k] >= nch) {
+            if (ctab[k] < 0 || ctab[k] >= G || cch[k] < 0 || cch[k] + nbins - 1 >= nch) {
                 PyErr_SetString(PyExc_ValueError, "montecarlo trace: component table or channel out of range");
                 goto done;
             }
@@ -671,7 +683,7 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
         optics_t op = {K, L, nch, G, NA, (const double *)b[1].b.buf, (const double *)b[2].b.buf,
                        (const double *)b[3].b.buf, (const double *)b[4].b.buf, (const double *)b[5].b.buf,
                        (const double *)b[6].b.buf, (const double *)b[7].b.buf, ctab, (const double *)b[9].b.buf,
-                       cch, (const double *)b[11].b.buf, polarised};
+                       cch, (const double *)b[11].b.buf, polarised, nbins};
         job_t jb = {&g, &op, (const double *)b[12].b.buf, obs_r, obs_layer, nsamp, max_order, (uint64_t)seed};
         const double *views = (const double *)b[13].b.buf, *frames = (const double *)b[14].b.buf;
         double *sum = (double *)b[15].b.buf, *sumsq = (double *)b[16].b.buf;

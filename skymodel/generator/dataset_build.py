@@ -22,6 +22,10 @@ Pipeline (docs/default-dataset.md):
 Every solved state is cached as ``.npz`` under ``~/.cache/widesky/dataset-build/<hash>/`` (hash of the
 solver-relevant settings), so an interrupted build resumes where it stopped, and changing knots or ranks
 refits without solving again.
+
+With the Monte Carlo keys of :class:`BuildConfig` (``polarisation``, ``mc_below_elevation_deg``, ...) the build also
+solves polarised Monte Carlo states in spherical shells (:mod:`skymodel.generator.dataset_mc`): the polarisation
+section, and the radiance of low-sun and twilight elevations.
 """
 
 from __future__ import annotations
@@ -63,6 +67,16 @@ class BuildConfig:
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), rank,
     smoothing [1], sun_penalty_order, iterations, refine (see :func:`skymodel.generator.fit.fit_radiance`); solver settings (n_streams, n_moments); atmosphere (AtmosphereSpec fields);
     trans_dims (dDim, aDim), trans_rank; direction grid steps [deg]; validation (counts, seed); seed.
+
+    Monte Carlo (:mod:`skymodel.generator.dataset_mc`; all off by default, and a configuration without these keys
+    builds exactly what it built before, with the same cache keys): ``polarisation`` (bool) adds the format's
+    polarisation section, fitted from a polarised Monte Carlo state per grid state, with ``pol_knots`` (gamma,
+    zenith counts) and ``pol_rank``; ``mc_below_elevation_deg`` [deg]: grid elevations below it take their radiance
+    from the Monte Carlo state (spherical shells, solved at their own elevation, which may be down to -10 deg; grid
+    elevations below 0 need it); ``mc_samples`` paths per direction and channel batch, ``mc_channels_per_batch``
+    neighbouring channels sharing paths, ``mc_ground_orders`` orders of ground reflection kept apart (all albedos
+    from one run), ``mc_zenith_step_deg`` [deg] and ``mc_azimuths_deg`` [deg] (None: the default set) the
+    direction grid, ``mc_seed``.
     """
 
     visibilities_km: tuple = (20.0, 27.4, 37.5, 51.3, 70.2, 96.2, 131.8)
@@ -88,6 +102,35 @@ class BuildConfig:
     validation_on_grid: int = 12
     seed: int = 20261123
     description: str = "widesky default dataset"
+    polarisation: bool = False
+    mc_below_elevation_deg: float | None = None
+    mc_samples: int = 1024
+    mc_channels_per_batch: int = 4
+    mc_ground_orders: int = 4
+    mc_zenith_step_deg: float = 6.0
+    mc_azimuths_deg: tuple | None = None
+    mc_seed: int = 20261201
+    pol_knots: tuple = (24, 16)
+    pol_rank: int = 3
+
+    def __post_init__(self):
+        ele = np.asarray(self.elevations_deg, float)
+        low = float(ele.min()) if ele.size else 0.0
+        b = self.mc_below_elevation_deg
+        if low < 0 and (b is None or low >= float(b)):
+            raise ValueError(f"elevations_deg down to {low} deg: elevations below 0 (twilight) need "
+                             f"mc_below_elevation_deg above them (got {b})")
+        if low < -10.0:
+            raise ValueError(f"elevations_deg: {low} deg below the Monte Carlo solver's range [-10, 90] deg")
+        if int(self.mc_samples) < 1 or int(self.mc_channels_per_batch) < 1:
+            raise ValueError(f"mc_samples={self.mc_samples} and mc_channels_per_batch={self.mc_channels_per_batch} "
+                             "must be >= 1")
+        if not 1 <= int(self.mc_ground_orders) <= 16:
+            raise ValueError(f"mc_ground_orders={self.mc_ground_orders} outside [1, 16]")
+        if not 0.5 <= float(self.mc_zenith_step_deg) <= 30.0:
+            raise ValueError(f"mc_zenith_step_deg={self.mc_zenith_step_deg} outside [0.5, 30] deg")
+        if len(tuple(self.pol_knots)) != 2 or min(int(k) for k in self.pol_knots) < 2 or int(self.pol_rank) < 1:
+            raise ValueError(f"pol_knots={self.pol_knots} must be two counts >= 2 and pol_rank={self.pol_rank} >= 1")
 
     def solver_config(self):
         from .solver import SolverConfig
@@ -105,7 +148,20 @@ class BuildConfig:
         return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:12]
 
     def to_dict(self) -> dict:
-        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+        """The configuration as JSON-ready values; the Monte Carlo keys only where the configuration uses the Monte
+        Carlo solver (so a scalar build's sidecar is unchanged)."""
+        from .dataset_mc import uses_mc
+
+        d = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+        if not uses_mc(self):
+            for k in MC_KEYS:
+                d.pop(k)
+        return d
+
+
+MC_KEYS = ("polarisation", "mc_below_elevation_deg", "mc_samples", "mc_channels_per_batch", "mc_ground_orders",
+           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "pol_knots", "pol_rank")
+"""The configuration keys of the Monte Carlo path (:mod:`skymodel.generator.dataset_mc`)."""
 
 
 def load_config(path) -> BuildConfig:
@@ -292,8 +348,24 @@ def radiance_with_albedo(solved: dict, ground: dict, albedo: float) -> np.ndarra
     return out
 
 
+def _job_file(job) -> Path:
+    kind, config, vis, ele, extra = job
+    if kind == "ground":
+        return ground_file(config, vis)
+    if kind == "mc":
+        from .dataset_mc import mc_file
+        return mc_file(config, vis, ele)
+    return state_file(config, vis, ele, kind, extra)
+
+
 def _solve_job(job):
     kind, config, vis, ele, extra = job
+    if kind == "mc":
+        from .dataset_mc import solve_mc_state
+        path = _job_file(job)
+        if not path.exists():
+            save_state(path, solve_mc_state(vis, ele, config))
+        return kind, vis, ele, path
     if kind == "ground":
         path = ground_file(config, vis)
         if not path.exists():
@@ -315,7 +387,13 @@ def _solve_job(job):
 
 def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: float, albedo: float):
     """Cached solver radiance of a grid state at ``albedo`` [1]: (zenith (T,) [deg], azimuth (P,) [deg],
-    radiance (T, P, 55) [W m-2 sr-1 nm-1], solved elevation [deg])."""
+    radiance (T, P, 55) [W m-2 sr-1 nm-1], solved elevation [deg]); from the Monte Carlo state where the configuration
+    takes that elevation's radiance from it."""
+    from .dataset_mc import mc_file, mc_stokes, radiance_by_mc
+
+    if radiance_by_mc(config, elevation_deg):
+        m = load_state(mc_file(config, visibility_km, elevation_deg))
+        return m["zenith"], m["azimuth"], mc_stokes(m, albedo)[0][..., 0], float(m["solved_elevation"])
     s = load_state(state_file(config, visibility_km, elevation_deg))
     g = load_state(ground_file(config, visibility_km))
     return s["zenith"], s["azimuth"], radiance_with_albedo(s, g, albedo), float(s["solved_elevation"])
@@ -357,16 +435,22 @@ def _pool_map(fn, jobs, processes, progress, desc):
 
 def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, validation: bool = True,
               log=None):
-    """Solve (or find in the cache) every grid state, ground response and validation state of ``config``."""
-    jobs = [("ground", config, float(v), 0.0, None) for v in config.visibilities_km]
+    """Solve (or find in the cache) every grid state, ground response and validation state of ``config``; the
+    Monte Carlo states (:mod:`skymodel.generator.dataset_mc`), the longest tasks, go first."""
+    from .dataset_mc import needs_mc_state, radiance_by_mc
+
+    fitted = _fitted_elevations(config)
+    jobs = [("mc", config, float(v), float(e), None) for e in fitted if needs_mc_state(config, e)
+            for v in config.visibilities_km]
+    disort = [e for e in fitted if not radiance_by_mc(config, e)]
+    if disort or validation:
+        jobs += [("ground", config, float(v), 0.0, None) for v in config.visibilities_km]
     # lowest elevations first within each visibility is irrelevant; interleave for balance
     # grid elevations above max_fit_elevation_deg hold the fit of the highest one below (see assemble): not solved
-    jobs += [("fit", config, float(v), float(e), None) for e in _fitted_elevations(config)
-             for v in config.visibilities_km]
+    jobs += [("fit", config, float(v), float(e), None) for e in disort for v in config.visibilities_km]
     if validation:
         jobs += [("val_" + k, config, v, e, a) for k, v, e, a in validation_states(config)]
-    todo = [j for j in jobs if not (ground_file(config, j[2]) if j[0] == "ground"
-                                   else state_file(config, j[2], j[3], j[0], j[4])).exists()]
+    todo = [j for j in jobs if not _job_file(j).exists()]
     todo = list({(j[0], j[2], j[3], j[4]): j for j in todo}.values())
     if log:
         log(f"solve: {len(jobs) - len(todo)} of {len(jobs)} states cached in {cache_root(config)}")
@@ -401,9 +485,10 @@ def direction_samples(zenith_deg, azimuth_deg, solar_elevation_deg):
 
     Returns
     -------
-    dict with directions (T*P, 3) east-north-up (sun toward the south), gamma, zero (T*P,) [rad] from
-    :func:`skymodel.reference_angles`, and solid-angle weights (T*P,) [sr] of the grid cells (whole circle:
-    each half-circle azimuth counts twice).
+    dict with directions (T*P, 3) east-north-up (sun toward the south), gamma, zero, shadow (T*P,) [rad] from
+    :func:`skymodel.reference_angles`, alpha (the zenith factor's angle: zero with the sun up, shadow below the
+    horizon) and solid-angle weights (T*P,) [sr] of the grid cells (whole circle: each half-circle azimuth counts
+    twice).
     """
     from ..evaluate import directions_from_angles, reference_angles
 
@@ -418,7 +503,9 @@ def direction_samples(zenith_deg, azimuth_deg, solar_elevation_deg):
     pr = np.radians(ph)
     pe = np.concatenate([[pr[0]], 0.5 * (pr[1:] + pr[:-1]), [pr[-1]]])
     w = 2.0 * np.outer(band, np.diff(pe)).ravel()
-    return {"directions": dirs, "gamma": ang["gamma"], "zero": ang["zero"], "weights": w}
+    alpha = ang["zero"] if float(solar_elevation_deg) >= 0 else ang["shadow"]
+    return {"directions": dirs, "gamma": ang["gamma"], "zero": ang["zero"], "shadow": ang["shadow"], "alpha": alpha,
+            "weights": w}
 
 
 def fit_weights(solid_angle):
@@ -453,11 +540,12 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
     for c in range(C):
         if not np.any(y[:, c] > 0):
             continue
-        f = fit_radiance(samples["gamma"], samples["zero"], samples["zero"], y[:, c], sb, zb, eb, rank,
+        alpha = samples.get("alpha", samples["zero"])
+        f = fit_radiance(samples["gamma"], alpha, samples["zero"], y[:, c], sb, zb, eb, rank,
                          weights=w, smoothing=smoothing, iterations=iterations, refine=refine,
                          sun_penalty_order=sun_penalty_order)
         sun[c], zen[c], emph[c] = f.sun, f.zen, f.emph
-        pred = f.evaluate(samples["gamma"], samples["zero"], samples["zero"], sb, zb, eb)
+        pred = f.evaluate(samples["gamma"], alpha, samples["zero"], sb, zb, eb)
         sw = samples["weights"]
         nmae[c] = np.sum(sw * np.abs(pred - y[:, c])) / max(np.sum(sw * np.abs(y[:, c])), 1e-300)
     return sun, zen, emph, nmae
@@ -470,6 +558,12 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
          "albedos": list(config.albedos), "v": 1}
     if config.sun_penalty_order != 1:  # (absent for first-order builds: their cached fits keep their names)
         d["sun_penalty_order"] = config.sun_penalty_order
+    from .dataset_mc import mc_key, uses_mc
+
+    if uses_mc(config):  # only then: a scalar configuration keeps its fit-cache names
+        d["mc"] = {"key": mc_key(config), "below": config.mc_below_elevation_deg,
+                   "polarisation": bool(config.polarisation), "pol_knots": list(config.pol_knots),
+                   "pol_rank": int(config.pol_rank)}
     key = hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
     return cache_root(config) / f"fitted_{key}_v{visibility_km:.4f}_e{elevation_deg:.4f}.npz"
 
@@ -479,19 +573,51 @@ def _fit_job(job):
     path = fit_file(config, vis, ele)
     if path.exists():
         return vis, ele, path
+    from .dataset_mc import mc_file, needs_mc_state, radiance_by_mc
+
     breaks = config_knots(config)
-    s = load_state(state_file(config, vis, ele))
-    g = load_state(ground_file(config, vis))
-    samples = direction_samples(s["zenith"], s["azimuth"], float(s["solved_elevation"]))
+    m = load_state(mc_file(config, vis, ele)) if needs_mc_state(config, ele) else None
+    if radiance_by_mc(config, ele):
+        zen_deg, az_deg, solved = m["zenith"], m["azimuth"], float(m["solved_elevation"])
+
+        def radiance(a):
+            return state_radiance(config, vis, ele, a)[2]
+    else:
+        s = load_state(state_file(config, vis, ele))
+        g = load_state(ground_file(config, vis))
+        zen_deg, az_deg, solved = s["zenith"], s["azimuth"], float(s["solved_elevation"])
+
+        def radiance(a):
+            return radiance_with_albedo(s, g, a)
+    samples = direction_samples(zen_deg, az_deg, solved)
     out = {k: [] for k in ("sun", "zen", "emph", "nmae")}
     for a in config.albedos:
-        rad = radiance_with_albedo(s, g, a)
+        rad = radiance(a)
         for k, v in zip(("sun", "zen", "emph", "nmae"), fit_sky(rad, samples, breaks, config.rank,
                                                                 config.smoothing, config.iterations,
                                                                 config.refine, config.sun_penalty_order)):
             out[k].append(v)
+    if config.polarisation:
+        out.update(_fit_polarisation_state(config, m))
     save_state(path, {k: np.stack(v) for k, v in out.items()})
     return vis, ele, path
+
+
+def _fit_polarisation_state(config, m) -> dict:
+    """Polarisation factors of one Monte Carlo state for every albedo of the grid, with the fit's error and the
+    state's noise and polarisation figures (lists over albedos, each (C, ...))."""
+    from .dataset_mc import fit_polarisation, pol_knots, polarisation_summary, stored_polarisation
+
+    samples = direction_samples(m["zenith"], m["azimuth"], float(m["solved_elevation"]))
+    out = {k: [] for k in ("psun", "pzen", "pmae", "pse", "dolp", "abs_qs", "docp")}
+    for a in config.albedos:
+        p, _ = stored_polarisation(m, a)
+        psun, pzen, mae = fit_polarisation(p, samples, pol_knots(config), int(config.pol_rank))
+        summ = polarisation_summary(m, a)
+        for k, v in (("psun", psun), ("pzen", pzen), ("pmae", mae), ("pse", summ["se_p"]), ("dolp", summ["dolp"]),
+                     ("abs_qs", summ["abs_qs"]), ("docp", summ["docp"])):
+            out[k].append(np.asarray(v))
+    return out
 
 
 def _fitted_elevations(config: BuildConfig) -> list:
@@ -499,6 +625,11 @@ def _fitted_elevations(config: BuildConfig) -> list:
     ele = [float(e) for e in config.elevations_deg]
     ok = [e for e in ele if e <= config.max_fit_elevation_deg]
     return ok or ele[:1]
+
+
+FIT_KEYS = ("sun", "zen", "emph", "nmae", "psun", "pzen", "pmae", "pse", "dolp", "abs_qs", "docp")
+"""Arrays of a fitted state: radiance factors and error, then (polarised builds) the polarisation factors, their
+fit error, noise and figures (:func:`_fit_polarisation_state`)."""
 
 
 def fit_all(config: BuildConfig, processes=2, progress=True, log=None):
@@ -517,7 +648,7 @@ def fit_all(config: BuildConfig, processes=2, progress=True, log=None):
         for ie, e in enumerate(config.elevations_deg):
             e_fit = max([x for x in fitted_ele if x <= float(e)] or fitted_ele[:1])
             d = load_state(fit_file(config, float(v), e_fit))
-            for k in ("sun", "zen", "emph", "nmae"):
+            for k in [k for k in FIT_KEYS if k in d]:
                 x = d[k]  # (nAlb, C, ...)
                 if k not in res:
                     res[k] = np.zeros((nv, na, 1, ne) + x.shape[1:])
@@ -654,6 +785,15 @@ def extraterrestrial_table(config: BuildConfig, data_dir=None):
     return wl, e
 
 
+def _low_sun_note(config: BuildConfig) -> str:
+    if config.mc_below_elevation_deg is not None:
+        return (f"grid elevations below {config.mc_below_elevation_deg} deg take their sky radiance from the Monte "
+                "Carlo solver in spherical shells, solved at their own elevation (twilight included)")
+    return (f"grid elevations below {config.min_solve_elevation_deg} deg hold the sky solved at "
+            f"{config.min_solve_elevation_deg} deg; plane-parallel diffuse is unreliable below "
+            "about 3 deg (docs/default-dataset.md)")
+
+
 def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, data_dir=None) -> dict:
     """Fit (cached) and write the dataset file ``output`` and its sidecar ``<output>.json``; the grid states must
     be solved already (:func:`solve_all`). Returns the sidecar dict."""
@@ -668,7 +808,7 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
         # toward such a configuration fails off the diagonal (measured: 50 % NMAE at 86.9 deg). Those grid
         # elevations hold the factors fitted at the highest elevation below the limit (about 1 % NMAE on the
         # zenith-sun sky, measured).
-        for k in ("sun", "zen", "emph"):
+        for k in [k for k in ("sun", "zen", "emph", "psun", "pzen") if k in fitted]:
             fitted[k][:, :, :, src[-1] + 1:] = fitted[k][:, :, :, src[-1]: src[-1] + 1]
         if log:
             log(f"elevations {ele[src[-1] + 1:].tolist()} deg hold the fit at {ele[src[-1]]} deg")
@@ -679,10 +819,15 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
     if log:
         log(f"transmittance: rank {config.trans_rank}+1, max |sqrt(T) error| {terr:.2e}")
     sun = fitted["sun"]
+    pol = {}
+    if config.polarisation:
+        from .dataset_mc import pol_knots
+        psb, pzb = pol_knots(config)
+        pol = dict(pol_sun_breaks=psb, pol_zenith_breaks=pzb, pol_sun=fitted["psun"], pol_zen=fitted["pzen"])
     c = DatasetContents(np.asarray(config.visibilities_km, float), np.asarray(config.albedos, float),
                         np.array([0.0]), np.asarray(config.elevations_deg, float), 280.0, 40.0, sb, zb, eb,
                         sun, fitted["zen"], fitted["emph"], np.array([0.0], np.float32),
-                        np.asarray(config.visibilities_km, np.float32), U, V)
+                        np.asarray(config.visibilities_km, np.float32), U, V, **pol)
     output = Path(output)
     write_dataset(output, c)
     wl, et = extraterrestrial_table(config, data_dir)
@@ -698,9 +843,7 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
                    "n_streams": config.n_streams, "n_moments": config.n_moments,
                    "atmosphere": {k: (list(v) if isinstance(v, tuple) else v)
                                   for k, v in asdict(config.spec()).items()},
-                   "low_sun": f"grid elevations below {config.min_solve_elevation_deg} deg hold the sky solved at "
-                              f"{config.min_solve_elevation_deg} deg; plane-parallel diffuse is unreliable below "
-                              "about 3 deg (docs/default-dataset.md)"},
+                   "low_sun": _low_sun_note(config)},
         "grids": {"visibilities_km": list(config.visibilities_km), "albedos": list(config.albedos),
                   "altitudes_m": [0.0], "elevations_deg": list(config.elevations_deg),
                   "sun_breaks_rad": sb.tolist(), "zenith_breaks_rad": zb.tolist(), "emph_breaks_rad": eb.tolist(),
@@ -713,8 +856,40 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
         "file_bytes": output.stat().st_size,
         "assemble_seconds": round(time.perf_counter() - t0, 1),
     }
+    from .dataset_mc import uses_mc
+
+    if uses_mc(config):
+        meta["monte_carlo"] = _mc_meta(config, fitted)
     output.with_name(output.name + ".json").write_text(json.dumps(meta, indent=1))
     return meta
+
+
+def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
+    """Sidecar section of a build that uses the Monte Carlo solver: its settings, which elevations it solved, and
+    (polarised builds) the polarisation fit's error and the Monte Carlo noise per channel."""
+    from .dataset_mc import mc_key, pol_knots, radiance_by_mc
+
+    ele = [float(e) for e in config.elevations_deg]
+    d = {"method": "polarised backward Monte Carlo in spherical shells (skymodel.generator.montecarlo), "
+                   "next-event estimation, hero-wavelength batches; all albedos from one run by order of ground "
+                   "reflection",
+         "key": mc_key(config), "samples_per_direction_and_batch": int(config.mc_samples),
+         "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
+         "zenith_step_deg": float(config.mc_zenith_step_deg), "seed": int(config.mc_seed),
+         "radiance_elevations_deg": [e for e in ele if radiance_by_mc(config, e)],
+         "disort_elevations_deg": [e for e in ele if not radiance_by_mc(config, e)]}
+    if config.polarisation:
+        psb, pzb = pol_knots(config)
+        per_ch = lambda k: np.median(fitted[k].reshape(-1, fitted[k].shape[-1]), axis=0).round(5).tolist()  # noqa
+        d["polarisation"] = {
+            "stored": "P = Q_s / I with Q_s referred to the scattering plane; readers return -P, the signed degree of "
+                      "linear polarisation (docs/atmosphere-and-solver.md)",
+            "rank": int(config.pol_rank), "sun_breaks_rad": psb.tolist(), "zenith_breaks_rad": pzb.tolist(),
+            "fit_mae_mean": float(fitted["pmae"].mean()), "fit_mae_median_per_channel": per_ch("pmae"),
+            "mc_se_mean": float(fitted["pse"].mean()), "mc_se_median_per_channel": per_ch("pse"),
+            "dolp_mean_per_channel": per_ch("dolp"), "abs_qs_over_i_mean_per_channel": per_ch("abs_qs"),
+            "docp_mean_per_channel": per_ch("docp")}
+    return d
 
 
 def smoothness_report(dataset_path) -> dict:

@@ -97,19 +97,20 @@ class RadianceFit:
     emph: np.ndarray
     nmae: float
 
-    def evaluate(self, gamma, alpha, zero, sun_breaks, zen_breaks, emph_breaks):
-        """The fitted radiance at angles [rad] (the reference's form, clamped at 0)."""
+    def evaluate(self, gamma, alpha, zero, sun_breaks, zen_breaks, emph_breaks, clamp=True):
+        """The fitted radiance at angles [rad] (the reference's form, clamped at 0 unless ``clamp`` is False)."""
         ig, gl, gh = hat_weights(gamma, sun_breaks)
         ia, al, ah = hat_weights(alpha, zen_breaks)
         iz, zl, zh = hat_weights(zero, emph_breaks)
         s = self.sun[:, ig] * gl + self.sun[:, ig + 1] * gh
         z = self.zen[:, ia] * al + self.zen[:, ia + 1] * ah
         e = self.emph[iz] * zl + self.emph[iz + 1] * zh
-        return np.maximum(e * np.sum(s * z, axis=0), 0.0)
+        v = e * np.sum(s * z, axis=0)
+        return np.maximum(v, 0.0) if clamp else v
 
 
 def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks, rank, *, weights=None,
-                 smoothing=1e-6, iterations=2, refine=0, sun_penalty_order=1):
+                 smoothing=1e-6, iterations=2, refine=0, sun_penalty_order=1, clamp=True):
     """Fit one configuration's radiance samples into the PSM form (see module docstring).
 
     Parameters
@@ -134,6 +135,8 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
         Order of the differences penalised along the sun-angle axis of M: 1 (slopes; the first builds) or 2
         (curvature, as along the zenith axis: damps the ripple of knot-spacing period that first differences
         leave in the rank-truncated factors; docs/default-dataset.md, "Smoothness").
+    clamp : bool
+        The model is clamped at 0 (radiance, the default); False for a signed quantity (polarisation).
 
     Returns
     -------
@@ -161,6 +164,7 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
     lo_k, hi_k = np.triu_indices(4)  # cols are ascending within a row, so k <= l gives c_k <= c_l
     emph = np.ones(ne)
     best = None
+    pos = (lambda x: np.maximum(x, 0.0)) if clamp else (lambda x: x)
     for it in range(iterations):
         e = emph[iz] * zl + emph[iz + 1] * zh
         vals = bil * e[:, None]                                   # (m, 4) nonzeros of the design rows
@@ -183,7 +187,7 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
         s_at = sun[:, ig] * gl + sun[:, ig + 1] * gh
         z_at = zen[:, ia] * al + zen[:, ia + 1] * ah
         h = np.sum(s_at * z_at, axis=0)
-        pred = np.maximum((E @ emph) * h, 0.0)
+        pred = pos((E @ emph) * h)
         err = float(np.sum(w * np.abs(pred - yn)))
         if best is None or err < best[0]:
             best = (err, sun, zen, emph.copy())
@@ -198,16 +202,16 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
             emph = emph_new / mean
     _, sun, zen, emph = best  # the alternation is not monotone in the absolute error: keep the best iterate
     if refine > 0:
-        sun, zen = _refine_factors(sun, zen, (ig, gl, gh), (ia, al, ah), E @ emph, yn, w, lam, refine)
+        sun, zen = _refine_factors(sun, zen, (ig, gl, gh), (ia, al, ah), E @ emph, yn, w, lam, refine, pos)
     s_at = sun[:, ig] * gl + sun[:, ig + 1] * gh
     z_at = zen[:, ia] * al + zen[:, ia + 1] * ah
     h = np.sum(s_at * z_at, axis=0)
-    fit = np.maximum((E @ emph) * h, 0.0) * scale
+    fit = pos((E @ emph) * h) * scale
     nmae = float(np.sum(w * np.abs(fit - y)) / max(np.sum(w * np.abs(y)), 1e-300))
     return RadianceFit(sun * scale, zen, emph, nmae)
 
 
-def _refine_factors(sun, zen, hs, hz, e, y, w, lam, sweeps):
+def _refine_factors(sun, zen, hs, hz, e, y, w, lam, sweeps, pos=lambda x: np.maximum(x, 0.0)):
     """Alternating weighted least squares on the rank factors with the emphasis ``e`` (per sample) fixed:
     sun given zen, then zen given sun (each a small dense problem with a second-difference penalty); keeps
     the result only if it lowers the weighted absolute error."""
@@ -216,7 +220,7 @@ def _refine_factors(sun, zen, hs, hz, e, y, w, lam, sweeps):
 
     def err(s_, z_):
         h = np.sum((s_[:, hs[0]] * hs[1] + s_[:, hs[0] + 1] * hs[2]) * (z_[:, hz[0]] * hz[1] + z_[:, hz[0] + 1] * hz[2]), 0)
-        return float(np.sum(w * np.abs(np.maximum(e * h, 0.0) - y)))
+        return float(np.sum(w * np.abs(pos(e * h) - y)))
 
     def solve(other, h_other, h_self, n_self):
         # each design row has 2R non-zeros: assemble the normal matrix from them (sparse outer products)

@@ -22,8 +22,10 @@ Method (kernel comments give the details):
 - Stokes vectors are carried as the 4x4 product of rotated scattering matrices from the observer; the observer's
   frame is the local meridian plane: Q > 0 is polarisation in the vertical plane through the view direction,
   U > 0 at +45 deg from it toward increasing azimuth (the convention of Coulson, Dave & Sekera 1960 and Natraj et
-  al. 2009 up to the sign of U, checked in tests/generator/test_montecarlo_validation.py); V follows Bohren &
-  Huffman's sign of S34 and is not validated;
+  al. 2009 up to the sign of U, checked in tests/generator/test_montecarlo_validation.py); V > 0 is circular
+  polarisation whose electric vector turns counterclockwise as seen by the observer looking at the sky (toward the
+  source), i.e. V = i (E x E*) . k for Bohren & Huffman's fields (time factor exp(-i omega t)): checked against an
+  independent Jones-calculus quadrature of second-order scattering in tests/generator/test_montecarlo_circular.py;
 - Russian roulette below a path weight of 0.05 after the second order; ``max_order`` caps the scattering order.
 
 Each view direction has its own random stream (seed, direction index), so results are reproducible and do not depend
@@ -59,6 +61,10 @@ class MonteCarloConfig:
     channels_per_batch : consecutive channels of the request whose components share paths (hero wavelengths), >= 1;
         4 neighbouring channels are 3-7x more efficient than 1 (`benchmarks/bench_montecarlo.py hero`).
     threads : OpenMP threads of the kernel (0 = the OpenMP default).
+    ground_orders : 0 (default): the ground reflects with the components' albedo. B >= 1: every path is traced over
+        a white ground (albedo 1) and its contributions are split by the number n of ground reflections before they
+        reach the observer (n = 0 .. B - 2 exactly, the last order holding n >= B - 1), so that one run gives the
+        sky over any Lambertian albedo a as sum_n a^n X_n (:func:`stokes_at_albedo`).
     """
 
     samples: int = 4096
@@ -68,6 +74,7 @@ class MonteCarloConfig:
     max_order: int = 500
     channels_per_batch: int = 4
     threads: int = 1
+    ground_orders: int = 0
 
     def __post_init__(self):
         if int(self.samples) < 1:
@@ -82,6 +89,8 @@ class MonteCarloConfig:
             raise ValueError(f"channels_per_batch={self.channels_per_batch} must be >= 1")
         if int(self.threads) < 0:
             raise ValueError(f"threads={self.threads} must be >= 0")
+        if not (0 <= int(self.ground_orders) <= 16):
+            raise ValueError(f"ground_orders={self.ground_orders} outside [0, 16]")
 
 
 @dataclass(frozen=True)
@@ -180,8 +189,9 @@ def _unit_views(view_zenith_deg, relative_azimuth_deg, downward: bool):
 class StokesResult:
     """Monte Carlo output (N directions, C outputs).
 
-    stokes (N, C, 4) mean (I, Q, U, V) [per unit solar irradiance normal to the beam, sr-1, unless scaled];
-    stderr (N, C, 4) standard error of the mean [same unit]; samples: paths per direction; seconds: wall time [s].
+    stokes (N, C, 4) mean (I, Q, U, V) [per unit solar irradiance normal to the beam, sr-1, unless scaled], or
+    (N, C, B, 4) per order of ground reflection when traced with ``ground_orders`` B >= 1;
+    stderr: standard error of the mean, same shape and unit; samples: paths per direction; seconds: wall time [s].
     """
 
     stokes: np.ndarray
@@ -213,7 +223,8 @@ def trace(components: Components, solar_zenith_deg: float, view_zenith_deg, rela
 
     Returns
     -------
-    StokesResult with radiance per unit solar irradiance normal to the beam [sr-1].
+    StokesResult with radiance per unit solar irradiance normal to the beam [sr-1]; with ``config.ground_orders``
+    B >= 1 its arrays have an extra axis of the B orders of ground reflection (N, C, B, 4).
     """
     from .. import _montecarlo
 
@@ -234,6 +245,9 @@ def trace(components: Components, solar_zenith_deg: float, view_zenith_deg, rela
         raise ValueError(f"observer_altitude_km={alt} outside [{lv[0]}, {lv[-1]}] km")
     L, K = cp.extinction.shape
     C = int(cp.channel.max()) + 1
+    B = int(config.ground_orders)
+    albedo = np.ones(K) if B else cp.albedo
+    cch = np.asarray(cp.channel, np.int32) * max(B, 1)
     planar = config.planet_radius_km is None
     R = 0.0 if planar else float(config.planet_radius_km)
     radii = np.ascontiguousarray(lv + R)
@@ -251,20 +265,59 @@ def trace(components: Components, solar_zenith_deg: float, view_zenith_deg, rela
     sun = np.array([np.sin(z), 0.0, np.cos(z)])
     views, frames = _unit_views(vz, va, downward)
     n = int(np.ceil(int(config.samples) / K) * K)
-    s = np.zeros((len(vz), C, 4))
+    s = np.zeros((len(vz), C * max(B, 1), 4))
     s2 = np.zeros_like(s)
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
     t0 = time.perf_counter()
-    _montecarlo.trace(L, K, mats.shape[0], len(mu), int(planar), radii, C, f64(cp.extinction), f64(cp.rayleigh),
+    _montecarlo.trace(L, K, mats.shape[0], len(mu), int(planar), radii, C * max(B, 1), f64(cp.extinction), f64(cp.rayleigh),
                       f64(cp.aerosol), f64(np.stack([delta, delta_p], axis=1)), f64(mu), f64(mats), f64(cdf),
-                      np.ascontiguousarray(cp.aerosol_table, np.int32), f64(cp.albedo),
-                      np.ascontiguousarray(cp.channel, np.int32), f64(cp.weight), len(vz), f64(sun), alt + R, layer,
+                      np.ascontiguousarray(cp.aerosol_table, np.int32), f64(albedo),
+                      np.ascontiguousarray(cch, np.int32), f64(cp.weight), len(vz), f64(sun), alt + R, layer,
                       views, frames, n, int(config.seed), int(config.max_order), int(bool(config.polarised)),
-                      int(config.threads), s, s2)
+                      int(config.threads), s, s2, max(B, 1))
     mean = s / n
     var = np.maximum(s2 / n - mean ** 2, 0.0)
-    return StokesResult(stokes=mean, stderr=np.sqrt(var / n), samples=n, seconds=time.perf_counter() - t0,
-                        meta={"components": K})
+    se = np.sqrt(var / n)
+    if B:
+        mean, se = mean.reshape(len(vz), C, B, 4), se.reshape(len(vz), C, B, 4)
+    return StokesResult(stokes=mean, stderr=se, samples=n, seconds=time.perf_counter() - t0,
+                        meta={"components": K, "ground_orders": B})
+
+
+def stokes_at_albedo(orders, albedo, stderr=None):
+    """Stokes vectors over a Lambertian ground of albedo ``albedo`` [1] in [0, 1] from a run with ``ground_orders``
+    B >= 1 (:class:`MonteCarloConfig`).
+
+    Parameters
+    ----------
+    orders : (..., C, B, 4) contributions X_n by the number n of ground reflections (the last holds n >= B - 1).
+    albedo : float [1], or (C,) per channel.
+    stderr : optional (..., C, B, 4) their standard errors.
+
+    Returns
+    -------
+    (..., C, 4) = sum_{n < B-1} a^n X_n + a^(B-1) X_rest (1 - q) / (1 - a q), where the tail beyond B - 2 reflections
+    is taken as geometric with the ratio q of the intensities of the last two exact orders (per channel, summed over
+    the leading axes, within [0, 0.9]; exact at a = 0 and a = 1 for any q). With ``stderr``: (value, bound), the
+    bound sum_n a^n se_n on the standard error (the orders share paths, so their errors may correlate).
+    """
+    x = np.asarray(orders, float)
+    B = x.shape[-2]
+    a = np.asarray(albedo, float)
+    if np.any((a < 0) | (a > 1)):
+        raise ValueError(f"albedo={albedo} outside [0, 1]")
+    a = np.broadcast_to(a, x.shape[-3:-2])[:, None]  # (C, 1)
+    pw = a ** np.arange(B)[None, :]                   # (C, B)
+    if B >= 3:
+        lead = tuple(range(x.ndim - 3))
+        i_last, i_prev = x[..., B - 2, 0].sum(axis=lead), x[..., B - 3, 0].sum(axis=lead)
+        q = np.clip(np.divide(i_last, i_prev, out=np.zeros_like(i_last), where=i_prev > 0), 0.0, 0.9)[:, None]
+        pw = pw.copy()
+        pw[:, -1:] *= (1.0 - q) / (1.0 - a * q)
+    val = np.einsum("...cbs,cb->...cs", x, pw)
+    if stderr is None:
+        return val
+    return val, np.einsum("...cbs,cb->...cs", np.asarray(stderr, float), pw)
 
 
 def hemisphere_directions(n: int, seed: int = 0):
@@ -285,7 +338,8 @@ class MonteCarloSky:
     """Monte Carlo sky radiance of one sky state (N directions, C channels).
 
     channels (C,); wavelength_nm (C,) [nm]; extraterrestrial (C,) band-mean ET [W m-2 nm-1];
-    stokes (N, C, 4) (I, Q, U, V) [W m-2 sr-1 nm-1]; stderr (N, C, 4) its standard error [W m-2 sr-1 nm-1];
+    stokes (N, C, 4) (I, Q, U, V) [W m-2 sr-1 nm-1], or (N, C, B, 4) by order of ground reflection when solved with
+    ``ground_orders`` B >= 1 (:func:`stokes_at_albedo`); stderr: its standard error, same shape and unit;
     view_zenith_deg, relative_azimuth_deg (N,) [deg]; solar_elevation_deg [deg]; samples per direction;
     seconds [s] wall time.
     """
@@ -303,7 +357,7 @@ class MonteCarloSky:
 
     @property
     def radiance(self) -> np.ndarray:
-        """Sky radiance I [W m-2 sr-1 nm-1], shape (N, C)."""
+        """Sky radiance I [W m-2 sr-1 nm-1], shape (N, C) (N, C, B with ground orders)."""
         return self.stokes[..., 0]
 
 
@@ -335,7 +389,8 @@ def solve_sky_mc(state, spec=None, view_zenith_deg=(0.0,), relative_azimuth_deg=
     va = np.broadcast_to(np.atleast_1d(np.asarray(relative_azimuth_deg, float)), vz.shape).copy()
     nb = int(config.channels_per_batch)
     batches = [ch[i:i + nb] for i in range(0, len(ch), nb)]
-    out = np.zeros((len(vz), len(ch), 4))
+    B = int(config.ground_orders)
+    out = np.zeros((len(vz), len(ch)) + ((B,) if B else ()) + (4,))
     err = np.zeros_like(out)
     t0 = time.perf_counter()
     samples = 0
@@ -350,8 +405,9 @@ def solve_sky_mc(state, spec=None, view_zenith_deg=(0.0,), relative_azimuth_deg=
         cfg = MonteCarloConfig(**{**config.__dict__, "seed": (int(config.seed) + 7919 * int(b[0])) % 2 ** 64})
         r = trace(comps, 90.0 - el, vz, va, cfg)
         j = np.searchsorted(ch, b)
-        out[:, j] = r.stokes * et_ch[b][None, :, None]
-        err[:, j] = r.stderr * et_ch[b][None, :, None]
+        et_b = et_ch[b].reshape((1, -1) + (1,) * (out.ndim - 2))
+        out[:, j] = r.stokes * et_b
+        err[:, j] = r.stderr * et_b
         samples = max(samples, r.samples)
     return MonteCarloSky(channels=ch, wavelength_nm=CHANNEL_CENTERS_NM[ch], extraterrestrial=et_ch[ch], stokes=out,
                          stderr=err, view_zenith_deg=vz, relative_azimuth_deg=va, solar_elevation_deg=el,

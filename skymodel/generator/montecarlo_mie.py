@@ -21,6 +21,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import os
 
 import numpy as np
 
@@ -87,7 +88,7 @@ def component_matrix(component: str, relative_humidity: int, wavelength_nm: floa
         z = np.load(path)
         return z["matrix"], float(z["csca"])
     mat, csca = _component_matrix(component, rh, float(wavelength_nm), None if data_dir is None else str(data_dir))
-    tmp = path.with_suffix(".tmp.npz")
+    tmp = path.with_name(f"{path.stem}.tmp-{os.getpid()}.npz")  # pool or Dask workers may race to fill the cache
     np.savez(tmp, matrix=mat, csca=csca)
     tmp.replace(path)
     return mat, csca

@@ -123,6 +123,33 @@ def test_large_planet_equals_plane_parallel_and_twilight_needs_shells():
         trace(slab, 92.0, vz, va, MonteCarloConfig(samples=10, **PP))
 
 
+def test_ground_orders_give_every_albedo_from_one_run():
+    """A run over a white ground split by order of ground reflection (``ground_orders``) reproduces separate runs at
+    albedo 0.6 (Rayleigh slab tau 0.3, polarised, plane-parallel) within 4 se, and exactly its own orders at a = 0 / 1;
+    spherical shells with a sun below the horizon too."""
+    from skymodel.generator.montecarlo import stokes_at_albedo
+
+    vz, va = np.array([10.0, 40.0, 60.0, 80.0, 40.0]), np.array([0.0, 30.0, 90.0, 140.0, 180.0])
+    direct = trace(rayleigh_slab(0.3, 0.6), 50.0, vz, va, MonteCarloConfig(samples=20000, seed=5, **PP))
+    orders = trace(rayleigh_slab(0.3, 0.0), 50.0, vz, va, MonteCarloConfig(samples=20000, seed=6, ground_orders=4,
+                                                                           **PP))
+    assert orders.stokes.shape == (5, 1, 4, 4)
+    v, se = stokes_at_albedo(orders.stokes, 0.6, orders.stderr)
+    tol = 4 * np.hypot(se, direct.stderr) + 1e-12
+    assert np.all(np.abs(v - direct.stokes)[..., :3] <= tol[..., :3])
+    np.testing.assert_allclose(stokes_at_albedo(orders.stokes, 0.0), orders.stokes[:, :, 0])
+    np.testing.assert_allclose(stokes_at_albedo(orders.stokes, 1.0), orders.stokes.sum(axis=2))
+    sph = MonteCarloConfig(samples=4000, seed=7)
+    d2 = trace(rayleigh_slab(0.3, 0.6), 92.0, vz, va, sph)
+    o2 = trace(rayleigh_slab(0.3, 0.0), 92.0, vz, va, MonteCarloConfig(samples=4000, seed=8, ground_orders=3))
+    v2, se2 = stokes_at_albedo(o2.stokes, 0.6, o2.stderr)
+    assert np.all(np.abs(v2 - d2.stokes)[..., 0] <= 4 * np.hypot(se2, d2.stderr)[..., 0] + 1e-15)
+    with pytest.raises(ValueError, match="albedo"):
+        stokes_at_albedo(orders.stokes, 1.5)
+    with pytest.raises(ValueError, match="ground_orders"):
+        MonteCarloConfig(ground_orders=-1)
+
+
 def test_reproducible_and_thread_independent():
     slab = rayleigh_slab(0.3, albedo=0.1, n_layers=2)
     vz, va = np.array([0.0, 50.0, 70.0, 30.0]), np.array([0.0, 90.0, 180.0, 45.0])

@@ -1,0 +1,246 @@
+"""Monte Carlo sky states of a dataset build: polarisation, low sun and twilight (``widesky dataset build``).
+
+A build configuration turns the Monte Carlo solver (:mod:`skymodel.generator.montecarlo`) on with
+``polarisation: true`` (every fitted grid state gets a polarised Monte Carlo solution, whose degree of polarisation
+fills the format's polarisation section) and/or ``mc_below_elevation_deg`` (grid elevations below it take their sky
+radiance from the Monte Carlo solution in spherical shells instead of plane-parallel DISORT; elevations below 0 deg,
+down to -4.2 deg as the official datasets, need it). Without those keys a build is the scalar DISORT build, byte
+for byte and with the same cache keys.
+
+One Monte Carlo state = one (visibility, solar elevation) on its own product grid of view zeniths x relative
+azimuths (:func:`mc_directions`), all 55 channels in batches of neighbouring channels that share paths, traced over
+a white ground with the contributions split by the number of ground reflections (``ground_orders``), so that every
+albedo of the grid comes from one run (:func:`skymodel.generator.montecarlo.stokes_at_albedo`). It is cached as
+``mc_<key>_v<vis>_e<ele>.npz`` beside the DISORT states, ``<key>`` hashing everything that changes its numbers.
+
+**Polarisation quantity** (what the format's polarisation factors hold; docs/atmosphere-and-solver.md). The
+reference's ``polarisation()`` returns the negated stored value; we store P = Q_s / I, with Q_s the Stokes Q referred
+to the scattering plane (the plane through the sun, the observer and the view direction; Q_s > 0 polarised in that
+plane), so that readers get -Q_s / I = (I_perp - I_par) / I: the signed degree of linear polarisation, positive where
+skylight is polarised perpendicular to the scattering plane (Rayleigh scattering), negative near the neutral points.
+Its magnitude equals the degree of linear polarisation sqrt(Q^2 + U^2) / I wherever the polarisation is
+perpendicular or parallel to the scattering plane (exactly in the sun's vertical, by symmetry); elsewhere it is
+smaller by cos(2 chi) for a rotation chi of the plane of polarisation (measured by :func:`polarisation_summary`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+
+import numpy as np
+
+from .cache import cache_root
+
+MC_AZIMUTHS_DEG = (0.0, 1.0, 2.5, 5.0, 10.0, 17.0, 25.0, 35.0, 47.5, 60.0, 75.0, 90.0, 105.0, 120.0, 135.0, 150.0,
+                   165.0, 180.0)
+"""Default relative azimuths of the Monte Carlo direction grid [deg] (0 = toward the sun), refined near the sun."""
+MC_SUN_OFFSETS_DEG = (1.0, 3.0)
+"""Offsets of extra view zeniths around the solar zenith [deg] (sun above the horizon)."""
+
+
+def uses_mc(config) -> bool:
+    """Whether the build configuration needs Monte Carlo states at all."""
+    return bool(config.polarisation) or config.mc_below_elevation_deg is not None
+
+
+def radiance_by_mc(config, elevation_deg: float) -> bool:
+    """Whether the sky radiance of grid elevation ``elevation_deg`` [deg] comes from the Monte Carlo solution."""
+    b = config.mc_below_elevation_deg
+    return b is not None and float(elevation_deg) < float(b)
+
+
+def needs_mc_state(config, elevation_deg: float) -> bool:
+    """Whether the grid elevation ``elevation_deg`` [deg] has a Monte Carlo state (polarisation or radiance)."""
+    return bool(config.polarisation) or radiance_by_mc(config, elevation_deg)
+
+
+def mc_config(config, visibility_km: float, elevation_deg: float):
+    """The :class:`skymodel.generator.montecarlo.MonteCarloConfig` of one grid state (its own seed)."""
+    from .montecarlo import MonteCarloConfig
+
+    h = hashlib.sha1(json.dumps([int(config.mc_seed), round(float(visibility_km), 4),
+                                 round(float(elevation_deg), 4)]).encode()).hexdigest()
+    return MonteCarloConfig(samples=int(config.mc_samples), seed=int(h[:15], 16),
+                            channels_per_batch=int(config.mc_channels_per_batch),
+                            ground_orders=int(config.mc_ground_orders), threads=1)
+
+
+def mc_key(config) -> str:
+    """Hash of everything that changes a Monte Carlo state's numbers (12 hex digits)."""
+    d = {"atmosphere": config.atmosphere, "samples": int(config.mc_samples), "seed": int(config.mc_seed),
+         "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
+         "zenith_step": float(config.mc_zenith_step_deg), "azimuths": [float(x) for x in mc_azimuths(config)],
+         "v": 1}
+    return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:12]
+
+
+def mc_azimuths(config) -> np.ndarray:
+    """Relative azimuths of the Monte Carlo grid [deg], ascending in [0, 180]."""
+    az = MC_AZIMUTHS_DEG if config.mc_azimuths_deg is None else config.mc_azimuths_deg
+    return np.unique(np.asarray(az, float))
+
+
+def mc_file(config, visibility_km: float, elevation_deg: float):
+    """Cache file of one Monte Carlo state [.npz]."""
+    return cache_root(config) / f"mc_{mc_key(config)}_v{visibility_km:.4f}_e{elevation_deg:.4f}.npz"
+
+
+def mc_directions(solar_elevation_deg: float, config):
+    """Product grid of one Monte Carlo state: view zenith (T,) [deg] ascending in [0, 89.95] (every
+    ``mc_zenith_step_deg`` plus a horizon band and, with the sun up, zeniths around the sun) and relative azimuth
+    (P,) [deg] (:func:`mc_azimuths`)."""
+    from .solver import MAX_VIEW_ZENITH_DEG
+
+    step = float(config.mc_zenith_step_deg)
+    th = [np.arange(0.0, 89.0, step), [84.0, 87.0, 88.5, MAX_VIEW_ZENITH_DEG]]
+    zs = 90.0 - float(solar_elevation_deg)
+    if zs < 90.0:
+        off = np.asarray(MC_SUN_OFFSETS_DEG)
+        th += [[zs], zs + off, zs - off]
+    th = np.unique(np.round(np.clip(np.concatenate(th), 0.0, MAX_VIEW_ZENITH_DEG), 6))
+    return th, mc_azimuths(config)
+
+
+def solve_mc_state(visibility_km: float, elevation_deg: float, config, data_dir=None) -> dict:
+    """Polarised Monte Carlo solution of one grid state in spherical shells.
+
+    Returns
+    -------
+    dict with zenith (T,), azimuth (P,) [deg]; stokes, stderr (T, P, 55, B, 4) (I, Q, U, V) [W m-2 sr-1 nm-1] by
+    order of ground reflection (B = ``mc_ground_orders``) in the observer's meridian frame; solved_elevation [deg];
+    samples (paths per direction and channel batch); seconds [s].
+    """
+    from .montecarlo import solve_sky_mc
+    from .solver import SkyState
+
+    t0 = time.perf_counter()
+    th, ph = mc_directions(elevation_deg, config)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    state = SkyState(45.0, visibility_km=float(visibility_km), ground_albedo=0.0)
+    r = solve_sky_mc(state, config.spec(), T.ravel(), P.ravel(), None, mc_config(config, visibility_km, elevation_deg),
+                     solar_elevation_deg=float(elevation_deg), data_dir=data_dir)
+    shape = (len(th), len(ph)) + r.stokes.shape[1:]
+    return {"zenith": th, "azimuth": ph, "stokes": r.stokes.reshape(shape), "stderr": r.stderr.reshape(shape),
+            "solved_elevation": float(elevation_deg), "samples": r.samples, "seconds": time.perf_counter() - t0}
+
+
+def mc_stokes(state: dict, albedo: float):
+    """Stokes vectors of a cached Monte Carlo state over a ground of albedo ``albedo`` [1]: (value, stderr bound),
+    each (T, P, 55, 4) [W m-2 sr-1 nm-1]."""
+    from .montecarlo import stokes_at_albedo
+
+    return stokes_at_albedo(state["stokes"], float(albedo), state["stderr"])
+
+
+def scattering_plane_rotation(zenith_deg, azimuth_deg, solar_elevation_deg: float):
+    """cos 2 chi, sin 2 chi of the angle chi from the Monte Carlo observer frame's first axis (in the vertical plane
+    through the view) to the scattering plane (through the view and the sun), for view zenith (T,) and relative
+    azimuth (P,) [deg] and the solar elevation [deg]; arrays (T, P). Where the view points at the sun or away from it
+    the plane is undefined and chi = 0."""
+    from .montecarlo import _unit_views
+
+    T, P = np.meshgrid(np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float), indexing="ij")
+    v, a = _unit_views(T.ravel(), P.ravel(), False)
+    w = -v                        # propagation toward the observer
+    b = np.cross(w, a)            # second axis of the kernel's frame (a, w x a)
+    z = np.radians(90.0 - float(solar_elevation_deg))
+    s = np.array([np.sin(z), 0.0, np.cos(z)])
+    p = s[None, :] - (v @ s)[:, None] * v
+    c, sn = np.einsum("ij,ij->i", a, p), np.einsum("ij,ij->i", b, p)
+    n = c * c + sn * sn
+    ok = n > 1e-20
+    c2 = np.where(ok, (c * c - sn * sn) / np.where(ok, n, 1.0), 1.0)
+    s2 = np.where(ok, 2.0 * c * sn / np.where(ok, n, 1.0), 0.0)
+    return c2.reshape(T.shape), s2.reshape(T.shape)
+
+
+def scattering_plane_stokes(state: dict, albedo: float):
+    """(I, Q_s, U_s, V) [W m-2 sr-1 nm-1] of a Monte Carlo state over albedo ``albedo`` [1] with Q, U referred to the
+    scattering plane (Q_s > 0: polarised in the plane through the sun and the view), shape (T, P, 55, 4), and the
+    standard-error bound of the same shape."""
+    s, e = mc_stokes(state, albedo)
+    c2, s2 = scattering_plane_rotation(state["zenith"], state["azimuth"], float(state["solved_elevation"]))
+    c2, s2 = c2[..., None], s2[..., None]
+    out = s.copy()
+    out[..., 1] = s[..., 1] * c2 + s[..., 2] * s2
+    out[..., 2] = -s[..., 1] * s2 + s[..., 2] * c2
+    err = e.copy()
+    err[..., 1] = np.abs(e[..., 1] * c2) + np.abs(e[..., 2] * s2)
+    err[..., 2] = np.abs(e[..., 1] * s2) + np.abs(e[..., 2] * c2)
+    return out, err
+
+
+def stored_polarisation(state: dict, albedo: float):
+    """The value the format's polarisation factors hold, P = Q_s / I [1] (readers return -P, the signed degree of
+    polarisation; module docstring), shape (T, P, 55), and its standard error estimate (delta method, without the
+    I-Q covariance, which only lowers it for a ratio of positively correlated estimates) [1]. Zero where I = 0."""
+    s, e = scattering_plane_stokes(state, albedo)
+    i, q = s[..., 0], s[..., 1]
+    ok = i > 0
+    safe = np.where(ok, i, 1.0)
+    p = np.where(ok, q / safe, 0.0)
+    se = np.where(ok, np.sqrt(e[..., 1] ** 2 + (p * e[..., 0]) ** 2) / safe, 0.0)
+    return p, se
+
+
+def polarisation_summary(state: dict, albedo: float) -> dict:
+    """Figures of one state's polarisation for the sidecar: per channel (55,) the solid-angle mean of the degree of
+    linear polarisation sqrt(Q^2 + U^2) / I, of abs(Q_s) / I, of the circular part abs(V) / I, and of the standard error of
+    P [1]."""
+    from .dataset_build import direction_samples
+
+    s, _ = scattering_plane_stokes(state, albedo)
+    p, se = stored_polarisation(state, albedo)
+    w = direction_samples(state["zenith"], state["azimuth"], float(state["solved_elevation"]))["weights"]
+    w = w.reshape(len(state["zenith"]), len(state["azimuth"]))[..., None]
+    i = np.where(s[..., 0] > 0, s[..., 0], np.inf)
+    mean = lambda x: (np.sum(w * x, axis=(0, 1)) / np.sum(w)).tolist()  # noqa: E731
+    return {"dolp": mean(np.hypot(s[..., 1], s[..., 2]) / i), "abs_qs": mean(np.abs(s[..., 1]) / i),
+            "docp": mean(np.abs(s[..., 3]) / i), "se_p": mean(se)}
+
+
+def fit_polarisation(values, samples, breaks, rank, smoothing=1e-5, refine=2):
+    """Fit every channel of one configuration's polarisation into the format's form P = sum_r psun_r(gamma) pzen_r(zero)
+    (no emphasis, no clamp).
+
+    Parameters
+    ----------
+    values : (T, P, C) [1] on the grid of ``samples`` (:func:`skymodel.generator.dataset_build.direction_samples`).
+    breaks : (sun, zenith) knots [rad]; rank : int.
+
+    Returns
+    -------
+    psun (C, rank, nPSun), pzen (C, rank, nPZen), mae (C,) [1] solid-angle weighted mean absolute error on the samples.
+    """
+    from .dataset_build import fit_weights
+    from .fit import fit_radiance
+
+    y = np.asarray(values, float).reshape(-1, values.shape[-1])
+    C = y.shape[1]
+    sb, zb = breaks
+    eb = np.array([0.0, 0.5 * np.pi])
+    w = fit_weights(samples["weights"])
+    sw = samples["weights"]
+    psun = np.zeros((C, rank, len(sb)))
+    pzen = np.zeros((C, rank, len(zb)))
+    mae = np.zeros(C)
+    for c in range(C):
+        if not np.any(y[:, c] != 0):
+            continue
+        f = fit_radiance(samples["gamma"], samples["zero"], samples["zero"], y[:, c], sb, zb, eb, rank, weights=w,
+                         smoothing=smoothing, iterations=1, refine=refine, clamp=False)
+        psun[c], pzen[c] = f.sun, f.zen * f.emph[0]
+        pred = f.evaluate(samples["gamma"], samples["zero"], samples["zero"], sb, zb, eb, clamp=False)
+        mae[c] = np.sum(sw * np.abs(pred - y[:, c])) / np.sum(sw)
+    return psun, pzen, mae
+
+
+def pol_knots(config):
+    """(sun, zenith) knots [rad] of the polarisation section: gamma in [0, pi] dense near the sun, the
+    altitude-corrected view zenith ``zero`` in [0, pi/2] dense near the horizon."""
+    from .dataset_build import knots
+
+    ns, nz = (int(x) for x in config.pol_knots)
+    return knots(ns, 0.0, np.pi, 1.3, "lo"), knots(nz, 0.0, 0.5 * np.pi, 1.3, "hi")
