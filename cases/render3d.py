@@ -40,6 +40,35 @@ def _camera(view):
     return to_cam, right, up
 
 
+def _zbuffer(pixels, px, height, colours, draw):
+    """Rasterise triangles into ``pixels`` (H, W, 3) in place, nearest first by a depth buffer.
+
+    ``px`` (M, 3, 2) vertex pixel coordinates, ``height`` (M, 3) vertex distance towards the camera (larger is
+    nearer), ``colours`` (M, 3) uint8, ``draw`` (M,) bool. Depth is interpolated linearly (orthographic view)."""
+    H, W = pixels.shape[:2]
+    zbuf = np.full((H, W), -np.inf)
+    for k in np.nonzero(draw)[0]:
+        p, z = px[k], height[k]
+        x0, y0 = np.maximum(np.floor(p.min(axis=0)).astype(int), 0)
+        x1, y1 = np.minimum(np.ceil(p.max(axis=0)).astype(int) + 1, [W, H])
+        if x1 <= x0 or y1 <= y0:
+            continue
+        (ax, ay), (bx, by), (cx, cy) = p
+        area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        if abs(area) < 1e-12:
+            continue
+        X, Y = np.meshgrid(np.arange(x0, x1) + 0.5, np.arange(y0, y1) + 0.5)
+        w0 = ((bx - X) * (cy - Y) - (by - Y) * (cx - X)) / area
+        w1 = ((cx - X) * (ay - Y) - (cy - Y) * (ax - X)) / area
+        w2 = 1.0 - w0 - w1
+        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
+        depth = w0 * z[0] + w1 * z[1] + w2 * z[2]
+        sub = zbuf[y0:y1, x0:x1]
+        nearer = inside & (depth > sub)
+        sub[nearer] = depth[nearer]
+        pixels[y0:y1, x0:x1][nearer] = colours[k]
+
+
 def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-west", size=720,
                  label="", unit="", cull=None):
     """A PIL image of the scene.
@@ -63,7 +92,6 @@ def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-we
     to_cam, right, up = _camera(view)
     tri = np.asarray(vertices, float)[np.asarray(triangles)]                    # (M, 3, 3)
     xy = np.stack([tri @ right, tri @ up], axis=-1)                            # (M, 3, 2)
-    depth = (tri @ to_cam).mean(axis=1)
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
     ss = 2
@@ -84,15 +112,15 @@ def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-we
     grey = np.repeat((0.78 * shade)[:, None], 3, axis=1)
     col = np.where(np.isfinite(vals)[:, None], rgb, grey)
     # faces looking straight down (building floors) are seen from behind from every view (all lie above the
-    # horizon), and, like other back faces of closed solids, drawn in depth order they can cover the faces in
-    # front of them: skip them, and the back-facing triangles ``cull`` allows
+    # horizon): skip them, and the back-facing triangles ``cull`` allows
     hidden = n[:, 2] <= -0.99
     if cull is not None:
         hidden |= np.asarray(cull, bool) & (n @ to_cam < 0.0)
-    for k in np.argsort(depth):
-        if hidden[k]:
-            continue
-        draw.polygon([tuple(p) for p in px[k]], fill=tuple(int(255 * c) for c in col[k]))
+    rgb8 = np.round(255 * col).astype(np.uint8)
+    pixels = np.asarray(img).copy()
+    _zbuffer(pixels, px, tri @ to_cam, rgb8, ~hidden)
+    img = Image.fromarray(pixels)
+    draw = ImageDraw.Draw(img)
     # colour bar
     x0, y0, y1 = W - bar + int(0.25 * bar), int(0.12 * H), int(0.88 * H)
     for y in range(y0, y1):

@@ -115,7 +115,7 @@ modelled glass with idealised coatings (cases/glazing.py); <code>igdb:</code> un
            ylabel="gain [kWh m-2]")}
 <p class="note">Gain: transmitted plus inward-flowing absorbed solar per m2 of glass, with each unit's g applied per
 wavelength and per incoming direction (the sun at its angle of incidence, every sky patch and reflected ray at its
-own; thermal's spectral route), the street's shading and reflections included. Effective g: gain / global irradiance
+own; thermal's spectral route), shading and reflections by the scene included. Effective g: gain / global irradiance
 on the glass. Glass per facade: {area_text}.</p>
 <h3>Heating and cooling of the building</h3>
 {_table(["unit", "cooling [MWh]", "cooling [kWh m-2 floor]", "peak cooling [kW]", "peak [W m-2 floor]",

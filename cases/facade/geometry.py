@@ -27,4 +27,6 @@ def build(parameters):
         "block across the street (north)": box(-10.0, d + street, 0.0, w + 10.0, d + street + 14.0, h_opp),
         "block east": box(w + 12.0, -4.0, 0.0, w + 30.0, d + 4.0, float(parameters.get("east_height", 9.0))),
     }
+    if not parameters.get("canyon", True):       # the block alone (tests: an unobstructed building)
+        context = {}
     return {"building": building, "context": context}
