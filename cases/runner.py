@@ -145,11 +145,19 @@ def _weather_states(cfg, sky):
         return site, states, None, None, "clear sky"
     from irradiance.allsky_sky import weather_measurements
     path = sk["weather"]
+    year = p["start"].year
     try:
         try:
-            wd = ir.read_weather(path, coerce_year=p["start"].year)     # typical years mix years
+            wd = ir.read_weather(path, coerce_year=year)                # typical years mix years
         except TypeError:
             wd = ir.read_weather(path)                                  # a CSV carries its own years
+        except ir.WeatherFileError:
+            import calendar
+            if calendar.isleap(year):
+                raise ConfigError(f"sky.weather = {Path(path).name!r}: its records take period.start's year "
+                                  f"{year}, a leap year, and the file has no 29 February; choose a period in a "
+                                  f"common year (e.g. {year - 1})") from None
+            raise
         states = ir.sky_states_for(wd, str(p["start"]), str(p["end"]), model=sky.model,
                                    visibility=sk["visibility"], albedo=sk["albedo"], warn=False)
     except ValueError as exc:            # WeatherFileError is a ValueError; so is an empty period
@@ -327,7 +335,7 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
         "versions": _versions(), "timings_s": run.timings,
         "faces": int(run.scene.n_faces), "steps": int(len(run.result.times)),
     }
-    report = _atomic_folder(out, lambda tmp: write_report(run, tmp, provenance, others, progress))
+    report = _atomic_folder(out, lambda tmp: write_report(run, tmp, provenance, others, progress=progress))
     log(f"{folder.name}: {run.scene.n_faces} faces x {len(run.result.times)} steps in "
         f"{time.perf_counter() - t0:.1f} s -> {report}/index.html")
     return report
