@@ -127,7 +127,8 @@ SCHEMA = {
     },
     "compare": {
         "sites": Field("sites", REQUIRED, help="other sites to run the same case at: a list of tables with the "
-                       "[site] keys (name, latitude, longitude, altitude, tz); the [site] section is the first"),
+                       "[site] keys (name, latitude, longitude, altitude, tz) and, when [sky] names a weather file, "
+                       "each its own weather file (weather = ...); the [site] section is the first"),
     },
     "report": {
         "sky_time": Field("time", REQUIRED, help="the hour whose sky is rendered (spectral EXR and PNG)"),
@@ -199,12 +200,14 @@ def _value(where, f: Field, raw, folder: Path):
             raise ConfigError(f"{where}: expected a list of tables such as "
                               "[{name = \"Madrid\", latitude = 40.4, longitude = -3.7, tz = \"Europe/Madrid\"}]")
         out = []
+        keys = {**SCHEMA["site"], "weather": SCHEMA["sky"]["weather"]}
         for i, entry in enumerate(raw):
             item = {}
             for key in entry:
-                if key not in SCHEMA["site"]:
-                    raise ConfigError(f"{where}[{i}]: unknown key {key}{_suggest(key, SCHEMA['site'])}; valid keys: "
-                                      f"{', '.join(SCHEMA['site'])}")
+                if key not in keys:
+                    raise ConfigError(f"{where}[{i}]: unknown key {key}{_suggest(key, keys)}; valid keys: "
+                                      f"{', '.join(keys)}")
+            item["weather"] = _value(f"{where}[{i}].weather", keys["weather"], entry.get("weather", ""), folder)
             for key, sf in SCHEMA["site"].items():
                 if key in entry:
                     item[key] = _value(f"{where}[{i}].{key}", sf, entry[key], folder)
@@ -320,6 +323,11 @@ def validate(data: dict, folder, source="case.toml") -> dict:
     if out["period"]["end"] <= out["period"]["start"]:
         raise ConfigError(f"{source}: period.end = {out['period']['end']} must be after period.start = "
                           f"{out['period']['start']}")
+    if out["compare"] is not None:
+        with_weather = [s["weather"] is not None for s in out["compare"]["sites"]]
+        if any(with_weather) != (out["sky"]["weather"] is not None) or len(set(with_weather)) > 1:
+            raise ConfigError(f"{source}: compare.sites: give every site a weather file when [sky] names one "
+                              "(sky.weather), and none otherwise (the clear sky at every site)")
     k = int(round(out["scene"]["samples_per_face"] ** 0.5))
     if k * k != out["scene"]["samples_per_face"]:
         raise ConfigError(f"{source}: scene.samples_per_face = {out['scene']['samples_per_face']}: expected a "

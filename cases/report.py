@@ -153,6 +153,8 @@ def _orientation(normals):
 
 def _site_name(run):
     s = run.config["site"]
+    if run.config["sky"]["weather"] is not None:
+        return run.site.name or Path(str(run.config["sky"]["weather"])).stem
     return s["name"] or f"{s['latitude']:.2f}, {s['longitude']:.2f}"
 
 
@@ -175,7 +177,7 @@ def _compare_section(runs, folder: Path):
             order = np.argsort(-np.asarray(sy))
             rank = {names[i]: k + 1 for k, i in enumerate(order)}
             table[_site_name(r)] = sy
-            rows.append([_site_name(r), f"{r.config['site']['latitude']:.2f}", f"{r.config['site']['longitude']:.2f}",
+            rows.append([_site_name(r), f"{r.site.latitude:.2f}", f"{r.site.longitude:.2f}",
                          *(f"{v:.1f} ({rank[n]})" for n, v in zip(names, sy)), labels[int(order[0])]])
         header = ["site", "latitude [deg]", "longitude [deg]", *(f"{lab} [kWh/kWp] (rank)" for lab in labels), "best"]
         ylabel, cats = "specific yield [kWh/kWp]", labels
@@ -187,7 +189,7 @@ def _compare_section(runs, folder: Path):
             a = r.result.faces.area
             vals = [float((kwh[lab == g] * a[lab == g]).sum() / a[lab == g].sum()) for g in labels]
             table[_site_name(r)] = vals
-            rows.append([_site_name(r), f"{r.config['site']['latitude']:.2f}", f"{r.config['site']['longitude']:.2f}",
+            rows.append([_site_name(r), f"{r.site.latitude:.2f}", f"{r.site.longitude:.2f}",
                          *(f"{v:.1f}" for v in vals), labels[int(np.argmax(vals))]])
         header = ["site", "latitude [deg]", "longitude [deg]", *(f"{g} [kWh m-2]" for g in labels), "highest"]
         ylabel, cats = "insolation [kWh m-2]", labels

@@ -324,7 +324,9 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
     others = []
     for site in (run.config.get("compare") or {}).get("sites", []):
         log(f"{folder.name}: the same case at {site['name'] or (site['latitude'], site['longitude'])} ...")
-        others.append(compute(folder, n_jobs=n_jobs, progress=progress, cfg={**run.config, "site": site}))
+        site = dict(site)
+        sky = {**run.config["sky"], "weather": site.pop("weather")}
+        others.append(compute(folder, n_jobs=n_jobs, progress=progress, cfg={**run.config, "site": site, "sky": sky}))
     run.timings["compute_total"] = time.perf_counter() - t0
     log(f"{folder.name}: computed in {run.timings['compute_total']:.1f} s; writing the report (time series, "
         "integrator result, renders, HTML) ...")

@@ -301,3 +301,58 @@ def test_bipv_report_yield_and_gains(bipv_report):
     s = faces.insolation_kwh_m2[faces.label == "window south"].mean()
     assert s < faces.insolation_kwh_m2[faces.label == "window east"].mean()
     assert s < faces.insolation_kwh_m2[faces.label == "window west"].mean()
+
+
+# ---- compare_sites with weather files --------------------------------------------------------------------
+
+COMPARE = """
+[case]
+title = "sites with weather"
+[site]
+latitude = 40.0
+longitude = -105.0
+tz = "UTC"
+[compare]
+sites = [{{ name = "other", latitude = 0.0, longitude = 0.0{other} }}]
+[period]
+start = "2023-07-01"
+end = "2023-07-02"
+[sky]
+{weather}
+[scene]
+geometry = "geometry.py"
+[scene.parameters]
+row_length = 6.0
+cell = 3.0
+[pv]
+technologies = ["topcon", "a_si"]
+[report]
+sky_time = "2023-07-01T12:00"
+views = ["south-west"]
+render_size = 160
+"""
+
+
+def test_compare_sites_weather_all_or_none(tmp_path):
+    folder = _case(tmp_path, "compare_sites", COMPARE.format(other="", weather='weather = "w.epw"'))
+    (folder / "w.epw").write_text("LOCATION,x\n")
+    with pytest.raises(ConfigError, match=r"compare.sites: give every site a weather file when \[sky\] names one"):
+        cases.load_config(folder)
+    (folder / "case.toml").write_text(COMPARE.format(other=', weather = "w.epw"', weather=""))
+    with pytest.raises(ConfigError, match=r"compare.sites: give every site a weather file"):
+        cases.load_config(folder)
+
+
+@pytest.mark.reference
+@pytest.mark.slow
+def test_compare_sites_on_tmy3_files(tmp_path_factory):
+    """Each site on its own TMY3 file: the sites are the files' (Denver, Chicago), the yields differ."""
+    toml = COMPARE.format(other=', weather = "data:weather/USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw"',
+                          weather='weather = "data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"')
+    folder = _case(tmp_path_factory.mktemp("cmp"), "compare_sites", toml)
+    rep = cases.run_case(folder, tmp_path_factory.mktemp("rep") / "r", n_jobs=1, progress=False, log=lambda m: None)
+    sites = pd.read_csv(rep / "sites.csv", index_col=0)
+    assert len(sites.columns) == 2 and "Denver" in sites.columns[0] and "Chicago" in sites.columns[1]
+    assert (sites.iloc[:, 0] != sites.iloc[:, 1]).all()
+    html = (rep / "index.html").read_text()
+    assert "39.83" in html and "41.98" in html              # the files' latitudes in the sites table
