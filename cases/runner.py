@@ -160,6 +160,8 @@ def _weather_states(cfg, sky):
             raise
         states = ir.sky_states_for(wd, str(p["start"]), str(p["end"]), model=sky.model,
                                    visibility=sk["visibility"], albedo=sk["albedo"], warn=False)
+    except ConfigError:
+        raise
     except ValueError as exc:            # WeatherFileError is a ValueError; so is an empty period
         raise ConfigError(f"sky.weather = {str(path)!r}: {exc}") from None
     rows = wd.data.loc[states.times]
