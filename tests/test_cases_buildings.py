@@ -356,3 +356,26 @@ def test_compare_sites_on_tmy3_files(tmp_path_factory):
     assert (sites.iloc[:, 0] != sites.iloc[:, 1]).all()
     html = (rep / "index.html").read_text()
     assert "39.83" in html and "41.98" in html              # the files' latitudes in the sites table
+
+
+def test_builtin_glazing_units_have_the_documented_values():
+    """cases/glazing.py states these values; the pane's energy balance closes; the coatings rank as their kinds."""
+    import pvsim
+    from cases.glazing import clear_glass_nk, glazing_units, unit_summary
+    from thermal import GlazingUnit, layer_from_nk
+
+    ref = pvsim.widesky_am15g()
+    wl = np.arange(280.0, 2500.1, 10.0)
+    pane = GlazingUnit("pane", [layer_from_nk("clear 6 mm", wl, *clear_glass_nk(wl), 6.0)])
+    p = unit_summary(pane, ref["channel_edges"], ref["scaled"])
+    assert p["t_visible"] == pytest.approx(0.885, abs=0.005) and p["t_solar"] == pytest.approx(0.81, abs=0.005)
+    want = {"clear": (2.72, 0.74, 0.79), "low-e": (1.09, 0.62, 0.73), "solar-control": (1.06, 0.42, 0.64)}
+    units = glazing_units(list(want))
+    for name, (u, g, tv) in want.items():
+        s = unit_summary(units[name], ref["channel_edges"], ref["scaled"])
+        assert (s["u_value"], s["g_normal"], s["t_visible"]) == pytest.approx((u, g, tv), abs=0.006), name
+        o = units[name].optics()
+        np.testing.assert_allclose(o["transmittance"] + o["reflectance"] + o["absorbed"].sum(axis=0), 1.0,
+                                   atol=1e-9)
+    with pytest.raises(ValueError, match=r"glazing 'tinted' is not valid; expected items from clear"):
+        glazing_units(["tinted"])
