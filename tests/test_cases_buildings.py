@@ -211,11 +211,28 @@ def test_weather_file_scales_the_gains(tmp_path, facade_run):
     assert a.window_gain["clear"].sum() == pytest.approx(facade_run.thermal.window_gain["clear"].sum(), rel=2e-3)
 
 
+def _no_data(monkeypatch, tmp_path):
+    """Hide the data directory (no WIDESKY_DATA_DIR, no ../shared/data), as on a user's machine."""
+    import skymodel.generator.paths as paths
+    monkeypatch.delenv("WIDESKY_DATA_DIR", raising=False)
+    monkeypatch.setattr(paths, "_REPO_SIBLING", tmp_path / "no-shared-data")
+    assert not paths.has_data()
+
+
+def test_facade_runs_without_the_data_directory(tmp_path, monkeypatch, facade_run):
+    """The shipped cases' default (clear sky, built-in glazing, the sky model's AM1.5 reference) reads no data file:
+    the same numbers with the data directory hidden."""
+    _no_data(monkeypatch, tmp_path)
+    run = compute(_case(tmp_path, "facade", FACADE.format(tz="Europe/Prague", weather="")), n_jobs=1, progress=False)
+    np.testing.assert_allclose(run.thermal.window_gain["clear"], facade_run.thermal.window_gain["clear"], rtol=1e-6)
+    assert run.weather == "clear sky"
+
+
 def test_weather_key_errors(tmp_path, monkeypatch):
     folder = _case(tmp_path, "facade", FACADE.format(tz="Europe/Prague", weather='weather = "nothere.epw"'))
     with pytest.raises(ConfigError, match=r"sky.weather = 'nothere.epw': no such file"):
         cases.load_config(folder)
-    monkeypatch.setenv("WIDESKY_DATA_DIR", str(tmp_path / "no-data"))
+    _no_data(monkeypatch, tmp_path)
     (folder / "case.toml").write_text(FACADE.format(tz="Europe/Prague", weather='weather = "data:weather/x.epw"'))
     with pytest.raises(ConfigError, match=r"sky.weather = 'data:weather/x.epw'.*remove the key for the clear sky"):
         cases.load_config(folder)
