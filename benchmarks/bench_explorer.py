@@ -9,6 +9,12 @@ sky state (solar elevation 5 ... 65 deg in steps of 3.1 deg, between the grid's 
 plus the ``/api/irradiance`` (horizontal and tilted spectra, 577 patches) and ``/api/spectrum`` round trips.
 Median of the requests; the ratio is baseline / explorer.
 
+The issue's target: a slider move shows the new 512 x 512 image in under 150 ms on 2 cores. On a shared machine
+the wall time depends on the other jobs, so the script also measures the CPU time of each slider request (every
+thread of this process: the server, the evaluator's threads, PNG encoding) and prints the load average. On two
+dedicated cores a request's wall time lies between CPU / 2 (both cores busy throughout) and CPU (one core); the
+verdict names which of the three the target meets.
+
     python benchmarks/bench_explorer.py [--resolution 512] [--threads 0] [--json out.json]
 """
 
@@ -57,9 +63,12 @@ def main(argv=None):
     elevations = np.arange(5.0, 66.0, 3.1)
     base = f"azimuth=200&visibility=37&albedo=0.25&resolution={args.resolution}"
     get(f"/api/render?elevation=30&{base}")                 # warm-up: first decode of the dataset slabs
-    t_ex, t_eval = [], []
+    t_ex, t_eval, t_cpu = [], [], []
+    load0 = os.getloadavg()[0]
     for el in elevations:
+        c0 = time.process_time()
         dt, r, _ = get(f"/api/render?elevation={el:.2f}&{base}")
+        t_cpu.append(time.process_time() - c0)
         t_ex.append(dt)
         t_eval.append(float(r.getheader("X-Render-Seconds")))
     t_base = []
@@ -79,14 +88,23 @@ def main(argv=None):
         "explorer_render_ms": 1e3 * float(np.median(t_ex)), "explorer_eval_ms": 1e3 * float(np.median(t_eval)),
         "baseline_all_channels_ms": 1e3 * float(np.median(t_base)),
         "irradiance_ms": 1e3 * float(np.median(t_irr)), "spectrum_ms": 1e3 * float(np.median(t_spec)),
-        "dataset": str(m.path),
+        "dataset": str(m.path), "explorer_cpu_ms": 1e3 * float(np.median(t_cpu)),
+        "load_average": [load0, os.getloadavg()[0]],
     }
+    target = 150.0
+    cpu = out["explorer_cpu_ms"]
+    out["target_150ms"] = ("met (wall time)" if out["explorer_render_ms"] < target else
+                           "met on 2 dedicated cores (CPU time below it)" if cpu < target else
+                           "met on 2 dedicated cores only if both stay busy (CPU / 2 below it)" if cpu / 2 < target
+                           else "not met")
     out["ratio"] = out["baseline_all_channels_ms"] / out["explorer_render_ms"]
     print(f"slider move -> {args.resolution}x{args.resolution} image: {out['explorer_render_ms']:.0f} ms round trip "
           f"(sky evaluation {out['explorer_eval_ms']:.0f} ms); baseline (all 55 channels, widesky sky render's path) "
           f"{out['baseline_all_channels_ms']:.0f} ms: {out['ratio']:.1f}x")
     print(f"irradiance readout {out['irradiance_ms']:.0f} ms, clicked spectrum {out['spectrum_ms']:.1f} ms "
           f"({out['machine']}, threads={args.threads}, median of {len(elevations)} / {len(t_irr)} requests)")
+    print(f"CPU time per slider move {cpu:.0f} ms (all threads); load average {load0:.1f} -> "
+          f"{out['load_average'][1]:.1f}; the 150 ms target: {out['target_150ms']}")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(out, f, indent=2)

@@ -5,7 +5,7 @@ geometry (``geometry.py`` with ``build(parameters)``, or a mesh file) and a ``RE
 ``widesky run cases/<name>`` (or ``cases.run_case(folder)``) runs it end to end and writes a report
 folder atomically: an offline HTML report, time series (CSV, Parquet), the integrator result
 (``poa.h5``, :meth:`irradiance.POAResult.load` reads it), a spectral EXR of one hour's sky, scene renders coloured by insolation and the coloured
-mesh (PLY).
+mesh (GLB and PLY); with a ``[thermal]`` section the window gains and loads of a building (``loads.csv``).
 """
 
 from pathlib import Path

@@ -30,7 +30,8 @@ class Field:
     ----------
     kind : str
         ``"float"``, ``"int"``, ``"bool"``, ``"str"``, ``"path"`` (relative to the case folder), ``"time"``
-        (ISO 8601 local date-time), ``"list"`` (of str from ``choices``).
+        (ISO 8601 local date-time), ``"list"`` (of str from ``choices``), ``"names"`` (a list of any str),
+        ``"weather"`` (a weather file: relative to the case folder, or ``data:<file>`` in the data directory).
     default : object
         Value when the key is absent; ``REQUIRED`` makes it mandatory.
     unit : str
@@ -53,6 +54,8 @@ class Field:
 
 
 REQUIRED = object()
+from .glazing import GLAZING_CHOICES  # noqa: E402
+
 _STEP_CHOICES = ("10min", "15min", "30min", "1h")
 _VIEWS = ("south-east", "south-west", "north-east", "north-west", "top")
 
@@ -77,6 +80,9 @@ SCHEMA = {
         "visibility": Field("float", 40.0, "km", 20.0, 131.8, help="ground-level visibility of the clear sky"),
         "albedo": Field("float", 0.2, "", 0.0, 1.0, help="ground albedo"),
         "dataset": Field("path", "", help="Prague Sky Model dataset file (default: the embedded dataset)"),
+        "weather": Field("weather", "", help="EPW or TMY3 weather file (a path relative to the case folder, or "
+                         "'data:weather/<file>' in the data directory WIDESKY_DATA_DIR or ../shared/data): its site, "
+                         "measured DNI/DHI scaling the sky, air temperature and wind; default none: the clear sky"),
     },
     "scene": {
         "geometry": Field("path", REQUIRED, help="Python file with build(parameters) -> dict of meshes, or a mesh file"),
@@ -100,10 +106,29 @@ SCHEMA = {
         "reference": Field("str", "widesky", choices=("widesky", "astm_g173"),
                            help="STC reference spectrum: the sky model's AM1.5G (no data needed) or ASTM G173 "
                                 "(read from the data directory)"),
+        "groups": Field("names", [], help="the analysis groups that are PV modules (default: every group)"),
+    },
+    "thermal": {
+        "glazing": Field("list", ["clear", "low-e", "solar-control"], choices=GLAZING_CHOICES,
+                         help="glazing units compared (each in turn in every window; igdb: units need the data "
+                              "directory)"),
+        "temp_air": Field("float", 24.0, "degC", -40.0, 50.0, help="daily mean air temperature without a weather "
+                          "file (a cosine day, warmest at 15:00 local time)"),
+        "temp_air_range": Field("float", 10.0, "K", 0.0, 30.0, help="daily range of that air temperature"),
+        "internal_gains": Field("float", 10.0, "W m-2", 0.0, 100.0, help="internal gains per m2 of floor (constant)"),
+        "air_changes": Field("float", 0.7, "h-1", 0.0, 20.0, help="ventilation and infiltration air changes"),
+        "heating_setpoint": Field("float", 20.0, "degC", 5.0, 25.0, help="heating set-point"),
+        "cooling_setpoint": Field("float", 26.0, "degC", 18.0, 35.0, help="cooling set-point"),
+        "wall_u": Field("float", 0.35, "W m-2 K-1", 0.05, 5.0, help="opaque wall U-value"),
+        "roof_u": Field("float", 0.25, "W m-2 K-1", 0.05, 5.0, help="roof U-value"),
+        "floor_u": Field("float", 0.35, "W m-2 K-1", 0.05, 5.0, help="ground floor U-value (b = 0.5 to outdoor air)"),
+        "mass": Field("str", "medium", choices=("very light", "light", "medium", "heavy", "very heavy"),
+                      help="ISO 13790 heat capacity class"),
     },
     "compare": {
         "sites": Field("sites", REQUIRED, help="other sites to run the same case at: a list of tables with the "
-                       "[site] keys (name, latitude, longitude, altitude, tz); the [site] section is the first"),
+                       "[site] keys (name, latitude, longitude, altitude, tz) and, when [sky] names a weather file, "
+                       "each its own weather file (weather = ...); the [site] section is the first"),
     },
     "report": {
         "sky_time": Field("time", REQUIRED, help="the hour whose sky is rendered (spectral EXR and PNG)"),
@@ -113,7 +138,7 @@ SCHEMA = {
 }
 
 # sections that are filled with defaults only when the file has them
-OPTIONAL_SECTIONS = ("pv", "compare")
+OPTIONAL_SECTIONS = ("pv", "compare", "thermal")
 
 
 def _technology_choices():
@@ -175,12 +200,14 @@ def _value(where, f: Field, raw, folder: Path):
             raise ConfigError(f"{where}: expected a list of tables such as "
                               "[{name = \"Madrid\", latitude = 40.4, longitude = -3.7, tz = \"Europe/Madrid\"}]")
         out = []
+        keys = {**SCHEMA["site"], "weather": SCHEMA["sky"]["weather"]}
         for i, entry in enumerate(raw):
             item = {}
             for key in entry:
-                if key not in SCHEMA["site"]:
-                    raise ConfigError(f"{where}[{i}]: unknown key {key}{_suggest(key, SCHEMA['site'])}; valid keys: "
-                                      f"{', '.join(SCHEMA['site'])}")
+                if key not in keys:
+                    raise ConfigError(f"{where}[{i}]: unknown key {key}{_suggest(key, keys)}; valid keys: "
+                                      f"{', '.join(keys)}")
+            item["weather"] = _value(f"{where}[{i}].weather", keys["weather"], entry.get("weather", ""), folder)
             for key, sf in SCHEMA["site"].items():
                 if key in entry:
                     item[key] = _value(f"{where}[{i}].{key}", sf, entry[key], folder)
@@ -190,6 +217,13 @@ def _value(where, f: Field, raw, folder: Path):
                     item[key] = sf.default
             out.append(item)
         return out
+    if f.kind == "names":
+        items = [raw] if isinstance(raw, str) else raw
+        if not isinstance(items, list) or not all(isinstance(x, str) and x for x in items):
+            raise ConfigError(f"{where} = {raw!r}: expected a list of names")
+        return items
+    if f.kind == "weather":
+        return _weather_path(where, raw, folder)
     if f.kind == "table":
         if not isinstance(raw, dict):
             raise ConfigError(f"{where}: expected a table")
@@ -225,6 +259,25 @@ def _value(where, f: Field, raw, folder: Path):
             raise ConfigError(f"{where} = {raw!r}: give local time without an offset (site.tz sets the zone)")
         return t
     return raw
+
+
+def _weather_path(where, raw, folder):
+    """A weather file: '' -> None; 'data:<relative>' in the data directory; else relative to the case folder."""
+    if not isinstance(raw, str):
+        raise ConfigError(f"{where} = {raw!r}: expected a file name")
+    if not raw:
+        return None
+    if raw.startswith("data:"):
+        from skymodel.generator.paths import DataNotFoundError, data_file
+        try:
+            return data_file(raw[5:])
+        except DataNotFoundError as exc:
+            raise ConfigError(f"{where} = {raw!r}: {exc} (set WIDESKY_DATA_DIR, or remove the key for the "
+                              "clear sky)") from None
+    p = (folder / raw).expanduser().resolve()
+    if not p.is_file():
+        raise ConfigError(f"{where} = {raw!r}: no such file {p}")
+    return p
 
 
 def validate(data: dict, folder, source="case.toml") -> dict:
@@ -265,11 +318,16 @@ def validate(data: dict, folder, source="case.toml") -> dict:
             elif f.default is REQUIRED:
                 raise ConfigError(f"{where} is required ({f.help})")
             else:
-                vals[key] = None if f.kind == "path" and not f.default else f.default
+                vals[key] = None if f.kind in ("path", "weather") and not f.default else f.default
         out[section] = vals
     if out["period"]["end"] <= out["period"]["start"]:
         raise ConfigError(f"{source}: period.end = {out['period']['end']} must be after period.start = "
                           f"{out['period']['start']}")
+    if out["compare"] is not None:
+        with_weather = [s["weather"] is not None for s in out["compare"]["sites"]]
+        if any(with_weather) != (out["sky"]["weather"] is not None) or len(set(with_weather)) > 1:
+            raise ConfigError(f"{source}: compare.sites: give every site a weather file when [sky] names one "
+                              "(sky.weather), and none otherwise (the clear sky at every site)")
     k = int(round(out["scene"]["samples_per_face"] ** 0.5))
     if k * k != out["scene"]["samples_per_face"]:
         raise ConfigError(f"{source}: scene.samples_per_face = {out['scene']['samples_per_face']}: expected a "

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .charts import bar_chart, line_chart
-from .render3d import render_scene, write_ply
+from .render3d import render_scene, write_glb, write_ply
 from .runner import BANDS, CaseRun, dump_json
 
 __all__ = ["write_report", "label_means"]
@@ -65,7 +65,10 @@ def _write_series(run: CaseRun, folder: Path):
     if run.pv is not None:
         for name, ty in run.pv.technologies.items():
             for kind in ("dc", "ac"):
-                cols[f"plant:{name}:{kind} [W]"] = sum(ty.series[g][kind].to_numpy() for g in run.pv.groups)
+                cols[f"plant:{name}:{kind} [W]"] = sum(ty.series[g][kind].to_numpy() for g in run.pv_groups)
+    if run.thermal is not None:
+        from .report_thermal import thermal_columns
+        cols.update(thermal_columns(run.thermal))
     df = pd.DataFrame(cols, index=res.times)
     df.index.name = "time (interval start)"
     df.to_csv(folder / "timeseries.csv", float_format="%.4g")
@@ -100,7 +103,7 @@ def _pv_section(run: CaseRun):
     from pvsim import WATERFALL_STAGES
 
     y = run.pv
-    groups = y.groups
+    groups = run.pv_groups
     rows, wf, monthly = [], {}, {}
     months = y.times.month
     month_names = sorted(set(months))
@@ -150,6 +153,8 @@ def _orientation(normals):
 
 def _site_name(run):
     s = run.config["site"]
+    if run.config["sky"]["weather"] is not None:
+        return run.site.name or Path(str(run.config["sky"]["weather"])).stem
     return s["name"] or f"{s['latitude']:.2f}, {s['longitude']:.2f}"
 
 
@@ -167,12 +172,12 @@ def _compare_section(runs, folder: Path):
             sy = []
             for n in names:
                 ty = y.technologies[n]
-                kwp = sum(ty.pdc0[g] for g in y.groups) / 1000.0
-                sy.append(sum(ty.energy(g, "ac") for g in y.groups) / kwp)
+                kwp = sum(ty.pdc0[g] for g in r.pv_groups) / 1000.0
+                sy.append(sum(ty.energy(g, "ac") for g in r.pv_groups) / kwp)
             order = np.argsort(-np.asarray(sy))
             rank = {names[i]: k + 1 for k, i in enumerate(order)}
             table[_site_name(r)] = sy
-            rows.append([_site_name(r), f"{r.config['site']['latitude']:.2f}", f"{r.config['site']['longitude']:.2f}",
+            rows.append([_site_name(r), f"{r.site.latitude:.2f}", f"{r.site.longitude:.2f}",
                          *(f"{v:.1f} ({rank[n]})" for n, v in zip(names, sy)), labels[int(order[0])]])
         header = ["site", "latitude [deg]", "longitude [deg]", *(f"{lab} [kWh/kWp] (rank)" for lab in labels), "best"]
         ylabel, cats = "specific yield [kWh/kWp]", labels
@@ -184,7 +189,7 @@ def _compare_section(runs, folder: Path):
             a = r.result.faces.area
             vals = [float((kwh[lab == g] * a[lab == g]).sum() / a[lab == g].sum()) for g in labels]
             table[_site_name(r)] = vals
-            rows.append([_site_name(r), f"{r.config['site']['latitude']:.2f}", f"{r.config['site']['longitude']:.2f}",
+            rows.append([_site_name(r), f"{r.site.latitude:.2f}", f"{r.site.longitude:.2f}",
                          *(f"{v:.1f}" for v in vals), labels[int(np.argmax(vals))]])
         header = ["site", "latitude [deg]", "longitude [deg]", *(f"{g} [kWh m-2]" for g in labels), "highest"]
         ylabel, cats = "insolation [kWh m-2]", labels
@@ -199,18 +204,32 @@ sections below are those of the first site, {escape(_site_name(runs[0]))}. Per-s
 """
 
 
-def write_report(run: CaseRun, folder, provenance, others=None):
+REPORT_STAGES = ("time series", "integrator result", "sky EXR and PNG", "scene renders", "coloured meshes",
+                 "HTML page")
+
+
+def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
     """Write every output of ``run`` into ``folder`` (an empty temporary folder); ``others``: the same case at
-    more sites (a "Sites compared" section and ``sites.csv``)."""
+    more sites (a "Sites compared" section and ``sites.csv``); ``progress``: a tqdm bar over
+    :data:`REPORT_STAGES`."""
     import pandas as pd
+    from tqdm import tqdm
 
     from skymodel.render import render_sky, write_exr, write_png
 
     folder = Path(folder)
+    bar = tqdm(total=len(REPORT_STAGES), desc="report", unit="part", disable=not progress)
+
+    def stage(i):
+        bar.set_postfix_str(REPORT_STAGES[i], refresh=False)
+        if i:
+            bar.update(1)
     cfg, res, sc = run.config, run.result, run.scene
     area = res.faces.area
     kwh = res.poa_global.astype(float).sum(axis=0) * run.step_hours / 1000.0          # (F,) [kWh m-2]
+    stage(0)
     df, series_files = _write_series(run, folder)
+    stage(1)
     _write_result(run, folder, provenance)
     tilt, az = _orientation(sc.face_normal)
     faces = pd.DataFrame({"label": run.labels, "area_m2": area, "tilt_deg": tilt, "azimuth_deg": az,
@@ -222,6 +241,7 @@ def write_report(run: CaseRun, folder, provenance, others=None):
     shutil.copyfile(run.folder / "case.toml", folder / "case.toml")
 
     # sky of the report hour: spectral EXR and sRGB PNG
+    stage(2)
     st = res.times[run.hour_index]
     sp_el, sp_az = run.hour_sun
     sky_r = render_sky(run.dataset.model, sun_elevation=sp_el, sun_azimuth=sp_az,
@@ -234,15 +254,22 @@ def write_report(run: CaseRun, folder, provenance, others=None):
     front = sc.face_side == 0
     tri_val[sc.face_triangle[front]] = kwh[front]
     verts = sc.vertices + sc.origin
-    vmin, vmax = float(np.min(kwh)), float(np.max(kwh))
+    up = sc.face_normal[:, 2] > -0.99                                  # colour range of the faces a view shows
+    vmin, vmax = (float(np.min(kwh[up])), float(np.max(kwh[up]))) if up.any() else (float(np.min(kwh)),
+                                                                                    float(np.max(kwh)))
     renders = []
+    stage(3)
     for view in cfg["report"]["views"]:
         img = render_scene(verts, sc.triangles, tri_val, vmin=vmin, vmax=vmax, view=view,
-                           size=cfg["report"]["render_size"], label="insolation", unit="kWh m-2")
+                           size=cfg["report"]["render_size"], label="insolation", unit="kWh m-2",
+                           cull=None if cfg["scene"]["two_sided"] else np.isfinite(tri_val))
         name = f"scene_{view}.png"
         img.save(folder / name)
         renders.append(name)
+    stage(4)
     write_ply(folder / "scene.ply", verts, sc.triangles, tri_val, vmin=vmin, vmax=vmax)
+    write_glb(folder / "scene.glb", verts, sc.triangles, tri_val, vmin=vmin, vmax=vmax)
+    stage(5)
 
     # --- the page -------------------------------------------------------------------------------------
     labels = list(dict.fromkeys(run.labels))
@@ -289,11 +316,16 @@ def write_report(run: CaseRun, folder, provenance, others=None):
     s = _settings_text(run)
     files = ["index.html", *series_files, "faces.csv", "poa.h5", "spectral_hour.h5", "provenance.json", "case.toml",
              "sky.exr",
-             "sky.png", *renders, "scene.ply"]
+             "sky.png", *renders, "scene.ply", "scene.glb"]
     parquet_note = "" if "timeseries.parquet" in series_files else (
         "<p class='note'>timeseries.parquet was not written: no Parquet engine is installed "
         "(<code>pip install pyarrow</code>).</p>")
     tm = run.timings
+    thermal_html = ""
+    if run.thermal is not None:
+        from .report_thermal import thermal_section
+        thermal_html = thermal_section(run, folder)
+        files.append("loads.csv")
     compare = _compare_section([run, *others], folder) if others else ""
     if others:
         files.append("sites.csv")
@@ -303,20 +335,26 @@ def write_report(run: CaseRun, folder, provenance, others=None):
 <h1>{escape(cfg['case']['title'])}</h1>
 <p>{escape(cfg['case']['description'])}</p>
 {_table(["", ""], [
-    ["site", f"{cfg['site']['name']} {cfg['site']['latitude']:.3f} N, {cfg['site']['longitude']:.3f} E, "
-             f"{cfg['site']['altitude']:g} m, {cfg['site']['tz']}"],
-    ["period", f"{cfg['period']['start']} to {cfg['period']['end']} (exclusive), step {cfg['period']['step']}, "
-               f"{len(res.times)} steps (times label the interval start; the sun at mid-interval)"],
-    ["sky", f"clear sky, visibility {cfg['sky']['visibility']:g} km, albedo {cfg['sky']['albedo']:g}, dataset "
-            f"{Path(str(run.dataset.model.path)).name}"],
+    ["site", f"{run.site.name or cfg['site']['name']} {run.site.latitude:.3f} N, {run.site.longitude:.3f} E, "
+             f"{run.site.altitude:g} m, {cfg['site']['tz'] if not cfg['sky']['weather'] else run.site.tz}"
+             + (" (the weather file's)" if cfg['sky']['weather'] else "")],
+    ["period", f"{cfg['period']['start']} to {cfg['period']['end']} (exclusive), "
+               + (f"step {cfg['period']['step']}, " if not cfg['sky']['weather'] else "the weather file's steps, ")
+               + f"{len(res.times)} steps (times label the interval "
+               + ("start" if not cfg['sky']['weather'] else "end, as the file does") + "; the sun at mid-interval)"],
+    ["sky", f"{run.weather}, visibility {cfg['sky']['visibility']:g} km, albedo {cfg['sky']['albedo']:g}"
+            + (" (where the file gives none)" if cfg['sky']['weather'] else "")
+            + f", dataset {Path(str(run.dataset.model.path)).name}"],
     ["scene", f"{sc.n_faces} analysed faces in {len(labels)} groups, {len(sc.triangles)} triangles in all"],
     ["run time", f"{tm.get('compute_total', 0):.1f} s" + (f" for {1 + len(others)} sites; this site:" if others else "")
                  + f" (integrator {tm.get('integrator', 0):.1f} s, spectral hour "
                  f"{tm.get('spectral_hour', 0):.1f} s" + (f", PV yield {tm['pv_yield']:.1f} s" if "pv_yield" in tm else "")
+                 + (f", loads {tm['thermal']:.1f} s" if "thermal" in tm else "")
                  + ")"],
 ])}
 {compare}
 {_pv_section(run) if run.pv is not None else ""}
+{thermal_html}
 <h2>Irradiance per group</h2>
 {summary}
 <p class="note">Insolation: the period's sum of plane-of-array global irradiance (280-2480 nm) per m2,
@@ -328,7 +366,8 @@ area-weighted over the group's faces; shares of direct (sun and circumsolar), sk
 {charts[-1]}
 <h2>Maps</h2>
 <div class="renders">{''.join(_img_tag(folder / r, r) for r in renders)}</div>
-<p class="note">The coloured mesh is in <code>scene.ply</code> (any 3D viewer); grey: context geometry.</p>
+<p class="note">The coloured mesh is in <code>scene.glb</code> (binary glTF: browsers' and most 3D viewers) and
+<code>scene.ply</code>; grey: context geometry.</p>
 <h2>Sky at {st}</h2>
 {_img_tag(folder / 'sky.png', 'sky')}
 <p class="note">Up-facing fisheye (north at the top, east on the left), sun elevation {sp_el:.1f} deg, azimuth
@@ -343,6 +382,8 @@ SHA-1, settings, timings) in <code>provenance.json</code>.</p>
 </body></html>
 """
     (folder / "index.html").write_text(html, encoding="utf-8")
+    bar.update(1)
+    bar.close()
 
 
 def _settings_text(run: CaseRun):

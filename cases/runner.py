@@ -48,10 +48,16 @@ class CaseRun:
     settings: object
     timings: dict = field(default_factory=dict)
     pv: object = None              # pvsim.YieldResult when the case has a [pv] section
+    pv_groups: tuple = ()          # the analysis groups that are PV modules
+    thermal: object = None         # cases.building_loads.ThermalRun when the case has a [thermal] section
+    weather: str = "clear sky"     # how the sky was driven (a phrase for the report)
+    site: object = None            # irradiance.Site used (the weather file's with a weather file)
 
 
 def build_geometry(path: Path, parameters: dict):
-    """The meshes of a case: ``{"analysis": {name: mesh}, "context": {name: mesh}}``.
+    """The meshes of a case: ``{"analysis": {name: mesh}, "context": {name: mesh}}``, optionally with
+    ``"building"``: a :class:`thermal.Building` whose non-shading surfaces are analysed too (one group per
+    surface label; its shading surfaces are context).
 
     ``path`` is a Python file defining ``build(parameters) -> dict`` as above (meshes as trimesh meshes
     or (vertices, faces) pairs, metres east-north-up), or a mesh file analysed as one group.
@@ -65,9 +71,20 @@ def build_geometry(path: Path, parameters: dict):
     if not hasattr(module, "build"):
         raise ConfigError(f"{path}: defines no build(parameters) function")
     geo = module.build(dict(parameters))
-    if not isinstance(geo, dict) or not isinstance(geo.get("analysis"), dict) or not geo["analysis"]:
-        raise ConfigError(f"{path}: build() must return {{'analysis': {{name: mesh}}, 'context': {{...}}}}")
+    if not isinstance(geo, dict) or not isinstance(geo.setdefault("analysis", {}), dict) or not (
+            geo["analysis"] or geo.get("building") is not None):
+        raise ConfigError(f"{path}: build() must return {{'analysis': {{name: mesh}}, 'context': {{...}}}} "
+                          "(and optionally 'building': a thermal.Building)")
     geo.setdefault("context", {})
+    building = geo.get("building")
+    if building is not None:
+        meshes, labels, shade = building.analysis_meshes()
+        clash = set(labels) & set(geo["analysis"])
+        if clash:
+            raise ConfigError(f"{path}: analysis group {sorted(clash)[0]!r} is also a building surface label")
+        geo["analysis"] = {**dict(zip(labels, meshes)), **geo["analysis"]}
+        if shade is not None:
+            geo["context"] = {**geo["context"], "building shading": shade}
     return geo
 
 
@@ -77,9 +94,11 @@ def band_responses():
     return [Response(name, [a, b], [1.0, 1.0], unit="weight") for name, (a, b) in BANDS.items()]
 
 
-def face_labels(scene):
-    """Group label of every analysed face side: the mesh name, with " front"/" back" when two-sided."""
-    names = np.array(scene.group_names, dtype=object)[scene.face_group]
+def face_labels(scene, rename=None):
+    """Group label of every analysed face side: the mesh name (or ``rename[name]``), with " front"/" back"
+    when two-sided."""
+    rename = rename or {}
+    names = np.array([rename.get(n, n) for n in scene.group_names], dtype=object)[scene.face_group]
     if np.any(scene.face_side == 1):
         sides = np.where(scene.face_side == 1, " back", " front")
         return [f"{n}{s}" for n, s in zip(names, sides)]
@@ -113,20 +132,65 @@ def _sha1(path, limit=1 << 26):
     return h.hexdigest()
 
 
+def _weather_states(cfg, sky):
+    """(site, states, measured, rows, description): the clear-sky period of [site], or the weather file's
+    steps inside [period] (its site; measured DNI/DHI scale the clear-sky spectra)."""
+    import irradiance as ir
+
+    p, sk = cfg["period"], cfg["sky"]
+    if sk["weather"] is None:
+        site = _site(cfg)
+        states = ir.sky_states_for(site, str(p["start"]), str(p["end"]), p["step"], model=sky.model,
+                                   visibility=sk["visibility"], albedo=sk["albedo"], warn=False)
+        return site, states, None, None, "clear sky"
+    from irradiance.allsky_sky import weather_measurements
+    path = sk["weather"]
+    year = p["start"].year
+    try:
+        try:
+            wd = ir.read_weather(path, coerce_year=year)                # typical years mix years
+        except TypeError:
+            wd = ir.read_weather(path)                                  # a CSV carries its own years
+        except ir.WeatherFileError:
+            import calendar
+            if calendar.isleap(year):
+                raise ConfigError(f"sky.weather = {Path(path).name!r}: its records take period.start's year "
+                                  f"{year}, a leap year, and the file has no 29 February; choose a period in a "
+                                  f"common year (e.g. {year - 1})") from None
+            raise
+        states = ir.sky_states_for(wd, str(p["start"]), str(p["end"]), model=sky.model,
+                                   visibility=sk["visibility"], albedo=sk["albedo"], warn=False)
+    except ConfigError:
+        raise
+    except ValueError as exc:            # WeatherFileError is a ValueError; so is an empty period
+        raise ConfigError(f"sky.weather = {str(path)!r}: {exc}") from None
+    rows = wd.data.loc[states.times]
+    measured, how = weather_measurements(rows, "clear")
+    name = wd.site.name or Path(path).name
+    return wd.site, states, measured, rows, f"weather file {Path(path).name} ({name}), clear-sky spectra {how}"
+
+
+def _series(rows, column, fallback, T):
+    """(T,) of a weather column with gaps filled by ``fallback`` (scalar or (T,)); ``fallback`` alone without
+    weather."""
+    fb = np.broadcast_to(np.asarray(fallback, float), (T,))
+    if rows is None or column not in rows:
+        return fb.copy()
+    v = rows[column].to_numpy(dtype=float)
+    return np.where(np.isfinite(v), v, fb)
+
+
 def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
-    """Validate the case in ``folder`` and compute its irradiance and yield (no files written); ``cfg``: an
-    already validated configuration (default: read ``folder/case.toml``)."""
+    """Validate the case in ``folder`` and compute its irradiance, yield and loads (no files written); ``cfg``:
+    an already validated configuration (default: read ``folder/case.toml``)."""
     import irradiance as ir
 
     folder = Path(folder).resolve()
     cfg = load_config(folder) if cfg is None else cfg
     t0 = time.perf_counter()
     timings = {}
-    site = _site(cfg)
     sky = ir.PragueSky(cfg["sky"]["dataset"])
-    p = cfg["period"]
-    states = ir.sky_states_for(site, str(p["start"]), str(p["end"]), p["step"], model=sky.model,
-                               visibility=cfg["sky"]["visibility"], albedo=cfg["sky"]["albedo"], warn=False)
+    site, states, measured, rows, how = _weather_states(cfg, sky)
     times = states.times
     sky.check_states(states)
     # the report's hour: the step whose interval holds report.sky_time
@@ -140,6 +204,11 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         raise ConfigError(f"report.sky_time = {cfg['report']['sky_time']}: the sun is below the horizon "
                           f"(elevation {states.sun_elevation[hi]:.1f} deg); choose a daylight hour")
     geo = build_geometry(cfg["scene"]["geometry"], cfg["scene"]["parameters"])
+    tcfg = cfg.get("thermal")
+    building = geo.get("building")
+    if tcfg is not None and building is None:
+        raise ConfigError(f"[thermal]: the geometry {cfg['scene']['geometry'].name} returns no 'building' "
+                          "(a thermal.Building) to compute loads for")
     context = list(geo["context"].values())
     scene = ir.make_scene(list(geo["analysis"].values()), context, groups=list(geo["analysis"]),
                           samples_per_face=cfg["scene"]["samples_per_face"], two_sided=cfg["scene"]["two_sided"],
@@ -148,30 +217,73 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     settings = ir.IntegratorSettings.for_tolerance(cfg["accuracy"]["tolerance"])
     responses = band_responses()
     pv = cfg.get("pv")
+    pv_groups = ()
     if pv is not None:
         import pvsim
         pv_resp, pv_sources = pvsim.technology_responses(pv["technologies"])
         responses = pv_resp + responses
+        pv_groups = tuple(pv["groups"]) or tuple(g for g in geo["analysis"]
+                                                 if building is None or g not in _surface_labels(building))
+        bad = [g for g in pv_groups if g not in geo["analysis"]]
+        if bad:
+            raise ConfigError(f"pv.groups: {bad[0]!r} is not an analysis group; groups: {', '.join(geo['analysis'])}")
+    units = rated = None
+    if tcfg is not None:
+        from .building_loads import glazing_responses, prepare_building
+        from .glazing import glazing_units, unit_summary
+        try:
+            units = glazing_units(tcfg["glazing"])
+        except FileNotFoundError as exc:
+            raise ConfigError(f"thermal.glazing: {exc}") from None
+        building = prepare_building(building, tcfg)
+        import pvsim
+        am15 = pvsim.widesky_am15g(sky)
+        rated = {n: unit_summary(u, am15["channel_edges"], am15["scaled"]) for n, u in units.items()}
+        responses = responses + glazing_responses(units)
     t1 = time.perf_counter()
     res = ir.poa_irradiance(scene, sky, states, responses=responses, settings=settings, times=times,
-                            n_jobs=n_jobs, progress=progress)
+                            measured=measured, n_jobs=n_jobs, progress=progress)
     timings["integrator"] = time.perf_counter() - t1
+    T = len(times)
+    step_h = (times[1] - times[0]).total_seconds() / 3600.0 if len(times) > 1 else 1.0
     pv_result = None
     if pv is not None:
         t3 = time.perf_counter()
         reference = pvsim.widesky_am15g(sky)["scaled"] if pv["reference"] == "widesky" else None
         system = pvsim.SystemSpec(temperature_model=pv["temperature_model"], dc_loss=pv["dc_loss"])
-        pv_result = pvsim.pv_yield(res, pv["technologies"], pv["temp_air"], pv["wind_speed"], sources=pv_sources,
-                                   system=system, reference=reference, progress=progress)
+        pv_result = pvsim.pv_yield(res, pv["technologies"], _series(rows, "temp_air", pv["temp_air"], T),
+                                   np.maximum(_series(rows, "wind_speed", pv["wind_speed"], T), 0.0),
+                                   sources=pv_sources, system=system, reference=reference, progress=progress)
         timings["pv_yield"] = time.perf_counter() - t3
+    thermal_run = None
+    if tcfg is not None:
+        from thermal import sky_temperature
+        from .building_loads import building_thermal, design_day_temperature
+        t4 = time.perf_counter()
+        design = design_day_temperature(times, step_h, tcfg["temp_air"], tcfg["temp_air_range"])
+        temp_sky = None
+        if rows is not None and "ghi_infrared" in rows and np.isfinite(rows["ghi_infrared"].to_numpy(float)).all():
+            temp_sky = sky_temperature(np.maximum(rows["ghi_infrared"].to_numpy(float), 1.0))
+        thermal_run = building_thermal(res, building, tcfg, units, rated, _series(rows, "temp_air", design, T),
+                                       temp_sky)
+        timings["thermal"] = time.perf_counter() - t4
     t2 = time.perf_counter()
+    hour_measured = None if measured is None else tuple(np.asarray(m)[hi:hi + 1] for m in measured)
     hour = ir.poa_irradiance(scene, sky, states.take(slice(hi, hi + 1)), settings=settings, times=times[hi:hi + 1],
-                             spectral=True, n_jobs=n_jobs, progress=False)
+                             measured=hour_measured, spectral=True, n_jobs=n_jobs, progress=False)
     timings["spectral_hour"] = time.perf_counter() - t2
-    step_h = (times[1] - times[0]).total_seconds() / 3600.0 if len(times) > 1 else 1.0
+    rename = None
+    if building is not None:
+        from .building_loads import surface_display_labels
+        rename = surface_display_labels(building)
     return CaseRun(folder, cfg, scene, res, hour, hi,
                    (float(states.sun_elevation[hi]), float(states.sun_azimuth[hi])),
-                   face_labels(scene), step_h, sky, settings, timings, pv_result)
+                   face_labels(scene, rename), step_h, sky, settings, timings, pv_result, pv_groups, thermal_run,
+                   how, site)
+
+
+def _surface_labels(building):
+    return {s.label for s in building.surfaces if s.kind != "shading"}
 
 
 def _atomic_folder(dest: Path, fill):
@@ -214,7 +326,9 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
     others = []
     for site in (run.config.get("compare") or {}).get("sites", []):
         log(f"{folder.name}: the same case at {site['name'] or (site['latitude'], site['longitude'])} ...")
-        others.append(compute(folder, n_jobs=n_jobs, progress=progress, cfg={**run.config, "site": site}))
+        site = dict(site)
+        sky = {**run.config["sky"], "weather": site.pop("weather")}
+        others.append(compute(folder, n_jobs=n_jobs, progress=progress, cfg={**run.config, "site": site, "sky": sky}))
     run.timings["compute_total"] = time.perf_counter() - t0
     log(f"{folder.name}: computed in {run.timings['compute_total']:.1f} s; writing the report (time series, "
         "integrator result, renders, HTML) ...")
@@ -225,7 +339,7 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
         "versions": _versions(), "timings_s": run.timings,
         "faces": int(run.scene.n_faces), "steps": int(len(run.result.times)),
     }
-    report = _atomic_folder(out, lambda tmp: write_report(run, tmp, provenance, others))
+    report = _atomic_folder(out, lambda tmp: write_report(run, tmp, provenance, others, progress=progress))
     log(f"{folder.name}: {run.scene.n_faces} faces x {len(run.result.times)} steps in "
         f"{time.perf_counter() - t0:.1f} s -> {report}/index.html")
     return report

@@ -142,7 +142,7 @@ def test_report_folder_contents(small_report):
     names = {p.name for p in rep.iterdir()}
     assert {"index.html", "timeseries.csv", "timeseries.parquet", "faces.csv", "poa.h5", "spectral_hour.h5",
             "provenance.json",
-            "case.toml", "sky.exr", "sky.png", "scene_south-west.png", "scene.ply"} <= names
+            "case.toml", "sky.exr", "sky.png", "scene_south-west.png", "scene.ply", "scene.glb"} <= names
     assert not [p for p in rep.parent.iterdir() if p.name.startswith(".")]          # no temporary folder left
     html = (rep / "index.html").read_text()
     # self-contained: no script, no stylesheet link, no image or link to another origin
@@ -153,6 +153,9 @@ def test_report_folder_contents(small_report):
     import trimesh
     m = trimesh.load(rep / "scene.ply", process=False)
     assert len(m.faces) > 0 and m.visual.face_colors.shape[0] == len(m.faces)
+    g = trimesh.load(rep / "scene.glb", force="mesh")               # the same colours per triangle as the PLY
+    assert len(g.faces) == len(m.faces)
+    np.testing.assert_array_equal(g.visual.vertex_colors[g.faces[:, 0]], m.visual.face_colors)
     pq = pd.read_parquet(rep / "timeseries.parquet")
     csv = pd.read_csv(rep / "timeseries.csv", index_col=0)
     np.testing.assert_allclose(csv.to_numpy(), pq.to_numpy(), rtol=1e-3, atol=1e-3)  # CSV keeps 4 digits
@@ -203,7 +206,7 @@ def test_a_failed_run_leaves_the_previous_report_untouched(small_report, monkeyp
     stamp = (rep / "index.html").stat().st_mtime_ns
     import cases.report
 
-    def boom(run, tmp, provenance, others=None):
+    def boom(run, tmp, provenance, others=None, progress=False):
         (Path(tmp) / "index.html").write_text("half")
         raise KeyboardInterrupt                           # as if interrupted while writing
     monkeypatch.setattr(cases.report, "write_report", boom)
