@@ -194,8 +194,11 @@ class POAResult:
             return np.asarray(a[rows, sel])
         if sel.size == 0:
             return np.zeros((len(range(*rows.indices(a.shape[0]))), 0), np.float32)
-        # h5py wants increasing indices: read the covering range, then pick
+        # h5py wants increasing indices: read the covering range, then pick (a run of consecutive
+        # faces, the usual face group, is read as it is)
         lo, hi = int(sel.min()), int(sel.max()) + 1
+        if sel.size == hi - lo and sel[0] == lo and np.all(np.diff(sel) == 1):
+            return np.asarray(a[rows, lo:hi])
         return np.asarray(a[rows, lo:hi])[:, sel - lo]
 
     def parts(self, response="broadband"):
