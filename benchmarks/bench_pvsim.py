@@ -77,7 +77,7 @@ def main(argv=None):
         t0 = time.perf_counter()
         r = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times, n_jobs=args.jobs,
                            output=os.path.join(tmp, "pv.h5"),
-                           parts=None if args.all_parts else pvsim.technology_parts(resp))
+                           **({} if args.all_parts else {"parts": pvsim.technology_parts(resp)}))
         t_poa = time.perf_counter() - t0
         y = pvsim.pv_yield(r, techs, 20.0, 1.0, sources=sources)
         cpu_s["pvsim"] = cpu() - c0
