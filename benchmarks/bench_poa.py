@@ -75,7 +75,9 @@ def benchmark_scene(n_faces=20000):
     rows = []
     for i in range(n_rows):
         m = grid_plane(nx, ny, 60.0, 4.0)
-        rot = trimesh.transformations.rotation_matrix(np.radians(-25.0), [1, 0, 0])  # tilt to south
+        # tilt 25 deg to the south: a positive rotation about +x (east) turns the normal +z towards -y
+        # (south); before 2026-12-01 the sign was negative and the rows faced north (azimuth 0)
+        rot = trimesh.transformations.rotation_matrix(np.radians(25.0), [1, 0, 0])
         m.apply_transform(rot)
         m.apply_translation((0.0, -40.0 - 9.0 * i, 1.9))
         rows.append(m)

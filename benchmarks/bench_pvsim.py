@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import sys
 import tempfile
 import time
@@ -38,6 +39,8 @@ def main(argv=None):
     ap.add_argument("--dataset", default=None, help="PSM dataset file (default: the embedded one)")
     ap.add_argument("--order", choices=("baseline-first", "pvsim-first"), default="baseline-first",
                     help="which run goes first (the second profits from warm caches)")
+    ap.add_argument("--all-parts", action="store_true",
+                    help="keep the three parts of every technology response (the slower path)")
     args = ap.parse_args(argv)
     import pvsim
     from irradiance import IntegratorSettings, make_scene, poa_irradiance
@@ -54,18 +57,30 @@ def main(argv=None):
     print(f"load average before: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores")
     tmp = tempfile.mkdtemp(prefix="bench_pvsim.")
 
+    def cpu():
+        """CPU seconds of this process and its finished children (the ray-casting workers)."""
+        a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
+
+    cpu_s = {}
+
     def baseline():
+        c0 = cpu()
         t0 = time.perf_counter()
         r = poa_irradiance(scene, sky, states, responses=bench_poa.responses(sky.wavelengths), settings=settings,
                            times=times, n_jobs=args.jobs, output=os.path.join(tmp, "base.h5"))
+        cpu_s["baseline"] = cpu() - c0
         return time.perf_counter() - t0, r
 
     def technologies():
+        c0 = cpu()
         t0 = time.perf_counter()
         r = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times, n_jobs=args.jobs,
-                           output=os.path.join(tmp, "pv.h5"))
+                           output=os.path.join(tmp, "pv.h5"),
+                           **({} if args.all_parts else {"parts": pvsim.technology_parts(resp)}))
         t_poa = time.perf_counter() - t0
         y = pvsim.pv_yield(r, techs, 20.0, 1.0, sources=sources)
+        cpu_s["pvsim"] = cpu() - c0
         return time.perf_counter() - t0, t_poa, r, y
 
     if args.order == "baseline-first":
@@ -82,6 +97,9 @@ def main(argv=None):
           f"({scene.n_faces * len(states) * len(techs) / max(t_pv - t_pv_poa, 1e-9) / 1e6:.1f} M face-steps/s)")
     print(f"ratio all technologies (POA + yield) / POA with three responses = {t_pv / t_base:.2f} "
           f"(POA alone {t_pv_poa / t_base:.2f}; target <= 1.25)")
+    print(f"CPU seconds (this process + ray-casting workers; steadier than wall time on a shared machine): "
+          f"baseline {cpu_s['baseline']:.1f}, all technologies {cpu_s['pvsim']:.1f}, "
+          f"ratio {cpu_s['pvsim'] / cpu_s['baseline']:.2f}")
     g = y.groups[0]
     print("specific yield of group " + g + " [kWh/kWp]: " +
           ", ".join(f"{n} {ty.specific_yield(g):.0f}" for n, ty in y.technologies.items()))

@@ -31,7 +31,7 @@ from .optics import DEFAULT_NODES, plan_optics
 from .patches import cosine_weights, reinhart
 from .raycast import Coefficients, start_coefficients
 from .response import Response
-from .result import PARTS, FaceTable, H5Writer, POAResult, atomic_h5
+from .result import ALL_PARTS, PARTS, FaceTable, H5Writer, POAResult, atomic_h5
 from .scene import Scene
 from .skies import SkyStates
 
@@ -118,6 +118,29 @@ class _NoOptic:
     name = "broadband"
 
 
+def stored_parts(names, parts):
+    """The parts kept per response: ``parts`` (dict name -> part or parts, see
+    :func:`poa_irradiance`) checked against the response names; tuple of tuples, in ``names``' order."""
+    if parts is None:
+        parts = {}
+    if not isinstance(parts, dict):
+        raise TypeError(f"parts: expected a dict response name -> parts, got {type(parts).__name__}")
+    unknown = sorted(set(map(str, parts)) - set(names))
+    if unknown:
+        raise ValueError(f"parts names response(s) {unknown} that are not computed; responses: {list(names)}")
+    if "broadband" in parts:
+        raise ValueError("parts: 'broadband' always keeps its three parts (poa_direct ... poa_ground_diffuse)")
+    out = []
+    for n in names:
+        v = parts.get(n, PARTS)
+        v = (v,) if isinstance(v, str) else tuple(v)
+        bad = [p for p in v if p not in ALL_PARTS]
+        if bad or not v:
+            raise ValueError(f"parts[{n!r}]={v!r}: each part must be one of {ALL_PARTS} (at least one)")
+        out.append(tuple(p for p in ALL_PARTS if p in v))
+    return tuple(out)
+
+
 def estimate_run(n_faces, n_steps, n_responses=1, spectral=False, n_channels=55):
     """Output size of a run: (bytes of the (T, F) float32 arrays, bytes of a spectral part)."""
     per = 4 * int(n_faces) * int(n_steps)
@@ -158,7 +181,8 @@ def _versions():
 class _Sink:
     """Where the blocks of output steps go: arrays in memory, or the HDF5 file."""
 
-    def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral, compression=None):
+    def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral, compression=None,
+                 stored=None):
         self.keys, self.T, self.F, self.C = keys, T, F, C
         self.path, self.writer, self.ctx = path, None, None
         self.spectral = spectral
@@ -173,7 +197,7 @@ class _Sink:
             self.ctx = atomic_h5(path)
             f = self.ctx.__enter__()
             self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None,
-                                   compression)
+                                   compression, parts=stored)
 
     def block(self, b0, b1):
         """dict key -> (b1 - b0, F) zeroed arrays (aoi NaN) to fill for steps b0:b1."""
@@ -228,7 +252,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
                    measured=None, times=None, dni_scale=None, diffuse_scale=None, output=None,
                    spectral=False, n_jobs=None, executor=None, progress=False, coefficients=None,
                    optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None, compression=None,
-                   spectral_model="clear", allsky_options=None):
+                   spectral_model="clear", allsky_options=None, parts=None):
     """Plane-of-array irradiance per face, step and response: direct, sky-diffuse and reflected parts.
 
     Parameters
@@ -288,6 +312,13 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     compression : {None, "lzf", "gzip"}
         Compression of the result file's (T, F) datasets (None: fastest, see
         :mod:`irradiance.result`).
+    parts : dict of str to str or sequence of str, optional
+        Per response (not "broadband") the parts to keep, from "direct", "sky_diffuse",
+        "ground_diffuse" and "global" (default: the three parts, "global" read as their sum). A
+        response kept as ``"global"`` alone is stored as one (T, F) array, the float32 sum of its
+        three face-mean parts (the same numbers ``get(name, "global")`` gives from a full run), so
+        many responses of which only the total is needed (PV cell currents) cost a third of the
+        output; ``get`` of a part not kept is a ValueError.
 
     Returns
     -------
@@ -347,7 +378,8 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     faces_tab = FaceTable.from_scene(scene)
     names = [r[0] for r in resp]
     units = {r[0]: r[2] for r in resp}
-    keys = [(n, p) for n in names for p in PARTS]
+    stored = stored_parts(names, parts)
+    keys = [(n, p) for n, st in zip(names, stored) for p in st]
 
     # output blocks of consecutive steps, each cut into chunks of lit steps sorted by sky state
     # (sources that share work between equal states see them together)
@@ -435,7 +467,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         ctx = _ProductContext(scene, cf, states, lit, J, J_all, col_mat, spectral,
                               spectral_ground, settings.time_chunk)
         sink = _Sink(keys, T, F, C, None if output is None else os.fspath(output), names, units,
-                     faces_tab, spectral, compression)
+                     faces_tab, spectral, compression, stored=dict(zip(names, stored)))
         t_prod = 0.0
         ci = 0
         bar = None
@@ -461,7 +493,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
                 Lp, dni = Lp_all[pos[idx]].astype(np.float64), dni_all[pos[idx]]
                 t1 = time.perf_counter()
                 terms = chunk_products(ctx, idx, Lp, dni, up, sun_rank)
-                assemble_parts(ctx, resp, col_of, plan, terms, block, idx - b0, names)
+                assemble_parts(ctx, resp, col_of, plan, terms, block, idx - b0, names, stored)
                 t_prod += time.perf_counter() - t1
                 ci += 1
                 if bar is not None:
@@ -638,14 +670,21 @@ def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank):
             "dni": dni.astype(np.float32)}
 
 
-def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows, names):
+def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows, names, stored=None):
     """Stage 4: each response's direct, sky-diffuse and reflected parts from its columns, the
-    optics applied, averaged over each face's points, into ``block`` at ``rows``."""
+    optics applied, averaged over each face's points, into ``block`` at ``rows``.
+
+    ``stored`` (per response, from :func:`stored_parts`; default the three parts) names the parts
+    kept; "global" is the float32 sum ``direct + sky_diffuse + ground_diffuse`` of the face means
+    (what ``POAResult.get(name, "global")`` sums from the three). An angle-only optic is evaluated
+    once per chunk for all the responses that share it.
+    """
     sky_all, refl_all, beam, dni = terms["sky"], terms["refl"], terms["beam"], terms["dni"]
     Tc = beam.shape[0]
     aoi_pt = None
     f = ctx.faces
     b_dir, b_sky, b_ref = (b[:Tc] for b in ctx.buf_part)
+    optic_at_aoi = {}                              # id(angular callable) -> (Tc, N) factor
     for i, (name, _w, _unit, r) in enumerate(resp):
         kind = plan.kind[i]
         js = col_of[i]
@@ -658,7 +697,10 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
             refl = refl_all[:, j]
         elif kind == "angular":
             j = js[0]
-            g = np.asarray(r.angular(aoi_pt), dtype=np.float32)
+            key = id(r.angular)
+            if key not in optic_at_aoi:
+                optic_at_aoi[key] = np.asarray(r.angular(aoi_pt), dtype=np.float32)
+            g = optic_at_aoi[key]
             direct = np.multiply(dni[:, j:j + 1], beam, out=b_dir)
             direct *= g
             skyd = sky_all[:, j]
@@ -675,9 +717,21 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
                 direct += hat
                 skyd += sky_all[:, j]
                 refl += refl_all[:, j] * ctx.refl_factor[plan.index[i] + a][None, :]
-        block[(name, "direct")][rows] = f(direct)
-        block[(name, "sky_diffuse")][rows] = f(skyd)
-        block[(name, "ground_diffuse")][rows] = f(refl)
+        keep = PARTS if stored is None else stored[i]
+        if keep == PARTS:
+            block[(name, "direct")][rows] = f(direct)
+            block[(name, "sky_diffuse")][rows] = f(skyd)
+            block[(name, "ground_diffuse")][rows] = f(refl)
+            continue
+        means = {"direct": f(direct), "sky_diffuse": f(skyd), "ground_diffuse": f(refl)}
+        for p in keep:
+            if p == "global":
+                tot = np.array(means["direct"], dtype=np.float32)
+                tot += means["sky_diffuse"]
+                tot += means["ground_diffuse"]
+                block[(name, p)][rows] = tot
+            else:
+                block[(name, p)][rows] = means[p]
     block["sun_visible"][rows] = f(terms["vis"])
     if ctx.spectral:
         J, C = ctx.J, ctx.C

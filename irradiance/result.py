@@ -13,6 +13,9 @@ File layout (HDF5 through h5py; ``format = "widesky.poa"``, ``format_version = 1
                             altitude [m], earth_sun_distance [AU]; /states/clamped/<field> (T,) bool
     /scaling/<field>        (T,) MeasuredScaling fields (when measured weather scaled the sky)
     /poa/<response>/<part>  (T, F) float32, part in direct, sky_diffuse, ground_diffuse; attrs unit
+                            (format_version 2: a response run with ``parts=`` keeps only the parts
+                            named in the root attribute ``parts``, JSON dict name -> list, "global"
+                            among them; version 1 files hold the three parts of every response)
     /aoi, /sun_visible      (T, F) float32 [deg] (NaN at night), [1]
     /spectral/<part>        (T, F, C) float32 [W m-2 nm-1] (spectral runs only)
     /wavelengths, /channel_edges   (C,), (C+1,) [nm]
@@ -37,7 +40,7 @@ __all__ = ["FaceTable", "POAResult", "PARTS", "FORMAT", "FORMAT_VERSION"]
 
 PARTS = ("direct", "sky_diffuse", "ground_diffuse")
 ALL_PARTS = PARTS + ("global",)
-FORMAT, FORMAT_VERSION = "widesky.poa", 1
+FORMAT, FORMAT_VERSION = "widesky.poa", 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,6 +152,7 @@ class POAResult:
         self.responses = tuple(responses)
         self.units = dict(units)
         self._data = data                      # (response, part) -> array-like (T, F)
+        self.stored_parts = {r: tuple(p for p in ALL_PARTS if (r, p) in data) for r in self.responses}
         self._aoi, self._sun_visible = aoi, sun_visible
         self.faces, self.times, self.states = faces, times, states
         self.scaling, self.provenance = scaling, dict(provenance or {})
@@ -167,11 +171,16 @@ class POAResult:
 
     def get(self, response="broadband", part="global", faces=None, steps=None):
         """(T, F) float32 part of a response [``units[response]``]; ``faces`` (indices) selects
-        columns and ``steps`` (a slice) rows, read from the file without the rest."""
+        columns and ``steps`` (a slice) rows, read from the file without the rest. A response run
+        with ``parts=`` gives only the parts it kept (else a ValueError)."""
         self._check(response, part)
         sel = slice(None) if faces is None else np.asarray(faces)
         rows = slice(None) if steps is None else steps
-        if part == "global":
+        have = self.stored_parts[response]
+        if part not in have and not (part == "global" and set(PARTS) <= set(have)):
+            raise ValueError(f"response {response!r} was kept with parts {have} only "
+                             f"(poa_irradiance(parts=...)); part={part!r} is not available")
+        if part == "global" and part not in have:
             out = self._read(self._data[(response, "direct")], sel, rows).astype(np.float32,
                                                                                  copy=True)
             for p in PARTS[1:]:
@@ -185,13 +194,22 @@ class POAResult:
             return np.asarray(a[rows, sel])
         if sel.size == 0:
             return np.zeros((len(range(*rows.indices(a.shape[0]))), 0), np.float32)
-        # h5py wants increasing indices: read the covering range, then pick
+        # h5py wants increasing indices: read the covering range, then pick (a run of consecutive
+        # faces, the usual face group, is read as it is)
         lo, hi = int(sel.min()), int(sel.max()) + 1
+        if sel.size == hi - lo and sel[0] == lo and np.all(np.diff(sel) == 1):
+            return np.asarray(a[rows, lo:hi])
         return np.asarray(a[rows, lo:hi])[:, sel - lo]
 
     def parts(self, response="broadband"):
-        """dict part -> (T, F) for ``direct``, ``sky_diffuse``, ``ground_diffuse``, ``global``."""
-        return {p: self.get(response, p) for p in ALL_PARTS}
+        """dict part -> (T, F) for ``direct``, ``sky_diffuse``, ``ground_diffuse``, ``global`` (those
+        available: :meth:`available_parts`)."""
+        return {p: self.get(response, p) for p in self.available_parts(response)}
+
+    def available_parts(self, response):
+        """Parts ``get`` gives for a response: all four, or those kept with ``parts=``."""
+        have = self.stored_parts[response]
+        return ALL_PARTS if set(PARTS) <= set(have) else have
 
     @property
     def poa_global(self):
@@ -281,7 +299,7 @@ class POAResult:
         Mn, area = self._group_matrix()
         out = {"area": area}
         for r in self.responses:
-            for p in ALL_PARTS:
+            for p in self.available_parts(r):
                 out[f"{r}:{p}"] = self.get(r, p) @ Mn
         for q, p in zip(self.QUANTITIES, ("global", "direct", "sky_diffuse", "ground_diffuse")):
             out[q] = out[f"broadband:{p}"]
@@ -327,8 +345,8 @@ class POAResult:
         with atomic_h5(path) as f:
             w = H5Writer(f, self.responses, self.units, self.faces, self.n_steps,
                          spectral_channels=None if self.spectral is None else len(self.wavelengths),
-                         compression=compression)
-            step = max(1, (64 << 20) // max(1, 4 * self.n_faces * (3 * len(self.responses) + 2)))
+                         compression=compression, parts=self.stored_parts)
+            step = max(1, (64 << 20) // max(1, 4 * self.n_faces * (len(self._data) + 2)))
             for t0 in range(0, self.n_steps, step):
                 t1 = min(self.n_steps, t0 + step)
                 block = {k: np.asarray(v[t0:t1]) for k, v in self._data.items()}
@@ -368,7 +386,7 @@ class POAResult:
         states = _read_states(f["states"], times)
         scaling = _read_scaling(f["scaling"]) if "scaling" in f else None
         provenance = json.loads(f.attrs.get("provenance", "{}"))
-        data = {(r, p): f["poa"][r][p] for r in responses for p in PARTS}
+        data = {(r, p): f["poa"][r][p] for r in responses for p in ALL_PARTS if p in f["poa"][r]}
         aoi, vis = f["aoi"], f["sun_visible"]
         spectral = ({p: f["spectral"][p] for p in f["spectral"]} if "spectral" in f else None)
         wl = f["wavelengths"][:] if "wavelengths" in f else None
@@ -496,16 +514,19 @@ class H5Writer:
     """
 
     def __init__(self, f, responses, units, faces, n_steps, spectral_channels=None,
-                 compression=None):
+                 compression=None, parts=None):
         self.f = f
         T, F = int(n_steps), len(faces)
         if compression not in (None, "lzf", "gzip"):
             raise ValueError(f"compression={compression!r} is not one of (None, 'lzf', 'gzip')")
+        kept = {r: tuple((parts or {}).get(r, PARTS)) for r in responses}
+        full = all(v == PARTS for v in kept.values())
         f.attrs["format"] = FORMAT
-        f.attrs["format_version"] = FORMAT_VERSION
+        # files with every response's three parts stay readable by version-1 readers
+        f.attrs["format_version"] = 1 if full else FORMAT_VERSION
         f.attrs["responses"] = json.dumps(list(responses))
         f.attrs["units"] = json.dumps(dict(units))
-        f.attrs["parts"] = json.dumps(list(PARTS))
+        f.attrs["parts"] = json.dumps(list(PARTS) if full else {r: list(v) for r, v in kept.items()})
         kw = dict(dtype="f4")
         if T and F:
             kw["chunks"] = chunk_shape(T, F)
@@ -516,7 +537,7 @@ class H5Writer:
         for r in responses:
             gr = g.create_group(r)
             gr.attrs["unit"] = units[r]
-            for p in PARTS:
+            for p in kept[r]:
                 self.ds[(r, p)] = gr.create_dataset(p, shape=(T, F), fillvalue=0.0, **kw)
         self.ds["aoi"] = f.create_dataset("aoi", shape=(T, F), fillvalue=np.nan, **kw)
         self.ds["aoi"].attrs["unit"] = "deg"

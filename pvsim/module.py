@@ -223,15 +223,25 @@ def low_irradiance_factor(effective, low_irradiance_200):
     """
     e = np.asarray(effective, dtype=float)
     a = (low_irradiance_200 - 1.0) / np.log(0.2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rel = 1.0 + a * np.log(np.where(e > 0, e, 1.0) / G_STC)
-    return np.where(e > 0, np.maximum(rel, 0.0), 0.0)
+    pos = e > 0
+    rel = np.where(pos, e, 1.0)                    # in place below: large (T, F) arrays
+    rel /= G_STC
+    np.log(rel, out=rel)
+    rel *= a
+    rel += 1.0
+    np.maximum(rel, 0.0, out=rel)
+    rel[~pos] = 0.0
+    return rel
 
 
 def temperature_factor(temp_cell, gamma_pdc, temp_ref=T_STC):
     """``1 + gamma_pdc (T_cell - temp_ref)`` [1] (pvlib's PVWatts form); ``temp_cell`` [degC],
     ``gamma_pdc`` [1/K]."""
-    return 1.0 + gamma_pdc * (np.asarray(temp_cell, dtype=float) - temp_ref)
+    out = np.array(temp_cell, dtype=float)
+    out -= temp_ref
+    out *= gamma_pdc
+    out += 1.0
+    return out
 
 
 def bifacial_effective_irradiance(front, back, bifaciality):

@@ -36,7 +36,7 @@ from .spectra import am15g_channels, channel_edges
 from .technologies import TECHNOLOGIES, TandemTechnology, get_technology
 from .temperature import faiman, pvsyst_cell
 
-__all__ = ["CoverOptics", "SystemSpec", "technology_responses", "pv_yield", "simulate", "YieldResult",
+__all__ = ["CoverOptics", "SystemSpec", "technology_parts", "technology_responses", "pv_yield", "simulate", "YieldResult",
            "TechnologyYield", "COVER_RESPONSE", "WATERFALL_STAGES"]
 
 COVER_RESPONSE = "cover"
@@ -180,6 +180,14 @@ def technology_responses(technologies, cover=None):
     return resp, source
 
 
+def technology_parts(responses):
+    """``poa_irradiance(parts=...)`` for the responses of :func:`technology_responses`: the yield
+    model reads only each sub-cell current's global part, so only that is kept (a third of their
+    output; the numbers are those of a full run); the cover keeps its three parts (the angle loss
+    per part)."""
+    return {r.name: "global" for r in responses if r.name != COVER_RESPONSE}
+
+
 @dataclass
 class TechnologyYield:
     """One technology's yield per module group.
@@ -260,14 +268,19 @@ def _dni_estimate(res, chunk):
     dni = np.zeros(T)
     for f0 in range(0, F, chunk):
         idx = np.arange(f0, min(F, f0 + chunk))
-        d = res.get("broadband", "direct", faces=idx).astype(float)
-        aoi = _columns(res, "aoi", idx)
-        sv = _columns(res, "sun_visible", idx)
-        c = np.cos(np.radians(np.nan_to_num(aoi, nan=90.0)))
-        ok = (sv > 0.5) & (c > 0.2)
+        d = res.get("broadband", "direct", faces=idx)
+        r = np.nonzero(d.max(axis=1) > 0)[0] if d.size else np.zeros(0, int)   # steps with sun
+        if r.size == 0:
+            continue
+        d = d[r].astype(float)
+        aoi = _columns(res, "aoi", idx)[r]
+        sv = _columns(res, "sun_visible", idx)[r]
+        with np.errstate(invalid="ignore"):
+            c = np.cos(np.radians(aoi))                # NaN at night: not ok below
+            ok = (sv > 0.5) & (c > 0.2)
         with np.errstate(invalid="ignore", divide="ignore"):
             est = np.where(ok, d / np.where(ok, sv * c, 1.0), 0.0)
-        dni = np.maximum(dni, est.max(axis=1) if est.size else 0.0)
+        dni[r] = np.maximum(dni[r], est.max(axis=1))
     return dni
 
 
@@ -544,7 +557,7 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     resp, sources = technology_responses(techs, cover)
     res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
                          times=times, output=output, n_jobs=n_jobs, progress=progress,
-                         spectral_model=spectral_model)
+                         spectral_model=spectral_model, parts=technology_parts(resp))
     if isinstance(reference, str):
         if reference != "widesky":
             raise ValueError(f"reference={reference!r} must be None, 'widesky' or an array")

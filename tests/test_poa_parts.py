@@ -1,0 +1,145 @@
+"""``poa_irradiance(parts=...)``: responses kept as their global part only (the fast path for many
+PV cell currents) give the same numbers as the full run's ``get(name, "global")``.
+
+Reference: the full per-response run on the same scene, sky and states. The fast path stores the
+float32 sum of the three face-mean parts that ``POAResult.get`` would form from a full run, so the
+comparison is exact (bitwise), in memory and streamed to HDF5; angle-only optics shared by several
+responses are evaluated once per chunk (counted here), with no change to the numbers.
+"""
+
+import h5py
+import numpy as np
+import pytest
+import trimesh
+
+from irradiance import POAResult, Response, SkyStates, SpectralAngularTable, make_scene, poa_irradiance
+from irradiance.optics import DEFAULT_NODES
+from irradiance.skies import UniformSky
+
+STATES = SkyStates.create([8.0, 30.0, 55.0, 20.0, -5.0], [100.0, 150.0, 190.0, 250.0, 300.0],
+                          40.0, [0.2, 0.2, 0.3, 0.3, 0.2])
+
+
+def _fresnel(aoi):
+    th = np.radians(np.clip(aoi, 0.0, 89.9))
+    tr = np.arcsin(np.sin(th) / 1.5)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rs = np.where(th > 1e-6, (np.sin(tr - th) / np.sin(tr + th)) ** 2, 0.04)
+        rp = np.where(th > 1e-6, (np.tan(tr - th) / np.tan(tr + th)) ** 2, 0.04)
+    return (1 - 0.5 * (rs + rp)) / 0.96
+
+
+class Counting:
+    """An angle-only optic that counts its calls."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def __call__(self, aoi):
+        self.calls += 1
+        return _fresnel(aoi)
+
+
+def _scene():
+    rows = []
+    for i, (tilt, y) in enumerate(((30.0, 0.0), (30.0, -4.0), (90.0, 6.0))):
+        m = trimesh.creation.box(extents=(6.0, 2.0, 0.02))
+        m.apply_transform(trimesh.transformations.rotation_matrix(np.radians(tilt), [1, 0, 0]))
+        m.apply_translation((0.0, y, 1.5))
+        rows.append(m)
+    wall = trimesh.creation.box(extents=(8.0, 1.0, 5.0))
+    wall.apply_translation((0.0, 10.0, 2.5))
+    return make_scene(rows[:2], [rows[2], wall], ground_z=0.0)
+
+
+def _responses(optic):
+    wl = np.linspace(280.0, 2480.0, 12)
+    nodes = np.asarray(DEFAULT_NODES)
+    table = SpectralAngularTable(nodes, [280.0, 2480.0],
+                                 np.stack([_fresnel(nodes), 0.8 * _fresnel(nodes)], 1))
+    return [Response("a", wl, np.clip((wl - 300) / 800, 0, 1), unit="sr", angular=optic),
+            Response("b", wl, np.exp(-((wl - 700) / 300) ** 2), unit="qe", angular=optic),
+            Response("c", wl, np.full(wl.size, 0.7), unit="weight"),
+            Response("d", [280.0, 2480.0], [1.0, 1.0], unit="transmittance", angular=table),
+            Response("e", wl, np.linspace(0.2, 1.0, wl.size), unit="weight", angular=optic)]
+
+
+PARTS = {"a": "global", "b": ["global"], "c": "global", "d": "global", "e": ("direct", "global")}
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    scene = _scene()
+    sky = UniformSky(radiance=0.05, dni=0.9)
+    full = poa_irradiance(scene, sky, STATES, responses=_responses(_fresnel), n_jobs=1)
+    opt = Counting()
+    fast = poa_irradiance(scene, sky, STATES, responses=_responses(opt), n_jobs=1, parts=PARTS,
+                          coefficients=None)
+    path = tmp_path_factory.mktemp("parts") / "fast.h5"
+    streamed = poa_irradiance(scene, sky, STATES, responses=_responses(_fresnel), n_jobs=1,
+                              parts=PARTS, output=path)
+    return full, fast, streamed, opt, path
+
+
+def test_global_only_equals_full_run(runs):
+    full, fast, streamed, _, _ = runs
+    for res in (fast, streamed):
+        for name in "abcde":
+            np.testing.assert_array_equal(res.get(name, "global"), full.get(name, "global"), err_msg=name)
+        np.testing.assert_array_equal(res.get("e", "direct"), full.get("e", "direct"))
+        for part in ("direct", "sky_diffuse", "ground_diffuse", "global"):
+            np.testing.assert_array_equal(res.get("broadband", part), full.get("broadband", part))
+        np.testing.assert_array_equal(res.aoi, full.aoi)
+        assert res.weighted.keys() == full.weighted.keys()
+    assert full.get("a", "global").max() > 0 and full.get("d", "ground_diffuse").max() > 0
+
+
+def test_parts_not_kept_are_a_clear_error(runs):
+    _, fast, streamed, _, _ = runs
+    for res in (fast, streamed):
+        with pytest.raises(ValueError, match=r"response 'a' was kept with parts \('global',\)"):
+            res.get("a", "direct")
+        with pytest.raises(ValueError, match="sky_diffuse"):
+            res.get("e", "sky_diffuse")
+        with pytest.raises(ValueError, match="not available"):
+            res.to_pvlib(group=0, response="c")
+        assert res.available_parts("e") == ("direct", "global")
+        assert res.available_parts("broadband") == ("direct", "sky_diffuse", "ground_diffuse", "global")
+        agg = res.aggregate()
+        assert "a:global" in agg and "a:direct" not in agg and "broadband:sky_diffuse" in agg
+
+
+def test_file_layout_and_round_trip(runs, tmp_path):
+    full, fast, _, _, path = runs
+    with h5py.File(path, "r") as f:
+        assert f.attrs["format_version"] == 2
+        assert sorted(f["poa"]["a"]) == ["global"]
+        assert sorted(f["poa"]["broadband"]) == ["direct", "ground_diffuse", "sky_diffuse"]
+    p2 = tmp_path / "saved.h5"
+    fast.save(p2)
+    with POAResult.load(p2) as back:
+        np.testing.assert_array_equal(back.get("b", "global"), full.get("b", "global"))
+        assert back.stored_parts["e"] == ("direct", "global")
+    p1 = tmp_path / "full.h5"
+    full.save(p1)
+    with h5py.File(p1, "r") as f:                  # full runs keep the version-1 layout
+        assert f.attrs["format_version"] == 1
+    sub = fast.subset(groups=[0])
+    np.testing.assert_array_equal(sub.get("a", "global"), full.get("a", "global")[:, sub.faces.select(0)])
+
+
+def test_shared_optic_evaluated_once_per_chunk(runs):
+    # three responses share the callable: one call per chunk of steps (one chunk here), not three
+    _, _, _, opt, _ = runs
+    assert opt.calls == 1 + 1        # the optic table (plan_optics) and one chunk
+
+
+def test_bad_parts():
+    scene = _scene()
+    sky = UniformSky(radiance=0.05, dni=0.9)
+    r = _responses(_fresnel)
+    for parts, msg in (({"zz": "global"}, "not computed"), ({"broadband": "global"}, "always keeps"),
+                       ({"a": "total"}, "each part must be one of"), ({"a": []}, "at least one"),
+                       ("global", "expected a dict")):
+        with pytest.raises((ValueError, TypeError), match=msg):
+            poa_irradiance(scene, sky, STATES.take([1]), responses=r, n_jobs=1, parts=parts)
