@@ -281,14 +281,15 @@ def test_pv_technologies_are_validated(folder):
 
 def test_pv_report_energy_bookkeeping(pv_report):
     """The report's AC energy per technology is the time series' plant AC power summed over the hours;
-    AC < DC; a technology without bifaciality (CdTe) gets no rear gain, the bifacial one does."""
+    AC < DC (energies and specific yields); a technology without bifaciality (CdTe) gets no rear gain, the bifacial one does."""
     html = (pv_report / "index.html").read_text()
     assert "PV yield per technology" in html and "Loss waterfall" in html
     ts = pd.read_csv(pv_report / "timeseries.csv", index_col=0)
     import pvsim
     labels = {n: pvsim.get_technology(n).label for n in ("topcon", "cdte")}
     rows = re.findall(r"<tr><td>([^<]+)</td><td>([\d.]+)</td><td>([\d.]+)</td><td>([\d.]+)</td><td>([\d.]+)</td>"
-                      r"<td>([\d.]+)</td><td>(\d)</td><td>([-+\d.]+)</td><td>([-+\d.]+)</td></tr>", html)
+                      r"<td>([\d.]+)</td><td>(\d)</td><td>([\d.]+)</td><td>([-+\d.]+)</td><td>([-+\d.]+)</td></tr>",
+                      html)
     table = {r[0]: r for r in rows}
     for name, label in labels.items():
         r = table[label]
@@ -297,7 +298,8 @@ def test_pv_report_energy_bookkeeping(pv_report):
         assert float(r[4]) == pytest.approx(e_ac, abs=0.006)
         assert float(r[3]) == pytest.approx(e_dc, abs=0.006) and e_ac < e_dc
         assert float(r[5]) == pytest.approx(e_ac * 1000 / float(r[2]), rel=2e-2)   # kWh/kWp (rounded kWp)
-    assert float(table[labels["cdte"]][8]) == 0.0 and float(table[labels["topcon"]][8]) > 1.0
+        assert float(r[7]) == pytest.approx(e_dc * 1000 / float(r[2]), rel=2e-2) and float(r[7]) > float(r[5])
+    assert float(table[labels["cdte"]][9]) == 0.0 and float(table[labels["topcon"]][9]) > 1.0
 
 
 def test_the_report_hour_is_checked_before_the_run(folder):
