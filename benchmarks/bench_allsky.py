@@ -128,11 +128,13 @@ def load_site(path, sky, prefer="visibility", stride=1):
 
 VARIANTS = (
     ("plain (today)", CLEAR_SHAPE),
-    ("+ cloud spectrum (Ernst)", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, haze="clamp",
-                                               angular="clear")),
-    ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, haze="clamp")),
-    ("+ cloud liquid water", AllSkyOptions(cloud_vapour=False, haze="clamp")),
-    ("+ cloud water vapour", AllSkyOptions(haze="clamp")),
+    ("+ cloud spectrum (Ernst)", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
+                                               haze="clamp", angular="clear")),
+    ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
+                                             haze="clamp")),
+    ("+ cloud liquid water", AllSkyOptions(cloud_vapour=False, cloud_rayleigh=False, haze="clamp")),
+    ("+ cloud water vapour", AllSkyOptions(cloud_rayleigh=False, haze="clamp")),
+    ("+ cloud-top Rayleigh", AllSkyOptions(haze="clamp")),
     ("+ haze extension (all-sky)", AllSkyOptions()),
 )
 
@@ -161,7 +163,8 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
     for label, opt in VARIANTS:
         t1 = time.perf_counter()
         f = allsky_factors(edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, ghi=ghi,
-                           visibility=vis, temp_dew=tdew, min_visibility=vmin, options=opt)
+                           visibility=vis, temp_dew=tdew, min_visibility=vmin, options=opt,
+                           albedo=states.albedo)
         times[label] = time.perf_counter() - t1
         poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi)
         E = poa["poa_global"]

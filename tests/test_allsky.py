@@ -78,7 +78,7 @@ def test_ernst_limits():
     # step 0: clear (measured = model, N = 0); step 1: overcast (no beam, N = 1); step 2: halfway
     dni = np.array([bn[0] @ W, 0.0, 0.5 * (bn[2] @ W)])
     dhi = np.array([dh[0] @ W, g[1] @ W * 0.3, dh[2] @ W * 1.4])
-    opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular="clear")
+    opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False, angular="clear")
     f = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=opt)
     assert f.cloud_index[0] == pytest.approx(0.0, abs=1e-12) and f.cloud_index[1] == 1.0
     assert 0 < f.cloud_index[2] < 1
@@ -87,8 +87,8 @@ def test_ernst_limits():
     np.testing.assert_allclose(d1 / (d1 @ W), g[1] / (g[1] @ W), rtol=1e-12)   # global's shape
     np.testing.assert_allclose(f.dni_scale[2], f.dni_scale[2, 0], rtol=1e-12)  # neutral beam
     # the same through the CIE overcast part: the overcast light carries the global's shape
-    f2 = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(cloud_absorption=False,
-                                                                            cloud_vapour=False))
+    f2 = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(
+        cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False))
     np.testing.assert_allclose(f2.overcast_dhi[1] / (f2.overcast_dhi[1] @ W), g[1] / (g[1] @ W), rtol=1e-12)
     np.testing.assert_allclose(f2.diffuse_scale[1], 0.0, atol=1e-12)
     # overcast light is far less blue than the scaled clear diffuse
