@@ -74,6 +74,12 @@ class AllSkyOptions:
         (:func:`irradiance.cloud_optics.cloud_top_rayleigh_gain`): the blue shift of overcast light.
     cloud_top_pressure : float
         Pressure at the cloud top relative to sea level [1] (0.8: about 1.8 km).
+    partition : {"sky_fraction", "ernst"}
+        How the measured DHI splits into clear-sky light (clear shape and angular distribution) and
+        cloud light (global shape, CIE overcast): ``"ernst"`` as Ernst et al. (2016, eqs. 7-8), the
+        clear part ``(1 - N) DHI``; ``"sky_fraction"`` keeps the clear sky's own diffuse only on the
+        cloud-free share of the sky, ``min(DHI, (1 - N) D_clear)`` [W m-2], and gives the rest of the
+        DHI to the clouds (docs/all-sky.md, section 1).
     haze : {"extrapolate", "clamp"}
         Below the dataset's visibility: extend the aerosol (:mod:`irradiance.haze`) or keep the
         clamped state (flagged by :func:`irradiance.sky_states`).
@@ -99,6 +105,7 @@ class AllSkyOptions:
     cloud_vapour: bool = True
     cloud_rayleigh: bool = True
     cloud_top_pressure: float = CLOUD_TOP_PRESSURE_RATIO
+    partition: str = "sky_fraction"
     haze: str = "extrapolate"
     angular: str = "cie_overcast"
     droplet_radius: float = DEFAULT_DROPLET_RADIUS
@@ -112,6 +119,8 @@ class AllSkyOptions:
             raise ValueError(f"haze={self.haze!r} is not one of ('extrapolate', 'clamp')")
         if self.angular not in ("cie_overcast", "clear"):
             raise ValueError(f"angular={self.angular!r} is not one of ('cie_overcast', 'clear')")
+        if self.partition not in ("sky_fraction", "ernst"):
+            raise ValueError(f"partition={self.partition!r} is not one of ('sky_fraction', 'ernst')")
         if not 0.0 < self.cloud_top_pressure <= 1.0:
             raise ValueError(f"cloud_top_pressure={self.cloud_top_pressure!r} outside the valid range (0, 1]")
 
@@ -279,9 +288,13 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     # the shape of the global spectrum at the dataset's state (the haze lies below the cloud, where
     # the cloud's diffuse light is scattered on, not removed) times the cloud's transmittance
     keep = dh > 0                                         # channels the clear sky can carry light in
-    clear_part = (1.0 - n)[:, None] * _unit(np.where(keep, dhh, 0.0), w)
-    cloud_part = n[:, None] * _unit(np.where(keep, g0 * trans, 0.0), w)
     total = scaling.sky_scale * model_dhi                 # broadband DHI reproduced [W m-2]
+    share = n                                             # cloud light's share of the DHI [1]
+    if options.cloud_spectrum and options.partition == "sky_fraction":
+        clear_light = np.minimum(total, (1.0 - n) * (dhh @ w))
+        share = np.where(total > 0, 1.0 - _ratio(clear_light, total), 0.0)
+    clear_part = (1.0 - share)[:, None] * _unit(np.where(keep, dhh, 0.0), w)
+    cloud_part = share[:, None] * _unit(np.where(keep, g0 * trans, 0.0), w)
     if options.angular == "cie_overcast":
         diffuse_scale = scaling.sky_scale[:, None] * _ratio(clear_part * model_dhi[:, None], dh)
         overcast_dhi = total[:, None] * cloud_part
