@@ -13,8 +13,10 @@ DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
    [0, 1], with ``rho = DHI / GHI`` measured and ``rho_clear`` the clear model's diffuse fraction: 0 for
    a clear sky, 1 when all light is diffuse.
 3. **Diffuse spectrum** (Ernst et al. 2016, eqs. 7-8): clouds scatter the whole clear-sky global
-   spectrum, so the diffuse shape is ``(1 - N) D(l) / int D + N G(l) t(l) / int G t``, with ``D`` the
-   clear diffuse, ``G`` the clear global horizontal spectrum, and ``t`` the cloud layer's spectral
+   spectrum, so the diffuse shape is ``(1 - f) D(l) / int D + f G(l) t(l) / int G t``, with ``D`` the
+   clear diffuse, ``G`` the clear global horizontal spectrum, ``f`` the cloud light's share of the DHI
+   (Ernst: ``f = N``; default ``partition="sky_fraction"``: the clear sky's own diffuse is kept only on
+   the cloud-free share of the sky, ``(1 - f) DHI = min(DHI, (1 - N) int D)``), and ``t`` the cloud layer's spectral
    transmittance relative to a non-absorbing cloud (:mod:`irradiance.cloud_optics`: liquid-water
    absorption of droplets in a two-stream slab whose optical depth reproduces the measured clear-sky
    index ``GHI / GHI_clear``, water vapour along the long in-cloud photon paths, and the blue gain of
