@@ -13,6 +13,11 @@ centres 340-1060 nm) of hourly plane-of-array spectra, in all and in overcast ho
 below 0.3), against G173's.
 
 Usage:  python benchmarks/bench_allsky.py [--sites amsterdam|all] [--figure docs/figures/allsky_spectral_effects.png]
+        [--sedes2 COEFFICIENTS.csv] [--stride N] [--cache DIR] [--prefer aod|visibility]
+
+Also printed: where the sky model at the G173 state differs from G173 (direct or diffuse, with SPCTRL2),
+the spectral mismatch against the clear-sky index with PVSPEC, and the APE of global horizontal spectra
+against the clear-sky index, with SEDES2 when its coefficient file is given (docs/all-sky.md, section 4).
 
 Prints a table per site and the time of each phase (the sky evaluation dominates; the all-sky factors
 cost milliseconds for a year, reported as a ratio to the plain scaling measured in the same run).
@@ -328,6 +333,8 @@ def main(argv=None):
     ap.add_argument("--cache", default=None,
                     help="folder to keep the clear-sky spectra in between runs (reused when present)")
     args = ap.parse_args(argv)
+    if args.sedes2 is not None and not Path(args.sedes2).is_file():
+        ap.error(f"--sedes2: {args.sedes2!r} is not a file")
     names = list(SITES) if args.sites == "all" else args.sites.split(",")
     sky = ir.PragueSky()
     g173 = g173_channels(np.asarray(sky.channel_edges))
