@@ -13,6 +13,11 @@ centres 340-1060 nm) of hourly plane-of-array spectra, in all and in overcast ho
 below 0.3), against G173's.
 
 Usage:  python benchmarks/bench_allsky.py [--sites amsterdam|all] [--figure docs/figures/allsky_spectral_effects.png]
+        [--sedes2 COEFFICIENTS.csv] [--stride N] [--cache DIR] [--prefer aod|visibility]
+
+Also printed: where the sky model at the G173 state differs from G173 (direct or diffuse, with SPCTRL2),
+the spectral mismatch against the clear-sky index with PVSPEC, and the APE of global horizontal spectra
+against the clear-sky index, with SEDES2 when its coefficient file is given (docs/all-sky.md, section 4).
 
 Prints a table per site and the time of each phase (the sky evaluation dominates; the all-sky factors
 cost milliseconds for a year, reported as a ratio to the plain scaling measured in the same run).
@@ -29,6 +34,10 @@ import numpy as np
 
 import irradiance as ir
 from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors
+from irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
+                                      g173_decomposition, generic_eqe, mismatch_by_kc, model_at_g173,
+                                      pvspec_fit, pvspec_published, sedes2_global_horizontal,
+                                      spectral_response)
 from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
 
 DATA = Path(os.environ.get("WIDESKY_DATA_DIR") or Path(__file__).resolve().parents[1].parent / "shared" / "data")
@@ -43,70 +52,6 @@ SITES = {
 # Dirnberger et al. (2015), Sol. Energy Mater. Sol. Cells 132, 431-442: measured annual spectral
 # effects at Freiburg (Germany) relative to AM1.5G, % (as quoted in issue 16).
 DIRNBERGER_FREIBURG = {"a-Si": 3.4, "CdTe": 2.4, "c-Si": 1.4, "CIGS": 0.6}
-
-HC_EV_NM = 1239.84198  # h c / q [eV nm]
-
-
-def generic_eqe(wavelength):
-    """Generic EQE curves [1] at wavelengths [nm]: plateau x window cutoff x band-gap edge (logistic
-    edges). Shapes, not measured devices: a-Si:H (edge 650 nm, i.e. the 1.75 eV gap with its Urbach
-    tail), CdTe (CdS window 510 nm passing 35 %, gap 1.45 eV -> edge 830 nm), CIGS (CdS window,
-    graded gap about 1.15 eV -> edge 1100 nm), c-Si (the knot points of pvlib's example c-Si spectral
-    response, ../shared/data/pv/, interpolated linearly and converted to EQE)."""
-    lam = np.asarray(wavelength, dtype=float)
-
-    def shape(q0, blue, blue_w, floor, red, red_w):
-        window = floor + (1 - floor) / (1 + np.exp((blue - lam) / blue_w))
-        return q0 * window / (1 + np.exp((lam - red) / red_w))
-
-    eqe = {"a-Si": shape(0.85, 380, 20, 0.0, 650, 30),
-           "CdTe": shape(0.90, 510, 12, 0.35, 830, 12),
-           "CIGS": shape(0.90, 510, 12, 0.40, 1100, 35)}
-    pts = np.loadtxt(DATA / "pv" / "pvlib_example_spectral_response_cSi_points.csv", delimiter=",",
-                     skiprows=2, usecols=(0, 1))
-    sr = np.interp(lam, pts[:, 0], pts[:, 1], left=0.0, right=0.0)        # relative SR [A W-1]
-    q = sr * HC_EV_NM / np.where(lam > 0, lam, 1.0)
-    eqe["c-Si"] = 0.9 * q / q.max()
-    return eqe
-
-
-def spectral_response(eqe, wavelength):
-    """SR [A W-1] = EQE lambda q / (h c)."""
-    return {k: v * np.asarray(wavelength) / HC_EV_NM for k, v in eqe.items()}
-
-
-def g173_channels(edges):
-    """ASTM G173 global tilt band-averaged onto channel edges [nm] -> (C,) [W m-2 nm-1]."""
-    a = np.genfromtxt(DATA / "solar" / "ASTMG173.csv", delimiter=",", skip_header=2)
-    lam, glob = a[:, 0], a[:, 2]
-    fine = np.arange(edges[0], edges[-1] + 1e-9, 0.5)
-    g = np.interp(fine, lam, glob)
-    cum = np.concatenate([[0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(fine))])
-    at = np.interp(edges, fine, cum)
-    return np.diff(at) / np.diff(edges)
-
-
-def model_at_g173(sky):
-    """The sky model's own global tilted spectrum at the G173 conditions (solar zenith 48.236 deg, plane
-    tilted 37 deg toward the sun, AOD 0.084 at 500 nm as visibility through Koschmieder with Angstrom
-    1.3, albedo 0.2) [W m-2 nm-1] (C,): the reference that separates the weather's spectral effect from
-    the dataset's own difference to G173 at the reference state."""
-    from skymodel.visibility import aod_at_wavelength, visibility_from_aod550
-    vis = float(visibility_from_aod550(aod_at_wavelength(0.084, 500.0, 550.0, 1.3)))
-    st = ir.SkyStates.create([90.0 - 48.236], [180.0], vis, 0.2)
-    c = clear_plane_spectra(sky, st, 37.0, 180.0)
-    return plane_poa(c, np.ones(1), np.ones(1), 0.2)["poa_global"][0]
-
-
-def ape(spec, wavelength, width, band=(320.0, 1080.0)):
-    """Average photon energy [eV] of (..., C) spectra over the channels inside ``band`` (edges, nm)."""
-    lam = np.asarray(wavelength)
-    m = (lam - width / 2 >= band[0] - 1e-9) & (lam + width / 2 <= band[1] + 1e-9)
-    e = (spec[..., m] * width[m]).sum(-1)
-    n = (spec[..., m] * width[m] * lam[m] / HC_EV_NM).sum(-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return e / n
-
 
 def load_site(path, sky, prefer="visibility", stride=1):
     wd = ir.read_weather(path)
@@ -128,16 +73,21 @@ def load_site(path, sky, prefer="visibility", stride=1):
 
 VARIANTS = (
     ("plain (today)", CLEAR_SHAPE),
-    ("+ cloud spectrum (Ernst)", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, haze="clamp",
-                                               angular="clear")),
-    ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, haze="clamp")),
-    ("+ cloud liquid water", AllSkyOptions(cloud_vapour=False, haze="clamp")),
-    ("+ cloud water vapour", AllSkyOptions(haze="clamp")),
+    ("+ cloud spectrum (Ernst)", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
+                                               partition="ernst", haze="clamp", angular="clear")),
+    ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
+                                             partition="ernst", haze="clamp")),
+    ("+ cloud liquid water", AllSkyOptions(cloud_vapour=False, cloud_rayleigh=False, partition="ernst",
+                                           haze="clamp")),
+    ("+ cloud water vapour", AllSkyOptions(cloud_rayleigh=False, partition="ernst", haze="clamp")),
+    ("+ cloud-top Rayleigh", AllSkyOptions(partition="ernst", haze="clamp")),
+    ("+ sky-fraction partition", AllSkyOptions(haze="clamp")),
     ("+ haze extension (all-sky)", AllSkyOptions()),
 )
 
 
-def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True, cache=None, stride=1):
+def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True, cache=None, stride=1,
+             sedes2=None):
     wl, edges = sky.wavelengths, sky.channel_edges
     w = np.diff(edges)
     wd, states, data, vis, kt, st = load_site(DATA / "weather" / SITES[name], sky, prefer, stride)
@@ -161,7 +111,8 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
     for label, opt in VARIANTS:
         t1 = time.perf_counter()
         f = allsky_factors(edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, ghi=ghi,
-                           visibility=vis, temp_dew=tdew, min_visibility=vmin, options=opt)
+                           visibility=vis, temp_dew=tdew, min_visibility=vmin, options=opt,
+                           albedo=states.albedo)
         times[label] = time.perf_counter() - t1
         poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi)
         E = poa["poa_global"]
@@ -172,8 +123,20 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
         over = kt < 0.3
         rows.append((label, se, float(np.nanmedian(a)), float(ape(E[over].sum(0), wl, w)),
                      float(ape(E.sum(0), wl, w)), float((E @ w).sum() / 1000.0), f))
-        spectra[label] = (E, a)
-    return {"name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
+        spectra[label] = (E, a, poa["ghi"])
+    sin_el = np.sin(np.radians(states.sun_elevation))
+    g_clear = ((clear.dni * sin_el[:, None] + clear.dhi) * w).sum(1)
+    kc_model = ghi / g_clear
+    from irradiance.haze import relative_airmass
+    am = relative_airmass(states.sun_elevation)
+    pv_mask = (kc_model > 0.05) & (kc_model < 1.5) & (ghi > 20.0) & (states.sun_elevation > 5.0)
+    ape_kc = {"plain": ape_by_kc(spectra["plain (today)"][2], kc_model, wl, w),
+              "all-sky, Ernst partition": ape_by_kc(spectra["+ cloud-top Rayleigh"][2], kc_model, wl, w),
+              "all-sky": ape_by_kc(spectra[VARIANTS[-1][0]][2], kc_model, wl, w)}
+    if sedes2 is not None:
+        es = sedes2_global_horizontal(sedes2, edges, clear.dni, clear.dhi, sin_el, ghi)
+        ape_kc["SEDES2"] = ape_by_kc(es, kc_model, wl, w)
+    return {"kc_model": kc_model, "am": am, "sin_el": sin_el, "pvspec_mask": pv_mask, "ape_kc": ape_kc, "name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
             "ape_g173": float(ape(g173, wl, w)), "kt": kt, "spectra": spectra, "states": st,
             "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt, "stride": stride}
 
@@ -235,7 +198,7 @@ def report(res):
               f"sun hidden (not extended) {h.sun_hidden.mean():.1%}; median extra AOD550 where extended "
               f"{np.median(h.delta_aod550[h.extended]) if h.extended.any() else 0:.3f}")
     for label in ("plain (today)", VARIANTS[-1][0]):
-        _, a = res["spectra"][label]
+        _, a, _ = res["spectra"][label]
         a = a[np.isfinite(a)]
         hist, edges = np.histogram(a, bins=np.arange(1.5, 2.3, 0.01))
         half = edges[:-1][hist >= hist.max() / 2]
@@ -243,8 +206,8 @@ def report(res):
               f"{np.median(a) - res['ape_g173']:+.3f} eV from G173, half width at half maximum "
               f"{(half.max() - half.min() + 0.01) / 2:.3f} eV")
     kt = res["kt"]
-    E0, _ = res["spectra"]["plain (today)"]
-    E1, _ = res["spectra"][VARIANTS[-1][0]]
+    E0, _, _ = res["spectra"]["plain (today)"]
+    E1, _, _ = res["spectra"][VARIANTS[-1][0]]
     for lo, hi in ((0, 0.3), (0.3, 0.6), (0.6, 2)):
         m = (kt >= lo) & (kt < hi)
         if m.sum() == 0:
@@ -254,15 +217,29 @@ def report(res):
             tot = (E[m] * res["w"]).sum()
             out.append(100 * (((E[m] * res["sr"]["a-Si"] * res["w"]).sum() / tot) / res["ref"]["a-Si"] - 1))
         print(f"  kt [{lo}, {hi}): {m.sum()} h, a-Si spectral effect plain {out[0]:+.1f} %, all-sky {out[1]:+.1f} %")
+    pub = pvspec_published()
+    if pub is not None:
+        print("  PVSPEC form fitted to the hourly plane spectra (exponent a2 of the clear-sky index; published "
+              "a2 in brackets, Pelland et al. 2020):")
+        for label in ("plain (today)", "+ cloud water vapour", "+ cloud-top Rayleigh", VARIANTS[-1][0]):
+            fit = pvspec_fit(res["spectra"][label][0], res["kc_model"], res["am"], res["sr"], res["pvspec_mask"])
+            print(f"    {label:28s} " + ", ".join(f"{k} {fit[k][0]:+.4f} ({pub[k][0]:+.4f}; a3 {fit[k][1]:+.3f} ({pub[k][1]:+.3f}))" for k in fit))
+            b = mismatch_by_kc(res["spectra"][label][0], res["kc_model"], res["sr"]["a-Si"], res["pvspec_mask"])
+            print("      a-Si median mismatch relative to kc 0.9-1.1 (PVSPEC kc^a2 at the bin centre): " + ", ".join(
+                f"[{lo:.1f}, {hi:.1f}) {v:.3f} ({c ** pub['a-Si'][0]:.3f})" for (lo, hi), c, v in b))
+    for label, ap in res["ape_kc"].items():
+        print(f"  median hourly APE (horizontal) by clear-sky index, {label}: "
+              + ", ".join(f"[{lo:.1f}, {hi:.1f}) {v:.3f}" for (lo, hi), v in ap))
 
 
-def figure(results, path):
+def figure(results, path, diffuse=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     techs = ("a-Si", "CdTe", "c-Si", "CIGS")
     ams = next(r for r in results if r["name"] == "amsterdam")
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, axes = plt.subplots(2, 3, figsize=(15, 9.2))
+    axes = axes.ravel()
     ax = axes[0]
     x = np.arange(len(techs))
     rows = ams["rows"]
@@ -282,7 +259,7 @@ def figure(results, path):
     bins = np.linspace(1.6, 2.2, 61)
     kt = ams["kt"]
     for label, short in ((rows[0][0], "plain"), (rows[-1][0], "all-sky")):
-        _, a = ams["spectra"][label]
+        _, a, _ = ams["spectra"][label]
         ax.hist(a[kt < 0.3], bins=bins, histtype="step", lw=1.5, label=f"{short}, kt < 0.3")
         ax.hist(a[kt >= 0.6], bins=bins, histtype="step", lw=1.0, ls="--", label=f"{short}, kt >= 0.6")
     ax.axvline(ams["ape_g173"], color="k", lw=1, label="G173 global tilt")
@@ -294,7 +271,7 @@ def figure(results, path):
     wl = ams["wl"]
     over = np.argmin(np.abs(kt - 0.15) + 10 * (ams["states"]["solar_elevation"].to_numpy() < 25))
     for label, short in ((rows[0][0], "plain (today)"), (rows[-1][0], "all-sky")):
-        E, _ = ams["spectra"][label]
+        E, _, _ = ams["spectra"][label]
         e = E[over]
         ax.plot(wl, e / (e * ams["w"]).sum() * 1000, label=short)
     g = ams["g173"]
@@ -304,6 +281,37 @@ def figure(results, path):
     ax.set_ylabel("spectral irradiance per 1000 W m-2 [W m-2 nm-1]")
     ax.set_title(f"One overcast hour (kt {kt[over]:.2f}) on the plane")
     ax.legend(fontsize=8)
+    ax = axes[3]
+    if diffuse is not None:
+        for k, style in (("G173", "k:"), ("SPCTRL2", "C2-"), ("model", "C0-")):
+            ax.plot(diffuse["wl"], diffuse[k], style, label={"model": "sky model (dataset)"}.get(k, k))
+        ax.set_xlim(280, 1400)
+        ax.set_xlabel("wavelength [nm]")
+        ax.set_ylabel("diffuse on the plane [W m-2 nm-1]")
+        ax.set_title("Diffuse on the 37 deg plane at the G173 state")
+        ax.legend(fontsize=8)
+    ax = axes[4]
+    pub = pvspec_published()
+    kcs = np.linspace(0.1, 1.2, 50)
+    for label, short in ((rows[0][0], "plain"), ("+ cloud water vapour", "Ernst partition, no cloud-top Rayleigh"),
+                         ("+ cloud-top Rayleigh", "Ernst partition"), (rows[-1][0], "all-sky")):
+        b = mismatch_by_kc(ams["spectra"][label][0], ams["kc_model"], ams["sr"]["a-Si"], ams["pvspec_mask"])
+        cen, med = [c for _, c, _ in b], [v for _, _, v in b]
+        ax.plot(cen, med, "o-", label=short)
+    if pub is not None:
+        ax.plot(kcs, kcs ** pub["a-Si"][0], "k--", label="PVSPEC a-Si (Pelland et al. 2020)")
+    ax.set_xlabel("clear-sky index GHI / GHI_clear")
+    ax.set_ylabel("a-Si mismatch relative to kc 0.9-1.1")
+    ax.set_title("a-Si spectral mismatch vs clear-sky index (plane)")
+    ax.legend(fontsize=7)
+    ax = axes[5]
+    for label, ap in ams["ape_kc"].items():
+        ax.plot([0.5 * (lo + min(hi, 1.2)) for (lo, hi), _ in ap], [v for _, v in ap], "o-", label=label)
+    ax.axhline(ams["ape_g173"], color="k", lw=1, ls=":", label="G173 global tilt")
+    ax.set_xlabel("clear-sky index GHI / GHI_clear")
+    ax.set_ylabel("median hourly APE 340-1060 nm [eV]")
+    ax.set_title("APE of global horizontal spectra vs clear-sky index")
+    ax.legend(fontsize=7)
     fig.tight_layout()
     tmp = Path(path).with_suffix(".tmp.png")
     fig.savefig(tmp, dpi=110)
@@ -319,9 +327,14 @@ def main(argv=None):
     ap.add_argument("--figure", default=None, help="write the study figure (PNG)")
     ap.add_argument("--stride", type=int, default=1,
                     help="keep every n-th daylight hour (a quicker sample of the year; 1 = all)")
+    ap.add_argument("--sedes2", default=None,
+                    help="CSV of SEDES2 cloud cover modifier coefficients (wavelength_nm,A1,A2,B1,B2,C1,C2) to "
+                         "compare with (not shipped; see docs/all-sky.md)")
     ap.add_argument("--cache", default=None,
                     help="folder to keep the clear-sky spectra in between runs (reused when present)")
     args = ap.parse_args(argv)
+    if args.sedes2 is not None and not Path(args.sedes2).is_file():
+        ap.error(f"--sedes2: {args.sedes2!r} is not a file")
     names = list(SITES) if args.sites == "all" else args.sites.split(",")
     sky = ir.PragueSky()
     g173 = g173_channels(np.asarray(sky.channel_edges))
@@ -331,16 +344,20 @@ def main(argv=None):
     print("the sky model at the G173 state against G173 (spectral effect of the model's reference "
           "spectrum, %): " + ", ".join(f"{k} {100 * (((g173_model * s * w).sum() / (g173_model * w).sum()) / ((g173 * s * w).sum() / (g173 * w).sum()) - 1):+.2f}"
                                       for k, s in sr.items()) + f"; APE {ape(g173_model, sky.wavelengths, w):.3f} eV")
+    decomposition, diffuse = g173_decomposition(sky, sr)
+    print("where the difference sits (spectral effects against G173 unless named, %):")
+    for label, v in decomposition.items():
+        print(f"  {label:34s} " + ", ".join(f"{k} {x:+.2f}" for k, x in v.items()))
     results = []
     for n in names:
         if n not in SITES:
             raise SystemExit(f"--sites: {n!r} is not one of {', '.join(SITES)}")
         res = run_site(n, sky, sr, g173, g173_model, prefer=args.prefer, cache=args.cache,
-                       stride=args.stride)
+                       stride=args.stride, sedes2=args.sedes2)
         report(res)
         results.append(res)
     if args.figure:
-        figure(results, args.figure)
+        figure(results, args.figure, diffuse)
 
 
 if __name__ == "__main__":

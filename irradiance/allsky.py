@@ -13,11 +13,14 @@ DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
    [0, 1], with ``rho = DHI / GHI`` measured and ``rho_clear`` the clear model's diffuse fraction: 0 for
    a clear sky, 1 when all light is diffuse.
 3. **Diffuse spectrum** (Ernst et al. 2016, eqs. 7-8): clouds scatter the whole clear-sky global
-   spectrum, so the diffuse shape is ``(1 - N) D(l) / int D + N G(l) t(l) / int G t``, with ``D`` the
-   clear diffuse, ``G`` the clear global horizontal spectrum, and ``t`` the cloud layer's spectral
+   spectrum, so the diffuse shape is ``(1 - f) D(l) / int D + f G(l) t(l) / int G t``, with ``D`` the
+   clear diffuse, ``G`` the clear global horizontal spectrum, ``f`` the cloud light's share of the DHI
+   (Ernst: ``f = N``; default ``partition="sky_fraction"``: the clear sky's own diffuse is kept only on
+   the cloud-free share of the sky, ``(1 - f) DHI = min(DHI, (1 - N) int D)``), and ``t`` the cloud layer's spectral
    transmittance relative to a non-absorbing cloud (:mod:`irradiance.cloud_optics`: liquid-water
    absorption of droplets in a two-stream slab whose optical depth reproduces the measured clear-sky
-   index ``GHI / GHI_clear``, and water vapour along the long in-cloud photon paths). This is the step
+   index ``GHI / GHI_clear``, water vapour along the long in-cloud photon paths, and the blue gain of
+   multiple reflection between the cloud top and the Rayleigh-scattering air above it). This is the step
    that the cloud modification factors of SEDES2 (Nann & Riordan 1991) describe empirically: overcast
    light has the global spectrum's shape (no Rayleigh excess), with deeper water bands. ``G`` is taken
    at the dataset's state, without the haze correction (haze lies below the cloud).
@@ -45,9 +48,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .cloud_optics import (DEFAULT_ASYMMETRY, DEFAULT_DROPLET_RADIUS, cloud_optical_depth,
-                           cloud_relative_transmittance, cloud_vapour_path, droplet_coalbedo,
-                           liquid_water_k, vapour_band_deepening)
+from .cloud_optics import (CLOUD_TOP_PRESSURE_RATIO, DEFAULT_ASYMMETRY, DEFAULT_DROPLET_RADIUS,
+                           cloud_optical_depth, cloud_relative_transmittance, cloud_top_rayleigh_gain,
+                           cloud_vapour_path, droplet_coalbedo, liquid_water_k, vapour_band_deepening)
 from .haze import haze_correction
 from .measured import MeasuredScaling, measured_scale_factors
 
@@ -68,6 +71,17 @@ class AllSkyOptions:
     cloud_vapour : bool
         Water-vapour absorption along the long in-cloud paths (needs the dew point and the 6S band
         table in the data directory).
+    cloud_rayleigh : bool
+        Multiple reflection between the cloud top and the air above it
+        (:func:`irradiance.cloud_optics.cloud_top_rayleigh_gain`): the blue shift of overcast light.
+    cloud_top_pressure : float
+        Pressure at the cloud top relative to sea level [1] (0.8: about 1.8 km).
+    partition : {"sky_fraction", "ernst"}
+        How the measured DHI splits into clear-sky light (clear shape and angular distribution) and
+        cloud light (global shape, CIE overcast): ``"ernst"`` as Ernst et al. (2016, eqs. 7-8), the
+        clear part ``(1 - N) DHI``; ``"sky_fraction"`` keeps the clear sky's own diffuse only on the
+        cloud-free share of the sky, ``min(DHI, (1 - N) D_clear)`` [W m-2], and gives the rest of the
+        DHI to the clouds (docs/all-sky.md, section 1).
     haze : {"extrapolate", "clamp"}
         Below the dataset's visibility: extend the aerosol (:mod:`irradiance.haze`) or keep the
         clamped state (flagged by :func:`irradiance.sky_states`).
@@ -91,6 +105,9 @@ class AllSkyOptions:
     cloud_spectrum: bool = True
     cloud_absorption: bool = True
     cloud_vapour: bool = True
+    cloud_rayleigh: bool = True
+    cloud_top_pressure: float = CLOUD_TOP_PRESSURE_RATIO
+    partition: str = "sky_fraction"
     haze: str = "extrapolate"
     angular: str = "cie_overcast"
     droplet_radius: float = DEFAULT_DROPLET_RADIUS
@@ -104,10 +121,14 @@ class AllSkyOptions:
             raise ValueError(f"haze={self.haze!r} is not one of ('extrapolate', 'clamp')")
         if self.angular not in ("cie_overcast", "clear"):
             raise ValueError(f"angular={self.angular!r} is not one of ('cie_overcast', 'clear')")
+        if self.partition not in ("sky_fraction", "ernst"):
+            raise ValueError(f"partition={self.partition!r} is not one of ('sky_fraction', 'ernst')")
+        if not 0.0 < self.cloud_top_pressure <= 1.0:
+            raise ValueError(f"cloud_top_pressure={self.cloud_top_pressure!r} outside the valid range (0, 1]")
 
 
-CLEAR_SHAPE = AllSkyOptions(cloud_spectrum=False, cloud_absorption=False, cloud_vapour=False, haze="clamp",
-                            angular="clear")
+CLEAR_SHAPE = AllSkyOptions(cloud_spectrum=False, cloud_absorption=False, cloud_vapour=False,
+                            cloud_rayleigh=False, haze="clamp", angular="clear")
 """Every part off: the clear-sky shape scaled to the measured DNI and DHI (the plain measured path)."""
 
 
@@ -174,7 +195,7 @@ def _ratio(num, den):
 
 def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi, ghi=None,
                    visibility=None, temp_dew=None, min_visibility=20.0, options=AllSkyOptions(),
-                   **guards) -> AllSkyFactors:
+                   albedo=0.2, **guards) -> AllSkyFactors:
     """Per-step, per-channel factors that give the all-sky spectra and keep measured DNI and DHI.
 
     Parameters
@@ -200,6 +221,9 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     min_visibility : float
         The dataset's lowest visibility [km].
     options : AllSkyOptions
+    albedo : array_like
+        (T,) or scalar ground albedo [1] under the cloud (the sky states' albedo), for the cloud-top
+        multiple reflection.
     **guards
         Passed to :func:`irradiance.measured_scale_factors` (``min_model_dni``, ``min_model_dhi``,
         ``max_scale``, ``missing``; default ``missing="clear"`` as the integrator: NaN input keeps
@@ -249,7 +273,7 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     trans = np.ones((T, C))
     if options.cloud_spectrum:
         n = cloud_index(dhi, ghi_m, _ratio(dhh @ w, gh @ w))
-        if options.cloud_absorption or options.cloud_vapour:
+        if options.cloud_absorption or options.cloud_vapour or options.cloud_rayleigh:
             kc = _ratio(ghi_m, gh @ w)
             tau = np.where(n > 0, cloud_optical_depth(np.where(kc > 0, kc, 1.0), options.asymmetry), 0.0)
         if options.cloud_absorption:
@@ -259,13 +283,20 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
             du = cloud_vapour_path(tau, np.broadcast_to(np.asarray(temp_dew, float), (T,)),
                                    options.asymmetry, options.droplet_radius)
             trans = trans * vapour_band_deepening(edges, du, options.data_dir)
+        if options.cloud_rayleigh:
+            trans = trans * cloud_top_rayleigh_gain(lam, tau, np.broadcast_to(np.asarray(albedo, float), (T,)),
+                                                    options.asymmetry, options.cloud_top_pressure)
     # the clear part keeps the (hazy) clear diffuse shape and angular distribution; the cloud part has
     # the shape of the global spectrum at the dataset's state (the haze lies below the cloud, where
     # the cloud's diffuse light is scattered on, not removed) times the cloud's transmittance
     keep = dh > 0                                         # channels the clear sky can carry light in
-    clear_part = (1.0 - n)[:, None] * _unit(np.where(keep, dhh, 0.0), w)
-    cloud_part = n[:, None] * _unit(np.where(keep, g0 * trans, 0.0), w)
     total = scaling.sky_scale * model_dhi                 # broadband DHI reproduced [W m-2]
+    share = n                                             # cloud light's share of the DHI [1]
+    if options.cloud_spectrum and options.partition == "sky_fraction":
+        clear_light = np.minimum(total, (1.0 - n) * (dhh @ w))
+        share = np.where(total > 0, 1.0 - _ratio(clear_light, total), 0.0)
+    clear_part = (1.0 - share)[:, None] * _unit(np.where(keep, dhh, 0.0), w)
+    cloud_part = share[:, None] * _unit(np.where(keep, g0 * trans, 0.0), w)
     if options.angular == "cie_overcast":
         diffuse_scale = scaling.sky_scale[:, None] * _ratio(clear_part * model_dhi[:, None], dh)
         overcast_dhi = total[:, None] * cloud_part

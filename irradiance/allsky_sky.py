@@ -115,7 +115,8 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     dhi_clear = np.einsum("p,tpc->tc", w_h, Lp) + cs * sin_el[:, None]
     f = allsky_factors(sky.channel_edges, dn, dhi_clear, states.sun_elevation, weather.dni,
                        weather.dhi, ghi=weather.ghi, visibility=weather.visibility,
-                       temp_dew=weather.temp_dew, min_visibility=min_visibility, options=options)
+                       temp_dew=weather.temp_dew, min_visibility=min_visibility, options=options,
+                       albedo=states.albedo)
     L = np.einsum("tpc,tc,cr->tpr", Lp, f.diffuse_scale, W, optimize=True)
     dni = (dn * f.dni_scale + cs * f.diffuse_scale) @ W
     if np.any(f.overcast_dhi > 0):

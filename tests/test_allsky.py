@@ -78,7 +78,7 @@ def test_ernst_limits():
     # step 0: clear (measured = model, N = 0); step 1: overcast (no beam, N = 1); step 2: halfway
     dni = np.array([bn[0] @ W, 0.0, 0.5 * (bn[2] @ W)])
     dhi = np.array([dh[0] @ W, g[1] @ W * 0.3, dh[2] @ W * 1.4])
-    opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular="clear")
+    opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False, angular="clear")
     f = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=opt)
     assert f.cloud_index[0] == pytest.approx(0.0, abs=1e-12) and f.cloud_index[1] == 1.0
     assert 0 < f.cloud_index[2] < 1
@@ -87,8 +87,8 @@ def test_ernst_limits():
     np.testing.assert_allclose(d1 / (d1 @ W), g[1] / (g[1] @ W), rtol=1e-12)   # global's shape
     np.testing.assert_allclose(f.dni_scale[2], f.dni_scale[2, 0], rtol=1e-12)  # neutral beam
     # the same through the CIE overcast part: the overcast light carries the global's shape
-    f2 = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(cloud_absorption=False,
-                                                                            cloud_vapour=False))
+    f2 = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(
+        cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False))
     np.testing.assert_allclose(f2.overcast_dhi[1] / (f2.overcast_dhi[1] @ W), g[1] / (g[1] @ W), rtol=1e-12)
     np.testing.assert_allclose(f2.diffuse_scale[1], 0.0, atol=1e-12)
     # overcast light is far less blue than the scaled clear diffuse
@@ -220,3 +220,32 @@ def test_aod_column_keeps_amsterdam_inside_the_dataset():
     # docs/all-sky.md: station visibility clamps 58.6 % of daylight hours (with GHI > 0), the AOD column none
     assert 0.55 < st_v.clamped["visibility"][up].mean() < 0.62
     assert st_a.clamped["visibility"][up].mean() < 0.005
+
+
+def test_sky_fraction_partition():
+    """The clear sky's own diffuse is kept only on the cloud-free share (1 - N) of the sky: the clear part
+    is min(DHI, (1 - N) D_clear) [W m-2], the rest of the DHI is cloud light; Ernst's partition keeps
+    (1 - N) DHI. Overcast (N = 1) and a sky as clear as the model (N = 0, DHI = D_clear) agree."""
+    el, bn, dh = clear_spectra(4)
+    sin_el = np.sin(np.radians(el))
+    g = bn * sin_el[:, None] + dh
+    d0 = dh @ W
+    # steps: as clear as the model; overcast; broken cloud (half the beam, DHI 2.5 x clear); bright
+    # broken cloud (1.6 x the clear beam, DHI 1.5 x clear: N = 0, more diffuse than the clear sky)
+    dni = np.array([bn[0] @ W, 0.0, 0.5 * (bn[2] @ W), 1.6 * (bn[3] @ W)])
+    dhi = np.array([d0[0], 0.3 * (g[1] @ W), 2.5 * d0[2], 1.5 * d0[3]])
+    base = dict(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False)
+    sky = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(**base))
+    ern = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(partition="ernst", **base))
+    n = sky.cloud_index
+    np.testing.assert_allclose(n, ern.cloud_index, rtol=1e-12)
+    clear_sky = (sky.diffuse_scale * dh) @ W
+    clear_ern = (ern.diffuse_scale * dh) @ W
+    np.testing.assert_allclose(clear_sky, np.minimum(dhi, (1 - n) * d0), rtol=1e-12)
+    np.testing.assert_allclose(clear_ern, (1 - n) * dhi, rtol=1e-12)
+    np.testing.assert_allclose(clear_sky[:2], clear_ern[:2], rtol=1e-12, atol=1e-12)
+    assert 0 < n[2] < 1 and clear_sky[2] < clear_ern[2]
+    assert n[3] == 0 and clear_sky[3] == pytest.approx(d0[3]) and clear_ern[3] == pytest.approx(dhi[3])
+    np.testing.assert_allclose(clear_sky + sky.overcast_dhi @ W, dhi, rtol=1e-12)      # DHI conserved
+    with pytest.raises(ValueError, match="partition"):
+        AllSkyOptions(partition="half")

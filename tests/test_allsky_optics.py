@@ -14,15 +14,22 @@ References and tolerances:
 * CIE overcast sky: vertical / horizontal diffuse = 0.3963 (analytic: (pi/6 + 4/9) / (7 pi / 9)),
   2 % on 145 Tregenza-Reinhart patches and 0.5 % on 2305.
 * Haze: Koschmieder's extra AOD (3.912/V - 3.912/20) x 1.5 km, 1e-12; the measured beam bound.
+* Rayleigh optical depth at 550 nm, sea level: 0.0973 (Bodhaine et al. 1999, Table 3), 0.5 %.
+* Rayleigh spherical albedo (6S formula) against DISORT (disortpp, 16 streams, Rayleigh phase function,
+  plane albedo integrated over 24 Gauss incidence angles) for tau 0.01-1, 2 %; its thin-layer limit
+  ``s -> tau`` (single scattering of isotropic light, analytic), 1 %.
+* Cloud-top gain: 1 without cloud (1e-12); over a black ground and an infinitely thick cloud it is
+  ``1 / (1 - s_top)`` (geometric series, analytic), 1e-6; blue over red.
 """
 
 import numpy as np
 import pytest
 
 from irradiance.cloud_optics import (DEFAULT_ASYMMETRY, US62_WATER_COLUMN, cloud_optical_depth,
-                                     cloud_relative_transmittance, cloud_vapour_path, droplet_coalbedo,
-                                     liquid_water_k, saturation_vapour_density, slab_transmittance,
-                                     vapour_band_deepening)
+                                     cloud_relative_transmittance, cloud_top_rayleigh_gain,
+                                     cloud_vapour_path, droplet_coalbedo, liquid_water_k,
+                                     rayleigh_optical_depth, rayleigh_spherical_albedo,
+                                     saturation_vapour_density, slab_transmittance, vapour_band_deepening)
 from irradiance.haze import haze_correction, relative_airmass
 from irradiance.overcast_sky import cie_overcast_relative, overcast_poa_ratio
 from irradiance.patches import cosine_weights, direction_from_angles, reinhart
@@ -164,3 +171,53 @@ def test_haze_koschmieder_and_policies():
         haze_correction(lam, w, bn, dh, el, np.array([-1.0, 1, 1, 1]))
     with pytest.raises(ValueError, match="fog_visibility"):
         haze_correction(lam, w, bn, dh, el, vis, fog_visibility=30.0)
+
+
+def _disort_spherical_albedo(tau, n_streams=16, n_mu=24):
+    """Spherical albedo of a conservative Rayleigh layer over a black ground by DISORT: the plane albedo
+    ``F_up / (mu0 F0)`` integrated ``2 int r(mu0) mu0 dmu0`` with Gauss-Legendre nodes."""
+    import disortpp
+    x, wq = np.polynomial.legendre.leggauss(n_mu)
+    total = 0.0
+    for mu0, wi in zip(0.5 * (x + 1.0), 0.5 * wq):
+        cfg = disortpp.DisortConfig(1, n_streams)
+        cfg.flags.use_lambertian_surface = True
+        cfg.flags.use_user_tau = True
+        cfg.flags.comp_only_fluxes = True
+        cfg.num_user_tau = 2
+        cfg.num_phase_func_moments = n_streams
+        cfg.allocate()
+        cfg.delta_tau = [tau]
+        cfg.single_scat_albedo = [1.0 - 1e-9]
+        m = np.zeros(n_streams + 1)
+        m[0], m[2] = 1.0, 0.1                                  # Rayleigh phase function moments
+        cfg.phase_function_moments = [m.tolist()]
+        cfg.tau_user = [0.0, tau]
+        cfg.bc.direct_beam_flux = np.pi
+        cfg.bc.direct_beam_mu = float(mu0)
+        cfg.bc.surface_albedo = 0.0
+        r = disortpp.DisortSolver().solve(cfg)
+        total += 2.0 * wi * mu0 * float(r.flux_up[0]) / (np.pi * mu0)
+    return total
+
+
+def test_rayleigh_depth_and_spherical_albedo():
+    assert float(rayleigh_optical_depth(550.0)) == pytest.approx(0.0973, rel=5e-3)
+    assert float(rayleigh_optical_depth(550.0, 0.8)) == pytest.approx(0.8 * 0.0973, rel=5e-3)
+    assert float(rayleigh_spherical_albedo(1e-3)) == pytest.approx(1e-3, rel=1e-2)
+    for tau in (0.01, 0.1, 0.36, 1.0):
+        assert float(rayleigh_spherical_albedo(tau)) == pytest.approx(_disort_spherical_albedo(tau), rel=0.02)
+    with pytest.raises(ValueError, match="pressure_ratio"):
+        rayleigh_optical_depth(550.0, 2.0)
+
+
+def test_cloud_top_rayleigh_gain():
+    lam = np.array([400.0, 550.0, 700.0, 1000.0])
+    g = cloud_top_rayleigh_gain(lam, np.array([0.0, 5.0, 30.0]), albedo=0.2)
+    np.testing.assert_allclose(g[0], 1.0, rtol=1e-12)
+    assert np.all(np.diff(g[1:], axis=1) < 0) and np.all(g[2] > g[1])     # bluer, and more under thicker cloud
+    s_top = rayleigh_spherical_albedo(rayleigh_optical_depth(lam, 0.8))
+    np.testing.assert_allclose(cloud_top_rayleigh_gain(lam, np.array([1e9]), albedo=0.0)[0], 1 / (1 - s_top),
+                               rtol=1e-6)
+    with pytest.raises(ValueError, match="albedo"):
+        cloud_top_rayleigh_gain(lam, np.array([1.0]), albedo=1.5)
