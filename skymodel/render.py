@@ -281,52 +281,19 @@ HALF_ERROR = ("half float: relative rounding error at most 2^-11 = 4.9e-4 for |v
 EXR_COMPRESSIONS = ("none", "rle", "zips", "zip", "piz", "zstd")
 
 
-def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=0):
-    """Write a multi-channel OpenEXR in the Fichet et al. 2021 spectral layout: ``S0.<nm>`` channels at
-    the band centres, ``spectralLayoutVersion`` 1.0, ``emissiveUnits``, an RGB preview, and ``widesky.*``
-    attributes describing the quantity, its unit, the pixel type and its error, and the sky state.
+def _exr_channels(r: Render):
+    """The file's channel names, sorted as OpenEXR stores them, and each one's plane: 0..C-1 the render's
+    channels (``S0.<nm>`` at the band centres, Fichet et al. 2021), C..C+2 the preview's R, G, B."""
+    C = r.values.shape[-1]
+    planes = {"S0." + f"{wl:.6f}".replace(".", ",") + "nm": k for k, wl in enumerate(r.wavelengths)}
+    planes.update({c: C + i for i, c in enumerate("RGB")})
+    names = sorted(planes, key=str.encode)
+    return names, [planes[n] for n in names]
 
-    Parameters
-    ----------
-    pixel_type : {"auto", "half", "float"}
-        "half" stores 16-bit floats (relative error <= 4.9e-4, see ``HALF_ERROR``; half the size and
-        several times faster to write); "auto" (default) uses half when every value is finite and below
-        the half range (65504), else 32-bit float.
-    compression : {"rle", "none", "zips", "zip", "piz", "zstd"}
-        OpenEXR compression (all lossless). "rle" (default) is fast; "zip" makes files about 2.5x
-        smaller and takes about 3x longer to write.
-    threads : int
-        OpenEXR's compression threads (0: one per core).
-    """
-    import OpenEXR
 
-    if pixel_type not in ("auto", "half", "float"):
-        raise ValueError(f"pixel_type={pixel_type!r}: expected 'auto', 'half' or 'float'")
-    if compression not in EXR_COMPRESSIONS:
-        raise ValueError(f"compression={compression!r}: expected one of {EXR_COMPRESSIONS}")
-    H, W, C = r.values.shape
-    if r.values.shape[-1] > 1 and r.quantity in ("sky", "sun"):
-        rgb = np.asarray(r.rgb_linear(), np.float32)
-    else:
-        rgb = np.repeat(r.values[..., :1], 3, axis=-1)
-    if pixel_type == "auto":
-        big = max(float(np.abs(r.values).max(initial=0.0)), float(np.abs(rgb).max(initial=0.0)))
-        pixel_type = "half" if np.isfinite(big) and big < HALF_MAX else "float"
-    half = pixel_type == "half"
-    planes = np.empty((C + 3, H, W), np.uint16 if half else np.float32)
-    _core.planar(np.ascontiguousarray(r.values, np.float32), planes[:C], C)
-    _core.planar(np.ascontiguousarray(rgb, np.float32), planes[C:], 3)
-    if half:
-        planes = planes.view(np.float16)
-    channels = {}
-    for k, wl in enumerate(r.wavelengths):
-        channels["S0." + f"{wl:.6f}".replace(".", ",") + "nm"] = planes[k]
-    for i, c in enumerate("RGB"):
-        channels[c] = planes[C + i]
+def _exr_attributes(r: Render, half: bool) -> dict:
     name, unit = QUANTITIES[r.quantity]
-    header = {
-        "compression": getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION"),
-        "type": OpenEXR.scanlineimage,
+    attrs = {
         "spectralLayoutVersion": "1.0",
         "emissiveUnits": "W.m^-2.sr^-1",
         "widesky.quantity": name,
@@ -336,9 +303,76 @@ def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=
         "widesky.pixelType": "half" if half else "float",
         "widesky.pixelError": HALF_ERROR if half else "float32: relative rounding error at most 6e-8",
     }
-    for k, v in r.meta.items():
-        header[f"widesky.{k}"] = str(v)
+    attrs.update({f"widesky.{k}": str(v) for k, v in r.meta.items()})
+    return attrs
+
+
+def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=0):
+    """Write a multi-channel OpenEXR in the Fichet et al. 2021 spectral layout: ``S0.<nm>`` channels at
+    the band centres, ``spectralLayoutVersion`` 1.0, ``emissiveUnits``, an RGB preview, and ``widesky.*``
+    attributes describing the quantity, its unit, the pixel type and its error, and the sky state.
+
+    Parameters
+    ----------
+    pixel_type : {"auto", "half", "float"}
+        "half" stores 16-bit floats (relative error <= 4.9e-4, see ``HALF_ERROR``; half the size and
+        faster to write); "auto" (default) uses half when every value is finite and rounds to a finite
+        half (magnitude below 65520; the largest half is 65504), else 32-bit float.
+    compression : {"rle", "none", "zips", "zip", "piz", "zstd"}
+        OpenEXR compression (all lossless). "rle" (default) and "none" are written by widesky's own
+        encoder (:mod:`skymodel.exrfile`, one C pass over the image); "zip" makes files about 2.5x
+        smaller than "rle" and takes several times longer to write (the OpenEXR library).
+    threads : int
+        Threads of the encoder, or of OpenEXR's compression (0: one per core).
+    """
+    from .exrfile import NATIVE_COMPRESSIONS, write_scanline_exr
+
+    if pixel_type not in ("auto", "half", "float"):
+        raise ValueError(f"pixel_type={pixel_type!r}: expected 'auto', 'half' or 'float'")
+    if compression not in EXR_COMPRESSIONS:
+        raise ValueError(f"compression={compression!r}: expected one of {EXR_COMPRESSIONS}")
+    values = np.ascontiguousarray(r.values, np.float32)
+    if values.shape[-1] > 1 and r.quantity in ("sky", "sun"):
+        rgb = np.ascontiguousarray(r.rgb_linear(), np.float32)
+    else:
+        rgb = None  # the preview repeats the single (or first) channel
+    names, sources = _exr_channels(r)
+    if compression not in NATIVE_COMPRESSIONS:
+        return _write_exr_openexr(path, r, values, rgb, names, sources, pixel_type, compression, threads)
+    with open(path, "wb") as f:
+        if pixel_type != "float":
+            bad = write_scanline_exr(f, values, rgb, names, sources, pixel_type="half", compression=compression,
+                                     strings=_exr_attributes(r, True), overflow_ok=pixel_type == "half",
+                                     threads=threads)
+            if not bad or pixel_type == "half":
+                return Path(path)
+        write_scanline_exr(f, values, rgb, names, sources, pixel_type="float", compression=compression,
+                           strings=_exr_attributes(r, False), threads=threads)
+    return Path(path)
+
+
+def _write_exr_openexr(path, r, values, rgb, names, sources, pixel_type, compression, threads):
+    """write_exr through the OpenEXR library (the compressions widesky does not encode itself)."""
+    import OpenEXR
+
+    if pixel_type == "auto":
+        big = max(float(np.abs(values).max(initial=0.0)), float(np.abs(rgb).max(initial=0.0)) if rgb is not None
+                  else 0.0)
+        pixel_type = "half" if np.isfinite(big) and big < HALF_MAX else "float"
+    half = pixel_type == "half"
+    H, W, C = values.shape
+    planes = np.empty((C + 3, H, W), np.uint16 if half else np.float32)
+    _core.planar(values, planes[:C], C)
+    if rgb is not None:
+        _core.planar(rgb, planes[C:], 3)
+    else:
+        planes[C:] = planes[0]
+    if half:
+        planes = planes.view(np.float16)
+    header = {"compression": getattr(OpenEXR, compression.upper() + "_COMPRESSION"), "type": OpenEXR.scanlineimage}
+    header.update(_exr_attributes(r, half))
     OpenEXR.set_global_thread_count(int(threads) if threads else (os.cpu_count() or 1))
+    channels = {n: planes[s] for n, s in zip(names, sources)}  # without rgb, R G B repeat plane 0
     with OpenEXR.File(header, channels) as f:
         f.write(str(path))
     return Path(path)
