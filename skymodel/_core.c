@@ -1614,16 +1614,17 @@ static void to_halves(const float *restrict v, uint16_t *restrict h, size_t n)
 }
 
 /* one scanline's raw bytes: channel k of the file is plane src[k] (< nc: values, else rgb src[k] - nc, or
- * without rgb a copy of plane 0), pos[s] the file position of plane s. tmp holds w * (nc + 3) + 8 halves.
+ * without rgb a copy of plane 0; rgb holds rs >= 3 values per pixel, the first 3 used), pos[s] the file
+ * position of plane s. tmp holds w * (nc + rs) + 8 halves.
  * Returns the number of values that became inf or NaN as half floats. */
-HOT static Py_ssize_t exr_gather(const float *restrict v, const float *restrict rgb, int nc, const int32_t *src,
+HOT static Py_ssize_t exr_gather(const float *restrict v, const float *restrict rgb, int rs, int nc, const int32_t *src,
                                  const int32_t *pos, int nk, Py_ssize_t w, int half, uint8_t *restrict raw,
                                  uint16_t *restrict tmp)
 {
     Py_ssize_t bad = 0, nv = w * nc;
     if (!half) {
         for (int k = 0; k < nk; ++k) {
-            int s = src[k], st = s < nc || !rgb ? nc : 3;
+            int s = src[k], st = s < nc || !rgb ? nc : rs;
             const float *p = s < nc ? v + s : rgb ? rgb + (s - nc) : v;
             float *o = (float *)raw + (size_t)k * w;
             for (Py_ssize_t x = 0; x < w; ++x) o[x] = p[x * st];
@@ -1634,11 +1635,13 @@ HOT static Py_ssize_t exr_gather(const float *restrict v, const float *restrict 
     to_halves(v, tmp, (size_t)nv);
     for (Py_ssize_t j = 0; j < nv; ++j) bad += (tmp[j] & 0x7c00u) == 0x7c00u;
     if (rgb) {
-        to_halves(rgb, trgb, 3 * (size_t)w);
-        for (Py_ssize_t j = 0; j < 3 * w; ++j) bad += (trgb[j] & 0x7c00u) == 0x7c00u;
+        to_halves(rgb, trgb, (size_t)rs * w);
         for (int c = 0; c < 3; ++c) {
             uint16_t *q = o + (size_t)pos[nc + c] * w;
-            for (Py_ssize_t x = 0; x < w; ++x) q[x] = trgb[3 * x + c];
+            for (Py_ssize_t x = 0; x < w; ++x) {
+                q[x] = trgb[rs * x + c];
+                bad += (q[x] & 0x7c00u) == 0x7c00u;
+            }
         }
     }
     Py_ssize_t x = 0;
@@ -1658,17 +1661,18 @@ HOT static Py_ssize_t exr_gather(const float *restrict v, const float *restrict 
     return bad;
 }
 
-/* exr_lines(values float32[h][w][nc], rgb float32[h][w][3] or None, src int32[nc + 3] (a permutation of
- * 0 .. nc + 2: the plane of each file channel, see exr_gather), half, rle,
- *           out uint8[h][slot], sizes int64[h], nthreads): each scanline y's chunk (int32 y, int32 data size, data)
- * at out[y]; sizes[y] its length in bytes. slot must hold 8 + line + line / 127 + 1 bytes
- * (line = nk * w * (2 or 4)). Returns the number of values beyond the half range (half only). */
+/* exr_lines(values float32[h][w][nc], rgb float32[h][w][3 or 4] or None, y0, h, w, nc, src int32[nc + 3], half, rle,
+ *           out uint8[h][slot], sizes int64[h], nthreads)
+ * h scanlines (the image's y0 .. y0 + h - 1): the chunk of each line y (int32 y0 + y, int32 data size, data)
+ * at out[y], sizes[y] its length in bytes; src is a permutation of 0 .. nc + 2, the plane of each file
+ * channel (see exr_gather). slot must hold 8 + line + line / 127 + 1 bytes (line = (nc + 3) * w * (2 or 4)).
+ * Returns the number of values beyond the half range (half only). */
 static PyObject *py_exr_lines(PyObject *self, PyObject *args)
 {
     PyObject *o[5];
     int nc, half, rle, nthreads;
-    Py_ssize_t h, w;
-    if (!PyArg_ParseTuple(args, "OOnniOiiOOi", &o[0], &o[1], &h, &w, &nc, &o[2], &half, &rle, &o[3], &o[4],
+    Py_ssize_t h, w, y0;
+    if (!PyArg_ParseTuple(args, "OOnnniOiiOOi", &o[0], &o[1], &y0, &h, &w, &nc, &o[2], &half, &rle, &o[3], &o[4],
                           &nthreads))
         return NULL;
     buf_t b[5];
@@ -1684,7 +1688,9 @@ static PyObject *py_exr_lines(PyObject *self, PyObject *args)
         int nk = (int)(b[2].b.len / 4);
         size_t line = (size_t)nk * (size_t)w * (half ? 2 : 4), slot = h > 0 ? (size_t)b[3].b.len / (size_t)h : 0;
         int ok = nc >= 1 && h >= 0 && w >= 1 && b[0].b.len / 4 == h * w * nc && b[4].b.len / 8 == h &&
-                 slot >= 8 + line + line / 127 + 1 && (rgb == NULL || b[1].b.len / 4 == h * w * 3);
+                 slot >= 8 + line + line / 127 + 1;
+        int rs = h * w > 0 ? (int)(b[1].b.len / 4 / (h * w)) : 3;
+        ok = ok && (rgb == NULL || ((rs == 3 || rs == 4) && b[1].b.len / 4 == h * w * rs));
         int32_t pos[4096];
         ok = ok && nk == nc + 3 && nk <= 4096;
         for (int k = 0; ok && k < nk; ++k) pos[k] = -1;
@@ -1705,14 +1711,14 @@ static PyObject *py_exr_lines(PyObject *self, PyObject *args)
 #pragma omp parallel reduction(+ : bad) reduction(|| : nomem) if (h * w * nk >= PAR_MIN_WORK)
         {
             uint8_t *raw = malloc(line), *pred = rle ? malloc(2 * line) : NULL;
-            uint16_t *tmp = half ? malloc(2 * ((size_t)w * (nc + 3) + 16)) : NULL;
+            uint16_t *tmp = half ? malloc(2 * ((size_t)w * (nc + 4) + 16)) : NULL;
             if (!raw || (rle && !pred) || (half && !tmp)) nomem = 1;
             Py_ssize_t y;
 #pragma omp for schedule(dynamic, 4)
             for (y = 0; y < h; ++y) {
                 if (nomem) continue;
                 uint8_t *chunk = out + (size_t)y * slot, *data = chunk + 8;
-                bad += exr_gather(v + (size_t)y * w * nc, rgb ? rgb + (size_t)y * w * 3 : NULL, nc, src, pos, nk, w,
+                bad += exr_gather(v + (size_t)y * w * nc, rgb ? rgb + (size_t)y * w * rs : NULL, rs, nc, src, pos, nk, w,
                                   half, raw, tmp);
                 size_t n = line;
                 if (rle) {
@@ -1723,7 +1729,7 @@ static PyObject *py_exr_lines(PyObject *self, PyObject *args)
                     memcpy(data, raw, line);
                     n = line;
                 }
-                int32_t hdr[2] = {(int32_t)y, (int32_t)n};
+                int32_t hdr[2] = {(int32_t)(y0 + y), (int32_t)n};
                 memcpy(chunk, hdr, 8);
                 sizes[y] = (int64_t)(8 + n);
             }
@@ -1740,6 +1746,96 @@ static PyObject *py_exr_lines(PyObject *self, PyObject *args)
     }
 done:
     for (int i = 0; i < 5; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* colour(values float32[n][nc], weights float32[nc][4], out float32[n][4], nthreads): out = values @ weights
+ * (linear sRGB and CIE Y of each pixel in one pass), accumulated in float32 */
+HOT static void colour_rows(const float *restrict v, const float *restrict wt, float *restrict out, int nc,
+                            Py_ssize_t p0, Py_ssize_t p1)
+{
+    for (Py_ssize_t p = p0; p < p1; ++p) {
+        float acc[4] = {0.f, 0.f, 0.f, 0.f};
+        const float *x = v + (size_t)p * nc;
+        for (int c = 0; c < nc; ++c)
+            for (int k = 0; k < 4; ++k) acc[k] += x[c] * wt[4 * c + k];
+        for (int k = 0; k < 4; ++k) out[4 * (size_t)p + k] = acc[k];
+    }
+}
+
+static PyObject *py_colour(PyObject *self, PyObject *args)
+{
+    PyObject *o[3];
+    int nthreads;
+    if (!PyArg_ParseTuple(args, "OOOi", &o[0], &o[1], &o[2], &nthreads)) return NULL;
+    buf_t b[3];
+    memset(b, 0, sizeof(b));
+    const int wr[3] = {0, 0, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 3; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "colour", 4) < 0) goto done;
+    {
+        Py_ssize_t nc = b[1].b.len / 16, n = b[2].b.len / 16, t, tile = 4096;
+        if (nc < 1 || b[1].b.len != 16 * nc || b[0].b.len != 4 * n * nc) {
+            PyErr_SetString(PyExc_ValueError, "colour: inconsistent sizes");
+            goto done;
+        }
+        const float *v = b[0].b.buf, *wt = b[1].b.buf;
+        float *out = b[2].b.buf;
+        set_threads(nthreads);
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (n * nc >= PAR_MIN_WORK)
+        for (t = 0; t < (n + tile - 1) / tile; ++t)
+            colour_rows(v, wt, out, (int)nc, t * tile, (t + 1) * tile < n ? (t + 1) * tile : n);
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 3; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* encode8(linear float32[n][stride], m, scale, table uint8[65536], out uint8[n][m], nthreads): the first m
+ * values of each pixel times scale, clipped to [0, 1] (NaN to 0), rounded to 16 bits and looked up in the
+ * sRGB table: the 8-bit display image in one pass */
+static PyObject *py_encode8(PyObject *self, PyObject *args)
+{
+    PyObject *o[3];
+    int m, nthreads;
+    float scale;
+    if (!PyArg_ParseTuple(args, "OifOOi", &o[0], &m, &scale, &o[1], &o[2], &nthreads)) return NULL;
+    buf_t b[3];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[3] = {4, 1, 1};
+    const int wr[3] = {0, 0, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 3; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "encode8", isz[i]) < 0) goto done;
+    {
+        Py_ssize_t n = m > 0 ? b[2].b.len / m : 0, stride = n > 0 ? b[0].b.len / 4 / n : 0, p;
+        if (m < 1 || b[1].b.len != 65536 || b[2].b.len != n * m || stride < m || b[0].b.len != 4 * n * stride) {
+            PyErr_SetString(PyExc_ValueError, "encode8: inconsistent sizes");
+            goto done;
+        }
+        const float *v = b[0].b.buf;
+        const uint8_t *table = b[1].b.buf;
+        uint8_t *out = b[2].b.buf;
+        set_threads(nthreads);
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (n * m >= PAR_MIN_WORK)
+        for (p = 0; p < n; ++p)
+            for (int k = 0; k < m; ++k) {
+                float x = v[p * stride + k] * scale;
+                x = x > 0.f ? (x < 1.f ? x : 1.f) : 0.f;
+                out[p * m + k] = table[(uint16_t)(x * 65535.f + 0.5f)];
+            }
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 3; ++i) rel_buf(&b[i]);
     return ret;
 }
 
@@ -1970,6 +2066,8 @@ static PyMethodDef methods[] = {
     {"fisheye_counts", py_fisheye_counts, METH_VARARGS, "Pixels per image row inside the fisheye disc."},
     {"fisheye", py_fisheye, METH_VARARGS, "Stereographic fisheye directions of the disc's pixels."},
     {"planar", py_planar, METH_VARARGS, "Pixel-interleaved float32 to channel planes (float32 or half)."},
+    {"colour", py_colour, METH_VARARGS, "Per-pixel linear sRGB and CIE Y of a spectral image (values @ weights)."},
+    {"encode8", py_encode8, METH_VARARGS, "Linear values to 8-bit sRGB through a 16-bit table."},
     {"exr_lines", py_exr_lines, METH_VARARGS, "OpenEXR scanline chunks (uncompressed or RLE) of an image."},
     {"decode_radiance", py_decode_radiance, METH_VARARGS, "Decode radiance blocks into float32 factors."},
     {"decode_polarisation", py_decode_polarisation, METH_VARARGS, "Decode polarisation blocks (float32)."},

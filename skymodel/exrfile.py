@@ -3,8 +3,8 @@
 Writing a 1000 x 1000 spectral image (55 channels plus RGB, 116 MB of half floats) through the OpenEXR
 library takes a channel-plane copy of the image and about half a second of RLE coding on two cores; here
 one C pass (``_core.exr_lines``, OpenMP over scanlines) reads the pixel-interleaved float32 image, rounds
-to half, codes each scanline and hands back the finished chunks, which are written after the header and
-the offset table. The file is a standard single-part scanline OpenEXR (version 2): magic, version, the
+to half, codes each scanline and hands back the finished chunks, a block of scanlines at a time into one
+reused buffer, which are written after the header and the offset table. The file is a standard single-part scanline OpenEXR (version 2): magic, version, the
 header's attributes, a table of each chunk's file offset, the chunks in increasing y (one scanline each:
 int32 y, int32 data size, data). The tests read every file written here back with the OpenEXR library.
 
@@ -25,6 +25,7 @@ __all__ = ["NATIVE_COMPRESSIONS", "write_scanline_exr"]
 
 NATIVE_COMPRESSIONS = {"none": 0, "rle": 1} if sys.byteorder == "little" else {}
 _PIXEL_TYPE = {"half": 1, "float": 2}  # the format's codes (0 is uint)
+BLOCK_BYTES = 16 << 20  # scanlines coded per call
 
 
 def _attribute(name: str, kind: str, payload: bytes) -> bytes:
@@ -59,37 +60,51 @@ def write_scanline_exr(f, values, rgb, names, sources, *, pixel_type, compressio
 
     Parameters
     ----------
+    f : binary file open for writing, seekable  (the image starts at its current position)
     values : ndarray (H, W, C) float32, C-contiguous  the image's planes, pixel-interleaved
-    rgb : ndarray (H, W, 3) float32 or None  three more planes (source indices C, C+1, C+2)
-    names : list of str  the file's channel names, sorted as the format requires
-    sources : sequence of int  for each name, its plane (0..C-1 in ``values``, C..C+2 in ``rgb``)
+    rgb : ndarray (H, W, 3) float32 or None  three more planes (C, C+1, C+2; None: copies of plane 0)
+    names : list of str  the file's C + 3 channel names, sorted as the format requires
+    sources : sequence of int  for each name, its plane: a permutation of 0 .. C+2
     pixel_type : {"half", "float"}
     compression : {"none", "rle"}
     strings : dict  extra string attributes
     overflow_ok : bool
-        With half pixels, False makes the call write nothing and return the count of values that do
-        not fit a half float (beyond 65504 after rounding, inf or NaN) when there are any.
+        With half pixels, False makes the call stop at the first block of scanlines holding values that
+        do not fit a half float (beyond 65504 after rounding, inf or NaN), truncate the file back to
+        where the image started and return their count.
     threads : int  encoder threads (0: one per core)
 
     Returns
     -------
-    int  values that became inf or NaN as half floats (0 for float pixels); nothing was written when
+    int  values that became inf or NaN as half floats (0 for float pixels); nothing is left written when
     this is not 0 and ``overflow_ok`` is False
     """
     h, w, c = values.shape
-    nk = len(names)
-    line = nk * w * (2 if pixel_type == "half" else 4)
+    line = len(names) * w * (2 if pixel_type == "half" else 4)
     slot = 8 + line + line // 127 + 1
-    chunks = np.empty((h, slot), np.uint8)  # pages past each chunk's end are never touched
+    block = max(1, min(h, BLOCK_BYTES // slot))  # one buffer for every block: its memory is touched once
+    chunks = np.empty((block, slot), np.uint8)
     sizes = np.empty(h, np.int64)
-    bad = _core.exr_lines(values, rgb, h, w, c, np.asarray(sources, np.int32), int(pixel_type == "half"),
-                          NATIVE_COMPRESSIONS[compression], chunks, sizes, int(threads))
-    if bad and not overflow_ok:
-        return bad
+    src = np.asarray(sources, np.int32)
+    start = f.tell()
     head = exr_header(names, w, h, pixel_type, compression, strings)
-    offsets = len(head) + 8 * h + np.concatenate([[0], np.cumsum(sizes[:-1])]) if h else np.zeros(0, np.int64)
     f.write(head)
+    f.write(bytes(8 * h))  # the offset table, filled in at the end
+    bad = 0
+    for y0 in range(0, h, block):
+        y1 = min(h, y0 + block)
+        bad += _core.exr_lines(values[y0:y1], None if rgb is None else rgb[y0:y1], y0, y1 - y0, w, c, src,
+                               int(pixel_type == "half"), NATIVE_COMPRESSIONS[compression], chunks,
+                               sizes[y0:y1], int(threads))
+        if bad and not overflow_ok:
+            f.seek(start)
+            f.truncate()
+            return bad
+        for y in range(y1 - y0):
+            f.write(chunks[y, : sizes[y0 + y]])
+    end = f.tell()
+    offsets = start + len(head) + 8 * h + np.concatenate([[0], np.cumsum(sizes[:-1])]) if h else sizes
+    f.seek(start + len(head))
     f.write(np.asarray(offsets, "<u8").tobytes())
-    for y in range(h):
-        f.write(chunks[y, : sizes[y]])
+    f.seek(end)
     return bad

@@ -117,14 +117,23 @@ class Render:
         w = channel_xyz_weights(self.channel_lower, self.channel_width).astype(np.float32)
         return self.values @ w
 
+    @cached_property
+    def _rgby(self):
+        """(H, W, 4) float32: linear sRGB and CIE Y, one pass over the channels (computed once per render)."""
+        w = channel_xyz_weights(self.channel_lower, self.channel_width)
+        weights = np.ascontiguousarray(np.concatenate([xyz_to_linear_srgb(w), w[:, 1:2]], axis=1), np.float32)
+        out = np.empty(self.values.shape[:-1] + (4,), np.float32)
+        _core.colour(np.ascontiguousarray(self.values, np.float32), weights, out, 0)
+        return out
+
     def rgb_linear(self):
         """Linear sRGB (H, W, 3) of the visible channels (CIE 1931 weighting of each band), in the
         radiance unit integrated over wavelength [W m-2 sr-1]."""
-        return xyz_to_linear_srgb(self.xyz)
+        return self._rgby[..., :3]
 
     def luminance_like(self):
-        """CIE Y-weighted sum over the channels (H, W)."""
-        return self.xyz[..., 1]
+        """CIE Y-weighted sum over the channels (H, W) [W m-2 sr-1]."""
+        return self._rgby[..., 3]
 
 
 def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibility=50.0, albedo=0.3,
@@ -234,12 +243,13 @@ def _srgb8_table():
     return np.round(srgb_encode(np.arange(65536) / 65535.0) * 255.0).astype(np.uint8)
 
 
-def _encode8(linear):
-    """Linear values (clipped to [0, 1]) to 8-bit sRGB through the 16-bit table."""
-    v = np.clip(np.asarray(linear, np.float32), 0.0, 1.0)
-    v *= np.float32(65535.0)
-    v += np.float32(0.5)
-    return _srgb8_table()[v.astype(np.uint16)]
+def _encode8(pixels, scale, m):
+    """The first ``m`` values of the last axis of ``pixels`` (..., k) times ``scale``, clipped to [0, 1]
+    (NaN to 0), to 8-bit sRGB (..., m) through the 16-bit table, in one C pass."""
+    pixels = np.ascontiguousarray(pixels, np.float32)
+    out = np.empty(pixels.shape[:-1] + (m,), np.uint8)
+    _core.encode8(pixels, m, float(scale), _srgb8_table(), out, 0)
+    return out
 
 
 def _display(r: Render, composite, exposure):
@@ -248,14 +258,13 @@ def _display(r: Render, composite, exposure):
         rgb = r.rgb_linear()
         if not rgb.max(initial=0.0) > 0:  # zero outside the disc: the disc's maximum
             raise ValueError("the selected channels have no visible (380-780 nm) contribution: use a single channel")
-        y = r.luminance_like()
-        out = _encode8(rgb * np.float32(_exposure_scale(y, r.mask, exposure)))
+        out = _encode8(r._rgby, _exposure_scale(r.luminance_like(), r.mask, exposure), 3)
     else:
         v = r.values[..., 0]
         if r.quantity == "polarisation":
             g = np.round(np.clip(0.5 + 0.5 * v * 2.0 ** exposure, 0, 1) * 255.0).astype(np.uint8)
         else:
-            g = _encode8(v * np.float32(_exposure_scale(v, r.mask, exposure)))
+            g = _encode8(r.values, _exposure_scale(v, r.mask, exposure), 1)[..., 0]
         out = np.repeat(g[..., None], 3, axis=-1)
     out[~r.mask] = 0
     return out
@@ -333,7 +342,7 @@ def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=
         raise ValueError(f"compression={compression!r}: expected one of {EXR_COMPRESSIONS}")
     values = np.ascontiguousarray(r.values, np.float32)
     if values.shape[-1] > 1 and r.quantity in ("sky", "sun"):
-        rgb = np.ascontiguousarray(r.rgb_linear(), np.float32)
+        rgb = r._rgby  # linear sRGB and Y per pixel: the encoder takes the first three
     else:
         rgb = None  # the preview repeats the single (or first) channel
     names, sources = _exr_channels(r)
@@ -355,6 +364,8 @@ def _write_exr_openexr(path, r, values, rgb, names, sources, pixel_type, compres
     """write_exr through the OpenEXR library (the compressions widesky does not encode itself)."""
     import OpenEXR
 
+    if rgb is not None:
+        rgb = np.ascontiguousarray(rgb[..., :3])
     if pixel_type == "auto":
         big = max(float(np.abs(values).max(initial=0.0)), float(np.abs(rgb).max(initial=0.0)) if rgb is not None
                   else 0.0)

@@ -118,3 +118,30 @@ def test_write_exr_auto_falls_back_to_float(tmp_path):
     header, ch = read_exr(write_exr(tmp_path / "h.exr", big, pixel_type="half"))
     assert header["widesky.pixelType"] == "half"
     assert np.isinf(max(np.abs(ch[n]).max() for n in ch if n.startswith("S0.")))
+
+
+def test_blocks_of_scanlines(tmp_path, monkeypatch):
+    """Scanlines coded a block at a time into one reused buffer (here 2 lines per block, the last one
+    short) give the same file as one block; a value beyond the half range in the last block, refused,
+    leaves the file as it was before the image."""
+    import skymodel.exrfile as exrfile
+
+    h, w, c = 5, 19, 6
+    v = hard_image(h, w, c, seed=7)
+    names, sources = names_for(c)
+    whole = tmp_path / "whole.exr"
+    with open(whole, "wb") as f:
+        write_scanline_exr(f, v, None, names, sources, pixel_type="half", compression="rle", strings={})
+    line = len(names) * w * 2
+    monkeypatch.setattr(exrfile, "BLOCK_BYTES", 2 * (8 + line + line // 127 + 1))
+    blocks = tmp_path / "blocks.exr"
+    with open(blocks, "wb") as f:
+        write_scanline_exr(f, v, None, names, sources, pixel_type="half", compression="rle", strings={})
+    assert blocks.read_bytes() == whole.read_bytes()
+    v[4, 3, 2] = 1e5
+    late = tmp_path / "late.exr"
+    with open(late, "wb") as f:
+        f.write(b"kept")
+        assert write_scanline_exr(f, v, None, names, sources, pixel_type="half", compression="rle", strings={},
+                                  overflow_ok=False) == 1
+    assert late.read_bytes() == b"kept"
