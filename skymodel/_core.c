@@ -1751,15 +1751,37 @@ done:
 
 /* colour(values float32[n][nc], weights float32[nc][4], out float32[n][4], nthreads): out = values @ weights
  * (linear sRGB and CIE Y of each pixel in one pass), accumulated in float32 */
+typedef float v4f __attribute__((vector_size(16)));
+
+/* four pixels at a time: four independent accumulator chains of (r, g, b, Y) */
 HOT static void colour_rows(const float *restrict v, const float *restrict wt, float *restrict out, int nc,
                             Py_ssize_t p0, Py_ssize_t p1)
 {
-    for (Py_ssize_t p = p0; p < p1; ++p) {
-        float acc[4] = {0.f, 0.f, 0.f, 0.f};
+    Py_ssize_t p = p0;
+    for (; p + 4 <= p1; p += 4) {
+        v4f a0 = {0}, a1 = {0}, a2 = {0}, a3 = {0};
         const float *x = v + (size_t)p * nc;
-        for (int c = 0; c < nc; ++c)
-            for (int k = 0; k < 4; ++k) acc[k] += x[c] * wt[4 * c + k];
-        for (int k = 0; k < 4; ++k) out[4 * (size_t)p + k] = acc[k];
+        for (int c = 0; c < nc; ++c) {
+            v4f wc;
+            memcpy(&wc, wt + 4 * c, 16);
+            a0 += x[c] * wc;
+            a1 += x[nc + c] * wc;
+            a2 += x[2 * nc + c] * wc;
+            a3 += x[3 * nc + c] * wc;
+        }
+        memcpy(out + 4 * (size_t)p, &a0, 16);
+        memcpy(out + 4 * (size_t)p + 4, &a1, 16);
+        memcpy(out + 4 * (size_t)p + 8, &a2, 16);
+        memcpy(out + 4 * (size_t)p + 12, &a3, 16);
+    }
+    for (; p < p1; ++p) {
+        v4f a = {0};
+        for (int c = 0; c < nc; ++c) {
+            v4f wc;
+            memcpy(&wc, wt + 4 * c, 16);
+            a += v[(size_t)p * nc + c] * wc;
+        }
+        memcpy(out + 4 * (size_t)p, &a, 16);
     }
 }
 

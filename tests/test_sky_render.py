@@ -122,6 +122,33 @@ def test_colour_and_display_kernels():
     assert enc.shape == (500, 3) and np.abs(enc.astype(int) - ref).max() <= 1
 
 
+@pytest.mark.parametrize("shape", [(1, 1, 3), (5, 7, 3), (64, 33, 3)])
+def test_png_writer_round_trip(tmp_path, shape):
+    """widesky's PNG writer (skymodel.pngfile) read back with Pillow: the same pixels, exactly."""
+    from PIL import Image
+
+    from skymodel.pngfile import write_rgb_png
+
+    img = np.random.default_rng(sum(shape)).integers(0, 256, shape, dtype=np.uint8)
+    img[: shape[0] // 2] = img[0]  # repeated rows: the Up filter's zero differences
+    with open(tmp_path / "a.png", "wb") as f:
+        write_rgb_png(f, img)
+    back = Image.open(tmp_path / "a.png")
+    assert back.mode == "RGB"
+    np.testing.assert_array_equal(np.asarray(back), img)
+    with open(tmp_path / "b.png", "wb") as f, pytest.raises(ValueError, match="expected"):
+        write_rgb_png(f, img[..., :2])
+
+
+def test_percentile99_equals_numpy():
+    from skymodel.render import _percentile99
+
+    rng = np.random.default_rng(2)
+    for n in (1, 2, 100, 12345):
+        v = rng.lognormal(size=n).astype(np.float32)
+        assert _percentile99(v) == pytest.approx(float(np.percentile(v, 99.0)), rel=1e-6)
+
+
 def test_render_quantities(tmp_path):
     model = skymodel.load_dataset()
     kw = dict(sun_elevation=40.0, sun_azimuth=120.0, visibility=60.0, albedo=0.5, resolution=48)
