@@ -2071,6 +2071,43 @@ done:
     return ret;
 }
 
+/* Baseline of the loader benchmark (benchmarks/bench_open.py): every half of a buffer converted on its own,
+ * as a scalar decoder does it (sign, exponent and mantissa fields, ldexp; IEEE zero, subnormals, inf, NaN),
+ * into float32, one thread: the per-value work any loader that keeps float32 arrays must do at least. */
+static float half_scalar(uint16_t h)
+{
+    int e = (h >> 10) & 31, m = h & 1023;
+    double v = e == 0 ? ldexp((double)m, -24) : e == 31 ? (m ? NAN : INFINITY) : ldexp((double)(m | 1024), e - 25);
+    return (float)((h >> 15) ? -v : v);
+}
+
+static PyObject *py_reference_halves(PyObject *self, PyObject *args)
+{
+    PyObject *o[2];
+    if (!PyArg_ParseTuple(args, "OO", &o[0], &o[1])) return NULL;
+    buf_t b[2];
+    memset(b, 0, sizeof(b));
+    PyObject *ret = NULL;
+    if (get_buf(o[0], &b[0], 0, "raw", 2) < 0 || get_buf(o[1], &b[1], 1, "out", 4) < 0) goto done;
+    {
+        Py_ssize_t n = b[0].b.len / 2;
+        if (b[1].b.len / 4 != n) {
+            PyErr_SetString(PyExc_ValueError, "reference_halves: out must hold one float32 per half");
+            goto done;
+        }
+        const uint16_t *raw = b[0].b.buf;
+        float *out = b[1].b.buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < n; ++i) out[i] = half_scalar(raw[i]);
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 2; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
 static PyObject *py_has_openmp(PyObject *self, PyObject *args)
 {
 #ifdef WIDESKY_OPENMP
@@ -2093,6 +2130,8 @@ static PyMethodDef methods[] = {
     {"exr_lines", py_exr_lines, METH_VARARGS, "OpenEXR scanline chunks (uncompressed or RLE) of an image."},
     {"decode_radiance", py_decode_radiance, METH_VARARGS, "Decode radiance blocks into float32 factors."},
     {"decode_polarisation", py_decode_polarisation, METH_VARARGS, "Decode polarisation blocks (float32)."},
+    {"reference_halves", py_reference_halves, METH_VARARGS,
+     "Baseline: every half converted on its own by a scalar decoder, one thread (loader benchmark)."},
     {"openmp_threads", py_has_openmp, METH_NOARGS, "Maximum OpenMP threads (0 when built without OpenMP)."},
     {NULL, NULL, 0, NULL}};
 
