@@ -70,7 +70,7 @@ else:
     m = skymodel.load_dataset(path).load()
 dt = time.perf_counter() - t0
 cpu = time.process_time() - c0
-if mode != "read":
+if mode not in ("read", "refconv"):
     resident = m.resident_bytes
 print(json.dumps({"seconds": dt, "cpu_seconds": cpu, "rss_growth_MB": (status("VmRSS") - before) / 1e6,
                   "peak_growth_MB": (status("VmHWM") - before) / 1e6, "resident_MB": resident / 1e6}))

@@ -109,7 +109,7 @@ def _render(args):
     channels, wavelengths = _parse_channel(model, args.channel)
     n_ch = model.n_channels if channels is None and wavelengths is None else 1
     check_render_memory(args.resolution, n_ch, exr=len(targets) > 1 or out.suffix.lower() == ".exr",
-                        option="--resolution")
+                        option="--resolution", exr_compression=args.exr_compression)
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", skymodel.SkyStateClampedWarning)

@@ -197,12 +197,23 @@ def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibi
     return Render(img, mask, lower + 0.5 * model.channel_width, lower, model.channel_width, quantity, meta)
 
 
-def render_memory_bytes(resolution, n_channels, exr=True) -> int:
-    """Estimated peak memory of a render and its files [bytes]: the float32 image, the directions and
-    mask, the sRGB composite and the 8-bit display image, and (``exr``) the EXR's per-channel copies."""
-    px = int(resolution) ** 2
-    per_px = 4 * n_channels + 8 * 3 + 1 + 8 * 3 * 3 + 3 + (4 * (n_channels + 3) if exr else 0)
-    return px * per_px
+def _render_memory_terms(n_channels, exr, exr_compression):
+    """(bytes per pixel, fixed bytes) of a render and its files."""
+    from .exrfile import BLOCK_BYTES, NATIVE_COMPRESSIONS
+
+    per_px = 4 * n_channels + 24 + 8 + 1 + 16 + 3 + 3
+    if exr and exr_compression not in NATIVE_COMPRESSIONS:
+        per_px += 4 * (n_channels + 3)
+    return per_px, (BLOCK_BYTES if exr else 0)
+
+
+def render_memory_bytes(resolution, n_channels, exr=True, exr_compression="rle") -> int:
+    """Estimated peak memory of a render and its files [bytes]: the float32 image, the directions, pixel
+    indices and mask, the linear sRGB + Y image, the 8-bit display image and the PNG's filtered rows,
+    and (``exr``) the EXR's channel planes where the OpenEXR library writes it (``exr_compression`` other
+    than "rle" and "none"; widesky's own encoder needs one 16 MB buffer)."""
+    per_px, fixed = _render_memory_terms(n_channels, exr, exr_compression)
+    return int(resolution) ** 2 * per_px + fixed
 
 
 def available_memory_bytes() -> int | None:
@@ -217,13 +228,13 @@ def available_memory_bytes() -> int | None:
     return None
 
 
-def check_render_memory(resolution, n_channels, exr=True, option="resolution"):
+def check_render_memory(resolution, n_channels, exr=True, option="resolution", exr_compression="rle"):
     """Refuse (ValueError naming ``option``) a render whose estimated memory exceeds what is available."""
-    need = render_memory_bytes(resolution, n_channels, exr)
+    need = render_memory_bytes(resolution, n_channels, exr, exr_compression)
     avail = available_memory_bytes()
     if avail is not None and need > avail:
-        per_px = need / int(resolution) ** 2
-        most = int((avail / per_px) ** 0.5)
+        per_px, fixed = _render_memory_terms(n_channels, exr, exr_compression)
+        most = int((max(avail - fixed, 0) / per_px) ** 0.5)
         raise ValueError(f"{option} {resolution}: the render of {n_channels} channel(s) needs about {need / 1e9:.1f} GB "
                          f"of memory, {avail / 1e9:.1f} GB are available; use at most {most} pixels here")
     return need
