@@ -145,3 +145,21 @@ def test_blocks_of_scanlines(tmp_path, monkeypatch):
         assert write_scanline_exr(f, v, None, names, sources, pixel_type="half", compression="rle", strings={},
                                   overflow_ok=False) == 1
     assert late.read_bytes() == b"kept"
+
+
+@pytest.mark.parametrize("pixel_type", ["half", "float"])
+@pytest.mark.parametrize("compression", ["rle", "zip"])
+def test_write_exr_preview_and_spectral_channels(tmp_path, pixel_type, compression):
+    """write_exr of a render, by widesky's encoder (rle) and by the OpenEXR library (zip): the RGB preview
+    equals the render's linear sRGB and every S0 channel its values, after rounding to the pixel type."""
+    import skymodel
+    from skymodel.render import render_sky, write_exr
+
+    r = render_sky(skymodel.load_dataset(), sun_elevation=20.0, resolution=21)
+    header, ch = read_exr(write_exr(tmp_path / "a.exr", r, pixel_type=pixel_type, compression=compression))
+    dt = np.float16 if pixel_type == "half" else np.float32
+    for i, c in enumerate("RGB"):
+        np.testing.assert_array_equal(ch[c], r.rgb_linear()[..., i].astype(dt))
+    for k, wl in enumerate(r.wavelengths):
+        np.testing.assert_array_equal(ch["S0." + f"{wl:.6f}".replace(".", ",") + "nm"], r.values[..., k].astype(dt))
+    assert header["widesky.pixelType"] == pixel_type
