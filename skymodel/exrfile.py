@@ -1,12 +1,13 @@
 """widesky's own OpenEXR scanline writer for the uncompressed and RLE cases (the renderer's default).
 
 Writing a 1000 x 1000 spectral image (55 channels plus RGB, 116 MB of half floats) through the OpenEXR
-library takes a channel-plane copy of the image and about half a second of RLE coding on two cores; here
-one C pass (``_core.exr_lines``, OpenMP over scanlines) reads the pixel-interleaved float32 image, rounds
-to half, codes each scanline and hands back the finished chunks, a block of scanlines at a time into one
-reused buffer, which are written after the header and the offset table. The file is a standard single-part scanline OpenEXR (version 2): magic, version, the
-header's attributes, a table of each chunk's file offset, the chunks in increasing y (one scanline each:
-int32 y, int32 data size, data). The tests read every file written here back with the OpenEXR library.
+library takes a channel-plane copy of the image and its RLE coding (0.94 s of CPU on one thread, against
+0.24 s here: docs/benchmarks.md). Here one C pass (``_core.exr_lines``, OpenMP over scanlines) reads the
+pixel-interleaved float32 image, rounds to half, codes each scanline and hands back the finished chunks,
+a block of scanlines at a time into one reused buffer; they are written after the header and the offset
+table. The file is a standard single-part scanline OpenEXR (version 2): magic, version, the header's
+attributes, a table of each chunk's file offset, the chunks in increasing y (one scanline each: int32 y,
+int32 data size, data). The tests read every file written here back with the OpenEXR library.
 
 Little-endian hosts only (the values are copied as they lie in memory); elsewhere
 :func:`skymodel.render.write_exr` uses the OpenEXR library.
@@ -25,7 +26,7 @@ __all__ = ["NATIVE_COMPRESSIONS", "write_scanline_exr"]
 
 NATIVE_COMPRESSIONS = {"none": 0, "rle": 1} if sys.byteorder == "little" else {}
 _PIXEL_TYPE = {"half": 1, "float": 2}  # the format's codes (0 is uint)
-BLOCK_BYTES = 16 << 20  # scanlines coded per call
+BLOCK_BYTES = 16 << 20  # the chunk buffer: as many scanlines as fit are coded per call
 
 
 def _attribute(name: str, kind: str, payload: bytes) -> bytes:
