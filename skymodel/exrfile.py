@@ -95,7 +95,7 @@ def write_scanline_exr(f, values, rgb, names, sources, *, pixel_type, compressio
     for y0 in range(0, h, block):
         y1 = min(h, y0 + block)
         bad += _core.exr_lines(values[y0:y1], None if rgb is None else rgb[y0:y1], y0, y1 - y0, w, c, src,
-                               int(pixel_type == "half"), NATIVE_COMPRESSIONS[compression], chunks,
+                               int(pixel_type == "half"), NATIVE_COMPRESSIONS[compression], chunks[: y1 - y0],
                                sizes[y0:y1], int(threads))
         if bad and not overflow_ok:
             f.seek(start)

@@ -121,9 +121,9 @@ def test_write_exr_auto_falls_back_to_float(tmp_path):
 
 
 def test_blocks_of_scanlines(tmp_path, monkeypatch):
-    """Scanlines coded a block at a time into one reused buffer (here 2 lines per block, the last one
-    short) give the same file as one block; a value beyond the half range in the last block, refused,
-    leaves the file as it was before the image."""
+    """Scanlines coded a block at a time into one reused buffer (here 3 lines per block, the last one
+    short: 2 lines) give the same file as one block; a value beyond the half range in the last block,
+    refused, leaves the file as it was before the image."""
     import skymodel.exrfile as exrfile
 
     h, w, c = 5, 19, 6
@@ -133,11 +133,14 @@ def test_blocks_of_scanlines(tmp_path, monkeypatch):
     with open(whole, "wb") as f:
         write_scanline_exr(f, v, None, names, sources, pixel_type="half", compression="rle", strings={})
     line = len(names) * w * 2
-    monkeypatch.setattr(exrfile, "BLOCK_BYTES", 2 * (8 + line + line // 127 + 1))
+    monkeypatch.setattr(exrfile, "BLOCK_BYTES", 3 * (8 + line + line // 127 + 1))
     blocks = tmp_path / "blocks.exr"
     with open(blocks, "wb") as f:
         write_scanline_exr(f, v, None, names, sources, pixel_type="half", compression="rle", strings={})
     assert blocks.read_bytes() == whole.read_bytes()
+    _, ch = read_exr(blocks)
+    for n, s in zip(names, sources):
+        np.testing.assert_array_equal(ch[n], v[..., s if s < c else 0].astype(np.float16))
     v[4, 3, 2] = 1e5
     late = tmp_path / "late.exr"
     with open(late, "wb") as f:
