@@ -4,8 +4,14 @@ Writes (once, into a cache directory, with the project's own synthetic writer) a
 a large dataset: 10 visibilities x 3 albedos x 45 elevations x 55 channels, radiance rank 12 with
 90/90/60 knots, polarisation rank 8 with 45/45 knots. Then measures, each in a fresh process so
 resident memory is attributable:
-  read      baseline: read the whole file into memory (what the reference's loader must at least do:
-            it reads every block with fread before converting it)
+  read      read the whole file into memory (what the reference's loader must at least do: it reads
+            every block with fread before converting it)
+  refconv   baseline for the decoding time: read the whole file and convert as many of its halves as
+            the full decode keeps float32 values, each on its own (``_core.reference_halves``: a scalar
+            decoder of the sign, exponent and mantissa fields, one thread, as the reference's initialize
+            converts each value; the reference itself is not installed here). A lower bound of the
+            reference's load: it skips the block parsing and the zenith scale division, and its output
+            array takes as many fresh pages as the decoded arrays
   open      load_dataset(path): memory-map and validate the header
   state     load_dataset(path, visibility=50, albedo=0.3, elevation=33).load(): one sky state's selection
   one vis   load_dataset(path, visibility=50).load(): the two bracketing visibility slabs
@@ -14,11 +20,12 @@ the time (best of 3; wall clock and CPU time, the steadier figure on a shared ma
 the resident set (VmRSS) and its peak (VmHWM) over the start, against the decoded size (target: peak at
 most 1.1x the decoded size plus a fixed margin).
 
-    python benchmarks/bench_open.py
+    python benchmarks/bench_open.py [--repeat 3]
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -46,6 +53,13 @@ resident = 0
 if mode == "read":
     data = open(path, "rb").read()
     resident = len(data)
+elif mode == "refconv":  # read + as many halves converted on their own into float32 as the decode keeps
+    from skymodel import _core
+    data = open(path, "rb").read()
+    raw = np.frombuffer(data, np.uint16, count=min(len(data) // 2, int(sys.argv[3])))
+    out = np.empty(raw.size, np.float32)
+    _core.reference_halves(raw, out)
+    resident = out.nbytes
 elif mode == "open":
     m = skymodel.load_dataset(path)
 elif mode == "state":
@@ -56,7 +70,7 @@ else:
     m = skymodel.load_dataset(path).load()
 dt = time.perf_counter() - t0
 cpu = time.process_time() - c0
-if mode != "read":
+if mode not in ("read", "refconv"):
     resident = m.resident_bytes
 print(json.dumps({"seconds": dt, "cpu_seconds": cpu, "rss_growth_MB": (status("VmRSS") - before) / 1e6,
                   "peak_growth_MB": (status("VmHWM") - before) / 1e6, "resident_MB": resident / 1e6}))
@@ -104,24 +118,43 @@ def big_dataset(cache: Path) -> Path:
 
 
 def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
     cache = Path(os.environ.get("WIDESKY_BENCH_CACHE", tempfile.gettempdir()))
     t0 = time.perf_counter()
     path = big_dataset(cache)
     print(f"dataset {path} ({path.stat().st_size / 1e6:.0f} MB, written/reused in {time.perf_counter() - t0:.1f} s)")
-    res = {"file_MB": path.stat().st_size / 1e6}
-    for mode in ("read", "open", "state", "onevis", "all"):
-        runs = []
-        for _ in range(3):
-            out = subprocess.run([sys.executable, "-c", CHILD, str(path), mode], capture_output=True, text=True,
-                                 check=True)
-            runs.append(json.loads(out.stdout))
-        best = min(runs, key=lambda r: r["seconds"])
+    res = {"file_MB": path.stat().st_size / 1e6, "load_average_before": os.getloadavg()[0]}
+
+    def child(mode, n_values=0):
+        out = subprocess.run([sys.executable, "-c", CHILD, str(path), mode, str(n_values)], capture_output=True,
+                             text=True, check=True)
+        return json.loads(out.stdout)
+
+    n_values = int(round(child("all")["resident_MB"] * 1e6 / 4))
+    modes = ("read", "open", "state", "onevis", "all", "refconv")
+    runs = {m: [] for m in modes}
+    for _ in range(args.repeat):  # rounds over every mode, so the decode and its baseline see the same load
+        for mode in modes:
+            runs[mode].append(child(mode, n_values))
+    for mode in modes:
+        best = dict(min(runs[mode], key=lambda r: r["seconds"]))
+        best["cpu_seconds"] = min(r["cpu_seconds"] for r in runs[mode])
+        best["median_seconds"] = float(np.median([r["seconds"] for r in runs[mode]]))
+        best["median_cpu_seconds"] = float(np.median([r["cpu_seconds"] for r in runs[mode]]))
         res[mode] = best
         ratio = best["peak_growth_MB"] / best["resident_MB"] if best["resident_MB"] else float("nan")
-        best["cpu_seconds"] = min(r["cpu_seconds"] for r in runs)
-        print(f"{mode:7s} {best['seconds'] * 1e3:9.1f} ms (CPU {best['cpu_seconds'] * 1e3:7.1f} ms)   RSS growth {best['rss_growth_MB']:7.1f} MB   "
-              f"peak growth {best['peak_growth_MB']:7.1f} MB   decoded {best['resident_MB']:7.1f} MB   "
-              f"peak/decoded {ratio:5.2f}")
+        print(f"{mode:7s} {best['seconds'] * 1e3:9.1f} ms (CPU {best['cpu_seconds'] * 1e3:7.1f} ms; medians "
+              f"{best['median_seconds'] * 1e3:.0f} / {best['median_cpu_seconds'] * 1e3:.0f} ms)   RSS growth "
+              f"{best['rss_growth_MB']:7.1f} MB   peak growth {best['peak_growth_MB']:7.1f} MB   decoded "
+              f"{best['resident_MB']:7.1f} MB   peak/decoded {ratio:5.2f}")
+    res["all_over_refconv_time"] = res["all"]["seconds"] / res["refconv"]["seconds"]
+    res["all_over_refconv_cpu"] = res["all"]["cpu_seconds"] / res["refconv"]["cpu_seconds"]
+    res["all_over_refconv_median_time"] = res["all"]["median_seconds"] / res["refconv"]["median_seconds"]
+    print(f"decoding everything takes {res['all_over_refconv_time']:.2f}x the time of the baseline (read + as many "
+          f"halves converted on their own, one thread; medians {res['all_over_refconv_median_time']:.2f}x; CPU time "
+          f"{res['all_over_refconv_cpu']:.2f}x)")
     res["all_over_read_time"] = res["all"]["seconds"] / res["read"]["seconds"]
     res["all_over_read_cpu"] = res["all"]["cpu_seconds"] / res["read"]["cpu_seconds"]
     print(f"decoding everything takes {res['all_over_read_time']:.2f}x the time of reading the file (CPU time "

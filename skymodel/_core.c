@@ -1490,6 +1490,377 @@ done:
     return ret;
 }
 
+/* OpenEXR scanline chunks (widesky's own encoder for the uncompressed and RLE cases; file layout in
+ * skymodel/exrfile.py). A chunk is one scanline: for each channel in file order, the line's W pixels as
+ * little-endian half or float32. RLE, as the OpenEXR format defines it: the line's bytes split into the
+ * even-indexed then the odd-indexed ones, each byte replaced by its difference from the previous one
+ * plus 128 (mod 256; the first kept), then runs coded as a signed count byte: c >= 0 repeats the next
+ * byte c + 1 times, c < 0 copies the next -c bytes. A chunk that would not shrink is stored raw. */
+
+/* bytes after the split and the difference (n even: 2- or 4-byte values), read straight from the line */
+HOT static void exr_predict(const uint8_t *restrict in, size_t n, uint8_t *restrict out)
+{
+    size_t h = n / 2;
+    out[0] = in[0];
+    for (size_t j = 1; j < h; ++j) out[j] = (uint8_t)(in[2 * j] - in[2 * j - 2] + 128u);
+    out[h] = (uint8_t)(in[1] - in[2 * h - 2] + 128u);
+    for (size_t j = 1; j < h; ++j) out[h + j] = (uint8_t)(in[2 * j + 1] - in[2 * j - 1] + 128u);
+}
+
+static inline uint64_t load64(const uint8_t *p)
+{
+    uint64_t x;
+    memcpy(&x, p, 8);
+    return x;
+}
+
+/* run-length code n bytes; out needs n + n / 127 + 1 bytes, flag n bytes of scratch. Runs of 3 or more
+ * equal bytes (at most 127) become (count - 1, byte); everything between them literal blocks of at most
+ * 127 bytes. flag[j] = 1 where in[j] == in[j+1] (bit 0) and in[j] == in[j+1] == in[j+2] (bit 1), computed
+ * in one vectorised pass; the scans then read 8 flags at a time (little-endian hosts). */
+HOT static size_t exr_rle(const uint8_t *restrict in, size_t n, uint8_t *restrict out, uint8_t *restrict flag)
+{
+    if (n == 0) return 0;
+    for (size_t j = 0; j + 2 < n; ++j) {
+        uint8_t e1 = in[j] == in[j + 1], e2 = in[j + 1] == in[j + 2];
+        flag[j] = (uint8_t)(e1 | ((e1 & e2) << 1));
+    }
+    if (n >= 2) flag[n - 2] = in[n - 2] == in[n - 1];
+    flag[n - 1] = 0;
+    const uint64_t ones = 0x0101010101010101ull, twos = 0x0202020202020202ull;
+    size_t i = 0, o = 0;
+    while (i < n) {
+        if (flag[i] & 2) { /* a run: in[i] repeats while flag bit 0 holds, at most 127 bytes */
+            size_t r = 0, rmax = n - i < 127 ? n - i : 127;
+            while (r + 8 <= rmax) {
+                uint64_t f = load64(flag + i + r) & ones;
+                if (f != ones) {
+                    r += (size_t)__builtin_ctzll(~f & ones) >> 3;
+                    goto counted;
+                }
+                r += 8;
+            }
+            while (r < rmax && (flag[i + r] & 1)) ++r;
+        counted:
+            r = r + 1 < rmax ? r + 1 : rmax; /* the last equal byte has bit 0 clear */
+            out[o++] = (uint8_t)(r - 1);
+            out[o++] = in[i];
+            i += r;
+            continue;
+        }
+        /* a literal up to the next run start (bit 1) or 127 bytes */
+        size_t j = i + 1, jmax = n - i < 127 ? n : i + 127;
+        while (j + 8 <= jmax) {
+            uint64_t f = load64(flag + j) & twos;
+            if (f) {
+                j += (size_t)__builtin_ctzll(f) >> 3;
+                goto found;
+            }
+            j += 8;
+        }
+        while (j < jmax && !(flag[j] & 2)) ++j;
+    found:
+        out[o++] = (uint8_t)(-(int)(j - i));
+        for (size_t k = i; k < j; ++k) out[o++] = in[k];
+        i = j;
+    }
+    return o;
+}
+
+/* float32 -> half of n values: F16C (8 at a time) where the processor has it, else to_half */
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+__attribute__((target("avx,f16c"))) static void halves_f16c(const float *restrict v, uint16_t *restrict h, size_t n)
+{
+    size_t j = 0;
+    for (; j + 8 <= n; j += 8)
+        _mm_storeu_si128((__m128i *)(h + j),
+                         _mm256_cvtps_ph(_mm256_loadu_ps(v + j), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+    for (; j < n; ++j) h[j] = f32_to_f16(v[j]);
+}
+#define HAVE_TRANSPOSE8 1
+/* out[c][0..8) = in[r * stride + c] for r, c in 0..8: eight pixels' 8 channels to 8 channel runs (SSE2) */
+static inline void transpose8_u16(const uint16_t *in, size_t stride, __m128i b[8])
+{
+    __m128i a[8], t[8], u[8];
+    for (int r = 0; r < 8; ++r) a[r] = _mm_loadu_si128((const __m128i *)(in + r * stride));
+    for (int r = 0; r < 4; ++r) {
+        t[2 * r] = _mm_unpacklo_epi16(a[2 * r], a[2 * r + 1]);
+        t[2 * r + 1] = _mm_unpackhi_epi16(a[2 * r], a[2 * r + 1]);
+    }
+    for (int q = 0; q < 2; ++q)
+        for (int r = 0; r < 2; ++r) {
+            u[4 * q + 2 * r] = _mm_unpacklo_epi32(t[4 * q + r], t[4 * q + r + 2]);
+            u[4 * q + 2 * r + 1] = _mm_unpackhi_epi32(t[4 * q + r], t[4 * q + r + 2]);
+        }
+    for (int r = 0; r < 4; ++r) {
+        b[2 * r] = _mm_unpacklo_epi64(u[r], u[r + 4]);
+        b[2 * r + 1] = _mm_unpackhi_epi64(u[r], u[r + 4]);
+    }
+}
+#endif
+
+static void to_halves(const float *restrict v, uint16_t *restrict h, size_t n)
+{
+#if defined(__GNUC__) && defined(__x86_64__)
+    static int f16c = -1;
+    if (f16c < 0) f16c = __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
+    if (f16c) {
+        halves_f16c(v, h, n);
+        return;
+    }
+#endif
+    for (size_t j = 0; j < n; ++j) h[j] = to_half(v[j]);
+}
+
+/* one scanline's raw bytes: channel k of the file is plane src[k] (< nc: values, else rgb src[k] - nc, or
+ * without rgb a copy of plane 0; rgb holds rs >= 3 values per pixel, the first 3 used), pos[s] the file
+ * position of plane s. tmp holds w * (nc + rs) + 8 halves.
+ * Returns the number of values that became inf or NaN as half floats. */
+HOT static Py_ssize_t exr_gather(const float *restrict v, const float *restrict rgb, int rs, int nc, const int32_t *src,
+                                 const int32_t *pos, int nk, Py_ssize_t w, int half, uint8_t *restrict raw,
+                                 uint16_t *restrict tmp)
+{
+    Py_ssize_t bad = 0, nv = w * nc;
+    if (!half) {
+        for (int k = 0; k < nk; ++k) {
+            int s = src[k], st = s < nc || !rgb ? nc : rs;
+            const float *p = s < nc ? v + s : rgb ? rgb + (s - nc) : v;
+            float *o = (float *)raw + (size_t)k * w;
+            for (Py_ssize_t x = 0; x < w; ++x) o[x] = p[x * st];
+        }
+        return 0;
+    }
+    uint16_t *o = (uint16_t *)raw, *trgb = tmp + nv + 8;
+    to_halves(v, tmp, (size_t)nv);
+    for (Py_ssize_t j = 0; j < nv; ++j) bad += (tmp[j] & 0x7c00u) == 0x7c00u;
+    if (rgb) {
+        to_halves(rgb, trgb, (size_t)rs * w);
+        for (int c = 0; c < 3; ++c) {
+            uint16_t *q = o + (size_t)pos[nc + c] * w;
+            for (Py_ssize_t x = 0; x < w; ++x) {
+                q[x] = trgb[rs * x + c];
+                bad += (q[x] & 0x7c00u) == 0x7c00u;
+            }
+        }
+    }
+    Py_ssize_t x = 0;
+#ifdef HAVE_TRANSPOSE8
+    for (; x + 8 <= w; x += 8)
+        for (int s0 = 0; s0 < nc; s0 += 8) { /* the last group reads past the pixel (tmp has slack), keeps nc - s0 */
+            __m128i b[8];
+            transpose8_u16(tmp + x * nc + s0, (size_t)nc, b);
+            for (int c = 0; c < 8 && s0 + c < nc; ++c) _mm_storeu_si128((__m128i *)(o + (size_t)pos[s0 + c] * w + x), b[c]);
+        }
+#endif
+    for (; x < w; ++x)
+        for (int s = 0; s < nc; ++s) o[(size_t)pos[s] * w + x] = tmp[x * nc + s];
+    if (!rgb)
+        for (int k = 0; k < nk; ++k)
+            if (src[k] >= nc) memcpy(o + (size_t)k * w, o + (size_t)pos[0] * w, 2 * (size_t)w);
+    return bad;
+}
+
+/* exr_lines(values float32[h][w][nc], rgb float32[h][w][3 or 4] or None, y0, h, w, nc, src int32[nc + 3], half, rle,
+ *           out uint8[h][slot], sizes int64[h], nthreads)
+ * h scanlines (the image's y0 .. y0 + h - 1): the chunk of each line y (int32 y0 + y, int32 data size, data)
+ * at out[y], sizes[y] its length in bytes; src is a permutation of 0 .. nc + 2, the plane of each file
+ * channel (see exr_gather). slot must hold 8 + line + line / 127 + 1 bytes (line = (nc + 3) * w * (2 or 4)).
+ * Returns the number of values beyond the half range (half only). */
+static PyObject *py_exr_lines(PyObject *self, PyObject *args)
+{
+    PyObject *o[5];
+    int nc, half, rle, nthreads;
+    Py_ssize_t h, w, y0;
+    if (!PyArg_ParseTuple(args, "OOnnniOiiOOi", &o[0], &o[1], &y0, &h, &w, &nc, &o[2], &half, &rle, &o[3], &o[4],
+                          &nthreads))
+        return NULL;
+    buf_t b[5];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[5] = {4, 4, 4, 1, 8};
+    const int wr[5] = {0, 0, 0, 1, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 5; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "exr_lines", isz[i]) < 0) goto done;
+    {
+        const float *v = b[0].b.buf, *rgb = b[1].b.buf;
+        const int32_t *src = b[2].b.buf;
+        int nk = (int)(b[2].b.len / 4);
+        size_t line = (size_t)nk * (size_t)w * (half ? 2 : 4), slot = h > 0 ? (size_t)b[3].b.len / (size_t)h : 0;
+        int ok = nc >= 1 && h >= 0 && w >= 1 && b[0].b.len / 4 == h * w * nc && b[4].b.len / 8 == h &&
+                 slot >= 8 + line + line / 127 + 1;
+        int rs = h * w > 0 ? (int)(b[1].b.len / 4 / (h * w)) : 3;
+        ok = ok && (rgb == NULL || ((rs == 3 || rs == 4) && b[1].b.len / 4 == h * w * rs));
+        int32_t pos[4096];
+        ok = ok && nk == nc + 3 && nk <= 4096;
+        for (int k = 0; ok && k < nk; ++k) pos[k] = -1;
+        for (int k = 0; ok && k < nk; ++k) {
+            ok = src[k] >= 0 && src[k] < nk && pos[src[k]] < 0;
+            if (ok) pos[src[k]] = k;
+        }
+        if (!ok) {
+            PyErr_SetString(PyExc_ValueError, "exr_lines: inconsistent sizes or channel sources");
+            goto done;
+        }
+        uint8_t *out = b[3].b.buf;
+        int64_t *sizes = b[4].b.buf;
+        Py_ssize_t bad = 0;
+        int nomem = 0;
+        set_threads(nthreads);
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel reduction(+ : bad) reduction(|| : nomem) if (h * w * nk >= PAR_MIN_WORK)
+        {
+            uint8_t *raw = malloc(line), *pred = rle ? malloc(2 * line) : NULL;
+            uint16_t *tmp = half ? malloc(2 * ((size_t)w * (nc + 4) + 16)) : NULL;
+            if (!raw || (rle && !pred) || (half && !tmp)) nomem = 1;
+            Py_ssize_t y;
+#pragma omp for schedule(dynamic, 4)
+            for (y = 0; y < h; ++y) {
+                if (nomem) continue;
+                uint8_t *chunk = out + (size_t)y * slot, *data = chunk + 8;
+                bad += exr_gather(v + (size_t)y * w * nc, rgb ? rgb + (size_t)y * w * rs : NULL, rs, nc, src, pos, nk, w,
+                                  half, raw, tmp);
+                size_t n = line;
+                if (rle) {
+                    exr_predict(raw, line, pred);
+                    n = exr_rle(pred, line, data, pred + line);
+                }
+                if (!rle || n >= line) {
+                    memcpy(data, raw, line);
+                    n = line;
+                }
+                int32_t hdr[2] = {(int32_t)(y0 + y), (int32_t)n};
+                memcpy(chunk, hdr, 8);
+                sizes[y] = (int64_t)(8 + n);
+            }
+            free(raw);
+            free(pred);
+            free(tmp);
+        }
+        Py_END_ALLOW_THREADS
+        if (nomem) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        ret = PyLong_FromSsize_t(bad);
+    }
+done:
+    for (int i = 0; i < 5; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* colour(values float32[n][nc], weights float32[nc][4], out float32[n][4], nthreads): out = values @ weights
+ * (linear sRGB and CIE Y of each pixel in one pass), accumulated in float32 */
+typedef float v4f __attribute__((vector_size(16)));
+
+/* four pixels at a time: four independent accumulator chains of (r, g, b, Y) */
+HOT static void colour_rows(const float *restrict v, const float *restrict wt, float *restrict out, int nc,
+                            Py_ssize_t p0, Py_ssize_t p1)
+{
+    Py_ssize_t p = p0;
+    for (; p + 4 <= p1; p += 4) {
+        v4f a0 = {0}, a1 = {0}, a2 = {0}, a3 = {0};
+        const float *x = v + (size_t)p * nc;
+        for (int c = 0; c < nc; ++c) {
+            v4f wc;
+            memcpy(&wc, wt + 4 * c, 16);
+            a0 += x[c] * wc;
+            a1 += x[nc + c] * wc;
+            a2 += x[2 * nc + c] * wc;
+            a3 += x[3 * nc + c] * wc;
+        }
+        memcpy(out + 4 * (size_t)p, &a0, 16);
+        memcpy(out + 4 * (size_t)p + 4, &a1, 16);
+        memcpy(out + 4 * (size_t)p + 8, &a2, 16);
+        memcpy(out + 4 * (size_t)p + 12, &a3, 16);
+    }
+    for (; p < p1; ++p) {
+        v4f a = {0};
+        for (int c = 0; c < nc; ++c) {
+            v4f wc;
+            memcpy(&wc, wt + 4 * c, 16);
+            a += v[(size_t)p * nc + c] * wc;
+        }
+        memcpy(out + 4 * (size_t)p, &a, 16);
+    }
+}
+
+static PyObject *py_colour(PyObject *self, PyObject *args)
+{
+    PyObject *o[3];
+    int nthreads;
+    if (!PyArg_ParseTuple(args, "OOOi", &o[0], &o[1], &o[2], &nthreads)) return NULL;
+    buf_t b[3];
+    memset(b, 0, sizeof(b));
+    const int wr[3] = {0, 0, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 3; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "colour", 4) < 0) goto done;
+    {
+        Py_ssize_t nc = b[1].b.len / 16, n = b[2].b.len / 16, t, tile = 4096;
+        if (nc < 1 || b[1].b.len != 16 * nc || b[0].b.len != 4 * n * nc) {
+            PyErr_SetString(PyExc_ValueError, "colour: inconsistent sizes");
+            goto done;
+        }
+        const float *v = b[0].b.buf, *wt = b[1].b.buf;
+        float *out = b[2].b.buf;
+        set_threads(nthreads);
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (n * nc >= PAR_MIN_WORK)
+        for (t = 0; t < (n + tile - 1) / tile; ++t)
+            colour_rows(v, wt, out, (int)nc, t * tile, (t + 1) * tile < n ? (t + 1) * tile : n);
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 3; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+/* encode8(linear float32[n][stride], m, scale, table uint8[65536], out uint8[n][m], nthreads): the first m
+ * values of each pixel times scale, clipped to [0, 1] (NaN to 0), rounded to 16 bits and looked up in the
+ * sRGB table: the 8-bit display image in one pass */
+static PyObject *py_encode8(PyObject *self, PyObject *args)
+{
+    PyObject *o[3];
+    int m, nthreads;
+    float scale;
+    if (!PyArg_ParseTuple(args, "OifOOi", &o[0], &m, &scale, &o[1], &o[2], &nthreads)) return NULL;
+    buf_t b[3];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[3] = {4, 1, 1};
+    const int wr[3] = {0, 0, 1};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 3; ++i)
+        if (get_buf(o[i], &b[i], wr[i], "encode8", isz[i]) < 0) goto done;
+    {
+        Py_ssize_t n = m > 0 ? b[2].b.len / m : 0, stride = n > 0 ? b[0].b.len / 4 / n : 0, p;
+        if (m < 1 || b[1].b.len != 65536 || b[2].b.len != n * m || stride < m || b[0].b.len != 4 * n * stride) {
+            PyErr_SetString(PyExc_ValueError, "encode8: inconsistent sizes");
+            goto done;
+        }
+        const float *v = b[0].b.buf;
+        const uint8_t *table = b[1].b.buf;
+        uint8_t *out = b[2].b.buf;
+        set_threads(nthreads);
+        Py_BEGIN_ALLOW_THREADS
+#pragma omp parallel for schedule(static) if (n * m >= PAR_MIN_WORK)
+        for (p = 0; p < n; ++p)
+            for (int k = 0; k < m; ++k) {
+                float x = v[p * stride + k] * scale;
+                x = x > 0.f ? (x < 1.f ? x : 1.f) : 0.f;
+                out[p * m + k] = table[(uint16_t)(x * 65535.f + 0.5f)];
+            }
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 3; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* dataset decoding                                                                           */
 
@@ -1700,6 +2071,43 @@ done:
     return ret;
 }
 
+/* Baseline of the loader benchmark (benchmarks/bench_open.py): every half of a buffer converted on its own,
+ * as a scalar decoder does it (sign, exponent and mantissa fields, ldexp; IEEE zero, subnormals, inf, NaN),
+ * into float32, one thread: the per-value work any loader that keeps float32 arrays must do at least. */
+static float half_scalar(uint16_t h)
+{
+    int e = (h >> 10) & 31, m = h & 1023;
+    double v = e == 0 ? ldexp((double)m, -24) : e == 31 ? (m ? NAN : INFINITY) : ldexp((double)(m | 1024), e - 25);
+    return (float)((h >> 15) ? -v : v);
+}
+
+static PyObject *py_reference_halves(PyObject *self, PyObject *args)
+{
+    PyObject *o[2];
+    if (!PyArg_ParseTuple(args, "OO", &o[0], &o[1])) return NULL;
+    buf_t b[2];
+    memset(b, 0, sizeof(b));
+    PyObject *ret = NULL;
+    if (get_buf(o[0], &b[0], 0, "raw", 2) < 0 || get_buf(o[1], &b[1], 1, "out", 4) < 0) goto done;
+    {
+        Py_ssize_t n = b[0].b.len / 2;
+        if (b[1].b.len / 4 != n) {
+            PyErr_SetString(PyExc_ValueError, "reference_halves: out must hold one float32 per half");
+            goto done;
+        }
+        const uint16_t *raw = b[0].b.buf;
+        float *out = b[1].b.buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < n; ++i) out[i] = half_scalar(raw[i]);
+        Py_END_ALLOW_THREADS
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    for (int i = 0; i < 2; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
 static PyObject *py_has_openmp(PyObject *self, PyObject *args)
 {
 #ifdef WIDESKY_OPENMP
@@ -1717,8 +2125,13 @@ static PyMethodDef methods[] = {
     {"fisheye_counts", py_fisheye_counts, METH_VARARGS, "Pixels per image row inside the fisheye disc."},
     {"fisheye", py_fisheye, METH_VARARGS, "Stereographic fisheye directions of the disc's pixels."},
     {"planar", py_planar, METH_VARARGS, "Pixel-interleaved float32 to channel planes (float32 or half)."},
+    {"colour", py_colour, METH_VARARGS, "Per-pixel linear sRGB and CIE Y of a spectral image (values @ weights)."},
+    {"encode8", py_encode8, METH_VARARGS, "Linear values to 8-bit sRGB through a 16-bit table."},
+    {"exr_lines", py_exr_lines, METH_VARARGS, "OpenEXR scanline chunks (uncompressed or RLE) of an image."},
     {"decode_radiance", py_decode_radiance, METH_VARARGS, "Decode radiance blocks into float32 factors."},
     {"decode_polarisation", py_decode_polarisation, METH_VARARGS, "Decode polarisation blocks (float32)."},
+    {"reference_halves", py_reference_halves, METH_VARARGS,
+     "Baseline: every half converted on its own by a scalar decoder, one thread (loader benchmark)."},
     {"openmp_threads", py_has_openmp, METH_NOARGS, "Maximum OpenMP threads (0 when built without OpenMP)."},
     {NULL, NULL, 0, NULL}};
 

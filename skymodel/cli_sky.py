@@ -39,8 +39,8 @@ def register(sub):
                    help="EXR pixels: 'half' (16-bit, relative error <= 4.9e-4), 'float' (32-bit), 'auto' (default: "
                         "half where every value fits its range)")
     r.add_argument("--exr-compression", choices=("rle", "none", "zips", "zip", "piz", "zstd"), default="rle",
-                   help="EXR compression, all lossless (default rle: fast; zip: about 2.5x smaller, slower; none: "
-                        "fastest, largest)")
+                   help="EXR compression, all lossless (default rle: fast; zip: about 2.5x smaller, several times "
+                        "slower; none: fastest, largest)")
     r.add_argument("--below-horizon", choices=("auto", "model", "dark"), default="auto",
                    help="sky below the horizon: 'dark' for ground-level datasets by default (no data there)")
     r.set_defaults(func=_render)
@@ -109,7 +109,7 @@ def _render(args):
     channels, wavelengths = _parse_channel(model, args.channel)
     n_ch = model.n_channels if channels is None and wavelengths is None else 1
     check_render_memory(args.resolution, n_ch, exr=len(targets) > 1 or out.suffix.lower() == ".exr",
-                        option="--resolution")
+                        option="--resolution", exr_compression=args.exr_compression)
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", skymodel.SkyStateClampedWarning)

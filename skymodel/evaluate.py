@@ -140,14 +140,17 @@ def channel_indices(model: SkyModel, channels=None, wavelengths=None):
     return ch
 
 
-def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude, what):
+def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude, what, unit=False):
+    """``unit`` (private, the renderer's own directions): unit vectors by construction, not checked."""
     dirs = np.asarray(directions, dtype=np.float64)
     if dirs.ndim < 1 or dirs.shape[-1] != 3:
         raise ValueError(f"directions must have shape (..., 3), got {dirs.shape}")
     flat = np.ascontiguousarray(dirs.reshape(-1, 3))
-    n2 = np.einsum("ij,ij->i", flat, flat)  # one pass: catches NaN, inf and zero vectors
-    bad = ~(np.isfinite(n2) & (n2 > 0))
-    if bad.any():
+    bad = None
+    if not unit:
+        n2 = np.einsum("ij,ij->i", flat, flat)  # one pass: catches NaN, inf and zero vectors
+        bad = ~(np.isfinite(n2) & (n2 > 0))
+    if bad is not None and bad.any():
         v = flat[np.argmax(bad)]
         what = "a zero vector" if np.all(v == 0) else f"a non-finite (or overflowing) vector {v}"
         raise ValueError(f"directions contain {what}")
@@ -264,9 +267,10 @@ def _report_clamped(flags, msgs, return_clamped, quantity):
 def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude,
                         channels, wavelengths, dtype, out, method, threads, return_clamped, rows=None):
     """Evaluate radiance or polarisation. ``rows`` (private, for the renderer): int64 output row of each
-    direction in ``out`` (shape (n_rows, C), one sky state), so an image is filled without a scatter copy."""
+    direction in ``out`` (shape (n_rows, C), one sky state), so an image is filled without a scatter copy;
+    the renderer's directions are unit vectors by construction and are not checked again."""
     dirs, dshape, state = _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude,
-                                   kind)
+                                   kind, unit=rows is not None)
     chi_sel = channel_indices(model, channels, wavelengths)
     if kind == "radiance":
         sun, zen, emph = model.radiance_coefficients()

@@ -117,14 +117,23 @@ class Render:
         w = channel_xyz_weights(self.channel_lower, self.channel_width).astype(np.float32)
         return self.values @ w
 
+    @cached_property
+    def _rgby(self):
+        """(H, W, 4) float32: linear sRGB and CIE Y, one pass over the channels (computed once per render)."""
+        w = channel_xyz_weights(self.channel_lower, self.channel_width)
+        weights = np.ascontiguousarray(np.concatenate([xyz_to_linear_srgb(w), w[:, 1:2]], axis=1), np.float32)
+        out = np.empty(self.values.shape[:-1] + (4,), np.float32)
+        _core.colour(np.ascontiguousarray(self.values, np.float32), weights, out, 0)
+        return out
+
     def rgb_linear(self):
         """Linear sRGB (H, W, 3) of the visible channels (CIE 1931 weighting of each band), in the
         radiance unit integrated over wavelength [W m-2 sr-1]."""
-        return xyz_to_linear_srgb(self.xyz)
+        return self._rgby[..., :3]
 
     def luminance_like(self):
-        """CIE Y-weighted sum over the channels (H, W)."""
-        return self.xyz[..., 1]
+        """CIE Y-weighted sum over the channels (H, W) [W m-2 sr-1]."""
+        return self._rgby[..., 3]
 
 
 def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibility=50.0, albedo=0.3,
@@ -188,12 +197,23 @@ def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibi
     return Render(img, mask, lower + 0.5 * model.channel_width, lower, model.channel_width, quantity, meta)
 
 
-def render_memory_bytes(resolution, n_channels, exr=True) -> int:
-    """Estimated peak memory of a render and its files [bytes]: the float32 image, the directions and
-    mask, the sRGB composite and the 8-bit display image, and (``exr``) the EXR's per-channel copies."""
-    px = int(resolution) ** 2
-    per_px = 4 * n_channels + 8 * 3 + 1 + 8 * 3 * 3 + 3 + (4 * (n_channels + 3) if exr else 0)
-    return px * per_px
+def _render_memory_terms(n_channels, exr, exr_compression):
+    """(bytes per pixel, fixed bytes) of a render and its files."""
+    from .exrfile import BLOCK_BYTES, NATIVE_COMPRESSIONS
+
+    per_px = 4 * n_channels + 24 + 8 + 1 + 16 + 3 + 3
+    if exr and exr_compression not in NATIVE_COMPRESSIONS:
+        per_px += 4 * (n_channels + 3)
+    return per_px, (BLOCK_BYTES if exr else 0)
+
+
+def render_memory_bytes(resolution, n_channels, exr=True, exr_compression="rle") -> int:
+    """Estimated peak memory of a render and its files [bytes]: the float32 image, the directions, pixel
+    indices and mask, the linear sRGB + Y image, the 8-bit display image and the PNG's filtered rows,
+    and (``exr``) the EXR's channel planes where the OpenEXR library writes it (``exr_compression`` other
+    than "rle" and "none"; widesky's own encoder needs one 16 MB buffer)."""
+    per_px, fixed = _render_memory_terms(n_channels, exr, exr_compression)
+    return int(resolution) ** 2 * per_px + fixed
 
 
 def available_memory_bytes() -> int | None:
@@ -208,22 +228,33 @@ def available_memory_bytes() -> int | None:
     return None
 
 
-def check_render_memory(resolution, n_channels, exr=True, option="resolution"):
+def check_render_memory(resolution, n_channels, exr=True, option="resolution", exr_compression="rle"):
     """Refuse (ValueError naming ``option``) a render whose estimated memory exceeds what is available."""
-    need = render_memory_bytes(resolution, n_channels, exr)
+    need = render_memory_bytes(resolution, n_channels, exr, exr_compression)
     avail = available_memory_bytes()
     if avail is not None and need > avail:
-        per_px = need / int(resolution) ** 2
-        most = int((avail / per_px) ** 0.5)
+        per_px, fixed = _render_memory_terms(n_channels, exr, exr_compression)
+        most = int((max(avail - fixed, 0) / per_px) ** 0.5)
         raise ValueError(f"{option} {resolution}: the render of {n_channels} channel(s) needs about {need / 1e9:.1f} GB "
                          f"of memory, {avail / 1e9:.1f} GB are available; use at most {most} pixels here")
     return need
 
 
+def _percentile99(v):
+    """np.percentile(v, 99) (linear interpolation between the closest ranks) by a partial sort; numpy's
+    own percentile imports numpy.ma (tens of milliseconds of a command's start-up)."""
+    pos = 0.99 * (v.size - 1)
+    lo = int(np.floor(pos))
+    hi = min(lo + 1, v.size - 1)
+    part = np.partition(v, [lo, hi])
+    a, b = float(part[lo]), float(part[hi])
+    return a + (b - a) * (pos - lo)
+
+
 def _exposure_scale(values, mask, exposure):
     v = values[mask]
     v = v[np.isfinite(v) & (v > 0)]
-    ref = np.percentile(v, 99.0) if v.size else 1.0
+    ref = _percentile99(v) if v.size else 1.0
     return (2.0 ** exposure) / (ref if ref > 0 else 1.0)
 
 
@@ -234,12 +265,13 @@ def _srgb8_table():
     return np.round(srgb_encode(np.arange(65536) / 65535.0) * 255.0).astype(np.uint8)
 
 
-def _encode8(linear):
-    """Linear values (clipped to [0, 1]) to 8-bit sRGB through the 16-bit table."""
-    v = np.clip(np.asarray(linear, np.float32), 0.0, 1.0)
-    v *= np.float32(65535.0)
-    v += np.float32(0.5)
-    return _srgb8_table()[v.astype(np.uint16)]
+def _encode8(pixels, scale, m):
+    """The first ``m`` values of the last axis of ``pixels`` (..., k) times ``scale``, clipped to [0, 1]
+    (NaN to 0), to 8-bit sRGB (..., m) through the 16-bit table, in one C pass."""
+    pixels = np.ascontiguousarray(pixels, np.float32)
+    out = np.empty(pixels.shape[:-1] + (m,), np.uint8)
+    _core.encode8(pixels, m, float(scale), _srgb8_table(), out, 0)
+    return out
 
 
 def _display(r: Render, composite, exposure):
@@ -248,14 +280,13 @@ def _display(r: Render, composite, exposure):
         rgb = r.rgb_linear()
         if not rgb.max(initial=0.0) > 0:  # zero outside the disc: the disc's maximum
             raise ValueError("the selected channels have no visible (380-780 nm) contribution: use a single channel")
-        y = r.luminance_like()
-        out = _encode8(rgb * np.float32(_exposure_scale(y, r.mask, exposure)))
+        out = _encode8(r._rgby, _exposure_scale(r.luminance_like(), r.mask, exposure), 3)
     else:
         v = r.values[..., 0]
         if r.quantity == "polarisation":
             g = np.round(np.clip(0.5 + 0.5 * v * 2.0 ** exposure, 0, 1) * 255.0).astype(np.uint8)
         else:
-            g = _encode8(v * np.float32(_exposure_scale(v, r.mask, exposure)))
+            g = _encode8(r.values, _exposure_scale(v, r.mask, exposure), 1)[..., 0]
         out = np.repeat(g[..., None], 3, axis=-1)
     out[~r.mask] = 0
     return out
@@ -265,13 +296,15 @@ def write_png(path, r: Render, *, composite=None, exposure=0.0):
     """Write an 8-bit PNG: an sRGB composite of the visible channels (``composite`` True, the default when
     the render has more than one channel), else the single channel in grey. ``exposure`` [EV] scales
     relative to the 99th percentile of the disc (polarisation: grey 0.5 is 0, mapped linearly)."""
-    from PIL import Image
+    from .pngfile import write_rgb_png
 
     if composite is None:
         composite = r.values.shape[-1] > 1
     if not composite and r.values.shape[-1] != 1:
         raise ValueError("a single-channel PNG needs a render of exactly one channel")
-    Image.fromarray(_display(r, composite, exposure)).save(Path(path), format="PNG", compress_level=1)
+    image = _display(r, composite, exposure)
+    with open(path, "wb") as f:
+        write_rgb_png(f, image)
     return Path(path)
 
 
@@ -279,6 +312,32 @@ HALF_MAX = 65504.0
 HALF_ERROR = ("half float: relative rounding error at most 2^-11 = 4.9e-4 for |value| >= 6.1e-5, absolute at most "
               "3.0e-8 below (subnormal halves); the dataset's own coefficients are half floats too")
 EXR_COMPRESSIONS = ("none", "rle", "zips", "zip", "piz", "zstd")
+
+
+def _exr_channels(r: Render):
+    """The file's channel names, sorted as OpenEXR stores them, and each one's plane: 0..C-1 the render's
+    channels (``S0.<nm>`` at the band centres, Fichet et al. 2021), C..C+2 the preview's R, G, B."""
+    C = r.values.shape[-1]
+    planes = {"S0." + f"{wl:.6f}".replace(".", ",") + "nm": k for k, wl in enumerate(r.wavelengths)}
+    planes.update({c: C + i for i, c in enumerate("RGB")})
+    names = sorted(planes, key=str.encode)
+    return names, [planes[n] for n in names]
+
+
+def _exr_attributes(r: Render, half: bool) -> dict:
+    name, unit = QUANTITIES[r.quantity]
+    attrs = {
+        "spectralLayoutVersion": "1.0",
+        "emissiveUnits": "W.m^-2.sr^-1",
+        "widesky.quantity": name,
+        "widesky.units": unit + (" (spectral density per nm; S0 channels sample it at the band centres)"
+                                 if "nm-1" in unit else ""),
+        "widesky.channelWidth_nm": f"{r.channel_width:g}",
+        "widesky.pixelType": "half" if half else "float",
+        "widesky.pixelError": HALF_ERROR if half else "float32: relative rounding error at most 6e-8",
+    }
+    attrs.update({f"widesky.{k}": str(v) for k, v in r.meta.items()})
+    return attrs
 
 
 def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=0):
@@ -290,55 +349,65 @@ def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=
     ----------
     pixel_type : {"auto", "half", "float"}
         "half" stores 16-bit floats (relative error <= 4.9e-4, see ``HALF_ERROR``; half the size and
-        several times faster to write); "auto" (default) uses half when every value is finite and below
-        the half range (65504), else 32-bit float.
+        faster to write); "auto" (default) uses half when every value is finite and rounds to a finite
+        half (magnitude below 65520; the largest half is 65504), else 32-bit float.
     compression : {"rle", "none", "zips", "zip", "piz", "zstd"}
-        OpenEXR compression (all lossless). "rle" (default) is fast; "zip" makes files about 2.5x
-        smaller and takes about 3x longer to write.
+        OpenEXR compression (all lossless). "rle" (default) and "none" are written by widesky's own
+        encoder (:mod:`skymodel.exrfile`, one C pass over the image); "zip" makes files about 2.5x
+        smaller than "rle" and takes several times longer to write (the OpenEXR library).
     threads : int
-        OpenEXR's compression threads (0: one per core).
+        Threads of the encoder, or of OpenEXR's compression (0: one per core).
     """
-    import OpenEXR
+    from .exrfile import NATIVE_COMPRESSIONS, write_scanline_exr
 
     if pixel_type not in ("auto", "half", "float"):
         raise ValueError(f"pixel_type={pixel_type!r}: expected 'auto', 'half' or 'float'")
     if compression not in EXR_COMPRESSIONS:
         raise ValueError(f"compression={compression!r}: expected one of {EXR_COMPRESSIONS}")
-    H, W, C = r.values.shape
-    if r.values.shape[-1] > 1 and r.quantity in ("sky", "sun"):
-        rgb = np.asarray(r.rgb_linear(), np.float32)
+    values = np.ascontiguousarray(r.values, np.float32)
+    if values.shape[-1] > 1 and r.quantity in ("sky", "sun"):
+        rgb = r._rgby  # linear sRGB and Y per pixel: the encoder takes the first three
     else:
-        rgb = np.repeat(r.values[..., :1], 3, axis=-1)
+        rgb = None  # the preview repeats the single (or first) channel
+    names, sources = _exr_channels(r)
+    if compression not in NATIVE_COMPRESSIONS:
+        return _write_exr_openexr(path, r, values, rgb, names, sources, pixel_type, compression, threads)
+    with open(path, "wb") as f:
+        if pixel_type != "float":
+            bad = write_scanline_exr(f, values, rgb, names, sources, pixel_type="half", compression=compression,
+                                     strings=_exr_attributes(r, True), overflow_ok=pixel_type == "half",
+                                     threads=threads)
+            if not bad or pixel_type == "half":
+                return Path(path)
+        write_scanline_exr(f, values, rgb, names, sources, pixel_type="float", compression=compression,
+                           strings=_exr_attributes(r, False), threads=threads)
+    return Path(path)
+
+
+def _write_exr_openexr(path, r, values, rgb, names, sources, pixel_type, compression, threads):
+    """write_exr through the OpenEXR library (the compressions widesky does not encode itself)."""
+    import OpenEXR
+
+    if rgb is not None:
+        rgb = np.ascontiguousarray(rgb[..., :3])
     if pixel_type == "auto":
-        big = max(float(np.abs(r.values).max(initial=0.0)), float(np.abs(rgb).max(initial=0.0)))
+        big = max(float(np.abs(values).max(initial=0.0)), float(np.abs(rgb).max(initial=0.0)) if rgb is not None
+                  else 0.0)
         pixel_type = "half" if np.isfinite(big) and big < HALF_MAX else "float"
     half = pixel_type == "half"
+    H, W, C = values.shape
     planes = np.empty((C + 3, H, W), np.uint16 if half else np.float32)
-    _core.planar(np.ascontiguousarray(r.values, np.float32), planes[:C], C)
-    _core.planar(np.ascontiguousarray(rgb, np.float32), planes[C:], 3)
+    _core.planar(values, planes[:C], C)
+    if rgb is not None:
+        _core.planar(rgb, planes[C:], 3)
+    else:
+        planes[C:] = planes[0]
     if half:
         planes = planes.view(np.float16)
-    channels = {}
-    for k, wl in enumerate(r.wavelengths):
-        channels["S0." + f"{wl:.6f}".replace(".", ",") + "nm"] = planes[k]
-    for i, c in enumerate("RGB"):
-        channels[c] = planes[C + i]
-    name, unit = QUANTITIES[r.quantity]
-    header = {
-        "compression": getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION"),
-        "type": OpenEXR.scanlineimage,
-        "spectralLayoutVersion": "1.0",
-        "emissiveUnits": "W.m^-2.sr^-1",
-        "widesky.quantity": name,
-        "widesky.units": unit + (" (spectral density per nm; S0 channels sample it at the band centres)"
-                                 if "nm-1" in unit else ""),
-        "widesky.channelWidth_nm": f"{r.channel_width:g}",
-        "widesky.pixelType": "half" if half else "float",
-        "widesky.pixelError": HALF_ERROR if half else "float32: relative rounding error at most 6e-8",
-    }
-    for k, v in r.meta.items():
-        header[f"widesky.{k}"] = str(v)
+    header = {"compression": getattr(OpenEXR, compression.upper() + "_COMPRESSION"), "type": OpenEXR.scanlineimage}
+    header.update(_exr_attributes(r, half))
     OpenEXR.set_global_thread_count(int(threads) if threads else (os.cpu_count() or 1))
+    channels = {n: planes[s] for n, s in zip(names, sources)}  # without rgb, R G B repeat plane 0
     with OpenEXR.File(header, channels) as f:
         f.write(str(path))
     return Path(path)

@@ -93,6 +93,62 @@ def test_render_and_files(tmp_path):
         assert dict(f.header())["widesky.pixelType"] == "float"
 
 
+def test_colour_and_display_kernels():
+    """The one-pass colour kernel equals the CIE 1931 weighting followed by the IEC 61966-2-1 matrix
+    (float64 reference, float32 accumulation: rtol 1e-5 of the pixel's magnitude), and the one-pass 8-bit
+    encoder equals the sRGB transfer function of the scaled, clipped value to one 8-bit level (the 16-bit
+    table's rounding); NaN, negative and over-range values give 0, 0 and 255."""
+    from skymodel.colour import xyz_to_linear_srgb
+    from skymodel.render import _encode8
+
+    model = skymodel.load_dataset()
+    r = render_sky(model, sun_elevation=12.0, sun_azimuth=200.0, visibility=30.0, albedo=0.2, resolution=40)
+    w = channel_xyz_weights(r.channel_lower, r.channel_width)
+    xyz = r.values.astype(float) @ w
+    want = np.concatenate([xyz_to_linear_srgb(xyz), xyz[..., 1:2]], axis=-1)
+    got = r._rgby
+    assert got.shape == (40, 40, 4) and got.dtype == np.float32
+    scale = np.abs(want).max(axis=-1, keepdims=True)
+    assert np.all(np.abs(got - want) <= 1e-5 * scale + 1e-30)
+    np.testing.assert_array_equal(r.rgb_linear(), got[..., :3])
+    v = np.array([[np.nan, -1.0, 0.0, 1e-4, 0.02, 0.5, 0.999, 2.0]], np.float32)
+    enc = _encode8(v[..., None], 1.0, 1)[..., 0]
+    ref = np.round(srgb_encode(np.clip(np.nan_to_num(v.astype(float), nan=0.0), 0, 1)) * 255)
+    assert np.abs(enc.astype(int) - ref).max() <= 1 and enc[0, 0] == 0 and enc[0, 1] == 0 and enc[0, -1] == 255
+    rng = np.random.default_rng(5)
+    lin = rng.random((500, 4), np.float32) * np.float32(1.3)
+    enc = _encode8(lin, 0.8, 3)
+    ref = np.round(srgb_encode(np.clip(lin[:, :3].astype(float) * 0.8, 0, 1)) * 255)
+    assert enc.shape == (500, 3) and np.abs(enc.astype(int) - ref).max() <= 1
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 3), (5, 7, 3), (64, 33, 3)])
+def test_png_writer_round_trip(tmp_path, shape):
+    """widesky's PNG writer (skymodel.pngfile) read back with Pillow: the same pixels, exactly."""
+    from PIL import Image
+
+    from skymodel.pngfile import write_rgb_png
+
+    img = np.random.default_rng(sum(shape)).integers(0, 256, shape, dtype=np.uint8)
+    img[: shape[0] // 2] = img[0]  # repeated rows: the Up filter's zero differences
+    with open(tmp_path / "a.png", "wb") as f:
+        write_rgb_png(f, img)
+    back = Image.open(tmp_path / "a.png")
+    assert back.mode == "RGB"
+    np.testing.assert_array_equal(np.asarray(back), img)
+    with open(tmp_path / "b.png", "wb") as f, pytest.raises(ValueError, match="expected"):
+        write_rgb_png(f, img[..., :2])
+
+
+def test_percentile99_equals_numpy():
+    from skymodel.render import _percentile99
+
+    rng = np.random.default_rng(2)
+    for n in (1, 2, 100, 12345):
+        v = rng.lognormal(size=n).astype(np.float32)
+        assert _percentile99(v) == pytest.approx(float(np.percentile(v, 99.0)), rel=1e-6)
+
+
 def test_render_quantities(tmp_path):
     model = skymodel.load_dataset()
     kw = dict(sun_elevation=40.0, sun_azimuth=120.0, visibility=60.0, albedo=0.5, resolution=48)
