@@ -33,6 +33,9 @@ def register(subparsers) -> None:
     b.add_argument("--sky", default="weather", choices=("weather", "integrator"),
                    help="weather: Hay-Davies from the file (default, seconds); integrator: widesky's "
                         "sky scaled to the file's DNI/DHI (minutes; tmy3 only)")
+    b.add_argument("--exterior", default="hourly", choices=("hourly", "constant"),
+                   help="outside surface coefficients: hourly from wind and air temperature "
+                        "(ISO 6946 Annex C, default) or ISO 13790's constant R_se = 0.04")
     b.add_argument("--json", help="also write the results here (for python -m thermal.figures)")
     b.add_argument("--jobs", type=int, default=1, help="ray-casting processes (integrator)")
     b.add_argument("--data-dir", default=None,
@@ -122,11 +125,12 @@ def _bestest(args) -> int:
     if args.sky == "integrator":
         poa = integrator_irradiance(args.weather, args.data_dir, n_jobs=args.jobs,
                                     progress=sys.stderr.isatty())
-    print(f"ASHRAE 140 with the ISO 13790 5R1C model, weather {args.weather}, sky {args.sky}")
+    print(f"ASHRAE 140 with the ISO 13790 5R1C model, weather {args.weather}, sky {args.sky}, "
+          f"exterior {args.exterior}")
     print(f"{'case':5s} {'quantity':15s} {'widesky':>9s} {'limits':>15s} {'programs':>15s}")
     saved = {}
     for c in args.case:
-        r = run_case(c, args.data_dir, weather=args.weather, poa=poa)
+        r = run_case(c, args.data_dir, weather=args.weather, poa=poa, exterior=args.exterior)
         saved[c] = {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
                     if k not in ("hourly", "case")}
         for q, unit, scale in (("annual_heating", "MWh", 1e-3), ("annual_cooling", "MWh", 1e-3),
