@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-UNIT_NAMES = ("clear", "low-e", "low-e #2")
+UNIT_NAMES = ("clear", "low-e", "low-e #2", "solar-control")
 
 
 def register(subparsers) -> None:
@@ -70,6 +70,8 @@ def register(subparsers) -> None:
     s.add_argument("--weather", required=True, help="EPW or TMY3 file")
     s.add_argument("--output", required=True, help="folder for effective_g.csv and annual.csv")
     s.add_argument("--jobs", type=int, default=1)
+    s.add_argument("--solar-control", action="store_true",
+                   help="add the double-silver solar-control unit (thermal.thinfilm) to the three")
     s.add_argument("--data-dir", default=None)
     s.set_defaults(func=_study)
 
@@ -174,7 +176,7 @@ def _loads(args) -> int:
     if not Path(args.weather).is_file():
         raise ValueError(f"--weather {args.weather!r} not found")
     w = read_weather(args.weather)
-    units = standard_units(args.data_dir)
+    units = standard_units(args.data_dir, solar_control=True)
     unit = units[args.glazing]
     b = box_building(args.width, args.depth, args.floor_height, args.floors, _wwr(args.wwr),
                      overhang=args.overhang, fins=args.fins, rotation=args.rotation,
@@ -253,7 +255,9 @@ def _study(args) -> int:
         raise ValueError(f"--weather {args.weather!r} not found")
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    r = glazing_study(args.weather, n_jobs=args.jobs, progress=sys.stderr.isatty(),
+    from .study import standard_units
+    units = standard_units(args.data_dir, solar_control=args.solar_control)
+    r = glazing_study(args.weather, units, n_jobs=args.jobs, progress=sys.stderr.isatty(),
                       data_dir=args.data_dir)
     write_face_csv(out / "effective_g.csv", r["effective_g"])
     write_face_csv(out / "annual.csv", r["annual"])
