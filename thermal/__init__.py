@@ -22,6 +22,7 @@ from .loads import (MASS_CLASSES, Construction, LoadsResult, building_loads, gla
 from .gains import (building_scene, glazing_response, irradiance_by_surface, rated_glazing_response,
                     sky_states_for_weather, window_gain_by_surface)
 from .facade import write_face_csv, write_facade_ply
+from .thinfilm import Film, coated_layer_from_stack, drude_index, solar_control_layer, stack_optics
 
 __all__ = [
     # glazing optics
@@ -29,6 +30,7 @@ __all__ = [
     "GlazingLayer", "Gap", "GlazingUnit", "combine_layers", "inward_fractions", "gap_conductance",
     "read_igdb", "read_nk_yml", "layer_from_nk", "layer_from_broadband", "read_solar_spectrum",
     "solar_weighted", "ANGLES", "WAVELENGTHS", "GAS_PROPERTIES",
+    "Film", "stack_optics", "drude_index", "coated_layer_from_stack", "solar_control_layer",
     # surfaces
     "aoi", "surface_irradiance", "absorbed_solar", "sol_air_temperature", "sky_temperature",
     # zone model
