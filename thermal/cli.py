@@ -61,6 +61,13 @@ def register(subparsers) -> None:
     lo.add_argument("--output", required=True, help="hourly CSV of zone heating, cooling and solar [W]")
     lo.add_argument("--facade-map", help="PLY coloured by the annual incident shortwave per face "
                                          "[kWh m-2], with a per-face CSV beside it")
+    lo.add_argument("--context", action="append", default=[], metavar="MESH",
+                    help="neighbouring buildings or terrain that shade and reflect: a mesh file "
+                         "(anything trimesh loads; x east, y north, z up [m], the building's "
+                         "south-west corner at 0,0 before --rotation; repeatable; integrator sky)")
+    lo.add_argument("--context-box", action="append", default=[], metavar="X,Y,W,D,H",
+                    help="a neighbouring block on the ground: south-west corner X,Y, width W "
+                         "(east), depth D (north), height H [m] (repeatable; integrator sky)")
     lo.add_argument("--jobs", type=int, default=1, help="ray-casting processes")
     lo.add_argument("--data-dir", default=None)
     lo.set_defaults(func=_loads)
@@ -149,6 +156,29 @@ def _bestest(args) -> int:
     return 0
 
 
+def _context(args):
+    """Context meshes from ``--context`` files and ``--context-box`` blocks."""
+    if not (args.context or args.context_box):
+        return []
+    import trimesh
+    from irradiance.scene import load_mesh
+    meshes = []
+    for p in args.context:
+        if not Path(p).is_file():
+            raise ValueError(f"--context {p!r} not found")
+        meshes.append(load_mesh(p))
+    for text in args.context_box:
+        try:
+            x, y, w, d, h = (float(v) for v in text.split(","))
+        except ValueError:
+            raise ValueError(f"--context-box {text!r}: expected X,Y,W,D,H in m") from None
+        if not (w > 0 and d > 0 and h > 0):
+            raise ValueError(f"--context-box {text!r}: W, D and H must be > 0 m")
+        meshes.append(trimesh.creation.box((w, d, h)).apply_translation((x + w / 2, y + d / 2,
+                                                                         h / 2)))
+    return meshes
+
+
 def _wwr(text):
     key = {"S": "south", "N": "north", "E": "east", "W": "west"}
     try:
@@ -175,6 +205,10 @@ def _loads(args) -> int:
 
     if not Path(args.weather).is_file():
         raise ValueError(f"--weather {args.weather!r} not found")
+    context = _context(args)
+    if context and args.sky != "integrator":
+        raise ValueError("--context and --context-box need --sky integrator (the weather route "
+                         "has no shading)")
     w = read_weather(args.weather)
     units = standard_units(args.data_dir, solar_control=True)
     unit = units[args.glazing]
@@ -202,7 +236,7 @@ def _loads(args) -> int:
                             rated_glazing_response, sky_states_for_weather, window_gain_by_surface)
         from .glazing import read_solar_spectrum
         sky = PragueSky()
-        scene, labels = building_scene(b)
+        scene, labels = building_scene(b, context)
         states, measured = sky_states_for_weather(w, sky)
         resp = (glazing_response(unit, f"{args.glazing}:spectral") if args.route == "spectral"
                 else rated_glazing_response(unit, *read_solar_spectrum(args.data_dir),

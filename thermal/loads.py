@@ -169,7 +169,8 @@ def sky_losses(area, u_value, emissivity, tilt, temp_air, temp_sky, r_se=R_SE):
     ts = np.asarray(temp_sky, float)[:, None]
     f_r = 0.5 * (1 + np.cos(np.radians(np.asarray(tilt, float))))
     h_r = 4 * np.asarray(emissivity, float) * SIGMA * (273.15 + 0.5 * (ta + ts)) ** 3
-    return np.asarray(r_se, float) * np.asarray(u_value, float) * np.asarray(area, float) * f_r * h_r * (ta - ts)
+    return (np.asarray(r_se, float) * np.asarray(u_value, float) * np.asarray(area, float) * f_r
+            * h_r * (ta - ts))
 
 
 def _cons(constructions, s):
