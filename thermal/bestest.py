@@ -1,11 +1,13 @@
 """ASHRAE Standard 140 (BESTEST) Cases 600, 660, 670 and 900 with the 5R1C zone model.
 
 Everything case-specific is read at run time from the public files in the data directory
-(``WIDESKY_DATA_DIR`` or ``../shared/data``, see docs/thermal.md): the official weather year
-(``weather/DRYCOLD.mos``), the 5R1C parameters of the Modelica Buildings library's ISO 13790
-BESTEST models (areas, U-values, air change rate, internal gains, set-points, heat capacity and
-mass-area factor: ``bestest/iso13790_*.mo``), the glazing records of its detailed models (solar
-transmittance and reflectance per pane, thickness, emissivities, gas: ``bestest/detailed_Data_*``),
+(``WIDESKY_DATA_DIR`` or ``../shared/data``, see docs/thermal.md): the weather year (Denver
+TMY3, the 140-2020 cases'; ``weather/DRYCOLD.mos`` of the earlier editions on request), the 5R1C
+parameters of the Modelica Buildings library's ISO 13790 BESTEST models (areas, air change rate,
+internal gains, set-points, heat capacity and mass-area factor: ``bestest/iso13790_*.mo``), the
+wall, roof and floor layers of its detailed models (U-values), the glazing records of the detailed
+models (solar transmittance and reflectance per pane, thickness, emissivities, gas:
+``bestest/detailed_Data_*``),
 the solar absorptance and emissivity of the outside surfaces (``detailed_Data_ExteriorWallCase900``)
 and the reference programs' results with the 140-2020/2023 acceptance limits (the User's Guide
 tables, ``bestest/detailed_UsersGuide.mo``). Nothing from those files is stored here.
