@@ -72,3 +72,46 @@ def test_facade_ply_roundtrip(tmp_path):
     with pytest.raises(ValueError, match="per face"):
         write_facade_ply(p, v, f, [1.0])
     assert [x.name for x in tmp_path.iterdir()] == ["m.ply"]      # no temporary left behind
+
+
+@needs_data
+@pytest.mark.reference
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore:.*clamped to the sky model's ranges:UserWarning")
+def test_loads_command_context_shades(tmp_path, capsys):
+    """A 15 m block 6-12 m south of the building (a mesh file, ``--context``) shades the south
+    facade on the winter solstice: the south zone's solar gain falls below a tenth of the
+    unshaded one (9:00-16:00 of 21 December in the Denver TMY3 year, integrator route)."""
+    import trimesh
+    lines = data_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw").read_text().splitlines()
+    day = [r for r in lines[8:]
+           if r.split(",")[1:3] == ["12", "21"] and 9 <= int(r.split(",")[3]) <= 16]
+    epw = tmp_path / "dec21.epw"
+    epw.write_text("\n".join(lines[:8] + day) + "\n")
+    out = tmp_path / "loads.csv"
+    base = ["thermal", "loads", "--weather", str(epw), "--route", "rated", "--output", str(out)]
+    assert main(base) == 0
+    free = pd.read_csv(out, index_col=0)
+    mesh = tmp_path / "block.ply"
+    trimesh.creation.box((30.0, 6.0, 15.0)).apply_translation((10.0, -9.0, 7.5)).export(mesh)
+    assert main(base + ["--context", str(mesh)]) == 0
+    shaded = pd.read_csv(out, index_col=0)
+    capsys.readouterr()
+    south = "f0_south:solar_W"
+    assert len(free) == 8 and free[south].sum() > 0
+    assert shaded[south].sum() < 0.1 * free[south].sum()
+    assert main(base + ["--context", str(tmp_path / "none.ply")]) == 2
+    assert "not found" in capsys.readouterr().err
+    assert main(base + ["--sky", "weather", "--context", str(mesh)]) == 2
+    assert "integrator" in capsys.readouterr().err
+
+
+def test_context_box_option():
+    """``--context-box X,Y,W,D,H``: a block with its south-west corner at X,Y on the ground."""
+    import argparse
+    from thermal.cli import _context
+    m, = _context(argparse.Namespace(context=[], context_box=["-5,-12,30,6,15"]))
+    assert m.bounds.tolist() == [[-5.0, -12.0, 0.0], [25.0, -6.0, 15.0]]
+    for bad in ("1,2,3", "0,0,1,1,-2"):
+        with pytest.raises(ValueError, match="--context-box"):
+            _context(argparse.Namespace(context=[], context_box=[bad]))

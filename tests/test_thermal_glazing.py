@@ -185,3 +185,25 @@ def test_read_igdb_errors(tmp_path):
     p.write_text("{ Thickness } 3\n0.3 0.1 0.1\n0.4 abc 0.1 0.1\n")
     with pytest.raises(ValueError, match="bad.dat:2"):
         read_igdb(p)
+
+
+def test_broadband_coated_layer_on_a_substrate():
+    """A broadband coated record (ASHRAE 140's Glass660: tau 0.452, rho 0.359/0.397) on a clear
+    substrate keeps its normal values and follows the substrate's angular shape: transmittance
+    falls monotonically with angle as the clear slab's does, T(60)/T(0) equal to the clear
+    slab's. Without the substrate the high-index equivalent slab lets T rise with angle."""
+    clear = layer_from_broadband("clear", 0.834, 0.075, 0.075, 3.048)
+    on = layer_from_broadband("low-e", 0.452, 0.359, 0.397, 3.18, substrate=clear)
+    own = layer_from_broadband("low-e", 0.452, 0.359, 0.397, 3.18)
+    ang = np.array([0.0, 20.0, 40.0, 50.0, 60.0])
+    T_on, Rf_on, _ = on.optics(ang)
+    T_clear, _, _ = clear.optics(ang)
+    assert T_on[0] == pytest.approx(0.452, abs=1e-12) and Rf_on[0] == pytest.approx(0.359, abs=1e-12)
+    assert np.all(np.diff(T_on[:, 0]) < 0)
+    tc = slab(clear.n, clear.k, 3.18, clear.wavelength, ang)[0]
+    assert T_on[:, 0] / T_on[0, 0] == pytest.approx(tc[:, 0] / tc[0, 0], rel=1e-9)
+    assert T_clear[4, 0] < T_clear[0, 0]
+    T_own = own.optics(ang)[0][:, 0]                   # equivalent slab: n = 3.2
+    assert T_own[4] > T_own[0] + 0.015 and own.n[0] > 3
+    with pytest.raises(ValueError, match="substrate"):
+        layer_from_broadband("x", 0.4, 0.3, 0.35, 3.0, substrate=own)

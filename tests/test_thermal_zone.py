@@ -126,3 +126,51 @@ def test_sol_air_by_hand():
     assert sol_air_temperature(30.0, 0.0, 0.6, 17.0, 0.9, 10.0, 0.0) == pytest.approx(30 - 0.9 * dr / 17)
     with pytest.raises(ValueError, match="absorptance"):
         absorbed_solar(100.0, 1.5)
+
+
+def test_hourly_conductances():
+    """Conductance series (hourly outside coefficients): constant series reproduce the constant
+    parameters exactly, and the transient energy balance stays exact with varying ones."""
+    rng = np.random.default_rng(2)
+    T = 400
+    te = 5 + 10 * np.sin(np.arange(T) / 24 * 2 * np.pi) + rng.normal(0, 1, T)
+    sol = np.maximum(0, 2000 * np.sin(np.arange(T) / 24 * 2 * np.pi))
+    ref = simulate_5r1c(P, te, 300.0, sol, 20.0, 24.0, temp_mass_start=15.0)
+    same = simulate_5r1c(P, te, 300.0, sol, 20.0, 24.0, temp_mass_start=15.0,
+                         h_tr_w=np.full(T, 36.0), h_tr_op=np.full(T, 51.0))
+    for k in ("heating", "cooling", "temp_air", "temp_mass"):
+        assert same[k] == pytest.approx(ref[k], rel=1e-12, abs=1e-9)
+    hw = 36.0 * rng.uniform(0.6, 1.2, T)
+    hop = 51.0 * rng.uniform(0.9, 1.05, T)
+    r = simulate_5r1c(P, te, 300.0, sol, 20.0, 24.0, temp_mass_start=15.0, h_tr_w=hw, h_tr_op=hop)
+    h_ms = 9.1 * P.mass_area
+    h_em = 1 / (1 / hop - 1 / h_ms)
+    loss = (P.h_ve * (r["temp_air"][:, 0] - te) + hw * (r["temp_surface"][:, 0] - te)
+            + h_em * (r["temp_mass"][:, 0] - te))
+    put = (150.0 + (1 - hw / (9.1 * P.total_area)) * (150.0 + sol) + r["heating"][:, 0]
+           - r["cooling"][:, 0])
+    stored = P.heat_capacity * (r["temp_mass_end"][-1, 0] - 15.0) / 3600.0
+    assert put.sum() == pytest.approx(loss.sum() + stored, rel=1e-9)
+    assert not np.allclose(r["heating"], ref["heating"])
+    with pytest.raises(ValueError, match="h_tr_w"):
+        simulate_5r1c(P, te, 0.0, 0.0, h_tr_w=np.full(T - 1, 36.0))
+    with pytest.raises(ValueError, match="h_tr_op"):
+        simulate_5r1c(P, te, 0.0, 0.0, h_tr_op=np.full(T, 2000.0))
+
+
+def test_exterior_coefficients_by_hand():
+    """ISO 6946:2017 Annex C: h_c = 4 + 4 v, h_r = eps 4 sigma T^3; at 4 m s-1 and 10 degC the
+    sum is 24.6 W m-2 K-1, close to the nominal 1/R_se = 25 that ISO 13790 fixes, so the hourly
+    U-value equals the nominal one there; a calm hour lowers a window's U far more than a wall's."""
+    from thermal.exterior import exterior_coefficients, hourly_u_value, wind_at_height
+    hc, hr = exterior_coefficients(4.0, 10.0, 0.9)
+    assert hc == pytest.approx(20.0) and hr == pytest.approx(0.9 * 4 * 5.670374419e-8 * 283.15 ** 3)
+    assert hourly_u_value(0.51, 25.0) == pytest.approx(0.51, rel=1e-12)
+    calm = sum(exterior_coefficients(0.0, -19.4, 0.84))                  # 4 + 3.2 W m-2 K-1
+    assert hourly_u_value(2.88, calm, 1 / 23) / 2.88 < 0.8              # double glazing: -22 %
+    assert hourly_u_value(0.51, calm) / 0.51 > 0.94                       # insulated wall: -5 %
+    assert wind_at_height(5.0, 1.0) == pytest.approx(5.0 * 0.1 ** 0.14)
+    with pytest.raises(ValueError, match="wind_speed"):
+        exterior_coefficients(-1.0, 10.0)
+    with pytest.raises(ValueError, match="u_value"):
+        hourly_u_value(30.0, 10.0)

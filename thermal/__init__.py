@@ -2,7 +2,8 @@
 
 Glazing optics per wavelength and angle (:mod:`thermal.optics`, :mod:`thermal.glazing`), opaque
 surfaces and weather-driven surface irradiance (:mod:`thermal.surface`), the ISO 13790 5R1C zone
-model (:mod:`thermal.zone`), building input (:mod:`thermal.building`), gains and loads
+model (:mod:`thermal.zone`) with hourly outside surface coefficients (:mod:`thermal.exterior`),
+building input (:mod:`thermal.building`), gains and loads
 (:mod:`thermal.loads`), the integrator wiring (:mod:`thermal.gains`), ASHRAE 140 validation
 (:mod:`thermal.bestest`) and the spectral-vs-rated glazing study (:mod:`thermal.study`).
 See docs/thermal.md.
@@ -14,12 +15,14 @@ from .glazing import (ANGLES, GAS_PROPERTIES, WAVELENGTHS, Gap, GlazingLayer, Gl
                       layer_from_nk, read_igdb, read_nk_yml, read_solar_spectrum, solar_weighted)
 from .surface import absorbed_solar, aoi, sky_temperature, sol_air_temperature, surface_irradiance
 from .zone import ZoneParameters, simulate_5r1c
+from .exterior import exterior_coefficients, hourly_u_value, wind_at_height
 from .building import Building, Surface, ZoneSpec, box_building, building_from_meshes, parse_label
 from .loads import (MASS_CLASSES, Construction, LoadsResult, building_loads, glazing_g_table,
                     opaque_gains, sky_losses, window_gains, zone_parameters)
 from .gains import (building_scene, glazing_response, irradiance_by_surface, rated_glazing_response,
                     sky_states_for_weather, window_gain_by_surface)
 from .facade import write_face_csv, write_facade_ply
+from .thinfilm import Film, coated_layer_from_stack, drude_index, solar_control_layer, stack_optics
 
 __all__ = [
     # glazing optics
@@ -27,10 +30,11 @@ __all__ = [
     "GlazingLayer", "Gap", "GlazingUnit", "combine_layers", "inward_fractions", "gap_conductance",
     "read_igdb", "read_nk_yml", "layer_from_nk", "layer_from_broadband", "read_solar_spectrum",
     "solar_weighted", "ANGLES", "WAVELENGTHS", "GAS_PROPERTIES",
+    "Film", "stack_optics", "drude_index", "coated_layer_from_stack", "solar_control_layer",
     # surfaces
     "aoi", "surface_irradiance", "absorbed_solar", "sol_air_temperature", "sky_temperature",
     # zone model
-    "ZoneParameters", "simulate_5r1c",
+    "ZoneParameters", "simulate_5r1c", "exterior_coefficients", "hourly_u_value", "wind_at_height",
     # buildings, gains and loads
     "Building", "Surface", "ZoneSpec", "parse_label", "building_from_meshes", "box_building",
     "Construction", "MASS_CLASSES", "window_gains", "opaque_gains", "sky_losses", "zone_parameters",

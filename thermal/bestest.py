@@ -1,11 +1,13 @@
 """ASHRAE Standard 140 (BESTEST) Cases 600, 660, 670 and 900 with the 5R1C zone model.
 
 Everything case-specific is read at run time from the public files in the data directory
-(``WIDESKY_DATA_DIR`` or ``../shared/data``, see docs/thermal.md): the official weather year
-(``weather/DRYCOLD.mos``), the 5R1C parameters of the Modelica Buildings library's ISO 13790
-BESTEST models (areas, U-values, air change rate, internal gains, set-points, heat capacity and
-mass-area factor: ``bestest/iso13790_*.mo``), the glazing records of its detailed models (solar
-transmittance and reflectance per pane, thickness, emissivities, gas: ``bestest/detailed_Data_*``),
+(``WIDESKY_DATA_DIR`` or ``../shared/data``, see docs/thermal.md): the weather year (Denver
+TMY3, the 140-2020 cases'; ``weather/DRYCOLD.mos`` of the earlier editions on request), the 5R1C
+parameters of the Modelica Buildings library's ISO 13790 BESTEST models (areas, air change rate,
+internal gains, set-points, heat capacity and mass-area factor: ``bestest/iso13790_*.mo``), the
+wall, roof and floor layers of its detailed models (U-values), the glazing records of the detailed
+models (solar transmittance and reflectance per pane, thickness, emissivities, gas:
+``bestest/detailed_Data_*``),
 the solar absorptance and emissivity of the outside surfaces (``detailed_Data_ExteriorWallCase900``)
 and the reference programs' results with the 140-2020/2023 acceptance limits (the User's Guide
 tables, ``bestest/detailed_UsersGuide.mo``). Nothing from those files is stored here.
@@ -26,14 +28,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .exterior import exterior_coefficients, hourly_u_value, wind_at_height
 from .glazing import Gap, GlazingUnit, layer_from_broadband
-from .loads import glazing_g_table, opaque_gains, sky_losses, window_gains
+from .loads import R_SE, glazing_g_table, opaque_gains, sky_losses, window_gains
 from .surface import sky_temperature, surface_irradiance
 from .zone import ZoneParameters, simulate_5r1c
 
 __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_modelica_record",
            "case_definition", "window_unit", "reference_results", "run_case", "BestestCase",
-           "load_weather", "case_gains", "integrator_irradiance", "solar_escape_fraction"]
+           "load_weather", "case_gains", "integrator_irradiance", "solar_escape_fraction",
+           "layer_resistance", "EXTERIOR_MODELS"]
 
 CASES = ("600", "660", "670", "900")
 GROUND_REFLECTANCE = 0.2          # ASHRAE 140-2020 7.2.1
@@ -41,6 +45,8 @@ INTERNAL_RADIATIVE_FRACTION = 0.6  # ASHRAE 140-2020 7.2.1: 200 W, 60 % radiativ
 INTERIOR_SOLAR_ABSORPTANCE = 0.6   # ASHRAE 140-2020 7.2.1: interior surfaces
 RHO_C_AIR = 1200.0                 # ISO 13790 9.3.1: rho_a c_a [J m-3 K-1]
 PROGRAMS = ("BSIMAC", "CSE", "DeST", "EnergyPlus", "ESP-r", "TRNSYS")
+R_SI = {"wall": 0.13, "roof": 0.10, "floor": 0.17}   # ISO 6946:2017 Table 7 [m2 K W-1]
+EXTERIOR_MODELS = ("hourly", "constant")
 
 
 def _data_file(relative, data_dir):
@@ -131,21 +137,54 @@ def read_modelica_record(path, name=None):
     return out
 
 
-def _glass(data_dir, record):
+def layer_resistance(path, block=None):
+    """Sum of ``x / k`` [m2 K W-1] over the layers (``Solids.Generic(x=..., k=...)``) of a Modelica
+    construction record, in the whole file or in the first ``block(...)`` (e.g. ``"matExtWal"``)."""
+    text = Path(path).read_text(encoding="latin-1")
+    if block is not None:
+        m = re.search(r"\b" + re.escape(block) + r"\s*\(", text)
+        if not m:
+            raise ValueError(f"{path}: no construction {block!r}")
+        text = text[m.end():]
+        text = text[:text.find("roughness_a")] if "roughness_a" in text else text
+    num = r"([-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)"
+    layers = re.findall(r"Generic\(\s*x\s*=\s*" + num + r"\s*,\s*k\s*=\s*" + num, text)
+    if not layers:
+        raise ValueError(f"{path}: no layers (x=..., k=...) in {block or 'the file'}")
+    return float(sum(float(x) / float(k) for x, k in layers))
+
+
+def _u_values(case, data_dir):
+    """Nominal U-values [W m-2 K-1] of wall, roof and floor from the detailed models' layers,
+    ISO 6946 inside resistances and R_se = 0.04."""
+    ff = _data_file("bestest/detailed_Cases6xx_Case600FF.mo", data_dir)
+    if case == "900":
+        r_wall = layer_resistance(_data_file("bestest/detailed_Data_ExteriorWallCase900.mo", data_dir))
+        r_floor = layer_resistance(_data_file("bestest/detailed_Data_FloorCase900.mo", data_dir))
+    else:
+        r_wall, r_floor = layer_resistance(ff, "matExtWal"), layer_resistance(ff, "matFlo")
+    r_roof = layer_resistance(ff, "roof")
+    return tuple(1.0 / (R_SI[k] + r + R_SE) for k, r in
+                 (("wall", r_wall), ("roof", r_roof), ("floor", r_floor)))
+
+
+def _glass(data_dir, record, substrate=None):
     p = read_modelica_record(_data_file(f"bestest/detailed_Data_{record}.mo", data_dir))
     return layer_from_broadband(record, p["tauSol"][0], p["rhoSol_a"][0], p["rhoSol_b"][0],
-                                p["x"] * 1000, p["absIR_a"], p["absIR_b"], p["k"])
+                                p["x"] * 1000, p["absIR_a"], p["absIR_b"], p["k"], substrate)
 
 
 def window_unit(case, data_dir=None) -> GlazingUnit:
     """The case's window as a :class:`~thermal.glazing.GlazingUnit` from the detailed records
     (600, 900: 2 x Glass600, 12 mm air; 660: Glass660 low-e outside, 12 mm argon, Glass600;
-    670: single Glass600)."""
+    670: single Glass600). The low-e layer, a coating on clear glass whose record is broadband,
+    takes the angular shape of the clear Glass600 slab (scaled-substrate rule)."""
     g600 = _glass(data_dir, "Glass600")
     if case in ("600", "900"):
         return GlazingUnit("Win600", [g600, g600], [Gap(12.0, "air")])
     if case == "660":
-        return GlazingUnit("Win660", [_glass(data_dir, "Glass660"), g600], [Gap(12.0, "argon")])
+        return GlazingUnit("Win660", [_glass(data_dir, "Glass660", g600), g600],
+                           [Gap(12.0, "argon")])
     if case == "670":
         return GlazingUnit("Win670", [g600])
     raise ValueError(f"case={case!r} not one of {CASES}")
@@ -170,15 +209,23 @@ class BestestCase:
     heating_setpoint: float
     cooling_setpoint: float
     interior_area: float
+    u_floor: float = None
+    height: float = 2.7
 
 
 def case_definition(case, data_dir=None) -> BestestCase:
     """Inputs of ASHRAE 140 Case ``case`` ("600", "660", "670", "900") from the data files.
 
-    Geometry, U-values of walls/roof/floor, air change rate, internal gains and set-points are the
-    Modelica ISO 13790 Case 600 model's; the heat capacity and mass-area factor its Case600Mass
-    (lightweight cases) or Case900Mass; the window U-value and g-values come from our layer model
-    of the case's glazing records (EN 673 / EN 410), not from the ISO model's fixed UWin and gFac.
+    Geometry, air change rate, internal gains and set-points are the Modelica ISO 13790 Case 600
+    model's; the heat capacity and mass-area factor its Case600Mass (lightweight cases) or
+    Case900Mass. The U-values of walls, roof and floor come from the layers of the detailed models
+    (``detailed_Cases6xx_Case600FF.mo``, ``detailed_Data_ExteriorWallCase900.mo``,
+    ``detailed_Data_FloorCase900.mo``) with ISO 6946 surface resistances (wall 0.510, roof 0.319,
+    floor 0.039 W m-2 K-1 for Case 600), not the ISO model's rounded UWal 0.53 and URoo 0.33; the
+    window U-value and g-values from our layer model of the case's glazing records (EN 673 /
+    EN 410), not from the ISO model's fixed UWin and gFac. The 5R1C internal area A_t is the
+    room's own (171.6 m2: floor, ceiling, walls and window), the definition of ISO 13790 7.2.2.2,
+    rather than its default 4.5 A_f = 216 m2 that the low BESTEST room does not reach.
     """
     if case not in CASES:
         raise ValueError(f"case={case!r} not one of {CASES}")
@@ -193,23 +240,24 @@ def case_definition(case, data_dir=None) -> BestestCase:
     walls = tuple((az, aw, awin) for az, aw, awin in zip(azi, base["AWal"], base["AWin"]))
     a_win = float(np.sum(base["AWin"]))
     a_f = base["AFlo"]
-    h_op = (base["UWal"] * np.sum(base["AWal"]) + base["URoo"] * base["ARoo"]
-            + base["b"] * base["UFlo"] * a_f)
-    zone = ZoneParameters(floor_area=a_f, h_tr_w=u_win * a_win, h_tr_op=h_op,
-                          h_ve=RHO_C_AIR * base["airRat"] * base["VRoo"] / 3600.0,
-                          heat_capacity=mass["heaC"] * a_f, mass_area=mass["facMas"] * a_f)
+    u_wall, u_roof, u_floor = _u_values(case, data_dir)
+    h_op = (u_wall * np.sum(base["AWal"]) + u_roof * base["ARoo"] + base["b"] * u_floor * a_f)
     height = base["VRoo"] / a_f
     perim = sum(aw + awin for _, aw, awin in walls) / height
     interior = 2 * a_f + perim * height
+    zone = ZoneParameters(floor_area=a_f, h_tr_w=u_win * a_win, h_tr_op=h_op,
+                          h_ve=RHO_C_AIR * base["airRat"] * base["VRoo"] / 3600.0,
+                          heat_capacity=mass["heaC"] * a_f, mass_area=mass["facMas"] * a_f,
+                          total_area=interior)
     text = _data_file("bestest/iso13790_Cases6xx_Case600.mo", data_dir).read_text()
     cool = re.search(r"TSetCoo\(table=\[0\.0,\s*273\.15 \+ (\d+\.?\d*)\]", text)
     heat = re.search(r"TSetHea\(table=\[0\.0,\s*273\.15 \+ (\d+\.?\d*)\]", text)
     gains = re.search(r"intGai\(k=(\d+\.?\d*)\)", text)
     if not (cool and heat and gains):
         raise ValueError("iso13790_Cases6xx_Case600.mo: set-point tables or intGai not found")
-    return BestestCase(case, zone, unit, a_win, walls, base["ARoo"], base["UWal"], base["URoo"],
+    return BestestCase(case, zone, unit, a_win, walls, base["ARoo"], u_wall, u_roof,
                        u_win, wall["absSol_a"], wall["absIR_a"], float(gains.group(1)),
-                       float(heat.group(1)), float(cool.group(1)), interior)
+                       float(heat.group(1)), float(cool.group(1)), interior, u_floor, height)
 
 
 # --------------------------------------------------------------------------- references
@@ -267,7 +315,7 @@ def solar_escape_fraction(tau_diffuse, window_area, interior_area, absorptance):
     return rho * p / (1.0 - rho * (1.0 - p))
 
 
-def case_gains(case: BestestCase, weather, site, g_table=None, poa=None):
+def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterior="hourly"):
     """Hourly solar gains of a case [W] split by element, from the weather (Hay-Davies) or from
     the integrator (``poa``, see :func:`integrator_irradiance`).
 
@@ -283,14 +331,22 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None):
     poa : dict, optional
         From :func:`integrator_irradiance`: (T, 5) parts for the N, E, S, W walls and the roof and
         ``window_gain`` per case window (T,) [W m-2 of glass]; replaces the weather-only route.
+    exterior : str
+        ``"hourly"``: outside surface coefficients per hour from the wind and air temperature
+        (:mod:`thermal.exterior`), with the U-values, sky loss and absorbed-solar share they give;
+        ``"constant"``: ISO 13790's fixed R_se = 0.04 (EN 673's h_e = 23 for the window).
 
     Returns
     -------
     dict of numpy.ndarray
         (T,) ``window`` (transmitted + inward-flowing absorbed, less the escaped share),
         ``opaque`` (absorbed on walls and roof, ISO 13790 11.3.4), ``sky_loss`` (long-wave to the
-        sky, ISO 13790 11.3.5) [W]; ``incident_south`` [W m-2]; ``temp_sky`` [degC].
+        sky, ISO 13790 11.3.5) [W]; ``incident_south`` [W m-2]; ``temp_sky`` [degC];
+        ``h_tr_w``, ``h_tr_op`` [W K-1] the transmission conductances per hour (``"hourly"``) or
+        None.
     """
+    if exterior not in EXTERIOR_MODELS:
+        raise ValueError(f"exterior={exterior!r} not one of {EXTERIOR_MODELS}")
     surf = [(90.0, az) for az, _, _ in case.walls] + [(0.0, 180.0)]
     if poa is not None:
         irr = poa
@@ -316,15 +372,30 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None):
     else:
         window = window_gains(win_area, irr["poa_direct"], diffuse, irr["aoi"], ang, g, g_d).sum(1)
         window *= 1 - esc
-    opaque = opaque_gains(opq_area, u_opq, case.absorptance, irr["poa_global"]).sum(1)
     t_sky = sky_temperature(np.maximum(weather["ghi_infrared"].to_numpy(), 1.0))
     ta = weather["temp_air"].to_numpy()
-    sky_loss = (sky_losses(opq_area, u_opq, case.emissivity, tilt, ta, t_sky).sum(1)
-                + sky_losses(win_area, case.u_window, case.window.layers[0].emissivity_front,
-                             tilt, ta, t_sky).sum(1))
+    eps_win = case.window.layers[0].emissivity_front
+    u_win, r_opq, r_win, h_w, h_op = case.u_window, R_SE, 1.0 / case.window.h_out, None, None
+    if exterior == "hourly":
+        v = weather["wind_speed"].to_numpy()
+        v_wall = wind_at_height(v, 0.5 * case.height)
+        v_roof = wind_at_height(v, case.height)
+        h_e = [sum(exterior_coefficients(v_wall if t > 45 else v_roof, ta, case.emissivity))
+               for t in tilt]
+        r_opq = 1.0 / np.stack(h_e, 1)
+        u_opq = np.stack([hourly_u_value(u, h) for u, h in zip(u_opq, h_e)], 1)
+        h_e_win = sum(exterior_coefficients(v_wall, ta, eps_win))
+        u_win = hourly_u_value(case.u_window, h_e_win, 1.0 / case.window.h_out)[:, None]
+        r_win = 1.0 / h_e_win[:, None]
+        h_w = u_win[:, 0] * case.window_area
+        h_op = (u_opq * opq_area).sum(1) + case.u_floor * case.zone.floor_area
+    opaque = opaque_gains(opq_area, u_opq, case.absorptance, irr["poa_global"], r_opq).sum(1)
+    sky_loss = (sky_losses(opq_area, u_opq, case.emissivity, tilt, ta, t_sky, r_opq).sum(1)
+                + sky_losses(win_area, u_win, eps_win, tilt, ta, t_sky, r_win).sum(1))
     south = int(np.argmin([abs(a - 180.0) for a, _, _ in case.walls]))
     return {"window": window, "opaque": opaque, "sky_loss": sky_loss,
-            "incident_south": irr["poa_global"][:, south], "temp_sky": t_sky}
+            "incident_south": irr["poa_global"][:, south], "temp_sky": t_sky,
+            "h_tr_w": h_w, "h_tr_op": h_op}
 
 
 WEATHER_FILES = {"tmy3": "weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw",
@@ -394,12 +465,14 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
     return irr
 
 
-def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None):
+def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None,
+             exterior="hourly"):
     """Simulate ASHRAE 140 Case ``case`` for a weather year (hourly, 8760 steps).
 
     ``weather``: a key of :data:`WEATHER_FILES`, or a (data, site) pair as :func:`load_weather`.
     ``poa``: per-surface irradiance from :func:`integrator_irradiance` (same weather) instead of
-    the weather-only Hay-Davies route.
+    the weather-only Hay-Davies route. ``exterior``: outside surface coefficients, see
+    :func:`case_gains`.
 
     Returns
     -------
@@ -411,12 +484,13 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
     """
     c = case if isinstance(case, BestestCase) else case_definition(case, data_dir)
     weather, site = load_weather(weather, data_dir) if isinstance(weather, str) else weather
-    gains = case_gains(c, weather, site, g_table, poa)
+    gains = case_gains(c, weather, site, g_table, poa, exterior)
     phi_sol = gains["window"] + gains["opaque"] - gains["sky_loss"]
     res = simulate_5r1c(c.zone, weather["temp_air"].to_numpy(), c.internal_gains, phi_sol,
                         c.heating_setpoint, c.cooling_setpoint,
                         internal_convective_fraction=1 - INTERNAL_RADIATIVE_FRACTION,
-                        warmup_steps=warmup_steps)
+                        warmup_steps=warmup_steps, h_tr_w=gains["h_tr_w"],
+                        h_tr_op=gains["h_tr_op"])
     hourly = pd.DataFrame({"heating": res["heating"][:, 0], "cooling": res["cooling"][:, 0],
                            "temp_air": res["temp_air"][:, 0], "solar_window": gains["window"],
                            "solar_opaque": gains["opaque"], "sky_loss": gains["sky_loss"]},

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-UNIT_NAMES = ("clear", "low-e", "low-e #2")
+UNIT_NAMES = ("clear", "low-e", "low-e #2", "solar-control")
 
 
 def register(subparsers) -> None:
@@ -33,6 +33,9 @@ def register(subparsers) -> None:
     b.add_argument("--sky", default="weather", choices=("weather", "integrator"),
                    help="weather: Hay-Davies from the file (default, seconds); integrator: widesky's "
                         "sky scaled to the file's DNI/DHI (minutes; tmy3 only)")
+    b.add_argument("--exterior", default="hourly", choices=("hourly", "constant"),
+                   help="outside surface coefficients: hourly from wind and air temperature "
+                        "(ISO 6946 Annex C, default) or ISO 13790's constant R_se = 0.04")
     b.add_argument("--json", help="also write the results here (for python -m thermal.figures)")
     b.add_argument("--jobs", type=int, default=1, help="ray-casting processes (integrator)")
     b.add_argument("--data-dir", default=None,
@@ -58,6 +61,13 @@ def register(subparsers) -> None:
     lo.add_argument("--output", required=True, help="hourly CSV of zone heating, cooling and solar [W]")
     lo.add_argument("--facade-map", help="PLY coloured by the annual incident shortwave per face "
                                          "[kWh m-2], with a per-face CSV beside it")
+    lo.add_argument("--context", action="append", default=[], metavar="MESH",
+                    help="neighbouring buildings or terrain that shade and reflect: a mesh file "
+                         "(anything trimesh loads; x east, y north, z up [m], the building's "
+                         "south-west corner at 0,0 before --rotation; repeatable; integrator sky)")
+    lo.add_argument("--context-box", action="append", default=[], metavar="X,Y,W,D,H",
+                    help="a neighbouring block on the ground: south-west corner X,Y, width W "
+                         "(east), depth D (north), height H [m] (repeatable; integrator sky)")
     lo.add_argument("--jobs", type=int, default=1, help="ray-casting processes")
     lo.add_argument("--data-dir", default=None)
     lo.set_defaults(func=_loads)
@@ -67,6 +77,8 @@ def register(subparsers) -> None:
     s.add_argument("--weather", required=True, help="EPW or TMY3 file")
     s.add_argument("--output", required=True, help="folder for effective_g.csv and annual.csv")
     s.add_argument("--jobs", type=int, default=1)
+    s.add_argument("--solar-control", action="store_true",
+                   help="add the double-silver solar-control unit (thermal.thinfilm) to the three")
     s.add_argument("--data-dir", default=None)
     s.set_defaults(func=_study)
 
@@ -122,11 +134,12 @@ def _bestest(args) -> int:
     if args.sky == "integrator":
         poa = integrator_irradiance(args.weather, args.data_dir, n_jobs=args.jobs,
                                     progress=sys.stderr.isatty())
-    print(f"ASHRAE 140 with the ISO 13790 5R1C model, weather {args.weather}, sky {args.sky}")
+    print(f"ASHRAE 140 with the ISO 13790 5R1C model, weather {args.weather}, sky {args.sky}, "
+          f"exterior {args.exterior}")
     print(f"{'case':5s} {'quantity':15s} {'widesky':>9s} {'limits':>15s} {'programs':>15s}")
     saved = {}
     for c in args.case:
-        r = run_case(c, args.data_dir, weather=args.weather, poa=poa)
+        r = run_case(c, args.data_dir, weather=args.weather, poa=poa, exterior=args.exterior)
         saved[c] = {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
                     if k not in ("hourly", "case")}
         for q, unit, scale in (("annual_heating", "MWh", 1e-3), ("annual_cooling", "MWh", 1e-3),
@@ -141,6 +154,29 @@ def _bestest(args) -> int:
         text = json.dumps(saved, indent=1).encode()
         atomic_write(args.json, lambda fh: fh.write(text))
     return 0
+
+
+def _context(args):
+    """Context meshes from ``--context`` files and ``--context-box`` blocks."""
+    if not (args.context or args.context_box):
+        return []
+    import trimesh
+    from irradiance.scene import load_mesh
+    meshes = []
+    for p in args.context:
+        if not Path(p).is_file():
+            raise ValueError(f"--context {p!r} not found")
+        meshes.append(load_mesh(p))
+    for text in args.context_box:
+        try:
+            x, y, w, d, h = (float(v) for v in text.split(","))
+        except ValueError:
+            raise ValueError(f"--context-box {text!r}: expected X,Y,W,D,H in m") from None
+        if not (w > 0 and d > 0 and h > 0):
+            raise ValueError(f"--context-box {text!r}: W, D and H must be > 0 m")
+        meshes.append(trimesh.creation.box((w, d, h)).apply_translation((x + w / 2, y + d / 2,
+                                                                         h / 2)))
+    return meshes
 
 
 def _wwr(text):
@@ -169,8 +205,12 @@ def _loads(args) -> int:
 
     if not Path(args.weather).is_file():
         raise ValueError(f"--weather {args.weather!r} not found")
+    context = _context(args)
+    if context and args.sky != "integrator":
+        raise ValueError("--context and --context-box need --sky integrator (the weather route "
+                         "has no shading)")
     w = read_weather(args.weather)
-    units = standard_units(args.data_dir)
+    units = standard_units(args.data_dir, solar_control=True)
     unit = units[args.glazing]
     b = box_building(args.width, args.depth, args.floor_height, args.floors, _wwr(args.wwr),
                      overhang=args.overhang, fins=args.fins, rotation=args.rotation,
@@ -196,7 +236,7 @@ def _loads(args) -> int:
                             rated_glazing_response, sky_states_for_weather, window_gain_by_surface)
         from .glazing import read_solar_spectrum
         sky = PragueSky()
-        scene, labels = building_scene(b)
+        scene, labels = building_scene(b, context)
         states, measured = sky_states_for_weather(w, sky)
         resp = (glazing_response(unit, f"{args.glazing}:spectral") if args.route == "spectral"
                 else rated_glazing_response(unit, *read_solar_spectrum(args.data_dir),
@@ -249,7 +289,9 @@ def _study(args) -> int:
         raise ValueError(f"--weather {args.weather!r} not found")
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    r = glazing_study(args.weather, n_jobs=args.jobs, progress=sys.stderr.isatty(),
+    from .study import standard_units
+    units = standard_units(args.data_dir, solar_control=args.solar_control)
+    r = glazing_study(args.weather, units, n_jobs=args.jobs, progress=sys.stderr.isatty(),
                       data_dir=args.data_dir)
     write_face_csv(out / "effective_g.csv", r["effective_g"])
     write_face_csv(out / "annual.csv", r["annual"])

@@ -24,16 +24,16 @@ def _save(fig, path):
 
 
 def fig_glazing(outdir, data_dir=None):
-    """g by angle (AM1.5) and T, g by wavelength at normal incidence of the three units."""
+    """g by angle (AM1.5) and T, g by wavelength at normal incidence of the four units."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from .glazing import ANGLES, GlazingUnit, read_solar_spectrum
     from .study import standard_units
-    units = standard_units(data_dir)
+    units = standard_units(data_dir, solar_control=True)
     sw, se = read_solar_spectrum(data_dir)
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-    for (name, u), col in zip(units.items(), ("C0", "C1", "C2")):
+    for (name, u), col in zip(units.items(), ("C0", "C1", "C2", "C3")):
         g = [u.rated(sw, se, a)["shgc"] for a in ANGLES]
         ax[0].plot(ANGLES, g, color=col, label=f"{name} (g_n {g[0]:.3f}, U {u.u_value():.2f})")
         o = u.optics([0.0], sw)

@@ -447,17 +447,26 @@ def layer_from_nk(name, wavelength_nm, n, k, thickness_mm, emissivity=0.84, cond
 
 
 def layer_from_broadband(name, tau, rho_front, rho_back, thickness_mm, emissivity_front=0.84,
-                         emissivity_back=0.84, conductivity=1.0):
+                         emissivity_back=0.84, conductivity=1.0, substrate=None):
     """A layer known only by its broadband solar values (e.g. an ASHRAE 140 glass record).
 
     Flat spectra over 280-2500 nm. Equal front and back reflectance: uncoated slab (n, k inverted
-    from tau and rho); different ones: coated (angular shape of a clear slab with the same
-    transmittance, the equivalent-slab route).
+    from tau and rho); different ones: coated. A coated layer takes the angular shape of
+    ``substrate`` (an uncoated :class:`GlazingLayer`, its n and k; the scaled-substrate rule) when
+    given, else of a slab inverted from its own tau and mean rho (for a reflective coating that
+    slab has a high index, whose g rises with angle up to 60 deg: give the substrate).
     """
     wl = np.array([280.0, 2500.0])
     coated = abs(rho_front - rho_back) > 1e-9
+    n = k = None
+    if substrate is not None:
+        if substrate.coated:
+            raise ValueError(f"substrate={substrate.name!r} must be an uncoated layer")
+        n = np.interp(wl, substrate.wavelength, substrate.n)
+        k = np.interp(wl, substrate.wavelength, substrate.k)
     return GlazingLayer(name, wl, np.full(2, tau), np.full(2, rho_front), np.full(2, rho_back),
-                        thickness_mm, emissivity_front, emissivity_back, conductivity, coated)
+                        thickness_mm, emissivity_front, emissivity_back, conductivity, coated,
+                        n, k)
 
 
 def read_solar_spectrum(data_dir=None, column="global"):

@@ -143,27 +143,34 @@ def window_gains(area, poa_direct, poa_diffuse, aoi, g_angles, g, g_diffuse, fra
                     * np.asarray(g_diffuse, float))
 
 
-def opaque_gains(area, u_value, absorptance, poa_global):
-    """Absorbed solar that reaches the zone through opaque elements, ``alpha R_se U A E`` [W]."""
-    return (np.asarray(absorptance, float) * R_SE * np.asarray(u_value, float)
+def opaque_gains(area, u_value, absorptance, poa_global, r_se=R_SE):
+    """Absorbed solar that reaches the zone through opaque elements, ``alpha R_se U A E`` [W].
+
+    ``u_value`` [W m-2 K-1] and ``r_se`` [m2 K W-1] may be per step, (T, S) (hourly outside
+    coefficients, :mod:`thermal.exterior`)."""
+    return (np.asarray(absorptance, float) * np.asarray(r_se, float) * np.asarray(u_value, float)
             * np.asarray(area, float) * np.asarray(poa_global, float))
 
 
-def sky_losses(area, u_value, emissivity, tilt, temp_air, temp_sky):
+def sky_losses(area, u_value, emissivity, tilt, temp_air, temp_sky, r_se=R_SE):
     """Long-wave loss to the sky through each element [W], (T, S) (ISO 13790 11.3.5).
 
     Parameters
     ----------
     area, u_value, emissivity, tilt : array_like
-        (S,) [m2], [W m-2 K-1], [1], [deg].
+        (S,) [m2], [W m-2 K-1], [1], [deg]; ``u_value`` may be (T, S) per step.
     temp_air, temp_sky : array_like
         (T,) [degC].
+    r_se : float or array_like
+        Outside surface resistance [m2 K W-1], scalar or (T, S) per step (with an hourly
+        ``u_value``, :mod:`thermal.exterior`).
     """
     ta = np.asarray(temp_air, float)[:, None]
     ts = np.asarray(temp_sky, float)[:, None]
     f_r = 0.5 * (1 + np.cos(np.radians(np.asarray(tilt, float))))
     h_r = 4 * np.asarray(emissivity, float) * SIGMA * (273.15 + 0.5 * (ta + ts)) ** 3
-    return R_SE * np.asarray(u_value, float) * np.asarray(area, float) * f_r * h_r * (ta - ts)
+    return (np.asarray(r_se, float) * np.asarray(u_value, float) * np.asarray(area, float) * f_r
+            * h_r * (ta - ts))
 
 
 def _cons(constructions, s):

@@ -22,23 +22,31 @@ import pandas as pd
 __all__ = ["standard_units", "glazing_study", "office_box"]
 
 
-def standard_units(data_dir=None):
+def standard_units(data_dir=None, solar_control=False):
     """The three units of the worked case, from the IGDB samples in the data directory.
 
     ``clear``: 3 mm clear / 12 mm air / 3 mm clear (NFRC 102 twice); ``low-e``: 5 mm clear /
     12.7 mm argon / Pilkington Energy Advantage low-e with its coating on surface 3;
     ``low-e #2``: the same coating on surface 2 (the solar-control position, coating facing the gap
     on the outer pane). The data directory holds no spectrally selective solar-control coating;
-    a user's IGDB file enters the same way.
+    a user's IGDB file enters the same way. With ``solar_control=True`` a fourth unit,
+    ``solar-control``: 6 mm clear with the double-silver stack of :mod:`thermal.thinfilm` on
+    surface 2 / 12.7 mm argon / 6 mm clear (a documented construction, not a product).
     """
     from skymodel.generator.paths import data_file
     from .glazing import Gap, GlazingUnit, read_igdb
     c3 = read_igdb(data_file("glazing/CLEAR_3.DAT", data_dir))
     c5 = read_igdb(data_file("glazing/CLEAR5.LOF", data_dir))
     le = read_igdb(data_file("glazing/LOW-E_5.LOF", data_dir))
-    return {"clear": GlazingUnit("clear", [c3, c3], [Gap(12.0, "air")]),
-            "low-e": GlazingUnit("low-e", [c5, le], [Gap(12.7, "argon")]),
-            "low-e #2": GlazingUnit("low-e #2", [le.flipped(), c5], [Gap(12.7, "argon")])}
+    units = {"clear": GlazingUnit("clear", [c3, c3], [Gap(12.0, "air")]),
+             "low-e": GlazingUnit("low-e", [c5, le], [Gap(12.7, "argon")]),
+             "low-e #2": GlazingUnit("low-e #2", [le.flipped(), c5], [Gap(12.7, "argon")])}
+    if solar_control:
+        from .thinfilm import solar_control_layer
+        c6 = read_igdb(data_file("glazing/CLEAR_6.DAT", data_dir))
+        units["solar-control"] = GlazingUnit("solar-control", [solar_control_layer(c6).flipped(), c6],
+                                             [Gap(12.7, "argon")])
+    return units
 
 
 def office_box():

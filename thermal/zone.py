@@ -97,7 +97,7 @@ class ZoneParameters:
 def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heating_setpoint=20.0,
                   cooling_setpoint=27.0, heating_max=np.inf, cooling_max=np.inf, *,
                   internal_convective_fraction=0.5, temp_supply=None, timestep=3600.0,
-                  temp_mass_start=None, warmup_steps=0):
+                  temp_mass_start=None, warmup_steps=0, h_tr_w=None, h_tr_op=None):
     """Run the 5R1C zone model hour by hour.
 
     Parameters
@@ -126,6 +126,11 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
     warmup_steps : int
         Steps run once before the period (from its start) to reach a periodic state; their results
         are discarded.
+    h_tr_w, h_tr_op : array_like, optional
+        (T,) or (T, Z) window and opaque transmission conductances per step [W K-1], replacing
+        the constants of ``params`` (e.g. U-values with an hourly, wind-dependent outside surface
+        coefficient, :func:`thermal.exterior.hourly_u_value`). ``h_tr_op`` must stay below
+        ``h_ms A_m`` at every step.
 
     Returns
     -------
@@ -170,6 +175,19 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
 
     h_ve, h_is, h_w, h_ms, h_em = (np.broadcast_to(g[k], (Z,)).astype(float) for k in
                                    ("h_ve", "h_tr_is", "h_tr_w", "h_tr_ms", "h_tr_em"))
+    if h_tr_w is not None:
+        h_w = col(h_tr_w, "h_tr_w")
+        if h_w.shape[0] != T or np.any(~np.isfinite(h_w)) or np.any(h_w < 0):
+            raise ValueError(f"h_tr_w must be finite, >= 0 W K-1 with {T} steps, got shape "
+                             f"{h_w.shape}")
+        h_w = np.broadcast_to(h_w, (T, Z))
+    if h_tr_op is not None:
+        h_op = col(h_tr_op, "h_tr_op")
+        if h_op.shape[0] != T:
+            raise ValueError(f"h_tr_op needs {T} steps, got shape {h_op.shape}")
+        if not np.all((h_op > 0) & (h_op < h_ms)):
+            raise ValueError(f"h_tr_op must lie in (0, h_ms A_m = {h_ms!r}) W K-1 at every step")
+        h_em = 1.0 / (1.0 / h_op - 1.0 / h_ms)
     a_t = np.broadcast_to(np.asarray(params.total_area, float), (Z,))
     a_m = np.broadcast_to(np.asarray(params.mass_area, float), (Z,))
     cm = np.broadcast_to(np.asarray(params.heat_capacity, float), (Z,)) / timestep
