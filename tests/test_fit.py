@@ -107,3 +107,16 @@ def test_sun_penalty_order_is_checked():
     kn = np.linspace(0, np.pi, 5)
     with pytest.raises(ValueError, match="sun_penalty_order"):
         fit_radiance(g, z, z, np.ones(50), kn, kn / 2, kn / 2, 1, sun_penalty_order=3)
+
+
+def test_build_config_refuses_a_bad_sun_penalty_order_before_solving(tmp_path):
+    import json
+    from pathlib import Path
+
+    from skymodel.generator.dataset_build import load_config
+
+    cfg = json.loads((Path(__file__).parents[1] / "skymodel" / "data" / "default-dataset.json").read_text())
+    cfg["sun_penalty_order"] = 3
+    (tmp_path / "bad.json").write_text(json.dumps(cfg))
+    with pytest.raises(ValueError, match="sun_penalty_order=3"):
+        load_config(tmp_path / "bad.json")

@@ -114,6 +114,8 @@ class BuildConfig:
     pol_rank: int = 3
 
     def __post_init__(self):
+        if self.sun_penalty_order not in (1, 2):  # refused before any solve, not in the fit after them
+            raise ValueError(f"sun_penalty_order={self.sun_penalty_order!r}: expected 1 or 2")
         ele = np.asarray(self.elevations_deg, float)
         low = float(ele.min()) if ele.size else 0.0
         b = self.mc_below_elevation_deg
