@@ -244,7 +244,7 @@ def _disort():
     return _SOLVER
 
 
-def run_disort(problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config: SolverConfig):
+def run_disort(problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config: SolverConfig, repair=True):
     """One plane-parallel DISORT run for a sub-problem, unit beam flux normal to the beam.
 
     Parameters
@@ -252,6 +252,7 @@ def run_disort(problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config: S
     problem : SubProblem; mu0 : cosine of the solar zenith [1]; albedo : [1];
     view_zenith_deg : (T,) increasing view zeniths in [0, 89.95] [deg];
     rel_azimuth_deg : (P,) increasing relative azimuths in [0, 180] [deg].
+    repair : re-solve isolated non-finite radiances (:func:`_repair_nonfinite`).
 
     Returns
     -------
@@ -293,7 +294,7 @@ def run_disort(problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config: S
     cfg.bc.surface_albedo = float(albedo)
     r = _disort().solve(cfg)
     rad = np.asarray(r.intensity)[0]
-    if table is not None and not np.isfinite(rad).all():
+    if repair and table is not None and not np.isfinite(rad).all():
         rad = _repair_nonfinite(rad, problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config)
     return rad, float(r.flux_down[-1]), float(r.flux_direct_beam[-1])
 
@@ -313,11 +314,11 @@ def _repair_nonfinite(rad, problem, mu0, albedo, view_zenith_deg, rel_azimuth_de
     ph = np.asarray(rel_azimuth_deg, float)
     for i, j in np.argwhere(~np.isfinite(rad)):
         a = ph[j] + NUDGE_DEG if ph[j] + NUDGE_DEG <= 180.0 else ph[j] - NUDGE_DEG
-        v = run_disort(problem, mu0, albedo, th[i:i + 1], np.array([a]), config)[0][0, 0]
+        v = run_disort(problem, mu0, albedo, th[i:i + 1], np.array([a]), config, repair=False)[0][0, 0]
         if not np.isfinite(v):
             nt = SolverConfig(config.n_streams, config.n_moments, config.intensity_correction, config.skip_tau,
                               tabulated_phase=False)
-            v = run_disort(problem, mu0, albedo, th[i:i + 1], ph[j:j + 1], nt)[0][0, 0]
+            v = run_disort(problem, mu0, albedo, th[i:i + 1], ph[j:j + 1], nt, repair=False)[0][0, 0]
         if not np.isfinite(v):
             raise RuntimeError(f"DISORT returned a non-finite radiance at view zenith {th[i]} deg, relative "
                                f"azimuth {ph[j]} deg (mu0 {mu0}, albedo {albedo}) that re-solving did not repair")

@@ -186,29 +186,36 @@ def rayleigh_benchmark(n_streams: int = 16):
 
     Returns list of (tau, ssa, model_down, ref_down, model_up, ref_up) with fluxes for beam flux pi.
     """
-    import disortpp
-
     out = []
     for tau, ssa, ref_dn, ref_up in SWEIGART_RAYLEIGH:
-        cfg = disortpp.DisortConfig(1, n_streams)
-        cfg.flags.use_lambertian_surface = True
-        cfg.flags.use_user_tau = True
-        cfg.flags.comp_only_fluxes = True
-        cfg.num_user_tau = 2
-        cfg.num_phase_func_moments = n_streams
-        cfg.allocate()
-        cfg.delta_tau = [tau]
-        cfg.single_scat_albedo = [ssa]
-        m = np.zeros(n_streams + 1)
-        m[0], m[2] = 1.0, 0.1
-        cfg.phase_function_moments = [m.tolist()]
-        cfg.tau_user = [0.0, tau]
-        cfg.bc.direct_beam_flux = np.pi
-        cfg.bc.direct_beam_mu = 0.080442
-        cfg.bc.surface_albedo = 0.0
-        r = disortpp.DisortSolver().solve(cfg)
-        out.append((tau, ssa, float(r.flux_down[1]), ref_dn, float(r.flux_up[0]), ref_up))
+        down, up = rayleigh_layer_fluxes(tau, ssa, 0.080442, n_streams)
+        out.append((tau, ssa, down, ref_dn, up, ref_up))
     return out
+
+
+def rayleigh_layer_fluxes(tau, ssa, mu0, n_streams=16):
+    """DISORT fluxes of one homogeneous Rayleigh layer (phase moments 1, 0, 0.1) over a black ground, beam flux pi
+    at cosine ``mu0``: (diffuse downward flux at the bottom, upward flux at the top) [same units as the beam]."""
+    import disortpp
+
+    cfg = disortpp.DisortConfig(1, n_streams)
+    cfg.flags.use_lambertian_surface = True
+    cfg.flags.use_user_tau = True
+    cfg.flags.comp_only_fluxes = True
+    cfg.num_user_tau = 2
+    cfg.num_phase_func_moments = n_streams
+    cfg.allocate()
+    cfg.delta_tau = [tau]
+    cfg.single_scat_albedo = [ssa]
+    m = np.zeros(n_streams + 1)
+    m[0], m[2] = 1.0, 0.1
+    cfg.phase_function_moments = [m.tolist()]
+    cfg.tau_user = [0.0, tau]
+    cfg.bc.direct_beam_flux = np.pi
+    cfg.bc.direct_beam_mu = float(mu0)
+    cfg.bc.surface_albedo = 0.0
+    r = disortpp.DisortSolver().solve(cfg)
+    return float(r.flux_down[1]), float(r.flux_up[0])
 
 
 def low_sun_comparison(elevations_deg=(0.5, 1, 2, 3, 5, 7.5, 10, 15), visibility_km: float = 40.0,

@@ -105,10 +105,5 @@ def test_isolated_nan_of_the_tabulated_correction_is_repaired():
     assert np.isfinite(r).all()
     assert r[0, 1] == pytest.approx(0.5 * (r[0, 0] + r[0, 2]), rel=1e-3)
     # the defect is still there without the repair (if disortpp fixes it, this guard can go)
-    orig = solver._repair_nonfinite
-    try:
-        solver._repair_nonfinite = lambda rad, *a: rad
-        r0, _, _ = solver.run_disort(p, mu0, 0.201, th, ph, cfg.solver_config())
-    finally:
-        solver._repair_nonfinite = orig
+    r0, _, _ = solver.run_disort(p, mu0, 0.201, th, ph, cfg.solver_config(), repair=False)
     assert np.isnan(r0[0, 1])
