@@ -74,15 +74,17 @@ def load_site(path, sky, prefer="visibility", stride=1):
 VARIANTS = (
     ("plain (today)", CLEAR_SHAPE),
     ("+ cloud spectrum (Ernst)", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
-                                               partition="ernst", haze="clamp", angular="clear")),
+                                               partition="ernst", haze="clamp", angular="clear",
+                                               circumsolar="none")),
     ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
-                                             partition="ernst", haze="clamp")),
+                                             partition="ernst", haze="clamp", circumsolar="none")),
     ("+ cloud liquid water", AllSkyOptions(cloud_vapour=False, cloud_rayleigh=False, partition="ernst",
-                                           haze="clamp")),
-    ("+ cloud water vapour", AllSkyOptions(cloud_rayleigh=False, partition="ernst", haze="clamp")),
-    ("+ cloud-top Rayleigh", AllSkyOptions(partition="ernst", haze="clamp")),
-    ("+ sky-fraction partition", AllSkyOptions(haze="clamp")),
-    ("+ haze extension (all-sky)", AllSkyOptions()),
+                                           haze="clamp", circumsolar="none")),
+    ("+ cloud water vapour", AllSkyOptions(cloud_rayleigh=False, partition="ernst", haze="clamp", circumsolar="none")),
+    ("+ cloud-top Rayleigh", AllSkyOptions(partition="ernst", haze="clamp", circumsolar="none")),
+    ("+ sky-fraction partition", AllSkyOptions(haze="clamp", circumsolar="none")),
+    ("+ haze extension", AllSkyOptions(circumsolar="none")),
+    ("+ cloud circumsolar (Perez F1) = all-sky", AllSkyOptions()),
 )
 
 
@@ -100,7 +102,10 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
     else:
         clear = clear_plane_spectra(sky, states, tilt, azimuth, progress=progress)
         if cfile is not None:
-            np.savez(cfile, **clear._asdict())
+            cfile.parent.mkdir(parents=True, exist_ok=True)
+            tmp = cfile.with_suffix(".tmp.npz")
+            np.savez(tmp, **clear._asdict())
+            os.replace(tmp, cfile)
     t_sky = time.perf_counter() - t0
     dni, dhi, ghi = (data[c].to_numpy() for c in ("dni", "dhi", "ghi"))
     tdew = data["temp_dew"].to_numpy() if "temp_dew" in data else None
@@ -112,9 +117,10 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
         t1 = time.perf_counter()
         f = allsky_factors(edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, ghi=ghi,
                            visibility=vis, temp_dew=tdew, min_visibility=vmin, options=opt,
-                           albedo=states.albedo)
+                           albedo=states.albedo, earth_sun_distance=states.earth_sun_distance)
         times[label] = time.perf_counter() - t1
-        poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi)
+        poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
+                        circumsolar_dhi=f.circumsolar_dhi)
         E = poa["poa_global"]
         tot = (E * w).sum()
         se = {k: ((E * s * w).sum() / tot) / ref[k] - 1.0 for k, s in sr.items()}

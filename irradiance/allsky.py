@@ -30,8 +30,10 @@ DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
    (haze-corrected) clear shape, scaled to the measured DNI.
 
 5. **Angular distribution**: the clear part ``(1 - N)`` keeps the clear sky's radiance distribution,
-   the cloud part (``overcast_dhi``) is distributed as the CIE standard overcast sky
-   (:mod:`irradiance.overcast_sky`).
+   the cloud part is distributed as the CIE standard overcast sky (``overcast_dhi``;
+   :mod:`irradiance.overcast_sky`) except for the share ``F1`` that the Perez all-weather model puts in the
+   circumsolar region (broken and thin cloud are bright toward the sun), which is traced with the sun
+   (``circumsolar_dhi``; ``circumsolar="none"`` puts it all in the CIE distribution).
 
 The factors multiply the clear-sky model spectra the integrator evaluates:
 ``dni_scale * dni_clear`` and ``diffuse_scale * sky_radiance`` (circumsolar light takes the diffuse
@@ -52,6 +54,7 @@ from .cloud_optics import (CLOUD_TOP_PRESSURE_RATIO, DEFAULT_ASYMMETRY, DEFAULT_
                            cloud_optical_depth, cloud_relative_transmittance, cloud_top_rayleigh_gain,
                            cloud_vapour_path, droplet_coalbedo, liquid_water_k, vapour_band_deepening)
 from .haze import haze_correction
+from .overcast_sky import SOLAR_CONSTANT, perez_circumsolar_fraction
 from .measured import MeasuredScaling, measured_scale_factors
 
 __all__ = ["AllSkyOptions", "AllSkyFactors", "allsky_factors", "cloud_index", "CLEAR_SHAPE"]
@@ -89,6 +92,12 @@ class AllSkyOptions:
         Angular distribution of the cloud-scattered light: the CIE overcast sky (returned apart as
         ``overcast_dhi``, for the caller to distribute) or each channel's clear-sky distribution
         (folded into ``diffuse_scale``: what (T, C) factors on the clear sky alone can express).
+    circumsolar : {"perez", "none"}
+        With ``angular="cie_overcast"``: the share of the cloud light that the Perez et al. (1990) all-weather
+        model puts in the circumsolar region (its ``F1``, from the measured DNI and DHI) is traced with the
+        sun as ``circumsolar_dhi``, the rest is CIE overcast; ``"none"``: all of it CIE overcast. Below 5 deg
+        of sun elevation the share tapers with ``sin(elevation) / sin(5 deg)`` (the light stays in the sky); ``F1`` is
+        capped at 1 (at low sun and large sky brightness the published fit exceeds 1).
     droplet_radius : float
         Effective droplet radius [um].
     asymmetry : float
@@ -110,6 +119,7 @@ class AllSkyOptions:
     partition: str = "sky_fraction"
     haze: str = "extrapolate"
     angular: str = "cie_overcast"
+    circumsolar: str = "perez"
     droplet_radius: float = DEFAULT_DROPLET_RADIUS
     asymmetry: float = DEFAULT_ASYMMETRY
     fog_visibility: float = 1.0
@@ -121,6 +131,8 @@ class AllSkyOptions:
             raise ValueError(f"haze={self.haze!r} is not one of ('extrapolate', 'clamp')")
         if self.angular not in ("cie_overcast", "clear"):
             raise ValueError(f"angular={self.angular!r} is not one of ('cie_overcast', 'clear')")
+        if self.circumsolar not in ("perez", "none"):
+            raise ValueError(f"circumsolar={self.circumsolar!r} is not one of ('perez', 'none')")
         if self.partition not in ("sky_fraction", "ernst"):
             raise ValueError(f"partition={self.partition!r} is not one of ('sky_fraction', 'ernst')")
         if not 0.0 < self.cloud_top_pressure <= 1.0:
@@ -139,6 +151,9 @@ class AllSkyFactors(NamedTuple):
     - ``overcast_dhi``: (T, C) diffuse horizontal spectrum [W m-2 nm-1] of the cloud-scattered light, to be
       distributed as the CIE overcast sky (:mod:`irradiance.overcast_sky`); zero with ``angular="clear"``,
       where it is folded into ``diffuse_scale`` instead (each channel's clear-sky angular distribution);
+    - ``circumsolar_dhi``: (T, C) diffuse horizontal spectrum [W m-2 nm-1] of cloud light in the circumsolar
+      region, to be traced with the sun (normal irradiance ``circumsolar_dhi / sin(elevation)``); zero with
+      ``circumsolar="none"`` or ``angular="clear"``;
     - ``cloud_index``: (T,) Ernst cloud index N [1] in [0, 1] (0 where nothing is measured);
     - ``cloud_tau``: (T,) cloud optical depth [1] used for the absorption (0 where none);
     - ``cloud_vapour``: (T,) extra water-vapour path in the cloud [cm];
@@ -149,6 +164,7 @@ class AllSkyFactors(NamedTuple):
     dni_scale: np.ndarray
     diffuse_scale: np.ndarray
     overcast_dhi: np.ndarray
+    circumsolar_dhi: np.ndarray
     cloud_index: np.ndarray
     cloud_tau: np.ndarray
     cloud_vapour: np.ndarray
@@ -195,7 +211,7 @@ def _ratio(num, den):
 
 def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi, ghi=None,
                    visibility=None, temp_dew=None, min_visibility=20.0, options=AllSkyOptions(),
-                   albedo=0.2, **guards) -> AllSkyFactors:
+                   albedo=0.2, earth_sun_distance=1.0, **guards) -> AllSkyFactors:
     """Per-step, per-channel factors that give the all-sky spectra and keep measured DNI and DHI.
 
     Parameters
@@ -224,6 +240,9 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     albedo : array_like
         (T,) or scalar ground albedo [1] under the cloud (the sky states' albedo), for the cloud-top
         multiple reflection.
+    earth_sun_distance : array_like
+        (T,) or scalar Earth-Sun distance [AU], for the extraterrestrial irradiance of the Perez sky
+        brightness (``circumsolar="perez"``).
     **guards
         Passed to :func:`irradiance.measured_scale_factors` (``min_model_dni``, ``min_model_dhi``,
         ``max_scale``, ``missing``; default ``missing="clear"`` as the integrator: NaN input keeps
@@ -300,13 +319,21 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     if options.angular == "cie_overcast":
         diffuse_scale = scaling.sky_scale[:, None] * _ratio(clear_part * model_dhi[:, None], dh)
         overcast_dhi = total[:, None] * cloud_part
+        circumsolar_dhi = np.zeros((T, C))
+        if options.circumsolar == "perez" and options.cloud_spectrum:
+            r = np.broadcast_to(np.asarray(earth_sun_distance, dtype=float), (T,))
+            f1 = perez_circumsolar_fraction(dhi, dni, el, SOLAR_CONSTANT / r ** 2)
+            f1 = np.minimum(f1, 1.0) * np.minimum(1.0, sin_el / np.sin(np.radians(5.0)))
+            circumsolar_dhi = f1[:, None] * overcast_dhi
+            overcast_dhi = overcast_dhi - circumsolar_dhi
     else:
         diffuse_scale = scaling.sky_scale[:, None] * _ratio((clear_part + cloud_part) * model_dhi[:, None], dh)
         overcast_dhi = np.zeros((T, C))
+        circumsolar_dhi = np.zeros((T, C))
     beam = _unit(np.where(bn > 0, bh, 0.0), w)
     dni_scale = scaling.sun_scale[:, None] * _ratio(beam * model_dni[:, None], bn)
     # rows with nothing to shape (night, zero model) keep the broadband factor on every channel
     for f, s, m in ((dni_scale, scaling.sun_scale, model_dni), (diffuse_scale, scaling.sky_scale, model_dhi)):
         empty = ~(m > 0)
         f[empty] = np.asarray(s)[empty, None]
-    return AllSkyFactors(dni_scale, diffuse_scale, overcast_dhi, n, tau, du, haze, scaling)
+    return AllSkyFactors(dni_scale, diffuse_scale, overcast_dhi, circumsolar_dhi, n, tau, du, haze, scaling)

@@ -99,7 +99,8 @@ def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=Non
     return ClearPlaneSpectra(dni, dhi, circ, psky, cos_aoi, sin_el, ratio, view_ground)
 
 
-def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overcast_dhi=None):
+def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overcast_dhi=None,
+              circumsolar_dhi=None):
     """Spectral plane-of-array components under per-step (and per-channel) factors.
 
     Parameters
@@ -112,6 +113,10 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
     overcast_dhi : array_like, optional
         (T, C) diffuse horizontal spectrum [W m-2 nm-1] of light distributed as the CIE overcast sky,
         added to the scaled clear sky (``AllSkyFactors.overcast_dhi``).
+    circumsolar_dhi : array_like, optional
+        (T, C) diffuse horizontal spectrum [W m-2 nm-1] of cloud light traced with the sun
+        (``AllSkyFactors.circumsolar_dhi``): on the plane ``circumsolar_dhi cos(aoi) / sin(elevation)``,
+        in ``poa_direct`` as the clear circumsolar light.
 
     Returns
     -------
@@ -134,6 +139,14 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
             raise ValueError(f"overcast_dhi must have shape ({T}, {C}) and be >= 0")
         sky = sky + ov * clear.overcast_ratio
         dhi = dhi + ov
+    circ = 0.0
+    if circumsolar_dhi is not None:
+        cs = np.asarray(circumsolar_dhi, dtype=float)
+        if cs.shape != (T, C) or np.any(cs < 0):
+            raise ValueError(f"circumsolar_dhi must have shape ({T}, {C}) and be >= 0")
+        se = clear.sin_elevation
+        circ = np.where(se[:, None] > 0, cs / np.where(se > 0, se, 1.0)[:, None], 0.0)
+        dhi = dhi + cs
     ghi = dni * clear.sin_elevation[:, None] + dhi
     alb = np.asarray(albedo, dtype=float)
     if alb.ndim == 1:
@@ -141,6 +154,6 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
             raise ValueError(f"albedo must be a scalar or have shape ({T},), got {alb.shape}")
         alb = alb[:, None]
     ground = alb * ghi * clear.view_ground
-    direct = (dni + fd * clear.circumsolar) * clear.cos_aoi[:, None]
+    direct = (dni + fd * clear.circumsolar + circ) * clear.cos_aoi[:, None]
     return {"poa_direct": direct, "poa_sky_diffuse": sky, "poa_ground_diffuse": ground,
             "poa_global": direct + sky + ground, "ghi": ghi, "dhi": dhi, "dni": dni}

@@ -116,9 +116,12 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     f = allsky_factors(sky.channel_edges, dn, dhi_clear, states.sun_elevation, weather.dni,
                        weather.dhi, ghi=weather.ghi, visibility=weather.visibility,
                        temp_dew=weather.temp_dew, min_visibility=min_visibility, options=options,
-                       albedo=states.albedo)
+                       albedo=states.albedo, earth_sun_distance=states.earth_sun_distance)
     L = np.einsum("tpc,tc,cr->tpr", Lp, f.diffuse_scale, W, optimize=True)
     dni = (dn * f.dni_scale + cs * f.diffuse_scale) @ W
+    if np.any(f.circumsolar_dhi > 0):                              # cloud light traced with the sun
+        up = sin_el > 0
+        dni[up] += (f.circumsolar_dhi[up] / sin_el[up, None]) @ W
     if np.any(f.overcast_dhi > 0):
         shape = cie_overcast_relative(patches.directions[:, 2])
         shape = shape / (shape * w_h).sum()                      # unit horizontal irradiance [sr-1]

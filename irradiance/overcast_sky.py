@@ -6,13 +6,30 @@ the horizon, with no dependence on the sun's azimuth; not a clear sky's aureole 
 brightening. The all-sky model (:mod:`irradiance.allsky`) distributes its cloud-scattered light this
 way: the integrator adds it as patch radiance ``DHI_cloud f(theta) / sum(f h)`` (``h`` the patches'
 horizontal projected solid angles), the unobstructed-plane path through :func:`overcast_poa_ratio`.
+
+Broken and thin cloud are brighter toward the sun than the CIE overcast sky (forward scattering by droplets,
+sunlit cloud edges): :func:`perez_circumsolar_fraction` gives the share of the diffuse light that the Perez
+all-weather model (Perez et al. 1990) puts in the circumsolar region, from the measured DNI and DHI; the all-sky
+model traces that share of its cloud light with the sun (``AllSkyOptions.circumsolar``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cie_overcast_relative", "overcast_poa_ratio"]
+__all__ = ["cie_overcast_relative", "overcast_poa_ratio", "perez_circumsolar_fraction", "PEREZ_EPSILON_EDGES",
+           "PEREZ_F1", "SOLAR_CONSTANT"]
+
+SOLAR_CONSTANT = 1361.0
+"""Total solar irradiance at 1 AU [W m-2] (Kopp & Lean 2011, Geophys. Res. Lett. 38, L01706)."""
+
+PEREZ_EPSILON_EDGES = (1.065, 1.23, 1.5, 1.95, 2.8, 4.5, 6.2)
+"""Upper edges of the first seven sky-clearness bins of Perez et al. (1990) [1] (the eighth is open)."""
+
+PEREZ_F1 = ((-0.008, 0.588, -0.062), (0.130, 0.683, -0.151), (0.330, 0.487, -0.221), (0.568, 0.187, -0.295),
+            (0.873, -0.392, -0.362), (1.132, -1.237, -0.412), (1.060, -1.600, -0.359), (0.678, -0.327, -0.250))
+"""Circumsolar brightness coefficients (F11, F12, F13) per sky-clearness bin: Perez, Ineichen, Seals, Michalsky &
+Stewart (1990), Solar Energy 44(5), 271-289, Table 6 (all sites composite); F13 multiplies the zenith in radians."""
 
 
 def cie_overcast_relative(cos_zenith):
@@ -44,3 +61,42 @@ def overcast_poa_ratio(poa_weights, horizontal_weights, cos_zenith):
     f = cie_overcast_relative(cos_zenith)
     h = (f * np.asarray(horizontal_weights, dtype=float)).sum()
     return np.asarray(poa_weights, dtype=float) @ f / h
+
+
+def perez_circumsolar_fraction(dhi, dni, sun_elevation, dni_extra=SOLAR_CONSTANT):
+    """Circumsolar share of the diffuse light in the Perez all-weather model, ``F1`` (Perez et al. 1990).
+
+    ``F1 = max(0, F11(e) + F12(e) D + F13(e) z)`` with the sky clearness
+    ``e = ((DHI + DNI) / DHI + k z^3) / (1 + k z^3)`` (``k = 1.041``, ``z`` the sun's zenith [rad]) choosing the
+    bin, and the sky brightness ``D = DHI m / E0`` (``m`` the Kasten-Young relative air mass, ``E0`` the
+    extraterrestrial normal irradiance). Perez's model puts ``F1 DHI`` on a plane as a point source at the sun.
+
+    Parameters
+    ----------
+    dhi, dni : array_like
+        (T,) measured diffuse horizontal and direct normal irradiance [W m-2] (NaN or <= 0 DHI gives 0).
+    sun_elevation : array_like
+        (T,) apparent sun elevation [deg] (0 at or below the horizon).
+    dni_extra : array_like
+        Extraterrestrial normal irradiance [W m-2], scalar or (T,) (``SOLAR_CONSTANT / r**2``).
+
+    Returns
+    -------
+    numpy.ndarray
+        (T,) F1 [1], >= 0.
+    """
+    from .haze import relative_airmass
+
+    d = np.nan_to_num(np.asarray(dhi, dtype=float))
+    b = np.maximum(np.nan_to_num(np.asarray(dni, dtype=float)), 0.0)
+    el = np.asarray(sun_elevation, dtype=float)
+    z = np.radians(90.0 - np.clip(el, 0.0, 90.0))
+    ok = (d > 0) & (el > 0)
+    dd = np.where(ok, d, 1.0)
+    k = 1.041 * z ** 3
+    eps = ((dd + b) / dd + k) / (1.0 + k)
+    am = np.nan_to_num(relative_airmass(np.where(ok, el, 45.0)))
+    delta = dd * am / np.asarray(dni_extra, dtype=float)
+    c = np.asarray(PEREZ_F1)[np.searchsorted(PEREZ_EPSILON_EDGES, eps, side="right")]
+    f1 = np.maximum(c[..., 0] + c[..., 1] * delta + c[..., 2] * z, 0.0)
+    return np.where(ok, f1, 0.0)

@@ -54,11 +54,12 @@ def test_broadband_is_conserved():
                 AllSkyOptions(cloud_absorption=False, cloud_vapour=False)):
         f = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=opt)
         np.testing.assert_allclose((f.dni_scale * bn) @ W, ref.sun_scale * (bn @ W), rtol=1e-12)
-        np.testing.assert_allclose((f.diffuse_scale * dh) @ W + f.overcast_dhi @ W,
+        np.testing.assert_allclose((f.diffuse_scale * dh) @ W + (f.overcast_dhi + f.circumsolar_dhi) @ W,
                                    ref.sky_scale * (dh @ W), rtol=1e-12)
         assert not np.any(ref.sun_guarded | ref.sky_guarded)
         np.testing.assert_allclose((f.dni_scale * bn) @ W, dni, rtol=1e-12)
-        np.testing.assert_allclose((f.diffuse_scale * dh) @ W + f.overcast_dhi @ W, dhi, rtol=1e-12)
+        np.testing.assert_allclose((f.diffuse_scale * dh) @ W + (f.overcast_dhi + f.circumsolar_dhi) @ W, dhi,
+                                   rtol=1e-12)
 
 
 def test_clear_shape_is_the_plain_measured_path():
@@ -68,7 +69,7 @@ def test_clear_shape_is_the_plain_measured_path():
     ref = measured_scale_factors(bn @ W, dh @ W, dni, dhi, missing="clear")
     np.testing.assert_allclose(f.dni_scale, np.broadcast_to(ref.sun_scale[:, None], bn.shape), rtol=1e-12)
     np.testing.assert_allclose(f.diffuse_scale, np.broadcast_to(ref.sky_scale[:, None], dh.shape), rtol=1e-12)
-    assert np.all(f.overcast_dhi == 0) and np.all(f.cloud_index == 0)
+    assert np.all(f.overcast_dhi == 0) and np.all(f.circumsolar_dhi == 0) and np.all(f.cloud_index == 0)
 
 
 def test_ernst_limits():
@@ -115,7 +116,7 @@ def test_cloud_water_deepens_the_nir():
     i1450, i940, i550 = (np.argmin(np.abs(LAM - x)) for x in (1460, 940, 540))
     assert r[0, i1450] < 0.7 * r[0, i550] and r[0, i940] < r[0, i550]        # water bands deeper
     assert r[0, i1450] < r[1, i1450]                                          # thicker cloud, deeper
-    np.testing.assert_allclose(wet.overcast_dhi @ W, dhi, rtol=1e-12)        # DHI still measured
+    np.testing.assert_allclose((wet.overcast_dhi + wet.circumsolar_dhi) @ W, dhi, rtol=1e-12)  # DHI measured
 
 
 def test_options_and_shapes_are_checked():
@@ -181,7 +182,9 @@ def test_integrator_allsky_matches_the_plane_path(angular):
     dni, dhi = (clear.dni @ w) * np.array([0.0, 0.5, 0.9]), (clear.dhi @ w) * np.array([3.0, 1.6, 1.0])
     opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular=angular)
     f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt)
-    ref = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi)
+    ref = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
+                    circumsolar_dhi=f.circumsolar_dhi)
+    assert (angular == "clear") == np.all(f.circumsolar_dhi == 0)
     scene = make_scene([_panel(40.0), _panel(0.0, z=150.0)], ground_z=0.0, analysis_reflectance=0.0)
     res = poa_irradiance(scene, sky, states, measured=AllSkyWeather(dni, dhi), settings=settings,
                          n_jobs=1, spectral_model="allsky", allsky_options=opt, spectral=True)
@@ -246,6 +249,46 @@ def test_sky_fraction_partition():
     np.testing.assert_allclose(clear_sky[:2], clear_ern[:2], rtol=1e-12, atol=1e-12)
     assert 0 < n[2] < 1 and clear_sky[2] < clear_ern[2]
     assert n[3] == 0 and clear_sky[3] == pytest.approx(d0[3]) and clear_ern[3] == pytest.approx(dhi[3])
-    np.testing.assert_allclose(clear_sky + sky.overcast_dhi @ W, dhi, rtol=1e-12)      # DHI conserved
+    np.testing.assert_allclose(clear_sky + (sky.overcast_dhi + sky.circumsolar_dhi) @ W, dhi, rtol=1e-12)
     with pytest.raises(ValueError, match="partition"):
         AllSkyOptions(partition="half")
+
+
+def test_perez_circumsolar_fraction_matches_pvlib():
+    """F1 of Perez et al. (1990) against pvlib's implementation of the same published model (its circumsolar
+    component on a horizontal plane is DHI F1 a / b): the same numbers to rounding."""
+    pvlib = pytest.importorskip("pvlib")
+    from irradiance.overcast_sky import perez_circumsolar_fraction
+    rng = np.random.default_rng(7)
+    el, dhi, dni = rng.uniform(2, 89, 300), rng.uniform(10, 450, 300), rng.uniform(0, 950, 300)
+    am = pvlib.atmosphere.get_relative_airmass(90 - el, "kastenyoung1989")
+    f1 = perez_circumsolar_fraction(dhi, dni, el, 1361.0)
+    out = pvlib.irradiance.perez(0.0, 180.0, dhi, dni, 1361.0, 90 - el, 180.0, am, return_components=True)
+    z = np.radians(90 - el)
+    f1_pvlib = np.asarray(out["poa_circumsolar"]) * np.maximum(np.cos(np.radians(85)), np.cos(z)) / (dhi * np.cos(z))
+    np.testing.assert_allclose(f1, f1_pvlib, rtol=1e-9, atol=1e-12)
+    assert 0.1 < f1.mean() < 0.9 and np.all(f1 >= 0)
+    np.testing.assert_array_equal(perez_circumsolar_fraction([0.0, np.nan, 100.0], [500.0, 0.0, 300.0],
+                                                             [30.0, 30.0, -1.0]), 0.0)
+
+
+def test_cloud_circumsolar_share():
+    """With ``circumsolar="perez"`` the share F1 of the cloud light (tapered below 5 deg of sun) moves from the CIE
+    overcast part to the sun; the DHI and the spectral shape of the cloud light stay; "none" keeps it all CIE."""
+    from irradiance.overcast_sky import perez_circumsolar_fraction
+    el, bn, dh = clear_spectra(3)
+    el = np.array([3.0, 35.0, 60.0])
+    dni = np.array([0.2, 0.4, 0.0]) * (bn @ W)
+    dhi = np.array([2.0, 2.5, 1.2]) * (dh @ W)
+    base = dict(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False)
+    on = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(**base), earth_sun_distance=0.99)
+    off = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(circumsolar="none", **base))
+    np.testing.assert_allclose(off.circumsolar_dhi, 0.0)
+    np.testing.assert_allclose(on.overcast_dhi + on.circumsolar_dhi, off.overcast_dhi, rtol=1e-12)
+    f1 = perez_circumsolar_fraction(dhi, dni, el, 1361.0 / 0.99 ** 2)
+    f1 = np.minimum(f1, 1.0) * np.minimum(1.0, np.sin(np.radians(el)) / np.sin(np.radians(5.0)))   # at most all
+    np.testing.assert_allclose(on.circumsolar_dhi @ W, f1 * (off.overcast_dhi @ W), rtol=1e-12)
+    assert np.all(on.circumsolar_dhi[1:] @ W > 0)
+    np.testing.assert_allclose(on.diffuse_scale, off.diffuse_scale, rtol=1e-12)
+    with pytest.raises(ValueError, match="circumsolar"):
+        AllSkyOptions(circumsolar="ring")
