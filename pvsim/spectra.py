@@ -162,7 +162,8 @@ def find_data_file(relative, data_dir=None):
     """Path of ``relative`` inside the input data directory.
 
     The directory is ``data_dir``, else the environment variable ``WIDESKY_DATA_DIR``, else
-    ``../shared/data`` beside the checkout. Raises FileNotFoundError naming what was tried.
+    ``../shared/data`` beside the checkout (only when neither is given). Raises FileNotFoundError naming what
+    was tried.
     """
     tried = []
     here = Path(__file__).resolve().parents[1].parent / "shared" / "data"
@@ -173,7 +174,7 @@ def find_data_file(relative, data_dir=None):
         if p.is_file():
             return p
         tried.append(str(p))
-        if cand is data_dir:
+        if cand is not here:          # a directory the user named is not replaced by another one
             break
     raise FileNotFoundError(f"{relative!r} not found (tried {', '.join(tried) or 'no directory'}); "
                             "pass the file's path, data_dir=..., or set WIDESKY_DATA_DIR")

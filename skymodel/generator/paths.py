@@ -7,6 +7,8 @@ solar spectra, validation spectra) are read from a directory the user names:
 2. the environment variable ``WIDESKY_DATA_DIR``, else
 3. ``../shared/data`` beside the repository checkout, when it exists.
 
+A directory named by 1 or 2 that does not exist is an error (DataNotFoundError), never silently replaced by 3.
+
 Nothing from that directory is copied into the package. Expensive products computed from it
 (Mie tables, band-model fits) are cached under ``WIDESKY_CACHE_DIR`` (default ``~/.cache/widesky``).
 """
@@ -25,14 +27,15 @@ class DataNotFoundError(FileNotFoundError):
 
 def data_dir(path=None) -> Path:
     """Resolve the input data directory (see module docstring); raise DataNotFoundError if absent."""
-    for cand in (path, os.environ.get("WIDESKY_DATA_DIR"), _REPO_SIBLING):
+    env = os.environ.get("WIDESKY_DATA_DIR")
+    for cand, name in ((path, "data_dir"), (env, "WIDESKY_DATA_DIR"), (_REPO_SIBLING, None)):
         if cand is None or cand == "":
             continue
         p = Path(cand).expanduser()
         if p.is_dir():
             return p
-        if cand is path:
-            raise DataNotFoundError(f"data_dir={str(p)!r} is not a directory")
+        if name is not None:          # a directory the user named is not replaced by another one
+            raise DataNotFoundError(f"{name}={str(p)!r} is not a directory")
     raise DataNotFoundError(
         "no input data directory: pass data_dir=..., set WIDESKY_DATA_DIR, or place the data set "
         f"at {_REPO_SIBLING} (see docs/atmosphere-and-solver.md, 'Inputs')")
