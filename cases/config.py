@@ -83,6 +83,11 @@ SCHEMA = {
         "weather": Field("weather", "", help="EPW or TMY3 weather file (a path relative to the case folder, or "
                          "'data:weather/<file>' in the data directory WIDESKY_DATA_DIR or ../shared/data): its site, "
                          "measured DNI/DHI scaling the sky, air temperature and wind; default none: the clear sky"),
+        "spectral_model": Field("str", "auto", choices=("auto", "allsky", "clear"),
+                                help="under a weather file: 'allsky' spectra (cloud light, docs/all-sky.md; needs the "
+                                     "data directory for the cloud-water optics), 'clear' (clear-sky spectra scaled "
+                                     "to the measured DNI/DHI), or 'auto': allsky where the data directory is "
+                                     "available, else clear"),
     },
     "scene": {
         "geometry": Field("path", REQUIRED, help="Python file with build(parameters) -> dict of meshes, or a mesh file"),

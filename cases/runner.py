@@ -134,7 +134,7 @@ def _sha1(path, limit=1 << 26):
 
 def _weather_states(cfg, sky):
     """(site, states, measured, rows, description): the clear-sky period of [site], or the weather file's
-    steps inside [period] (its site; measured DNI/DHI scale the clear-sky spectra)."""
+    steps inside [period] (its site; measured DNI/DHI scale the all-sky or the clear-sky spectra, sky.spectral_model)."""
     import irradiance as ir
 
     p, sk = cfg["period"], cfg["sky"]
@@ -165,9 +165,15 @@ def _weather_states(cfg, sky):
     except ValueError as exc:            # WeatherFileError is a ValueError; so is an empty period
         raise ConfigError(f"sky.weather = {str(path)!r}: {exc}") from None
     rows = wd.data.loc[states.times]
-    measured, how = weather_measurements(rows, "clear")
+    model = sk["spectral_model"]
+    if model == "auto":                # the all-sky model reads cloud-water optics from the data directory
+        from skymodel.generator.paths import has_data
+        model = "allsky" if has_data() else "clear"
+    measured, how = weather_measurements(rows, model)
+    if model == "clear":
+        how = "clear-sky spectra " + how
     name = wd.site.name or Path(path).name
-    return wd.site, states, measured, rows, f"weather file {Path(path).name} ({name}), clear-sky spectra {how}"
+    return wd.site, states, measured, rows, f"weather file {Path(path).name} ({name}), {how}"
 
 
 def _series(rows, column, fallback, T):
@@ -241,8 +247,10 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         rated = {n: unit_summary(u, am15["channel_edges"], am15["scaled"]) for n, u in units.items()}
         responses = responses + glazing_responses(units)
     t1 = time.perf_counter()
+    from irradiance.allsky_sky import AllSkyWeather
+    spectral_model = "allsky" if isinstance(measured, AllSkyWeather) else "clear"
     res = ir.poa_irradiance(scene, sky, states, responses=responses, settings=settings, times=times,
-                            measured=measured, n_jobs=n_jobs, progress=progress)
+                            measured=measured, spectral_model=spectral_model, n_jobs=n_jobs, progress=progress)
     timings["integrator"] = time.perf_counter() - t1
     T = len(times)
     step_h = (times[1] - times[0]).total_seconds() / 3600.0 if len(times) > 1 else 1.0
@@ -268,9 +276,15 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
                                        temp_sky)
         timings["thermal"] = time.perf_counter() - t4
     t2 = time.perf_counter()
-    hour_measured = None if measured is None else tuple(np.asarray(m)[hi:hi + 1] for m in measured)
+    if measured is None:
+        hour_measured = None
+    elif isinstance(measured, AllSkyWeather):
+        hour_measured = measured.take(slice(hi, hi + 1))
+    else:
+        hour_measured = tuple(np.asarray(m)[hi:hi + 1] for m in measured)
     hour = ir.poa_irradiance(scene, sky, states.take(slice(hi, hi + 1)), settings=settings, times=times[hi:hi + 1],
-                             measured=hour_measured, spectral=True, n_jobs=n_jobs, progress=False)
+                             measured=hour_measured, spectral_model=spectral_model, spectral=True, n_jobs=n_jobs,
+                             progress=False)
     timings["spectral_hour"] = time.perf_counter() - t2
     rename = None
     if building is not None:

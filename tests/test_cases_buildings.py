@@ -211,6 +211,35 @@ def test_weather_file_scales_the_gains(tmp_path, facade_run):
     assert a.window_gain["clear"].sum() == pytest.approx(facade_run.thermal.window_gain["clear"].sum(), rel=2e-3)
 
 
+@pytest.mark.reference
+@pytest.mark.slow
+def test_weather_cases_use_the_allsky_spectra_by_default(tmp_path, facade_run):
+    """Under a weather file a case uses the all-sky spectra (docs/all-sky.md) where the data directory is there,
+    as `widesky pv compare` does; `spectral_model = "clear"` keeps the clear-sky spectra. A cloudy file (the model's
+    DNI x 0.2, DHI x 2.5) moves the clear window's spectral gain but not the measured horizontal totals."""
+    import irradiance as ir
+    runs = {}
+    for model in ("auto", "clear"):
+        folder = tmp_path / model
+        folder.mkdir()
+        dni, dhi = ir.model_irradiance(facade_run.dataset, facade_run.result.states, facade_run.settings)
+        el = np.asarray(facade_run.result.states.sun_elevation)
+        data = pd.DataFrame({"dni": 0.2 * dni, "dhi": 2.5 * dhi,
+                             "ghi": 0.2 * dni * np.maximum(np.sin(np.radians(el)), 0) + 2.5 * dhi,
+                             "temp_air": 20.0, "wind_speed": 1.0}, index=facade_run.result.times)
+        ir.write_epw(folder / "w.epw", data, ir.Site(50.08, 14.42, 200.0, tz=1.0, name="test site"), label="left")
+        _case(folder, "facade", FACADE.format(tz="1", weather=f'weather = "w.epw"\nspectral_model = "{model}"'))
+        runs[model] = compute(folder, n_jobs=1, progress=False)
+    assert "all-sky spectra" in runs["auto"].weather and "clear-sky spectra" in runs["clear"].weather
+    a, c = (runs[m].thermal.window_gain["clear"].sum() for m in ("auto", "clear"))
+    assert a != pytest.approx(c, rel=1e-3)              # the spectral and angular shape moved
+    assert 0.7 < a / c < 1.3
+    (tmp_path / "clear" / "case.toml").write_text(FACADE.format(tz="1", weather='weather = "w.epw"\n'
+                                                                                 'spectral_model = "cloudy"'))
+    with pytest.raises(ConfigError, match="spectral_model"):
+        cases.load_config(tmp_path / "clear")
+
+
 def _no_data(monkeypatch, tmp_path):
     """Hide the data directory (no WIDESKY_DATA_DIR, no ../shared/data), as on a user's machine."""
     import skymodel.generator.paths as paths
