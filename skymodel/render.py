@@ -274,6 +274,21 @@ def _encode8(pixels, scale, m):
     return out
 
 
+# anchors of the diverging "cool to warm" map (Moreland 2009, "Diverging color maps for scientific visualization",
+# ISVC; 8-bit sRGB at -1, 0, +1): blue, neutral grey, red
+_DIVERGING = np.array([[59, 76, 192], [221, 221, 221], [180, 4, 38]], dtype=float)
+
+
+def polarisation_colours(p):
+    """(...,) signed degree of polarisation [1] -> (..., 3) uint8 sRGB on a diverging map: -1 blue, 0 light grey,
+    +1 red (linear between the anchors; |p| > 1 and NaN clipped to the ends / 0)."""
+    x = np.clip(np.nan_to_num(np.asarray(p, dtype=float)), -1.0, 1.0)
+    lo = x < 0
+    t = np.abs(x)[..., None]
+    end = np.where(lo[..., None], _DIVERGING[0], _DIVERGING[2])
+    return np.round(_DIVERGING[1] + t * (end - _DIVERGING[1])).astype(np.uint8)
+
+
 def _display(r: Render, composite, exposure):
     """8-bit display image (H, W, 3)."""
     if composite:
@@ -284,10 +299,10 @@ def _display(r: Render, composite, exposure):
     else:
         v = r.values[..., 0]
         if r.quantity == "polarisation":
-            g = np.round(np.clip(0.5 + 0.5 * v * 2.0 ** exposure, 0, 1) * 255.0).astype(np.uint8)
+            out = polarisation_colours(v * 2.0 ** exposure)
         else:
             g = _encode8(r.values, _exposure_scale(v, r.mask, exposure), 1)[..., 0]
-        out = np.repeat(g[..., None], 3, axis=-1)
+            out = np.repeat(g[..., None], 3, axis=-1)
     out[~r.mask] = 0
     return out
 
@@ -295,7 +310,8 @@ def _display(r: Render, composite, exposure):
 def write_png(path, r: Render, *, composite=None, exposure=0.0):
     """Write an 8-bit PNG: an sRGB composite of the visible channels (``composite`` True, the default when
     the render has more than one channel), else the single channel in grey. ``exposure`` [EV] scales
-    relative to the 99th percentile of the disc (polarisation: grey 0.5 is 0, mapped linearly)."""
+    relative to the 99th percentile of the disc (polarisation: the signed degree times ``2**exposure`` on a diverging
+    map, :func:`polarisation_colours`: grey 0, red +1, blue -1)."""
     from .pngfile import write_rgb_png
 
     if composite is None:

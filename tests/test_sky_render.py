@@ -159,6 +159,14 @@ def test_render_quantities(tmp_path):
         tmp_path / "pol.dat", n_channels=8, rank=2, n_sun=8, n_zen=8, n_emph=6, polarisation=True, seed=1))
     p = render_sky(pmodel, quantity="polarisation", channels=[5], **kw)
     assert np.isfinite(p.values).all()
+    png = write_png(tmp_path / "pol.png", p)
+    assert png.stat().st_size > 0
+    from skymodel.render import polarisation_colours
+    c = polarisation_colours(np.array([-1.0, -0.5, 0.0, 0.5, 1.0, 3.0, np.nan])).astype(int)
+    assert c[2].tolist() == [221, 221, 221] and c[6].tolist() == c[2].tolist()      # 0 (and NaN): neutral grey
+    assert c[4, 0] > c[4, 2] and c[0, 2] > c[0, 0]                                   # +1 red, -1 blue
+    assert c[5].tolist() == c[4].tolist()                                            # clipped at 1
+    assert 0 < abs(c[3] - c[2]).sum() < abs(c[4] - c[2]).sum()                        # monotone in |p|
     s = render_sky(model, quantity="sun", **{**kw, "resolution": 1200})  # pixels of about 0.16 deg here
     hit = s.values[..., 10] > 0
     assert 1 <= hit.sum() < 50  # a 0.53 deg disc covers a handful of pixels at this resolution
