@@ -3,7 +3,7 @@ reference for sky patch counts and rays per patch, run time on the benchmark sce
 
 Error: the two validation scenes of :func:`irradiance.reference.validation_scenes` (an unobstructed
 tilted plane, an obstructed facade), hourly clear-sky year at Prague (as ``bench_poa.py``), the
-embedded default PSM dataset (synthetic for now: the magnitudes are not physical), broadband.
+embedded default PSM dataset, broadband.
 Reference: :func:`irradiance.reference.reference_poa` with its default (converged) settings and exact
 sky states (``elevation_quantum=0``); the integrator runs as users run it (``PragueSky()``, elevation
 quantum 0.2 deg). Error of a point: annual poa_global / reference - 1; reported: the largest
