@@ -66,7 +66,8 @@ class BuildConfig:
     are solved at that elevation; values above ``max_fit_elevation_deg`` hold the fit of the highest elevation
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), rank,
     smoothing [1], sun_penalty_order, iterations, refine, relative_power, relative_floor, sobolev (see
-    :func:`skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments); atmosphere (AtmosphereSpec fields);
+    :func:`skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments);
+    atmosphere (AtmosphereSpec fields);
     trans_dims (dDim, aDim), trans_rank; direction grid steps [deg]; validation (counts, seed); seed.
 
     Monte Carlo (:mod:`skymodel.generator.dataset_mc`; all off by default, and a configuration without these keys
@@ -561,7 +562,8 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
     nmae = np.zeros(C)
     if fit_kw.get("sobolev", 0) > 0 and "pairs" not in fit_kw:
         if np.ndim(radiance) != 3:
-            raise ValueError(f"sobolev needs the radiance on its (zenith, azimuth) grid, got shape {np.shape(radiance)}")
+            raise ValueError(f"sobolev needs the radiance on its (zenith, azimuth) grid, got shape "
+                             f"{np.shape(radiance)}")
         fit_kw = dict(fit_kw, pairs=neighbour_pairs(*radiance.shape[:2]))
     for c in range(C):
         if not np.any(y[:, c] > 0):

@@ -13,8 +13,10 @@ with every factor piecewise linear on its knots (``alpha`` is the altitude-corre
    sample reaches), truncated to rank R by SVD;
 2. with the rank sum fixed, the emphasis values are a small linear least-squares problem;
 
-repeated a few times. Transmittance: ``sqrt(T)`` sampled on the format's (distance, altitude) grid for
-every (visibility, altitude, channel) is factored by a truncated SVD into U . V.
+repeated a few times, then alternating least squares on the rank factors (optionally also matching the
+differences between neighbouring samples: a Sobolev term). The weights can be made relative to the radiance.
+Transmittance: ``sqrt(T)`` sampled on the format's (distance, altitude) grid for every (visibility, altitude,
+channel) is factored by a truncated SVD into U . V.
 """
 
 from __future__ import annotations
@@ -138,11 +140,24 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
         leave in the rank-truncated factors; docs/default-dataset.md, "Smoothness").
     clamp : bool
         The model is clamped at 0 (radiance, the default); False for a signed quantity (polarisation).
+    relative_power, relative_floor : float
+        Divide the weights by ``max(|y|, relative_floor * mean)^relative_power`` (:func:`relative_weights`) so that
+        the fit follows the error relative to the radiance: 0 (default) keeps the weights; 1 is what the default
+        dataset uses (docs/default-dataset.md, "Relative weighting and a Sobolev term"). Used by every stage.
+    sobolev : float
+        Weight of the differences between neighbouring samples in the ALS sweeps (``refine``): they minimise
+        ``sum w r^2 + sobolev * sum_pairs w_pair (r_a - r_b)^2`` over the residual ``r`` (``w_pair`` the mean of the
+        pair's weights; :func:`sobolev_matrix`). 0 (default): none.
+    pairs : ndarray (k, 2) int, optional
+        Indices of the neighbouring sample pairs (needed with ``sobolev``; e.g.
+        :func:`skymodel.generator.dataset_build.neighbour_pairs` of a product grid).
 
     Returns
     -------
     RadianceFit
     """
+    if sobolev < 0 or (sobolev > 0 and pairs is None):
+        raise ValueError(f"sobolev={sobolev!r} must be >= 0, and a positive value needs the sample pairs")
     y = np.asarray(values, float)
     w = np.ones_like(y) if weights is None else np.asarray(weights, float)
     w = relative_weights(y, w, relative_power, relative_floor)
@@ -205,7 +220,7 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
     _, sun, zen, emph = best  # the alternation is not monotone in the absolute error: keep the best iterate
     if refine > 0:
         pw = None
-        if sobolev > 0 and pairs is not None:
+        if sobolev > 0:
             pairs = np.asarray(pairs, int)
             pw = sobolev * 0.5 * (w[pairs[:, 0]] + w[pairs[:, 1]])
         sun, zen = _refine_factors(sun, zen, (ig, gl, gh), (ia, al, ah), E @ emph, yn, w, lam, refine, pos,
