@@ -120,3 +120,121 @@ def test_build_config_refuses_a_bad_sun_penalty_order_before_solving(tmp_path):
     (tmp_path / "bad.json").write_text(json.dumps(cfg))
     with pytest.raises(ValueError, match="sun_penalty_order=3"):
         load_config(tmp_path / "bad.json")
+
+
+def _hdr_sky(n, seed):
+    """Samples of a sky-like function with a large dynamic range: a sharp sun peak and a bright horizon band over a
+    dim sky (about 3 decades), not exactly separable, with solid-angle-like weights."""
+    rng = np.random.default_rng(seed)
+    g = rng.uniform(0, np.pi, n)
+    z = np.arccos(rng.uniform(0.01, 1, n))
+    y = (0.02 + 40 * np.exp(-g / 0.05) + 2 * np.exp(-g / 0.4)) * (1 + 3 * np.exp(-(0.5 * np.pi - z) / 0.05)) \
+        + 0.01 * (1 + np.cos(g) ** 2) * np.cos(z)
+    return g, z, y
+
+
+def _knots():
+    return (np.pi * np.linspace(0, 1, 18) ** 2, 0.5 * np.pi * (1 - (1 - np.linspace(0, 1, 14)) ** 2),
+            np.array([0.0, 0.5 * np.pi]))
+
+
+def test_relative_weighting_lowers_the_relative_error_of_a_high_dynamic_range_sky():
+    """With weights divided by the radiance (relative_power 1) the fit minimises the relative rather than the
+    absolute error, so on a sky spanning three decades (reference: the same fit with plain weights) the mean
+    relative error on held-out directions falls, by at least a third (measured: 12.6 % -> 3.6 %)."""
+    sb, zb, eb = _knots()
+    g, z, y = _hdr_sky(4000, 3)
+    gt, zt, yt = _hdr_sky(3000, 4)
+    rel = {}
+    for p in (0.0, 1.0):
+        f = fit_radiance(g, z, z, y, sb, zb, eb, 2, iterations=1, refine=2, smoothing=1e-6, relative_power=p)
+        rel[p] = float(np.mean(np.abs(f.evaluate(gt, zt, zt, sb, zb, eb) / yt - 1)))
+    assert rel[1.0] < 0.67 * rel[0.0], rel
+
+
+@pytest.mark.parametrize("kw", [{}, {"relative_power": 1.0}, {"relative_power": 1.0, "sobolev": 3.0}])
+def test_an_exactly_representable_sky_is_recovered_with_every_fit_term(kw):
+    """A rank-2 function that is piecewise linear on the knots has an exact representation; relative weights and the
+    Sobolev term (differences of residuals, zero at the exact fit) do not move the minimiser away from it: with 20
+    alternating sweeps (2 leave 0.4 % of unconverged alternation) it is recovered to 1e-4 NMAE on held-out
+    directions (measured 2-8e-5; the tiny penalty 1e-9 is the only bias)."""
+    from skymodel.generator.dataset_build import neighbour_pairs
+
+    # knot cells wider than the sample spacing, so that every cell holds samples
+    sb, zb, eb = np.linspace(0, np.pi, 13), np.linspace(0, 0.5 * np.pi, 10), np.array([0.0, 0.5 * np.pi])
+    th = np.radians(np.linspace(0.5, 89.5, 46))
+    ph = np.radians(np.linspace(0, 180, 37))
+
+    def angles(t, p):  # (gamma, view zenith) with the sun at 20 deg elevation
+        cg = np.cos(t) * np.sin(np.radians(20.0)) + np.sin(t) * np.cos(np.radians(20.0)) * np.cos(p)
+        return np.arccos(np.clip(cg, -1, 1)).ravel(), np.ravel(t)
+
+    g, z = angles(*np.meshgrid(th, ph, indexing="ij"))
+    s1, s2 = 1 + 30 * np.exp(-sb / 0.1), 0.5 + np.cos(sb) ** 2
+    z1, z2 = 1 + 1 / np.maximum(np.cos(zb), 0.1), np.linspace(1, 0.2, len(zb))
+
+    def f_true(gg, zz):
+        return np.interp(gg, sb, s1) * np.interp(zz, zb, z1) + np.interp(gg, sb, s2) * np.interp(zz, zb, z2)
+
+    if "sobolev" in kw:
+        kw = dict(kw, pairs=neighbour_pairs(len(th), len(ph)))
+    f = fit_radiance(g, z, z, f_true(g, z), sb, zb, eb, 2, iterations=1, refine=20, smoothing=1e-9, **kw)
+    rng = np.random.default_rng(5)
+    gt, zt = angles(np.arccos(rng.uniform(0.01, 1, 2000)), rng.uniform(0, np.pi, 2000))
+    yt = f_true(gt, zt)
+    assert np.sum(np.abs(f.evaluate(gt, zt, zt, sb, zb, eb) - yt)) / np.sum(yt) < 1e-4
+
+
+def test_sobolev_matrix_is_the_stated_quadratic_form():
+    """r^T Q r = sum w r^2 + sum pair_w (r_a - r_b)^2 (the definition) for random residuals and pairs."""
+    from skymodel.generator.fit import sobolev_matrix
+
+    rng = np.random.default_rng(8)
+    w = rng.uniform(0.1, 2, 30)
+    pairs = rng.integers(0, 30, (50, 2))
+    pw = rng.uniform(0, 3, 50)
+    r = rng.normal(size=30)
+    Q = sobolev_matrix(w, pairs, pw)
+    ref = np.sum(w * r * r) + np.sum(pw * (r[pairs[:, 0]] - r[pairs[:, 1]]) ** 2)
+    assert r @ (Q @ r) == pytest.approx(ref, rel=1e-12)
+
+
+def test_bad_relative_weighting_is_refused():
+    g = np.linspace(0, np.pi, 50)
+    z = np.linspace(0, 1.5, 50)
+    kn = np.linspace(0, np.pi, 5)
+    with pytest.raises(ValueError, match="relative_power"):
+        fit_radiance(g, z, z, np.ones(50), kn, kn / 2, kn / 2, 1, relative_power=-1.0)
+
+
+@pytest.mark.parametrize("key, value", [("relative_power", 5.0), ("relative_floor", 0.0), ("sobolev", -1.0)])
+def test_build_config_refuses_bad_fit_terms_when_read(tmp_path, key, value):
+    import json
+    from pathlib import Path
+
+    from skymodel.generator.dataset_build import load_config
+
+    cfg = json.loads((Path(__file__).parents[1] / "skymodel" / "data" / "default-dataset.json").read_text())
+    cfg[key] = value
+    (tmp_path / "bad.json").write_text(json.dumps(cfg))
+    with pytest.raises(ValueError, match=f"{key}="):
+        load_config(tmp_path / "bad.json")
+
+
+def test_a_configuration_without_the_new_fit_terms_fits_and_caches_as_before():
+    """Old configurations (no relative_power / sobolev keys) pass no new options to the fit and keep their fit-cache
+    names (reference: the cache name computed from the keys the builds before these terms used)."""
+    import hashlib
+    import json
+
+    from skymodel.generator.dataset_build import BuildConfig, fit_file, fit_options
+
+    cfg = BuildConfig(sun_penalty_order=2)
+    assert fit_options(cfg) == {}
+    d = {"knots": list(cfg.knots), "powers": list(cfg.knot_powers), "rank": cfg.rank, "smoothing": cfg.smoothing,
+         "iterations": cfg.iterations, "refine": cfg.refine, "albedos": list(cfg.albedos), "v": 1,
+         "sun_penalty_order": 2}
+    key = hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
+    assert fit_file(cfg, 20.0, 8.0).name.startswith(f"fitted_{key}_")
+    assert fit_options(BuildConfig(relative_power=1.0, sobolev=3.0)) == {"relative_power": 1.0,
+                                                                        "relative_floor": 0.01, "sobolev": 3.0}

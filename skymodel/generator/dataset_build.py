@@ -65,7 +65,9 @@ class BuildConfig:
     visibilities_km [km], albedos [1], elevations_deg [deg] (ascending; values below ``min_solve_elevation_deg``
     are solved at that elevation; values above ``max_fit_elevation_deg`` hold the fit of the highest elevation
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), rank,
-    smoothing [1], sun_penalty_order, iterations, refine (see :func:`skymodel.generator.fit.fit_radiance`); solver settings (n_streams, n_moments); atmosphere (AtmosphereSpec fields);
+    smoothing [1], sun_penalty_order, iterations, refine, relative_power, relative_floor, sobolev (see
+    :func:`skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments);
+    atmosphere (AtmosphereSpec fields);
     trans_dims (dDim, aDim), trans_rank; direction grid steps [deg]; validation (counts, seed); seed.
 
     Monte Carlo (:mod:`skymodel.generator.dataset_mc`; all off by default, and a configuration without these keys
@@ -90,6 +92,9 @@ class BuildConfig:
     rank: int = 6
     smoothing: float = 1e-6
     sun_penalty_order: int = 1
+    relative_power: float = 0.0
+    relative_floor: float = 0.01
+    sobolev: float = 0.0
     iterations: int = 4
     refine: int = 2
     n_streams: int = 16
@@ -116,6 +121,12 @@ class BuildConfig:
     def __post_init__(self):
         if self.sun_penalty_order not in (1, 2):  # refused before any solve, not in the fit after them
             raise ValueError(f"sun_penalty_order={self.sun_penalty_order!r}: expected 1 or 2")
+        if not 0.0 <= float(self.relative_power) <= 4.0:
+            raise ValueError(f"relative_power={self.relative_power!r}: expected a value in [0, 4]")
+        if not 0.0 < float(self.relative_floor) <= 1.0:
+            raise ValueError(f"relative_floor={self.relative_floor!r}: expected a value in (0, 1]")
+        if not 0.0 <= float(self.sobolev) <= 1e3:
+            raise ValueError(f"sobolev={self.sobolev!r}: expected a value in [0, 1000]")
         ele = np.asarray(self.elevations_deg, float)
         low = float(ele.min()) if ele.size else 0.0
         b = self.mc_below_elevation_deg
@@ -517,13 +528,23 @@ def fit_weights(solid_angle):
     return np.maximum(w, 0.25 * np.median(w))
 
 
-def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refine=2, sun_penalty_order=1):
+def neighbour_pairs(n_zenith: int, n_azimuth: int) -> np.ndarray:
+    """Index pairs (k, 2) of neighbouring samples of a (zenith x azimuth) product grid flattened row-major: along each
+    almucantar (azimuth neighbours), then along each vertical (zenith neighbours)."""
+    idx = np.arange(n_zenith * n_azimuth).reshape(n_zenith, n_azimuth)
+    return np.concatenate([np.stack([idx[:, :-1].ravel(), idx[:, 1:].ravel()], 1),
+                           np.stack([idx[:-1].ravel(), idx[1:].ravel()], 1)])
+
+
+def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refine=2, sun_penalty_order=1, **fit_kw):
     """Fit every channel of one configuration.
 
     Parameters
     ----------
     radiance : (T, P, C) [W m-2 sr-1 nm-1] on the grid of ``samples`` (:func:`direction_samples`).
     breaks : (sun, zenith, emph) knots [rad]; rank : int.
+    fit_kw : further keyword arguments of :func:`skymodel.generator.fit.fit_radiance` (:func:`fit_options`); with
+        ``sobolev`` the neighbour pairs of the (T, P) grid (:func:`neighbour_pairs`) are added.
 
     Returns
     -------
@@ -539,18 +560,35 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
     zen = np.zeros((C, rank, len(zb)))
     emph = np.ones((C, len(eb)))
     nmae = np.zeros(C)
+    if fit_kw.get("sobolev", 0) > 0 and "pairs" not in fit_kw:
+        if np.ndim(radiance) != 3:
+            raise ValueError(f"sobolev needs the radiance on its (zenith, azimuth) grid, got shape "
+                             f"{np.shape(radiance)}")
+        fit_kw = dict(fit_kw, pairs=neighbour_pairs(*radiance.shape[:2]))
     for c in range(C):
         if not np.any(y[:, c] > 0):
             continue
         alpha = samples.get("alpha", samples["zero"])
         f = fit_radiance(samples["gamma"], alpha, samples["zero"], y[:, c], sb, zb, eb, rank,
                          weights=w, smoothing=smoothing, iterations=iterations, refine=refine,
-                         sun_penalty_order=sun_penalty_order)
+                         sun_penalty_order=sun_penalty_order, **fit_kw)
         sun[c], zen[c], emph[c] = f.sun, f.zen, f.emph
         pred = f.evaluate(samples["gamma"], alpha, samples["zero"], sb, zb, eb)
         sw = samples["weights"]
         nmae[c] = np.sum(sw * np.abs(pred - y[:, c])) / max(np.sum(sw * np.abs(y[:, c])), 1e-300)
     return sun, zen, emph, nmae
+
+
+def fit_options(config: BuildConfig) -> dict:
+    """The fit's optional terms that ``config`` sets (keyword arguments of :func:`fit_sky`; empty for a configuration
+    without them, which fits as the builds before them did): relative weighting (``relative_power``,
+    ``relative_floor``) and the Sobolev term (``sobolev``)."""
+    d = {}
+    if float(config.relative_power) != 0.0:
+        d.update(relative_power=float(config.relative_power), relative_floor=float(config.relative_floor))
+    if float(config.sobolev) != 0.0:
+        d["sobolev"] = float(config.sobolev)
+    return d
 
 
 def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) -> Path:
@@ -560,6 +598,7 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
          "albedos": list(config.albedos), "v": 1}
     if config.sun_penalty_order != 1:  # (absent for first-order builds: their cached fits keep their names)
         d["sun_penalty_order"] = config.sun_penalty_order
+    d.update(fit_options(config))  # likewise: only the options a configuration sets
     from .dataset_mc import mc_key, uses_mc
 
     if uses_mc(config):  # only then: a scalar configuration keeps its fit-cache names
@@ -597,7 +636,8 @@ def _fit_job(job):
         rad = radiance(a)
         for k, v in zip(("sun", "zen", "emph", "nmae"), fit_sky(rad, samples, breaks, config.rank,
                                                                 config.smoothing, config.iterations,
-                                                                config.refine, config.sun_penalty_order)):
+                                                                config.refine, config.sun_penalty_order,
+                                                                **fit_options(config))):
             out[k].append(v)
     if config.polarisation:
         out.update(_fit_polarisation_state(config, m))

@@ -13,8 +13,10 @@ with every factor piecewise linear on its knots (``alpha`` is the altitude-corre
    sample reaches), truncated to rank R by SVD;
 2. with the rank sum fixed, the emphasis values are a small linear least-squares problem;
 
-repeated a few times. Transmittance: ``sqrt(T)`` sampled on the format's (distance, altitude) grid for
-every (visibility, altitude, channel) is factored by a truncated SVD into U . V.
+repeated a few times, then alternating least squares on the rank factors (optionally also matching the
+differences between neighbouring samples: a Sobolev term). The weights can be made relative to the radiance.
+Transmittance: ``sqrt(T)`` sampled on the format's (distance, altitude) grid for every (visibility, altitude,
+channel) is factored by a truncated SVD into U . V.
 """
 
 from __future__ import annotations
@@ -110,7 +112,8 @@ class RadianceFit:
 
 
 def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks, rank, *, weights=None,
-                 smoothing=1e-6, iterations=2, refine=0, sun_penalty_order=1, clamp=True):
+                 smoothing=1e-6, iterations=2, refine=0, sun_penalty_order=1, clamp=True, relative_power=0.0,
+                 relative_floor=0.01, sobolev=0.0, pairs=None):
     """Fit one configuration's radiance samples into the PSM form (see module docstring).
 
     Parameters
@@ -137,13 +140,27 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
         leave in the rank-truncated factors; docs/default-dataset.md, "Smoothness").
     clamp : bool
         The model is clamped at 0 (radiance, the default); False for a signed quantity (polarisation).
+    relative_power, relative_floor : float
+        Divide the weights by ``max(|y|, relative_floor * mean)^relative_power`` (:func:`relative_weights`) so that
+        the fit follows the error relative to the radiance: 0 (default) keeps the weights; 1 is what the default
+        dataset uses (docs/default-dataset.md, "Relative weighting and a Sobolev term"). Used by every stage.
+    sobolev : float
+        Weight of the differences between neighbouring samples in the ALS sweeps (``refine``): they minimise
+        ``sum w r^2 + sobolev * sum_pairs w_pair (r_a - r_b)^2`` over the residual ``r`` (``w_pair`` the mean of the
+        pair's weights; :func:`sobolev_matrix`). 0 (default): none.
+    pairs : ndarray (k, 2) int, optional
+        Indices of the neighbouring sample pairs (needed with ``sobolev``; e.g.
+        :func:`skymodel.generator.dataset_build.neighbour_pairs` of a product grid).
 
     Returns
     -------
     RadianceFit
     """
+    if sobolev < 0 or (sobolev > 0 and pairs is None):
+        raise ValueError(f"sobolev={sobolev!r} must be >= 0, and a positive value needs the sample pairs")
     y = np.asarray(values, float)
     w = np.ones_like(y) if weights is None else np.asarray(weights, float)
+    w = relative_weights(y, w, relative_power, relative_floor)
     ns, nz, ne = len(sun_breaks), len(zen_breaks), len(emph_breaks)
     ig, gl, gh = hat_weights(gamma, sun_breaks)
     ia, al, ah = hat_weights(alpha, zen_breaks)
@@ -202,7 +219,12 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
             emph = emph_new / mean
     _, sun, zen, emph = best  # the alternation is not monotone in the absolute error: keep the best iterate
     if refine > 0:
-        sun, zen = _refine_factors(sun, zen, (ig, gl, gh), (ia, al, ah), E @ emph, yn, w, lam, refine, pos)
+        pw = None
+        if sobolev > 0:
+            pairs = np.asarray(pairs, int)
+            pw = sobolev * 0.5 * (w[pairs[:, 0]] + w[pairs[:, 1]])
+        sun, zen = _refine_factors(sun, zen, (ig, gl, gh), (ia, al, ah), E @ emph, yn, w, lam, refine, pos,
+                                   pairs=pairs if pw is not None else None, pair_w=pw)
     s_at = sun[:, ig] * gl + sun[:, ig + 1] * gh
     z_at = zen[:, ia] * al + zen[:, ia + 1] * ah
     h = np.sum(s_at * z_at, axis=0)
@@ -211,12 +233,43 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
     return RadianceFit(sun * scale, zen, emph, nmae)
 
 
-def _refine_factors(sun, zen, hs, hz, e, y, w, lam, sweeps, pos=lambda x: np.maximum(x, 0.0)):
+def relative_weights(y, w, power, floor):
+    """Weights ``w / max(y, floor * typ)^power`` rescaled to the sum of ``w`` (``typ``: the ``w``-weighted mean of
+    ``|y|``), so that a least-squares fit with them minimises the error relative to the data rather than the absolute
+    one (``power`` 2: squared relative error; 0: ``w`` itself)."""
+    if power == 0:
+        return w
+    if not (0 < power <= 4 and floor > 0):
+        raise ValueError(f"relative_power={power!r} must be in [0, 4] and relative_floor={floor!r} > 0")
+    typ = float(np.sum(w * np.abs(y)) / max(np.sum(w), 1e-300)) or 1.0
+    r = w / np.maximum(np.abs(y) / typ, floor) ** power
+    return r * (np.sum(w) / np.sum(r))
+
+
+def sobolev_matrix(w, pairs, pair_w):
+    """Sparse (m, m) matrix of a weighted least-squares fit that also matches the differences between sample pairs:
+    ``diag(w) + sum_p pair_w[p] (e_a - e_b)(e_a - e_b)^T`` for ``pairs[p] = (a, b)``, so that
+    ``r^T Q r = sum w r^2 + sum pair_w (r_a - r_b)^2`` for the residual ``r``."""
+    from scipy import sparse
+
+    m = len(w)
+    a, b = np.asarray(pairs[:, 0]), np.asarray(pairs[:, 1])
+    rows = np.concatenate([np.arange(m), a, b, a, b])
+    cols = np.concatenate([np.arange(m), a, b, b, a])
+    vals = np.concatenate([w, pair_w, pair_w, -pair_w, -pair_w])
+    return sparse.csr_matrix((vals, (rows, cols)), shape=(m, m))
+
+
+def _refine_factors(sun, zen, hs, hz, e, y, w, lam, sweeps, pos=lambda x: np.maximum(x, 0.0), pairs=None,
+                    pair_w=None):
     """Alternating weighted least squares on the rank factors with the emphasis ``e`` (per sample) fixed:
     sun given zen, then zen given sun (each a small dense problem with a second-difference penalty); keeps
     the result only if it lowers the weighted absolute error."""
     R, ns = sun.shape
     nz = zen.shape[1]
+    Q = None
+    if pairs is not None:
+        Q = sobolev_matrix(w, pairs, pair_w)
 
     def err(s_, z_):
         h = np.sum((s_[:, hs[0]] * hs[1] + s_[:, hs[0] + 1] * hs[2]) * (z_[:, hz[0]] * hz[1] + z_[:, hz[0] + 1] * hz[2]), 0)
@@ -231,10 +284,17 @@ def _refine_factors(sun, zen, hs, hz, e, y, w, lam, sweeps, pos=lambda x: np.max
         cols = np.concatenate([idx[:, None] + offs, idx[:, None] + 1 + offs], axis=1)      # (m, 2R)
         c = (e[None, :] * oat).T                                                             # (m, R)
         vals = np.concatenate([lo[:, None] * c, hi[:, None] * c], axis=1)                  # (m, 2R)
-        flat = (cols[:, :, None] * K + cols[:, None, :]).ravel()
-        N = np.bincount(flat, (w[:, None, None] * vals[:, :, None] * vals[:, None, :]).ravel(),
-                        minlength=K * K).reshape(K, K)
-        rhs = np.bincount(cols.ravel(), (vals * (w * y)[:, None]).ravel(), minlength=K)
+        if Q is not None:  # data and Sobolev terms together: A^T Q A x = A^T Q y (A dense, m x K)
+            A = np.zeros((len(y), K))
+            np.put_along_axis(A, cols, vals, axis=1)
+            QA = Q @ A
+            N = A.T @ QA
+            rhs = QA.T @ y
+        else:
+            flat = (cols[:, :, None] * K + cols[:, None, :]).ravel()
+            N = np.bincount(flat, (w[:, None, None] * vals[:, :, None] * vals[:, None, :]).ravel(),
+                            minlength=K * K).reshape(K, K)
+            rhs = np.bincount(cols.ravel(), (vals * (w * y)[:, None]).ravel(), minlength=K)
         D = _second_difference(n_self)
         N += lam * np.kron(np.eye(R), D.T @ D) + 1e-10 * lam * np.eye(K)
         x = linalg.solve(N, rhs, assume_a="pos")

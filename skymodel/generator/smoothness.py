@@ -177,10 +177,13 @@ def profile_metrics(radiance: dict, aureole_valid, sun_elevation_deg: float, rel
     tp_ver = turning_points(last(radiance["vertical"], 2), rel_tol)
     aur = last(radiance["aureole"], 2)                                          # (..., C, 8, nG)
     valid = np.broadcast_to(last(np.asarray(aureole_valid), 2), aur.shape)
-    # the valid part of a ray is a prefix (its view zenith grows monotonically toward the horizon): hold the last
-    # valid value over the rest, which adds no turning point
-    idx = np.where(valid, np.arange(aur.shape[-1]), 0)
-    idx = np.maximum.accumulate(idx, axis=-1)
+    # the valid part of a ray is contiguous: a prefix where the ray runs toward the horizon, a suffix where it rises
+    # from a sun below AUREOLE_MAX_ZENITH_DEG. Hold the nearest valid value over the rest (the last one after it, the
+    # first one before it), which adds no turning point
+    n = aur.shape[-1]
+    idx = np.maximum.accumulate(np.where(valid, np.arange(n), -1), axis=-1)
+    first = np.argmax(valid, axis=-1)[..., None]
+    idx = np.where(idx < 0, first, idx)
     held = np.take_along_axis(np.where(valid, aur, 0.0), idx, axis=-1)
     tp_aur = turning_points(held, rel_tol)
     rise = monotone_violations(aur, rel_tol, valid=valid)
