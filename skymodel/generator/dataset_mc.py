@@ -36,6 +36,8 @@ from .cache import cache_root
 MC_AZIMUTHS_DEG = (0.0, 1.0, 2.5, 5.0, 10.0, 17.0, 25.0, 35.0, 47.5, 60.0, 75.0, 90.0, 105.0, 120.0, 135.0, 150.0,
                    165.0, 180.0)
 """Default relative azimuths of the Monte Carlo direction grid [deg] (0 = toward the sun), refined near the sun."""
+MC_FIRST_ORDER = "quadrature"
+"""First-order method of the build's Monte Carlo states (:class:`skymodel.generator.montecarlo.MonteCarloConfig`)."""
 MC_SUN_OFFSETS_DEG = (1.0, 3.0)
 """Offsets of extra view zeniths around the solar zenith [deg] (sun above the horizon)."""
 
@@ -64,7 +66,7 @@ def mc_config(config, visibility_km: float, elevation_deg: float):
                                  round(float(elevation_deg), 4)]).encode()).hexdigest()
     return MonteCarloConfig(samples=int(config.mc_samples), seed=int(h[:15], 16),
                             channels_per_batch=int(config.mc_channels_per_batch),
-                            ground_orders=int(config.mc_ground_orders), threads=1)
+                            ground_orders=int(config.mc_ground_orders), threads=1, first_order=MC_FIRST_ORDER)
 
 
 def mc_key(config) -> str:
@@ -72,7 +74,7 @@ def mc_key(config) -> str:
     d = {"atmosphere": config.atmosphere, "samples": int(config.mc_samples), "seed": int(config.mc_seed),
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
          "zenith_step": float(config.mc_zenith_step_deg), "azimuths": [float(x) for x in mc_azimuths(config)],
-         "v": 1}
+         "first_order": MC_FIRST_ORDER, "v": 2}
     return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:12]
 
 

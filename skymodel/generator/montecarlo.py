@@ -47,6 +47,7 @@ from .montecarlo_mie import matrix_mu_grid, mixture_matrix
 from .rayleigh import depolarization_ratio
 
 MIN_SOLAR_ELEVATION_DEG = -10.0
+FIRST_ORDER_METHODS = ("quadrature", "sampled")
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,14 @@ class MonteCarloConfig:
     channels_per_batch : consecutive channels of the request whose components share paths (hero wavelengths), >= 1;
         4 neighbouring channels are 3-7x more efficient than 1 (`benchmarks/bench_montecarlo.py hero`).
     threads : OpenMP threads of the kernel (0 = the OpenMP default).
+    first_order : "quadrature" (default): the singly scattered light of a view ray that escapes to space (every
+        upward view) is integrated deterministically along the ray and the sampled paths carry only orders >= 2,
+        their first vertex drawn toward the sunlit, scattering part of the ray (unbiased; at twilight 4-40x less
+        variance per path, docs/atmosphere-and-solver.md "Variance reduction"); "sampled": every order sampled (the
+        first vertex by the hero's forced free path, next-event estimation at it), as before. Downward views that
+        end on the ground are always sampled.
+    quadrature_step_km : [km] longest sub-interval of that quadrature (also split at layer boundaries and at the edge
+        of the Earth's shadow), > 0.
     ground_orders : 0 (default): the ground reflects with the components' albedo. B >= 1: every path is traced over
         a white ground (albedo 1) and its contributions are split by the number n of ground reflections before they
         reach the observer (n = 0 .. B - 2 exactly, the last order holding n >= B - 1), so that one run gives the
@@ -75,6 +84,8 @@ class MonteCarloConfig:
     channels_per_batch: int = 4
     threads: int = 1
     ground_orders: int = 0
+    first_order: str = "quadrature"
+    quadrature_step_km: float = 2.0
 
     def __post_init__(self):
         if int(self.samples) < 1:
@@ -91,6 +102,10 @@ class MonteCarloConfig:
             raise ValueError(f"threads={self.threads} must be >= 0")
         if not (0 <= int(self.ground_orders) <= 16):
             raise ValueError(f"ground_orders={self.ground_orders} outside [0, 16]")
+        if self.first_order not in FIRST_ORDER_METHODS:
+            raise ValueError(f"first_order={self.first_order!r}: valid values are {FIRST_ORDER_METHODS}")
+        if not (0.01 <= float(self.quadrature_step_km) <= 1000.0):
+            raise ValueError(f"quadrature_step_km={self.quadrature_step_km} outside [0.01, 1000] km")
 
 
 @dataclass(frozen=True)
@@ -274,7 +289,8 @@ def trace(components: Components, solar_zenith_deg: float, view_zenith_deg, rela
                       np.ascontiguousarray(cp.aerosol_table, np.int32), f64(albedo),
                       np.ascontiguousarray(cch, np.int32), f64(cp.weight), len(vz), f64(sun), alt + R, layer,
                       views, frames, n, int(config.seed), int(config.max_order), int(bool(config.polarised)),
-                      int(config.threads), s, s2, max(B, 1))
+                      int(config.threads), s, s2, max(B, 1), int(config.first_order == "quadrature"),
+                      float(config.quadrature_step_km))
     mean = s / n
     var = np.maximum(s2 / n - mean ** 2, 0.0)
     se = np.sqrt(var / n)
