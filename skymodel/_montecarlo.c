@@ -15,7 +15,10 @@
  * linearly in each sub-interval, the exponential integrated exactly), and the sampled paths carry only orders >= 2:
  * their first vertex is drawn from a mixture, independent of the hero, of the components' forced free-path densities
  * and their single-scattering integrands (scattering x attenuation x sun transmittance: the sunlit part of the ray
- * at twilight), weighted by the mixture density, without next-event estimation at that vertex.
+ * at twilight), weighted by the mixture density, without next-event estimation at that vertex. Every later free
+ * path along a ray that crosses the Earth's shadow (widened by HLIT) is drawn from the mixture of the forced free
+ * path and the same conditioned on the part outside the shadow (a share QLIT each), so that vertices land where
+ * next-event estimation finds the sun; the hero weights use every component's mixture density.
  *
  * Array in, array out, the GIL released, OpenMP over view directions; every direction has its own random
  * stream (xoshiro256** seeded by splitmix64 from (seed, direction)), so results do not depend on threads.
@@ -36,6 +39,9 @@
 #define MAXQ 2048
 #ifndef QMIX
 #define QMIX 0.75 /* share of the forced free-path densities in the first-vertex mixture */
+#endif
+#ifndef HLIT
+#define HLIT 6.0 /* [km] the sunlit part of a ray for the free-path mixture: outside the shadow of a sphere this much above the ground (the sun seen through less than the densest air) */
 #endif
 #ifndef QLIT
 #define QLIT 0.5 /* share of the plain forced free path where a ray crosses the Earth's shadow */
@@ -669,7 +675,8 @@ static int quad_first(const job_t *jb, work_t *w, rng_t *rng, const double *x0, 
 }
 
 
-/* The part [sa, sb] (distances along x + t d, 0 <= t <= len) that lies in the Earth's shadow; 0 if none. */
+/* The part [sa, sb] (distances along x + t d, 0 <= t <= len) in the shadow of a sphere HLIT above the ground
+ * (the Earth's shadow widened by the air that dims grazing sunlight most); 0 if none. */
 static int shadow_span(const job_t *jb, const double *x, const double *d, double len, double *sa, double *sb)
 {
     const double *sun = jb->sun;
@@ -679,7 +686,7 @@ static int shadow_span(const job_t *jb, const double *x, const double *d, double
         xp[i] = x[i] - xs * sun[i];
         dp[i] = d[i] - ds * sun[i];
     }
-    double A = dot(dp, dp), B = 2 * dot(xp, dp), nx = sqrt(dot(xp, xp)), R = jb->g->radii[0];
+    double A = dot(dp, dp), B = 2 * dot(xp, dp), nx = sqrt(dot(xp, xp)), R = jb->g->radii[0] + HLIT;
     double C = (nx - R) * (nx + R), disc = B * B - 4 * A * C;
     if (A < 1e-12 || disc <= 0) return 0;
     double q = -0.5 * (B + copysign(sqrt(disc), B)), r0 = q / A, r1 = q != 0 ? C / q : q / A;

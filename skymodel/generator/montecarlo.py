@@ -26,7 +26,17 @@ Method (kernel comments give the details):
   polarisation whose electric vector turns counterclockwise as seen by the observer looking at the sky (toward the
   source), i.e. V = i (E x E*) . k for Bohren & Huffman's fields (time factor exp(-i omega t)): checked against an
   independent Jones-calculus quadrature of second-order scattering in tests/generator/test_montecarlo_circular.py;
-- Russian roulette below a path weight of 0.05 after the second order; ``max_order`` caps the scattering order.
+- Russian roulette below a path weight of 0.05 after the second order; ``max_order`` caps the scattering order;
+- variance reduction (``first_order="quadrature"``, the default; unbiased, checked against the original estimator
+  and a closed form in tests/generator/test_montecarlo_estimators.py): the singly scattered light of a view ray
+  that escapes to space is integrated deterministically along the ray through the shells (sub-intervals of at most
+  ``quadrature_step_km``, split at the edge of the Earth's shadow, the exponential of the optical depths to the
+  observer and to the sun integrated exactly for their linear interpolation), so paths carry only orders >= 2;
+  their first vertex is drawn from a mixture of the components' forced free paths (3/4) and their
+  single-scattering integrands along the ray (1/4: the sunlit part at twilight); every later free path along a ray
+  that crosses the Earth's shadow (widened by 6 km) is drawn half from the forced free path and half from it
+  conditioned on the part outside the shadow. The densities of the mixtures enter the weights (hero balance
+  heuristic over every component's mixture density).
 
 Each view direction has its own random stream (seed, direction index), so results are reproducible and do not depend
 on the number of threads. Angles as in :mod:`skymodel.generator.solver`: view zenith [deg] 0-90, azimuth [deg]
