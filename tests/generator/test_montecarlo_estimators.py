@@ -6,6 +6,8 @@ Tolerances: the deterministic part against an independent dense numerical integr
 within 4 standard errors of their difference (sigma = hypot of the two standard errors of the mean).
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -101,3 +103,18 @@ def test_first_order_method_is_validated():
         MonteCarloConfig(first_order="exact")
     with pytest.raises(ValueError, match="quadrature_step_km"):
         MonteCarloConfig(quadrature_step_km=0.0)
+
+
+def test_dataset_states_choose_the_estimator_by_what_they_provide():
+    """A build's Monte Carlo states whose radiance is used (below mc_below_elevation_deg) trace with the quadrature,
+    polarisation-only states with the sampled first order, and the choice is part of the cache key."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import load_config
+    from skymodel.generator.dataset_mc import mc_config, mc_key
+
+    cfg = load_config(Path(__file__).resolve().parents[2] / "skymodel" / "data" / "polarised-dataset.json")
+    assert mc_config(cfg, 51.3, -2.0).first_order == "quadrature"
+    assert mc_config(cfg, 51.3, 4.5).first_order == "quadrature"
+    assert mc_config(cfg, 51.3, 36.0).first_order == "sampled"
+    assert mc_key(replace(cfg, mc_below_elevation_deg=3.0)) != mc_key(cfg)
