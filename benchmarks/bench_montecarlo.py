@@ -15,7 +15,14 @@ Subcommands (each prints its numbers; the figure ones write docs/figures/mc_*.pn
   against a long reference run, with the estimated standard error and paths per second ->
   docs/figures/mc_convergence.png.
 
-Usage: ``python benchmarks/bench_montecarlo.py {cds,disort,spherical,convergence,hero} [--quick]``.
+- ``estimators``: the two first-order methods (``first_order="sampled"``, the original estimator, and
+  ``"quadrature"``, first order by quadrature with the sunlit-importance mixtures) against samples per direction at
+  twilight (-2 deg) and at 36 deg, 4-channel batches as the dataset build, the variant's state (visibility 51.3 km,
+  albedo 0.5), 24 directions down to the horizon: rms relative error of I and absolute error of the degree of
+  polarisation against a long run of the new estimator (its own variance subtracted), CPU time per path, and the
+  efficiency 1 / (error^2 x time) -> docs/figures/mc_estimators.png (``--json`` writes the numbers).
+
+Usage: ``python benchmarks/bench_montecarlo.py {cds,disort,spherical,convergence,hero,estimators} [--quick]``.
 Single-threaded kernel (threads=1) unless ``--threads N``.
 """
 
@@ -221,13 +228,89 @@ def hero(a):
         print("   efficiency batched / single per channel: " + " ".join(f"{x:.2f}" for x in eff))
 
 
+EST_CHANNELS = {5: ([4, 5, 6, 7], "500 nm"), 14: ([12, 13, 14, 15], "860 nm"),
+                27: ([24, 25, 26, 27], "1380 nm (saturated H2O)"), 40: ([38, 39, 40, 41], "1900 nm (saturated H2O)")}
+
+
+def _dolp(r):
+    return np.hypot(r.stokes[..., 1], r.stokes[..., 2]) / r.radiance
+
+
+def estimators(a):
+    """Old (sampled first order) against new (first order by quadrature) estimator: error against paths."""
+    import json
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    vz = np.repeat([0.0, 30.0, 60.0, 80.0, 87.0, 89.95], 4)
+    va = np.tile([0.0, 55.0, 105.0, 180.0], 6)
+    st = SkyState(45.0, visibility_km=51.3, ground_albedo=0.5)
+    n_ref = 8192 if a.quick else 65536
+    ns = [128, 512, 2048] if a.quick else [128, 512, 2048, 8192]
+    reps = 2
+    chans = dict(list(EST_CHANNELS.items())[::2]) if a.quick else EST_CHANNELS
+    out = {"paths": ns, "reference_paths": n_ref, "directions": len(vz), "results": []}
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8))
+    for col, el in enumerate((-2.0, 36.0)):
+        for ch, (batch, name) in chans.items():
+            j = batch.index(ch)
+            ref = solve_sky_mc(st, None, vz, va, batch, MonteCarloConfig(samples=n_ref, seed=7, threads=a.threads),
+                               solar_elevation_deg=el)
+            I0, P0 = ref.radiance[:, j], _dolp(ref)[:, j]
+            ref_var_i = np.mean((ref.stderr[:, j, 0] / I0) ** 2)
+            for fo, ls in (("sampled", ":"), ("quadrature", "-")):
+                ei, ep, cpu = [], [], 0.0
+                for i, n in enumerate(ns):
+                    e2, p2 = [], []
+                    for rep in range(reps):
+                        t0 = time.process_time()
+                        r = solve_sky_mc(st, None, vz, va, batch,
+                                         MonteCarloConfig(samples=n, seed=1000 + 10 * i + rep, first_order=fo,
+                                                          threads=a.threads), solar_elevation_deg=el)
+                        cpu += time.process_time() - t0
+                        e2.append((r.radiance[:, j] / I0 - 1) ** 2)
+                        p2.append((_dolp(r)[:, j] - P0) ** 2)
+                    ei.append(float(np.sqrt(max(np.mean(e2) - ref_var_i, 0.0))))
+                    ep.append(float(np.sqrt(np.mean(p2))))
+                us = 1e6 * cpu / (reps * sum(ns) * len(vz))
+                out["results"].append({"elevation_deg": el, "channel": ch, "name": name, "first_order": fo,
+                                       "rms_rel_error_i": ei, "rms_abs_error_dolp": ep,
+                                       "cpu_us_per_path_and_batch": us})
+                print(f"{el:+.0f} deg {name:24s} {fo:10s}: rms rel. error of I " +
+                      ", ".join(f"{n}: {100 * e:.2f} %" for n, e in zip(ns, ei)) + "; DoLP " +
+                      ", ".join(f"{e:.4f}" for e in ep) + f"; {us:.1f} us per path and batch", flush=True)
+                c = {5: "C0", 14: "C1", 27: "C2", 40: "C3"}[ch]
+                axes[0, col].loglog(ns, ei, ls=ls, marker="o", color=c, label=f"{name}, {fo}")
+                axes[1, col].loglog(ns, ep, ls=ls, marker="o", color=c, label=f"{name}, {fo}")
+        for row, q in enumerate(("relative error of I [1]", "absolute error of the DoLP [1]")):
+            ax = axes[row, col]
+            ax.loglog(ns, [(0.5 if row == 0 else 0.2) * (ns[0] / n) ** 0.5 for n in ns], color="k", lw=0.6, ls="--")
+            ax.axhline(0.005, color="grey", lw=0.8)
+            ax.set_xlabel("paths per view direction and 4-channel batch")
+            ax.set_ylabel("rms " + q)
+            ax.set_title(f"sun at {el:+.0f} deg (dotted: sampled first order, solid: quadrature)", fontsize=9)
+            ax.grid(True, which="both", lw=0.3)
+        axes[0, col].legend(fontsize=6)
+    fig.suptitle(f"Monte Carlo estimators: {len(vz)} directions (zenith 0-89.95 deg) x {reps} repetitions, "
+                 f"visibility 51.3 km, albedo 0.5; reference {n_ref} paths (its variance subtracted)", fontsize=9)
+    fig.tight_layout()
+    _save(fig, "mc_estimators.png")
+    if a.json:
+        Path(a.json).write_text(json.dumps(out, indent=1))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["cds", "disort", "spherical", "convergence", "hero"])
+    ap.add_argument("what", choices=["cds", "disort", "spherical", "convergence", "hero", "estimators"])
     ap.add_argument("--quick", action="store_true", help="few samples (a smoke run)")
     ap.add_argument("--threads", type=int, default=1, help="kernel OpenMP threads")
+    ap.add_argument("--json", help="estimators: write the numbers to this JSON file")
     a = ap.parse_args()
-    {"cds": cds, "disort": disort, "spherical": spherical, "convergence": convergence, "hero": hero}[a.what](a)
+    {"cds": cds, "disort": disort, "spherical": spherical, "convergence": convergence, "hero": hero,
+     "estimators": estimators}[a.what](a)
 
 
 if __name__ == "__main__":

@@ -9,6 +9,17 @@
  * component chosen per sample (sample index mod K) and every component's contribution is weighted by the
  * one-sample multiple-importance balance heuristic f_k / (1/K sum_j p_j) over the path densities of all K.
  *
+ * First order by quadrature (``quad`` mode, views that escape to space): the singly scattered Stokes vector is
+ * integrated deterministically along the view ray (sub-intervals of at most ``qstep`` km, split at layer
+ * boundaries and at the edge of the Earth's shadow; optical depth to the observer and to the sun interpolated
+ * linearly in each sub-interval, the exponential integrated exactly), and the sampled paths carry only orders >= 2:
+ * their first vertex is drawn from a mixture, independent of the hero, of the components' forced free-path densities
+ * and their single-scattering integrands (scattering x attenuation x sun transmittance: the sunlit part of the ray
+ * at twilight), weighted by the mixture density, without next-event estimation at that vertex. Every later free
+ * path along a ray that crosses the Earth's shadow (widened by HLIT) is drawn from the mixture of the forced free
+ * path and the same conditioned on the part outside the shadow (a share QLIT each), so that vertices land where
+ * next-event estimation finds the sun; the hero weights use every component's mixture density.
+ *
  * Array in, array out, the GIL released, OpenMP over view directions; every direction has its own random
  * stream (xoshiro256** seeded by splitmix64 from (seed, direction)), so results do not depend on threads.
  */
@@ -25,6 +36,16 @@
 #define MAXSEG 1024
 #define FOUR_PI 12.566370614359172
 #define ROULETTE 0.05
+#define MAXQ 2048
+#ifndef QMIX
+#define QMIX 0.75 /* share of the forced free-path densities in the first-vertex mixture */
+#endif
+#ifndef HLIT
+#define HLIT 6.0 /* [km] the sunlit part of a ray for the free-path mixture: outside the shadow of a sphere this much above the ground (the sun seen through less than the densest air) */
+#endif
+#ifndef QLIT
+#define QLIT 0.5 /* share of the plain forced free path where a ray crosses the Earth's shadow */
+#endif
 
 /* ------------------------------------------------------------------------------------------ */
 /* random numbers                                                                             */
@@ -334,6 +355,8 @@ typedef struct {
     long n_samples;
     int max_order;
     uint64_t seed;
+    int quad;     /* 1: first order by quadrature along escaping view rays, sampled paths from order 2 */
+    double qstep; /* [km] longest quadrature sub-interval */
 } job_t;
 
 typedef struct {
@@ -342,8 +365,20 @@ typedef struct {
     double *tau;  /* (K,) */
     double *tot;  /* (K,) */
     double *acc;  /* (C, 4) per-sample contribution */
+    double *ss;   /* (C, 4) first order by quadrature of the current direction (quad mode) */
+    double *ta, *tb, *pl; /* (K,) each: optical depth to the shadow's edges, sunlit probability (quad mode) */
     int bounces;  /* ground reflections of the current path so far */
     path_t path, sunp;
+    /* quadrature of the first order along the view ray: nq sub-intervals [qt[j], qt[j+1]] in layer ql[j] */
+    int nq;
+    double qt[MAXQ + 1];
+    int ql[MAXQ];
+    double *qtv;  /* (MAXQ + 1, K) optical depth from the observer to qt[j] */
+    double *qa0;  /* (MAXQ, K) log of attenuation x sun transmittance at the sub-interval's start */
+    double *qa1;  /* (MAXQ, K) ... and end */
+    double *qcw;  /* (MAXQ, K) cumulative scattering-weighted integral (the single-scattering density's cdf) */
+    double *qG;   /* (K,) its total */
+    double *qT;   /* (K,) optical depth of the whole view ray */
 } work_t;
 
 /* output row of component k for light that has been reflected ``extra`` more times by the ground */
@@ -420,6 +455,273 @@ static void nee_ground(const job_t *jb, work_t *w, const double *x, const double
     }
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* first order by quadrature along the view ray (quad mode)                                   */
+
+#define QGMIN 1e-280
+
+/* integral over [0, h] of exp(a0 + (a1 - a0) s / h) ds, for a0, a1 <= ~700 */
+static inline double explin_int(double a0, double a1, double h)
+{
+    double d = fabs(a1 - a0), m = fmax(a0, a1);
+    if (m < -745) return 0.0;
+    if (d < 1e-9) return h * exp(0.5 * (a0 + a1));
+    return h * exp(m) * (-expm1(-d)) / d;
+}
+
+/* s in [0, h] drawn with density proportional to exp((a1 - a0) s / h) */
+static inline double explin_sample(double a0, double a1, double h, double u)
+{
+    double d = a1 - a0;
+    if (fabs(d) < 1e-9) return u * h;
+    if (d > 700) d = 700;
+    double s = d > 0 ? h * (1.0 + log(u + (1.0 - u) * exp(-d)) / d) : h * log1p(u * expm1(d)) / d;
+    return s < 0 ? 0 : (s > h ? h : s);
+}
+
+/* distances t > 0 along x0 + t d where the ray crosses the edge of the Earth's shadow (cylinder of the ground
+ * radius around the sun's axis, on the night side); returns how many (0..2), ascending */
+static int shadow_edges(const geom_t *g, const double *sun, const double *x0, const double *d, double *roots)
+{
+    if (g->planar) return 0;
+    double xs = dot(x0, sun), ds = dot(d, sun), xp[3], dp[3];
+    for (int i = 0; i < 3; ++i) {
+        xp[i] = x0[i] - xs * sun[i];
+        dp[i] = d[i] - ds * sun[i];
+    }
+    double A = dot(dp, dp), B = 2 * dot(xp, dp), nx = sqrt(dot(xp, xp)), R = g->radii[0];
+    double C = (nx - R) * (nx + R), disc = B * B - 4 * A * C;
+    if (A < 1e-300 || disc < 0) return 0;
+    double q = -0.5 * (B + copysign(sqrt(disc), B)), r[2] = {q / A, q != 0 ? C / q : q / A};
+    if (r[0] > r[1]) {
+        double t = r[0];
+        r[0] = r[1];
+        r[1] = t;
+    }
+    int n = 0;
+    for (int i = 0; i < 2; ++i)
+        if (r[i] > 0 && xs + r[i] * ds < 0 && (n == 0 || r[i] > roots[0])) roots[n++] = r[i];
+    return n;
+}
+
+/* optical depth to the sun from point p in layer l into tau (K,); returns 0 when the planet is in the way */
+static int sun_tau(const job_t *jb, work_t *w, const double *p, int l, double *tau)
+{
+    trace_ray(jb->g, p, jb->sun, l, &w->sunp);
+    if (w->sunp.end < 0) return 0;
+    path_tau(jb->o, &w->sunp, w->sunp.n, 0, 0, tau);
+    return 1;
+}
+
+/* Set up the quadrature of the escaping view ray vp (from x0 along d, observer frame a) and add its singly
+ * scattered Stokes vectors (per unit solar irradiance) to ss (C, 4). */
+static void quad_setup(const job_t *jb, work_t *w, const double *x0, const double *d, const double *a,
+                       const path_t *vp, double *ss)
+{
+    const optics_t *o = jb->o;
+    const int K = o->K;
+    double roots[2], total = 0;
+    int nr = shadow_edges(jb->g, jb->sun, x0, d, roots);
+    for (int s = 0; s < vp->n; ++s) total += vp->len[s];
+    double step = fmax(jb->qstep, total / (MAXQ - 2 * vp->n - 8));
+    /* geometry of the single scattering (the same at every point: the sun is at infinity) */
+    double win[3] = {-jb->sun[0], -jb->sun[1], -jb->sun[2]}, wout[3] = {-d[0], -d[1], -d[2]};
+    double mu = dot(jb->sun, d), n[3], p_out[3], c2 = 1, s2 = 0, af = 0;
+    cross(win, wout, n);
+    if (dot(n, n) > 1e-24) {
+        normalize(n);
+        cross(n, wout, p_out);
+        rot2(p_out, n, a, &c2, &s2);
+    }
+    int ai = grid_find(o->amu, o->NA, mu, &af);
+    double *ta = w->tau, *tb = w->tot, *jseg = w->r; /* scratch (K,) each */
+    int nq = 0;
+    double t_seg = 0;
+    for (int k = 0; k < K; ++k) {
+        w->qtv[k] = 0;
+        w->qG[k] = 0;
+    }
+    for (int s = 0; s < vp->n; ++s) {
+        int l = vp->layer[s];
+        double len = vp->len[s], t_end = t_seg + len;
+        int m = (int)ceil(len / step);
+        if (m < 1) m = 1;
+        for (int k = 0; k < K; ++k) jseg[k] = 0;
+        double t0 = t_seg;
+        int ir = 0;
+        while (ir < nr && roots[ir] <= t_seg) ++ir;
+        for (int i = 1; i <= m; ++i) {
+            double t1 = i == m ? t_end : t_seg + len * i / m;
+            for (;;) {
+                double tb1 = t1; /* a shadow edge before t1 closes a sub-interval first */
+                if (ir < nr && roots[ir] < t1) tb1 = roots[ir++];
+                double h = tb1 - t0;
+                if (h <= 1e-9 || nq >= MAXQ) {
+                    if (tb1 == t1) break;
+                    continue;
+                }
+                double del = fmin(1e-6 + 1e-6 * h, 0.25 * h), p0[3], p1[3];
+                for (int c = 0; c < 3; ++c) {
+                    p0[c] = x0[c] + (t0 + del) * d[c];
+                    p1[c] = x0[c] + (tb1 - del) * d[c];
+                }
+                int lit0 = sun_tau(jb, w, p0, l, ta), lit1 = sun_tau(jb, w, p1, l, tb);
+                const double *ext = o->ext + (size_t)l * K;
+                double *tv0 = w->qtv + (size_t)nq * K, *tv1 = tv0 + K;
+                double *qa0 = w->qa0 + (size_t)nq * K, *qa1 = w->qa1 + (size_t)nq * K;
+                double *cw = w->qcw + (size_t)nq * K;
+                for (int k = 0; k < K; ++k) {
+                    tv1[k] = tv0[k] + ext[k] * h;
+                    double a0 = lit0 ? -(tv0[k] + ta[k]) : -1e300, a1 = lit1 ? -(tv1[k] + tb[k]) : -1e300;
+                    if (!lit0 && lit1) a0 = a1 - 30; /* one end in the shadow: a steep fall instead of a jump */
+                    if (lit0 && !lit1) a1 = a0 - 30;
+                    qa0[k] = a0;
+                    qa1[k] = a1;
+                    double J = (lit0 || lit1) ? explin_int(a0, a1, h) : 0.0;
+                    jseg[k] += J;
+                    w->qG[k] += (o->sca_r[(size_t)l * K + k] + o->sca_a[(size_t)l * K + k]) * J;
+                    cw[k] = w->qG[k];
+                }
+                w->qt[nq] = t0;
+                w->ql[nq] = l;
+                ++nq;
+                t0 = tb1;
+                if (tb1 == t1) break;
+            }
+        }
+        for (int k = 0; k < K; ++k) {
+            if (jseg[k] <= 0) continue;
+            double z6[6];
+            scatter_op(o, l, k, mu, ai, af, z6);
+            double f = jseg[k] * o->cw[k], *acc = ss + 4 * o->cch[k];
+            acc[0] += f * z6[0];
+            if (o->polarised) {
+                acc[1] += f * c2 * z6[1];
+                acc[2] += f * (-s2) * z6[1];
+            }
+        }
+        t_seg = t_end;
+    }
+    w->qt[nq] = t_seg;
+    w->nq = nq;
+    for (int k = 0; k < K; ++k) w->qT[k] = w->qtv[(size_t)nq * K + k];
+}
+
+/* First vertex of a path of order >= 2 on the view ray (quad mode): t from the hero-independent mixture
+ * q(t) = 1/K sum_k [QMIX p_free,k(t) + (1 - QMIX) p_ss,k(t)]; sets x, multiplies M_k by exp(-tau_k(t)) / q(t);
+ * returns the layer (or -1). */
+static int quad_first(const job_t *jb, work_t *w, rng_t *rng, const double *x0, const double *d, double *x)
+{
+    const optics_t *o = jb->o;
+    const int K = o->K, nq = w->nq;
+    if (nq < 1) return -1;
+    int k1 = (int)(rnd(rng) * K), j;
+    if (k1 >= K) k1 = K - 1;
+    double u = rnd(rng), t;
+    if (rnd(rng) < QMIX || w->qG[k1] <= QGMIN) {
+        double q = -expm1(-w->qT[k1]);
+        if (q <= 0) return -1;
+        double target = -log1p(-u * q);
+        int lo = 0, hi = nq;
+        while (hi - lo > 1) {
+            int mid = (lo + hi) >> 1;
+            if (w->qtv[(size_t)mid * K + k1] <= target)
+                lo = mid;
+            else
+                hi = mid;
+        }
+        j = lo;
+        double e = o->ext[(size_t)w->ql[j] * K + k1];
+        t = w->qt[j] + (e > 0 ? (target - w->qtv[(size_t)j * K + k1]) / e : 0);
+    } else {
+        double target = u * w->qG[k1];
+        int lo = -1, hi = nq - 1; /* first j with cdf[j] > target */
+        while (hi - lo > 1) {
+            int mid = (lo + hi) >> 1;
+            if (w->qcw[(size_t)mid * K + k1] > target)
+                hi = mid;
+            else
+                lo = mid;
+        }
+        j = hi;
+        t = w->qt[j] + explin_sample(w->qa0[(size_t)j * K + k1], w->qa1[(size_t)j * K + k1],
+                                     w->qt[j + 1] - w->qt[j], rnd(rng));
+    }
+    double t0 = w->qt[j], h = w->qt[j + 1] - t0;
+    if (t < t0) t = t0;
+    if (t > t0 + h) t = t0 + h;
+    int l = w->ql[j];
+    const double *ext = o->ext + (size_t)l * K;
+    double q = 0;
+    for (int k = 0; k < K; ++k) {
+        double tv = w->qtv[(size_t)j * K + k] + ext[k] * (t - t0), att = clamp_exp(-tv);
+        double qf = -expm1(-w->qT[k]), pe = qf > 0 ? ext[k] * att / qf : 0, ps = pe;
+        if (w->qG[k] > QGMIN) {
+            double a0 = w->qa0[(size_t)j * K + k], a1 = w->qa1[(size_t)j * K + k];
+            double a = h > 0 ? a0 + (a1 - a0) * (t - t0) / h : a0;
+            ps = (o->sca_r[(size_t)l * K + k] + o->sca_a[(size_t)l * K + k]) * clamp_exp(a) / w->qG[k];
+        }
+        q += QMIX * pe + (1 - QMIX) * ps;
+        w->tau[k] = att;
+    }
+    q /= K;
+    if (!(q > 0)) return -1;
+    for (int k = 0; k < K; ++k) {
+        double f = w->tau[k] / q, *M = w->M + 16 * k;
+        for (int i = 0; i < 16; ++i) M[i] *= f;
+    }
+    for (int c = 0; c < 3; ++c) x[c] = x0[c] + t * d[c];
+    return l;
+}
+
+
+/* The part [sa, sb] (distances along x + t d, 0 <= t <= len) in the shadow of a sphere HLIT above the ground
+ * (the Earth's shadow widened by the air that dims grazing sunlight most); 0 if none. */
+static int shadow_span(const job_t *jb, const double *x, const double *d, double len, double *sa, double *sb)
+{
+    const double *sun = jb->sun;
+    if (jb->g->planar) return 0;
+    double xs = dot(x, sun), ds = dot(d, sun), xp[3], dp[3];
+    for (int i = 0; i < 3; ++i) {
+        xp[i] = x[i] - xs * sun[i];
+        dp[i] = d[i] - ds * sun[i];
+    }
+    double A = dot(dp, dp), B = 2 * dot(xp, dp), nx = sqrt(dot(xp, xp)), R = jb->g->radii[0] + HLIT;
+    double C = (nx - R) * (nx + R), disc = B * B - 4 * A * C;
+    if (A < 1e-12 || disc <= 0) return 0;
+    double q = -0.5 * (B + copysign(sqrt(disc), B)), r0 = q / A, r1 = q != 0 ? C / q : q / A;
+    if (r0 > r1) {
+        double t = r0;
+        r0 = r1;
+        r1 = t;
+    }
+    double lo = fmax(r0, 0.0), hi = fmin(r1, len);
+    if (ds > 0)
+        hi = fmin(hi, -xs / ds);
+    else if (ds < 0)
+        lo = fmax(lo, -xs / ds);
+    else if (xs >= 0)
+        return 0;
+    if (hi - lo <= 1e-9) return 0;
+    *sa = lo;
+    *sb = hi;
+    return 1;
+}
+
+/* optical depth of every component from the start of the stored path to distance dist along it */
+static void tau_at(const optics_t *o, const path_t *p, double dist, double *tau)
+{
+    for (int k = 0; k < o->K; ++k) tau[k] = 0;
+    for (int s = 0; s < p->n && dist > 0; ++s) {
+        double t = fmin(dist, p->len[s]);
+        const double *e = o->ext + (size_t)p->layer[s] * o->K;
+        for (int k = 0; k < o->K; ++k) tau[k] += t * e[k];
+        dist -= t;
+    }
+}
+
+#define LITMIN 1e-12
+
 static void trace_direction(const job_t *jb, work_t *w, const double *view, const double *frame, long dir,
                             double *sum, double *sumsq)
 {
@@ -428,9 +730,19 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
     const int K = o->K, C = o->C;
     rng_t rng;
     rng_seed(&rng, jb->seed, (uint64_t)dir);
+    const double x_obs[3] = {0, 0, jb->obs_r};
+    int quad = 0;
+    memset(w->ss, 0, sizeof(double) * 4 * C);
+    if (jb->quad) {
+        trace_ray(g, x_obs, view, jb->obs_layer, &w->path);
+        if (w->path.end > 0) {
+            quad = 1;
+            quad_setup(jb, w, x_obs, view, frame, &w->path, w->ss);
+        }
+    }
     for (long smp = 0; smp < jb->n_samples; ++smp) {
         int h = (int)(smp % K);
-        memset(w->acc, 0, sizeof(double) * 4 * C);
+        memcpy(w->acc, w->ss, sizeof(double) * 4 * C); /* the first order by quadrature (zero otherwise) */
         w->bounces = 0;
         for (int k = 0; k < K; ++k) {
             double *M = w->M + 16 * k;
@@ -442,13 +754,42 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
                                                                                                frame[2]};
         int l = jb->obs_layer;
         for (int order = 0; order < jb->max_order; ++order) {
+            int lc;
+            if (quad && order == 0) {
+                lc = l = quad_first(jb, w, &rng, x_obs, d, x);
+                if (l < 0) break;
+            } else {
             trace_ray(g, x, d, l, &w->path);
             path_t *p = &w->path;
             path_tau(o, p, p->n, 0, 0, w->tot);
             double T_h = w->tot[h];
             int forced = p->end > 0;
-            double target, norm_h = 1.0;
-            if (forced) {
+            double target, norm_h = 1.0, sa = 0, sb = 0;
+            /* quad mode, a ray through the Earth's shadow: the free path is drawn from a mixture of the forced
+             * free path (QLIT) and the same conditioned on the sunlit part; pl (K,) that part's probability */
+            int shade = 0;
+            if (jb->quad) {
+                double len = 0;
+                for (int q = 0; q < p->n; ++q) len += p->len[q];
+                shade = shadow_span(jb, x, d, len, &sa, &sb);
+            }
+            if (shade) {
+                tau_at(o, p, sa, w->ta);
+                tau_at(o, p, sb, w->tb);
+                for (int k = 0; k < K; ++k) {
+                    double m = -expm1(-w->ta[k]) + fmax(clamp_exp(-w->tb[k]) - clamp_exp(-w->tot[k]), 0.0);
+                    double qk = -expm1(-w->tot[k]);
+                    w->pl[k] = forced ? (qk > 0 ? m / qk : 0) : m;
+                }
+            }
+            if (shade && w->pl[h] > LITMIN && rnd(&rng) >= QLIT) {
+                double m1 = -expm1(-w->ta[h]), eb = clamp_exp(-w->tb[h]);
+                double m2 = fmax(eb - clamp_exp(-T_h), 0.0), v = rnd(&rng) * (m1 + m2);
+                target = v < m1 ? -log1p(-v) : -log(fmax(eb - (v - m1), 1e-300));
+                if (target > T_h) target = T_h;
+                if (forced) norm_h = -expm1(-T_h);
+                if (!forced && target >= T_h) target = nextafter(T_h, 0);
+            } else if (forced) {
                 /* escaping rays contribute nothing: force the collision, weight by 1 - exp(-T) */
                 double q = -expm1(-T_h);
                 if (q <= 0) break;
@@ -459,10 +800,11 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
             }
             if (!forced && target >= T_h) {
                 /* reached the ground */
-                double denom = 0;
+                double denom = 0, mh = (shade && w->pl[h] > LITMIN) ? QLIT : 1.0;
                 for (int k = 0; k < K; ++k) {
-                    double f = clamp_exp(T_h - w->tot[k]);
-                    w->r[k] *= f;
+                    double f = clamp_exp(T_h - w->tot[k]), mk = (shade && w->pl[k] > LITMIN) ? QLIT : 1.0;
+                    w->r[k] *= f * mk / mh;
+                    f /= mh;
                     double *M = w->M + 16 * k;
                     for (int i = 0; i < 16; ++i) M[i] *= f;
                     denom += w->r[k];
@@ -520,18 +862,20 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
                 }
                 acc_tau += dt;
             }
-            int lc = p->layer[s];
+            lc = p->layer[s];
             path_tau(o, p, s, lc, part, w->tau);
             double dist = part;
             for (int q = 0; q < s; ++q) dist += p->len[q];
             for (int i = 0; i < 3; ++i) x[i] += dist * d[i];
             l = lc;
             const double *ext = o->ext + (size_t)lc * K;
-            double ph = ext[h] / norm_h; /* hero density up to exp(-tau_h), factored out below */
+            int lit = !(shade && dist > sa && dist < sb);
+#define LITMIX(k) ((shade && w->pl[k] > LITMIN) ? QLIT + (1 - QLIT) * lit / w->pl[k] : 1.0)
+            double ph = ext[h] / norm_h * LITMIX(h); /* hero density up to exp(-tau_h), factored out below */
             double denom = 0;
             for (int k = 0; k < K; ++k) {
                 double e = clamp_exp(w->tau[h] - w->tau[k]);
-                double pk = ext[k] * e;
+                double pk = ext[k] * e * LITMIX(k);
                 if (forced) {
                     double qk = -expm1(-w->tot[k]);
                     pk = qk > 0 ? pk / qk : 0;
@@ -544,6 +888,7 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
             }
             denom /= K;
             nee_scatter(jb, w, x, l, d, a_cur, denom);
+            }
             /* sample the next direction from the hero's phase function */
             double br = o->sca_r[(size_t)lc * K + h], ba = o->sca_a[(size_t)lc * K + h];
             if (br + ba <= 0) break;
@@ -581,8 +926,7 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
             double zs[6];
             qh = scatter_op(o, lc, h, mu, ai, af, zs);
             if (qh <= 0) break;
-            double tmax = 0;
-            denom = 0;
+            double tmax = 0, denom = 0;
             for (int k = 0; k < K; ++k) {
                 double qk = scatter_op(o, lc, k, mu, ai, af, z6);
                 w->r[k] *= qk / qh;
@@ -635,11 +979,13 @@ static int get_buf(PyObject *o, buf_t *bb, int writable, const char *name, Py_ss
 #define NB 17
 
 /* trace(radii, planar, ext, sca_r, sca_a, ray, amu, atab, acdf, ctab, albedo, cch, cw, n_channels, sun,
- *       obs_r, obs_layer, views, frames, n_samples, seed, max_order, polarised, nthreads, sum, sumsq, nbins)
+ *       obs_r, obs_layer, views, frames, n_samples, seed, max_order, polarised, nthreads, sum, sumsq, nbins
+ *       [, quad=0, qstep=2.0])
  * shapes: radii (L+1,), ext/sca_r/sca_a (L, K), ray (K, 2), amu (NA,), atab (G, NA, 4), acdf (G, NA),
  * ctab (K,) int32, albedo (K,), cch (K,) int32, cw (K,), sun (3,), views/frames (N, 3),
  * sum/sumsq (N, C, 4) float64, accumulated in place; nbins >= 1 output rows per channel (cch[k] + nbins - 1 < C)
- * split by the number of ground reflections before the light reaches the observer (the last row holds the rest). */
+ * split by the number of ground reflections before the light reaches the observer (the last row holds the rest);
+ * quad: first order by quadrature along escaping view rays with sub-intervals of at most qstep [km]. */
 static PyObject *py_trace(PyObject *self, PyObject *args)
 {
     (void)self;
@@ -648,17 +994,18 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
     long nsamp;
     double obs_r;
     unsigned long long seed;
-    int N;
-    if (!PyArg_ParseTuple(args, "iiiiiOiOOOOOOOOOOOiOdiOOlKiiiOOi", &L, &K, &G, &NA, &planar, &o[0], &nch, &o[1],
+    int N, quad = 0;
+    double qstep = 2.0;
+    if (!PyArg_ParseTuple(args, "iiiiiOiOOOOOOOOOOOiOdiOOlKiiiOOi|id", &L, &K, &G, &NA, &planar, &o[0], &nch, &o[1],
                           &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &N, &o[12],
                           &obs_r, &obs_layer, &o[13], &o[14], &nsamp, &seed, &max_order, &polarised, &nthreads,
-                          &o[15], &o[16], &nbins))
+                          &o[15], &o[16], &nbins, &quad, &qstep))
         return NULL;
     buf_t b[NB];
     memset(b, 0, sizeof(b));
     PyObject *ret = NULL;
     if (L < 1 || K < 1 || G < 1 || NA < 2 || nch < 1 || N < 0 || nsamp < 1 || obs_layer < 0 || obs_layer >= L ||
-        max_order < 1 || nbins < 1) {
+        max_order < 1 || nbins < 1 || !(qstep > 0)) {
         PyErr_SetString(PyExc_ValueError, "montecarlo trace: invalid sizes");
         return NULL;
     }
@@ -684,7 +1031,8 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
                        (const double *)b[3].b.buf, (const double *)b[4].b.buf, (const double *)b[5].b.buf,
                        (const double *)b[6].b.buf, (const double *)b[7].b.buf, ctab, (const double *)b[9].b.buf,
                        cch, (const double *)b[11].b.buf, polarised, nbins};
-        job_t jb = {&g, &op, (const double *)b[12].b.buf, obs_r, obs_layer, nsamp, max_order, (uint64_t)seed};
+        job_t jb = {&g, &op, (const double *)b[12].b.buf, obs_r, obs_layer, nsamp, max_order, (uint64_t)seed,
+                    quad != 0, qstep};
         const double *views = (const double *)b[13].b.buf, *frames = (const double *)b[14].b.buf;
         double *sum = (double *)b[15].b.buf, *sumsq = (double *)b[16].b.buf;
         int err = 0;
@@ -695,7 +1043,8 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
 #endif
         {
             work_t *w = (work_t *)malloc(sizeof(work_t));
-            double *mem = w ? (double *)malloc(sizeof(double) * ((size_t)K * 19 + 4 * (size_t)nch)) : NULL;
+            size_t nq = jb.quad ? (size_t)K * (4 * MAXQ + 3) : 0;
+            double *mem = w ? (double *)malloc(sizeof(double) * ((size_t)K * 22 + 8 * (size_t)nch + nq)) : NULL;
             if (!mem) {
 #ifdef WIDESKY_OPENMP
 #pragma omp atomic write
@@ -707,6 +1056,16 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
                 w->tau = w->r + K;
                 w->tot = w->tau + K;
                 w->acc = w->tot + K;
+                w->ss = w->acc + 4 * (size_t)nch;
+                w->qtv = w->ss + 4 * (size_t)nch; /* (MAXQ + 1) K */
+                w->qa0 = w->qtv + (size_t)(MAXQ + 1) * K;
+                w->qa1 = w->qa0 + (size_t)MAXQ * K;
+                w->qcw = w->qa1 + (size_t)MAXQ * K;
+                w->qG = w->qcw + (size_t)MAXQ * K;
+                w->qT = w->qG + K;
+                w->ta = (jb.quad ? w->qT : w->ss + 4 * (size_t)nch - K) + K;
+                w->tb = w->ta + K;
+                w->pl = w->tb + K;
             }
 #ifdef WIDESKY_OPENMP
 #pragma omp for schedule(dynamic, 1)

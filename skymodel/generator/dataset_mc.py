@@ -36,6 +36,11 @@ from .cache import cache_root
 MC_AZIMUTHS_DEG = (0.0, 1.0, 2.5, 5.0, 10.0, 17.0, 25.0, 35.0, 47.5, 60.0, 75.0, 90.0, 105.0, 120.0, 135.0, 150.0,
                    165.0, 180.0)
 """Default relative azimuths of the Monte Carlo direction grid [deg] (0 = toward the sun), refined near the sun."""
+MC_FIRST_ORDER = {"radiance": "quadrature", "polarisation": "sampled"}
+"""First-order method (:class:`skymodel.generator.montecarlo.MonteCarloConfig`) of the build's Monte Carlo states
+whose radiance is used (low sun and twilight: the quadrature, 3-185x more efficient at -2 deg) and of those that only
+give the polarisation (sun higher up: the original sampled estimator, whose degree of polarisation is as good or
+better at 36 deg; docs/atmosphere-and-solver.md, "Variance reduction")."""
 MC_SUN_OFFSETS_DEG = (1.0, 3.0)
 """Offsets of extra view zeniths around the solar zenith [deg] (sun above the horizon)."""
 
@@ -64,7 +69,9 @@ def mc_config(config, visibility_km: float, elevation_deg: float):
                                  round(float(elevation_deg), 4)]).encode()).hexdigest()
     return MonteCarloConfig(samples=int(config.mc_samples), seed=int(h[:15], 16),
                             channels_per_batch=int(config.mc_channels_per_batch),
-                            ground_orders=int(config.mc_ground_orders), threads=1)
+                            ground_orders=int(config.mc_ground_orders), threads=1,
+                            first_order=MC_FIRST_ORDER["radiance" if radiance_by_mc(config, elevation_deg)
+                                                       else "polarisation"])
 
 
 def mc_key(config) -> str:
@@ -72,7 +79,7 @@ def mc_key(config) -> str:
     d = {"atmosphere": config.atmosphere, "samples": int(config.mc_samples), "seed": int(config.mc_seed),
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
          "zenith_step": float(config.mc_zenith_step_deg), "azimuths": [float(x) for x in mc_azimuths(config)],
-         "v": 1}
+         "first_order": MC_FIRST_ORDER, "below": config.mc_below_elevation_deg, "v": 3}
     return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:12]
 
 
