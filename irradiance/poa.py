@@ -841,8 +841,12 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
             aoi_pt = np.degrees(np.arccos(np.clip(terms["cos"], 0.0, 1.0)))
         if kind == "angular":
             key = id(r.angular)
-            if key not in optic_at_aoi:
-                optic_at_aoi[key] = np.asarray(r.angular(aoi_pt), dtype=np.float32)
+            if key not in optic_at_aoi:            # only where the beam arrives (it multiplies it)
+                lit = beam > 0
+                g = np.zeros(beam.shape, np.float32)
+                if lit.any():
+                    g[lit] = np.asarray(r.angular(aoi_pt[lit]), dtype=np.float32)
+                optic_at_aoi[key] = g
         keep = PARTS if stored is None else stored[i]
         if i in fast:
             j, m = fast[i]

@@ -32,17 +32,18 @@
 #define MAX_TECH 64
 #define MAX_CUR 128
 
+/* ln x for finite x > 0 (x <= 0 gives a finite value the caller discards); integer arithmetic only,
+ * no branch, so the loops that call it vectorise */
 static inline float ln_f(float x)
 {
     uint32_t b;
     memcpy(&b, &x, 4);
-    float k = (float)((int32_t)((b >> 23) & 0xffu) - 127);
-    uint32_t mb = (b & 0x007fffffu) | 0x3f800000u;
+    uint32_t mb = (b & 0x007fffffu) | 0x3f800000u;          /* mantissa m in [1, 2) */
+    uint32_t big = ((mb + 0x004afb0cu) >> 30) & 1u;          /* m >= sqrt(2) */
+    mb -= big << 23;                                         /* then m / 2, in [sqrt(1/2), sqrt(2)) */
+    float k = (float)((int32_t)((b >> 23) & 0xffu) - 127 + (int32_t)big);
     float m;
     memcpy(&m, &mb, 4);
-    int big = m > 1.41421356f;
-    m = big ? 0.5f * m : m;
-    k = big ? k + 1.0f : k;
     float s = (m - 1.0f) / (m + 1.0f), s2 = s * s;
     float p = 1.0f + s2 * (1.0f / 3.0f + s2 * (1.0f / 5.0f + s2 * (1.0f / 7.0f + s2 * (1.0f / 9.0f))));
     return k * 0.69314718f + 2.0f * s * p;
@@ -58,7 +59,7 @@ typedef struct {
 } row_t;
 
 /* one run of consecutive front faces [f0, f0 + n) with their backs at [b0, b0 + n) (b0 < 0: none) */
-PV_CLONES static void run_common(const row_t *r, Py_ssize_t f0, Py_ssize_t n, float *gbuf, double *acc,
+PV_CLONES static void run_common(const row_t *r, Py_ssize_t f0, Py_ssize_t n, float *restrict gbuf, double *acc,
                                  float *gmax_out)
 {
     const float *bd = r->plane[0] + f0, *bs = r->plane[1] + f0, *bg = r->plane[2] + f0;
@@ -77,68 +78,100 @@ PV_CLONES static void run_common(const row_t *r, Py_ssize_t f0, Py_ssize_t n, fl
         c = c > 0.0f ? c : 0.0f;
         float beam = dn * c;
         float un = g - d + (beam > d ? beam : d);
-        float t = ao[i];
-        int fin = t == t;
         gbuf[i] = g;
         gm = g > gm ? g : gm;
         s0 += (double)(w * g);
         s1 += (double)(w * d);
         s2 += (double)(w * bs[i]);
         s3 += (double)(w * bg[i]);
-        s4 += fin ? (double)(w * t) : 0.0;
-        s5 += fin ? (double)w : 0.0;
         s6 += (double)(w * cov);
         s7 += (double)(w * un);
+    }
+    if (r->up) { /* the angle of incidence: NaN on every face with the sun down, finite with it up */
+#pragma omp simd reduction(+ : s4, s5)
+        for (Py_ssize_t i = 0; i < n; ++i) {
+            s4 += (double)(a[i] * ao[i]);
+            s5 += (double)a[i];
+        }
     }
     acc[0] += s0; acc[1] += s1; acc[2] += s2; acc[3] += s3;
     acc[4] += s4; acc[5] += s5; acc[6] += s6; acc[7] += s7;
     if (gm > *gmax_out) *gmax_out = gm;
 }
 
-/* per technology: kind 1 single junction, 2 two-terminal, 4 four-terminal tandem */
-PV_CLONES static void run_tech(const row_t *r, const double *tp, double tcoef, Py_ssize_t f0, Py_ssize_t b0,
-                               Py_ssize_t n, const float *gbuf, double *acc)
+/* stack power density of the sub-cell currents (before the STC normalisation): kind 1 single
+ * junction J, 2 two-terminal min(J0, J1) (V0 + V1), 4 four-terminal J0 V0 + J1 V1 */
+static inline __attribute__((always_inline)) float stack_p(int kind, float j0, float j1, float v0, float v1)
 {
-    const int kind = (int)tp[0], r0 = (int)tp[1], r1 = (int)tp[3];
-    const float f0c = (float)tp[2], f1c = (float)tp[4], v0 = (float)tp[5], v1 = (float)tp[6];
-    const float ceff = (float)tp[7], bif = (float)tp[8], A = (float)tp[9], gam = (float)tp[10];
-    const float eta = (float)tp[11], ta = (float)r->ta, kt = (float)tcoef;
-    const int tandem = kind != 1, two = kind == 2, back = b0 >= 0 && bif > 0.0f;
-    const float *c0 = r->cur[r0], *e0 = r->beam[r0], *c1 = r->cur[tandem ? r1 : r0], *e1 = r->beam[tandem ? r1 : r0];
-    const float d0 = r->dni[r0], d1 = r->dni[tandem ? r1 : r0];
-    const float *a = r->area + f0;
-    const Py_ssize_t bo = back ? b0 - f0 : 0;
+    if (kind == 1) return j0;
+    if (kind == 2) return (j0 < j1 ? j0 : j1) * (v0 + v1);
+    return j0 * v0 + j1 * v1;
+}
+
+/* effective irradiance of n faces into e (currents cur + dni * beam times the factors) */
+static inline __attribute__((always_inline)) void effective_run(int kind, const float *restrict c0,
+    const float *restrict b0, float d0, float f0c, const float *restrict c1, const float *restrict b1, float d1,
+    float f1c, float v0, float v1, float ceff, Py_ssize_t n, float *restrict e, float *restrict j0o,
+    float *restrict j1o)
+{
+#pragma omp simd
+    for (Py_ssize_t i = 0; i < n; ++i) {
+        float j0 = (c0[i] + d0 * b0[i]) * f0c;
+        float j1 = kind == 1 ? 0.0f : (c1[i] + d1 * b1[i]) * f1c;
+        e[i] = ceff * stack_p(kind, j0, j1, v0, v1);
+        j0o[i] = j0;
+        j1o[i] = j1;
+    }
+}
+
+/* the low-irradiance law, temperature and sums of n faces */
+PV_CLONES __attribute__((noinline)) static void sums_run(const float *restrict e, const float *restrict eb,
+    float bif, const float *restrict j0, const float *restrict j1, const float *restrict gbuf,
+    const float *restrict a, float A, float gam, float eta, float ta, float kt, Py_ssize_t n, double *acc)
+{
     double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0, s6 = 0;
 #pragma omp simd reduction(+ : s0, s1, s2, s3, s4, s5, s6)
     for (Py_ssize_t i = 0; i < n; ++i) {
-        Py_ssize_t f = f0 + i;
-        float j0 = (c0[f] + d0 * e0[f]) * f0c;
-        float j1 = tandem ? (c1[f] + d1 * e1[f]) * f1c : 0.0f;
-        float p = !tandem ? j0 : (two ? (j0 < j1 ? j0 : j1) * (v0 + v1) : j0 * v0 + j1 * v1);
-        float e = ceff * p, et = e;
-        if (back) {
-            Py_ssize_t q = f + bo;
-            float k0 = (c0[q] + d0 * e0[q]) * f0c;
-            float k1 = tandem ? (c1[q] + d1 * e1[q]) * f1c : 0.0f;
-            float pb = !tandem ? k0 : (two ? (k0 < k1 ? k0 : k1) * (v0 + v1) : k0 * v0 + k1 * v1);
-            et = e + bif * (ceff * pb);
-        }
-        float pos = et > 0.0f ? et : 1.0f;
-        float rel = 1.0f + A * ln_f(pos * 0.001f);
+        float et = e[i] + bif * eb[i];
+        float rel = 1.0f + A * ln_f(et * 0.001f);   /* et <= 0: low is 0 below */
         rel = rel > 0.0f ? rel : 0.0f;
-        float low = et > 0.0f ? et * rel : 0.0f;
+        float low = (et > 0.0f ? et : 0.0f) * rel;
         float tc = ta + gbuf[i] * kt;
         float dc = eta * low * (1.0f + gam * (tc - 25.0f));
         float w = a[i];
-        s0 += (double)(w * e);
+        s0 += (double)(w * e[i]);
         s1 += (double)(w * et);
         s2 += (double)(w * low);
         s3 += (double)(w * dc);
         s4 += (double)(w * tc);
-        s5 += (double)(w * j0);
-        s6 += (double)(w * j1);
+        s5 += (double)(w * j0[i]);
+        s6 += (double)(w * j1[i]);
     }
     acc[0] += s0; acc[1] += s1; acc[2] += s2; acc[3] += s3; acc[4] += s4; acc[5] += s5; acc[6] += s6;
+}
+
+/* per technology (parameters tp, see py_accumulate) on the run of faces [f0, f0 + n), backs at b0;
+ * work: 6 n floats */
+PV_CLONES static void run_tech(const row_t *r, const double *tp, double tcoef, Py_ssize_t f0, Py_ssize_t b0,
+                               Py_ssize_t n, const float *gbuf, float *work, double *acc)
+{
+    const int kind = (int)tp[0], r0 = (int)tp[1], r1 = kind == 1 ? (int)tp[1] : (int)tp[3];
+    const float f0c = (float)tp[2], f1c = (float)tp[4], v0 = (float)tp[5], v1 = (float)tp[6];
+    const float ceff = (float)tp[7], bif = (float)tp[8], A = (float)tp[9], gam = (float)tp[10];
+    const float eta = (float)tp[11];
+    const float *c0 = r->cur[r0], *e0 = r->beam[r0], *c1 = r->cur[r1], *e1 = r->beam[r1];
+    const float d0 = r->dni[r0], d1 = r->dni[r1];
+    float *e = work, *eb = work + n, *j0 = work + 2 * n, *j1 = work + 3 * n, *tmp = work + 4 * n; /* 6 n */
+    const int back = b0 >= 0 && bif > 0.0f;
+#define EFF(K, F, OUT, J0, J1) effective_run(K, c0 + F, e0 + F, d0, f0c, c1 + F, e1 + F, d1, f1c, v0, v1, ceff, n, OUT, J0, J1)
+    switch (kind) {
+    case 1: EFF(1, f0, e, j0, j1); if (back) EFF(1, b0, eb, tmp, tmp + n); break;
+    case 2: EFF(2, f0, e, j0, j1); if (back) EFF(2, b0, eb, tmp, tmp + n); break;
+    default: EFF(4, f0, e, j0, j1); if (back) EFF(4, b0, eb, tmp, tmp + n); break;
+    }
+#undef EFF
+    if (!back) memset(eb, 0, sizeof(float) * n);
+    sums_run(e, eb, back ? bif : 0.0f, j0, j1, gbuf, r->area + f0, A, gam, eta, (float)r->ta, (float)tcoef, n, acc);
 }
 
 PV_CLONES static double row_dni(const row_t *r, Py_ssize_t F)
@@ -151,8 +184,9 @@ PV_CLONES static double row_dni(const row_t *r, Py_ssize_t F)
     for (Py_ssize_t f = 0; f < F; ++f) {
         float c = sx * r->nx[f] + sy * r->ny[f] + sz * r->nz[f];
         float v = sv[f];
-        int ok = (v > 0.5f) & (c > 0.2f);
-        float est = ok ? bd[f] / (ok ? v * c : 1.0f) : 0.0f;
+        float den = v * c;                          /* > 0.1 where the face counts */
+        float est = bd[f] / (den > 0.1f ? den : 1.0f);
+        est = (v > 0.5f) & (c > 0.2f) ? est : 0.0f;
         best = est > best ? est : best;
     }
     return (double)best;
@@ -277,7 +311,7 @@ static PyObject *py_accumulate(PyObject *self, PyObject *args)
         double *dout = ob[9].b.buf, *cout = ob[10].b.buf, *tout = ob[11].b.buf;
         Py_ssize_t maxrun = 1;
         for (Py_ssize_t i = 0; i < nr; ++i) maxrun = runs[4 * i + 2] > maxrun ? runs[4 * i + 2] : maxrun;
-        float *gbuf = PyMem_RawMalloc(sizeof(float) * maxrun);
+        float *gbuf = PyMem_RawMalloc(sizeof(float) * maxrun * 7), *work = gbuf + maxrun;
         float *gmax = PyMem_RawMalloc(sizeof(float) * (G + 1));
         if (!gbuf || !gmax) {
             PyMem_RawFree(gbuf);
@@ -314,7 +348,7 @@ static PyObject *py_accumulate(PyObject *self, PyObject *args)
                 if (n == 0) continue;
                 run_common(&r, f0, n, gbuf, cout + (g * Tc + t) * N_COMMON, &gmax[g]);
                 for (Py_ssize_t k = 0; k < K; ++k)
-                    run_tech(&r, tp + TECH_PARAMS * k, tcoef[k * Tc + t], f0, b0, n, gbuf,
+                    run_tech(&r, tp + TECH_PARAMS * k, tcoef[k * Tc + t], f0, b0, n, gbuf, work,
                              tout + ((g * K + k) * Tc + t) * N_TECH);
             }
             for (Py_ssize_t g = 0; g < G; ++g)
