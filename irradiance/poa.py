@@ -653,6 +653,11 @@ class _ProductContext:
             [cf.reflect_sun / np.pi, cf.ground_sun[:, :, None]], axis=2).transpose(0, 2, 1),
             dtype=np.float32)                                                       # (G, B+1, N)
         self.normals_T = np.ascontiguousarray(scene.point_normal.T.astype(np.float32))   # (3, N)
+        # points that share a normal share the beam's angle of incidence: an angular optic is
+        # evaluated per distinct normal (rows of modules, the walls of a building: a handful)
+        un, inv = np.unique(self.normals_T.T, axis=0, return_inverse=True)
+        self.normal_groups = ((np.ascontiguousarray(un.T), inv.reshape(-1))
+                              if un.shape[0] <= max(1, N // 4) else None)
         self.sun_vis = cf.sun_visibility_bins()                                      # (S_b, N)
         self.sun_bin_of = np.arange(cf.n_sun) if cf.sun_index is None else cf.sun_index
         self.Hb = reinhart_vector_z(P)
@@ -777,13 +782,17 @@ def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank, band=None):
     cos.fill(0.0)
     vis.fill(0.0)
     upc = np.nonzero(up[idx])[0]
+    cos_u = None if ctx.normal_groups is None else np.zeros((Tc, ctx.normal_groups[0].shape[1]),
+                                                             np.float32)
     if upc.size:
         cos[upc] = s[upc].astype(np.float32) @ ctx.normals_T
         vis[upc] = ctx.sun_vis[ctx.sun_bin_of[sun_rank[idx[upc]]]]
+        if cos_u is not None:
+            cos_u[upc] = s[upc].astype(np.float32) @ ctx.normal_groups[0]
     np.maximum(cos, 0.0, out=beam)
     beam *= vis
     return {"sky": sky_all, "refl": refl_all, "beam": beam, "cos": cos, "vis": vis,
-            "dni": dni.astype(np.float32), "fast": fast}
+            "dni": dni.astype(np.float32), "fast": fast, "cos_u": cos_u}
 
 
 def _fused_product(ctx, m, cols, Lp, Lg, dni, cos_b, g_sun, band):
@@ -837,16 +846,12 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
     for i, (name, _w, _unit, r) in enumerate(resp):
         kind = plan.kind[i]
         js = col_of[i]
-        if kind != "none" and aoi_pt is None:
+        if kind == "spectral" and aoi_pt is None:
             aoi_pt = np.degrees(np.arccos(np.clip(terms["cos"], 0.0, 1.0)))
         if kind == "angular":
             key = id(r.angular)
-            if key not in optic_at_aoi:            # only where the beam arrives (it multiplies it)
-                lit = beam > 0
-                g = np.zeros(beam.shape, np.float32)
-                if lit.any():
-                    g[lit] = np.asarray(r.angular(aoi_pt[lit]), dtype=np.float32)
-                optic_at_aoi[key] = g
+            if key not in optic_at_aoi:            # it multiplies the beam: only where that arrives
+                optic_at_aoi[key] = _optic_on_beam(ctx, r.angular, terms)
         keep = PARTS if stored is None else stored[i]
         if i in fast:
             j, m = fast[i]
@@ -908,6 +913,21 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
             block[("spectral", p)][rows] = _face_mean_spectral(ctx, v)
         block[("spectral", "global")][rows] = sum(block[("spectral", p)][rows] for p in PARTS)
     return currents
+
+
+def _optic_on_beam(ctx, angular, terms):
+    """(Tc, N) float32 angular optic at each point's beam angle of incidence [1]: per distinct
+    normal (``ctx.normal_groups``) then spread, else where the beam arrives (0 elsewhere)."""
+    if ctx.normal_groups is not None:
+        aoi = np.degrees(np.arccos(np.clip(terms["cos_u"], 0.0, 1.0)))
+        return np.asarray(angular(aoi), dtype=np.float32)[:, ctx.normal_groups[1]]
+    beam = terms["beam"]
+    lit = beam > 0
+    g = np.zeros(beam.shape, np.float32)
+    if lit.any():
+        g[lit] = np.asarray(angular(np.degrees(np.arccos(np.clip(terms["cos"][lit], 0.0, 1.0)))),
+                            dtype=np.float32)
+    return g
 
 
 def _face_mean_spectral(ctx, v):
