@@ -1,10 +1,13 @@
 """``poa_irradiance(parts=...)``: responses kept as their global part only (the fast path for many
 PV cell currents) give the same numbers as the full run's ``get(name, "global")``.
 
-Reference: the full per-response run on the same scene, sky and states. The fast path stores the
-float32 sum of the three face-mean parts that ``POAResult.get`` would form from a full run, so the
-comparison is exact (bitwise), in memory and streamed to HDF5; angle-only optics shared by several
-responses are evaluated once per chunk (counted here), with no change to the numbers.
+Reference: the full per-response run on the same scene, sky and states. With a ground albedo that
+changes between steps the global-only path stores the float32 sum of the three face-mean parts that
+``POAResult.get`` would form from a full run, so the comparison is exact (bitwise), in memory and
+streamed to HDF5; angle-only optics shared by several responses are evaluated once per chunk (counted
+here), with no change to the numbers. With a constant albedo (it folds into the reflected-sky matrix)
+global-only responses take the fused product, one matrix per optic: compared within float32 rounding
+(the last tests), with a consumer that receives them chunk by chunk.
 """
 
 import h5py
