@@ -331,8 +331,9 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         ``consumer(steps, block, rows, currents)``: ``steps`` (Tc,) step indices; ``block`` dict key
         -> (n, F) float32 arrays of the current output block (the kept parts as ``(name, part)``,
         ``"aoi"`` [deg] and ``"sun_visible"`` [1]), the chunk's values at rows ``rows`` (Tc,);
-        ``currents`` dict name -> :class:`GlobalParts` of every response kept as "global" only or
-        not at all (the fused product's factors, so a consumer can use them without a copy). The
+        ``currents`` dict name -> :class:`GlobalParts` of every response the fused product serves
+        and of every response kept for the consumer only (the fused product's factors, so a consumer
+        can use them without a copy; other kept globals are in ``block``). The
         arrays are reused afterwards: a consumer reduces them, it does not keep them (pvsim's yield
         model uses this to never write sub-cell currents).
 
