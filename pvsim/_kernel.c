@@ -150,6 +150,41 @@ PV_CLONES __attribute__((noinline)) static void sums_run(const float *restrict e
     acc[0] += s0; acc[1] += s1; acc[2] += s2; acc[3] += s3; acc[4] += s4; acc[5] += s5; acc[6] += s6;
 }
 
+/* one pass over n faces without rear sides: currents, effective irradiance, the low-irradiance law,
+ * temperature and sums (the common case; with rear sides run_tech takes two passes) */
+#define ONE_PASS(NAME, KIND)                                                                                 \
+    PV_CLONES __attribute__((noinline)) static void NAME(                                                   \
+        const float *restrict c0, const float *restrict b0, float d0, float f0c, const float *restrict c1,   \
+        const float *restrict b1, float d1, float f1c, float v0, float v1, float ceff,                       \
+        const float *restrict gbuf, const float *restrict a, float A, float gam, float eta, float ta,        \
+        float kt, Py_ssize_t n, double *acc)                                                                 \
+    {                                                                                                        \
+        double s0 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0, s6 = 0;                                               \
+        _Pragma("omp simd reduction(+ : s0, s2, s3, s4, s5, s6)")                                            \
+        for (Py_ssize_t i = 0; i < n; ++i) {                                                                 \
+            float j0 = (c0[i] + d0 * b0[i]) * f0c;                                                           \
+            float j1 = KIND == 1 ? 0.0f : (c1[i] + d1 * b1[i]) * f1c;                                        \
+            float e = ceff * stack_p(KIND, j0, j1, v0, v1);                                                  \
+            float rel = 1.0f + A * ln_f(e * 0.001f);                                                         \
+            rel = rel > 0.0f ? rel : 0.0f;                                                                   \
+            float low = (e > 0.0f ? e : 0.0f) * rel;                                                         \
+            float tc = ta + gbuf[i] * kt;                                                                    \
+            float dc = eta * low * (1.0f + gam * (tc - 25.0f));                                              \
+            float w = a[i];                                                                                  \
+            s0 += (double)(w * e);                                                                           \
+            s2 += (double)(w * low);                                                                         \
+            s3 += (double)(w * dc);                                                                          \
+            s4 += (double)(w * tc);                                                                          \
+            s5 += (double)(w * j0);                                                                          \
+            s6 += (double)(w * j1);                                                                          \
+        }                                                                                                    \
+        acc[0] += s0; acc[1] += s0; acc[2] += s2; acc[3] += s3; acc[4] += s4; acc[5] += s5; acc[6] += s6;    \
+    }
+ONE_PASS(one_pass_1, 1)
+ONE_PASS(one_pass_2, 2)
+ONE_PASS(one_pass_4, 4)
+#undef ONE_PASS
+
 /* per technology (parameters tp, see py_accumulate) on the run of faces [f0, f0 + n), backs at b0;
  * work: 6 n floats */
 PV_CLONES static void run_tech(const row_t *r, const double *tp, double tcoef, Py_ssize_t f0, Py_ssize_t b0,
@@ -161,17 +196,24 @@ PV_CLONES static void run_tech(const row_t *r, const double *tp, double tcoef, P
     const float eta = (float)tp[11];
     const float *c0 = r->cur[r0], *e0 = r->beam[r0], *c1 = r->cur[r1], *e1 = r->beam[r1];
     const float d0 = r->dni[r0], d1 = r->dni[r1];
-    float *e = work, *eb = work + n, *j0 = work + 2 * n, *j1 = work + 3 * n, *tmp = work + 4 * n; /* 6 n */
     const int back = b0 >= 0 && bif > 0.0f;
+    if (!back) {
+#define ONE(NAME) NAME(c0 + f0, e0 + f0, d0, f0c, c1 + f0, e1 + f0, d1, f1c, v0, v1, ceff, gbuf, r->area + f0, A, gam, eta, (float)r->ta, (float)tcoef, n, acc)
+        if (kind == 1) ONE(one_pass_1);
+        else if (kind == 2) ONE(one_pass_2);
+        else ONE(one_pass_4);
+#undef ONE
+        return;
+    }
+    float *e = work, *eb = work + n, *j0 = work + 2 * n, *j1 = work + 3 * n, *tmp = work + 4 * n; /* 6 n */
 #define EFF(K, F, OUT, J0, J1) effective_run(K, c0 + F, e0 + F, d0, f0c, c1 + F, e1 + F, d1, f1c, v0, v1, ceff, n, OUT, J0, J1)
     switch (kind) {
-    case 1: EFF(1, f0, e, j0, j1); if (back) EFF(1, b0, eb, tmp, tmp + n); break;
-    case 2: EFF(2, f0, e, j0, j1); if (back) EFF(2, b0, eb, tmp, tmp + n); break;
-    default: EFF(4, f0, e, j0, j1); if (back) EFF(4, b0, eb, tmp, tmp + n); break;
+    case 1: EFF(1, f0, e, j0, j1); EFF(1, b0, eb, tmp, tmp + n); break;
+    case 2: EFF(2, f0, e, j0, j1); EFF(2, b0, eb, tmp, tmp + n); break;
+    default: EFF(4, f0, e, j0, j1); EFF(4, b0, eb, tmp, tmp + n); break;
     }
 #undef EFF
-    if (!back) memset(eb, 0, sizeof(float) * n);
-    sums_run(e, eb, back ? bif : 0.0f, j0, j1, gbuf, r->area + f0, A, gam, eta, (float)r->ta, (float)tcoef, n, acc);
+    sums_run(e, eb, bif, j0, j1, gbuf, r->area + f0, A, gam, eta, (float)r->ta, (float)tcoef, n, acc);
 }
 
 PV_CLONES static double row_dni(const row_t *r, Py_ssize_t F)
