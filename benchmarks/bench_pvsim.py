@@ -10,7 +10,7 @@ other, with the same settings:
    sub-cell EQE as a response with the Fresnel cover optic applied per incoming direction, plus the
    cover's unit weight -- with the yield model (cell temperature, DC, AC, waterfall) of every
    technology on every module group fused into the integrator's stream (``pvsim.stream``): the
-   sub-cell currents exist chunk by chunk, the POA file holds the broadband and cover parts
+   sub-cell currents exist chunk by chunk, the POA file holds the broadband parts and the cover's global
    (``--keep-currents`` writes the currents too; ``--unfused`` runs the earlier path: the POA file
    with the currents, then ``pv_yield`` reads it back).
 

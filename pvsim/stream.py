@@ -24,9 +24,8 @@ from .technologies import TandemTechnology
 
 __all__ = ["YieldStream"]
 
-_PLANES = (("broadband", "direct"), ("broadband", "sky_diffuse"), ("broadband", "ground_diffuse"),
-           (COVER_RESPONSE, "direct"), (COVER_RESPONSE, "sky_diffuse"), (COVER_RESPONSE, "ground_diffuse"),
-           "aoi", "sun_visible")
+_BROADBAND = (("broadband", "direct"), ("broadband", "sky_diffuse"), ("broadband", "ground_diffuse"))
+_COVER = ((COVER_RESPONSE, "direct"), (COVER_RESPONSE, "sky_diffuse"), (COVER_RESPONSE, "ground_diffuse"))
 _COMMON = ("poa_global", "poa_direct", "poa_sky_diffuse", "poa_ground_diffuse", "aoi_w", "aoi_a", "cover",
            "unshaded")
 
@@ -77,6 +76,7 @@ class YieldStream:
         self.sun[:, :3] = states.sun_direction
         self.sun[:, 3] = states.sun_elevation > 0
         self.dni = np.zeros(T)
+        self._zeros = None
 
     def _row(self, tech, sources, names):
         """The kernel's parameters of one technology (see pvsim/_kernel.c)."""
@@ -131,8 +131,16 @@ class YieldStream:
         dni_out = np.zeros(Tc)
         common = np.zeros((G, Tc, len(_COMMON)))
         tech = np.zeros((G, K, Tc, 7))
+        if _COVER[0] in block:
+            cover = tuple(block[k] for k in _COVER)
+        else:                                      # the cover kept as its global part only
+            g = block[(COVER_RESPONSE, "global")]
+            if self._zeros is None or self._zeros.shape != g.shape:
+                self._zeros = np.zeros(g.shape, np.float32)
+            cover = (g, self._zeros, self._zeros)
+        planes = tuple(block[k] for k in _BROADBAND) + cover + (block["aoi"], block["sun_visible"])
         from . import _kernel
-        _kernel.accumulate(tuple(block[k] for k in _PLANES), np.ascontiguousarray(rows, dtype=np.int64),
+        _kernel.accumulate(planes, np.ascontiguousarray(rows, dtype=np.int64),
                            tuple(g[0] for g in gps), tuple(g[2] for g in gps),
                            np.ascontiguousarray(np.stack([g[1] for g in gps]), dtype=np.float32).reshape(-1)
                            if gps else np.zeros(0, np.float32),

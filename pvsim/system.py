@@ -565,9 +565,10 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
         STC reference spectrum: ASTM G173 (default), the sky model's own AM1.5G
         (:func:`pvsim.reference.widesky_am15g`), or band means [W m-2 nm-1].
     keep_currents : bool
-        Also keep every sub-cell current (its global part per face) in the POA result, in memory or
-        in ``output``, so :func:`pv_yield` can be run on it again; False keeps only the broadband and
-        cover parts (the currents exist only chunk by chunk: less memory, no writing).
+        Keep every sub-cell current (its global part per face) and the cover's three parts in the POA
+        result, in memory or in ``output``, so :func:`pv_yield` can be run on it again; False keeps
+        the broadband parts and the cover's global part (the currents and the cover's split exist
+        only chunk by chunk: less memory, less writing).
 
     Returns
     -------
@@ -588,7 +589,7 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
                          reference_path=reference_path)
     parts = technology_parts(resp)
     if not keep_currents:
-        parts = {k: () for k in parts}
+        parts = {**{k: () for k in parts}, COVER_RESPONSE: "global"}
     res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
                          times=times, output=output, n_jobs=n_jobs, progress=progress,
                          spectral_model=spectral_model, parts=parts, consumer=stream)

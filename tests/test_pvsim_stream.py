@@ -98,6 +98,7 @@ def test_currents_kept_only_when_asked(runs):
     res_kept, res_not = runs["pvsyst"][2], runs["faiman"][2]
     assert "perc" in res_kept.responses and "perc" not in res_not.responses
     assert set(res_not.responses) == {"broadband", "cover"}
+    assert res_not.stored_parts["cover"] == ("global",) and res_kept.available_parts("cover")[0] == "direct"
     # the kept currents re-read by pv_yield give the fused numbers
     again = pv_yield(res_kept, TECHS, np.linspace(12, 31, 12), np.linspace(0.3, 5, 12),
                      system=SystemSpec(temperature_model="pvsyst"))
