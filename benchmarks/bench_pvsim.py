@@ -8,14 +8,16 @@ other, with the same settings:
    transmittance: bench_poa.responses, channel weights without optics);
 2. pvsim: ``pvsim.simulate`` with all library technologies -- one integrator run with every distinct
    sub-cell EQE as a response with the Fresnel cover optic applied per incoming direction, plus the
-   cover's unit weight -- followed by the yield model (cell temperature, DC, AC, waterfall) of every
-   technology on every module group.
+   cover's unit weight -- with the yield model (cell temperature, DC, AC, waterfall) of every
+   technology on every module group fused into the integrator's stream (``pvsim.stream``): the
+   sub-cell currents exist chunk by chunk, the POA file holds the broadband parts and the cover's global
+   (``--keep-currents`` writes the currents too; ``--unfused`` runs the earlier path: the POA file
+   with the currents, then ``pv_yield`` reads it back).
 
-Both results stream to HDF5 files in a temporary folder (``output=``): the all-technology result of a
-20,000-face hourly year is about 13 x 3 (T, F) float32 arrays, more than this machine's memory.
+Both results stream to HDF5 files in a temporary folder (``output=``).
 Printed: wall seconds of each, the ratio (target <= 1.25, issue 12), the phases, and throughput.
 
-Run: python benchmarks/bench_pvsim.py [--faces 20000] [--jobs 2]
+Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_pvsim.py [--faces 20000] [--jobs 2]
 """
 
 from __future__ import annotations
@@ -40,7 +42,11 @@ def main(argv=None):
     ap.add_argument("--order", choices=("baseline-first", "pvsim-first"), default="baseline-first",
                     help="which run goes first (the second profits from warm caches)")
     ap.add_argument("--all-parts", action="store_true",
-                    help="keep the three parts of every technology response (the slower path)")
+                    help="with --unfused: keep the three parts of every technology response")
+    ap.add_argument("--unfused", action="store_true",
+                    help="the unfused path: the POA file with every sub-cell current, then pv_yield reads it")
+    ap.add_argument("--keep-currents", action="store_true",
+                    help="fused: also write every sub-cell current (global) to the POA file")
     args = ap.parse_args(argv)
     import pvsim
     from irradiance import IntegratorSettings, make_scene, poa_irradiance
@@ -75,11 +81,17 @@ def main(argv=None):
     def technologies():
         c0 = cpu()
         t0 = time.perf_counter()
-        r = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times, n_jobs=args.jobs,
-                           output=os.path.join(tmp, "pv.h5"),
-                           **({} if args.all_parts else {"parts": pvsim.technology_parts(resp)}))
-        t_poa = time.perf_counter() - t0
-        y = pvsim.pv_yield(r, techs, 20.0, 1.0, sources=sources)
+        out = os.path.join(tmp, "pv.h5")
+        if args.unfused:                           # the POA file with the currents, then pv_yield reads it
+            r = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times,
+                               n_jobs=args.jobs, output=out,
+                               **({} if args.all_parts else {"parts": pvsim.technology_parts(resp)}))
+            t_poa = time.perf_counter() - t0
+            y = pvsim.pv_yield(r, techs, 20.0, 1.0, sources=sources)
+        else:                                      # the yield model fused into the stream
+            r, y = pvsim.simulate(scene, sky, states, techs, 20.0, 1.0, settings=settings, times=times,
+                                  n_jobs=args.jobs, output=out, keep_currents=args.keep_currents)
+            t_poa = time.perf_counter() - t0
         cpu_s["pvsim"] = cpu() - c0
         return time.perf_counter() - t0, t_poa, r, y
 
@@ -89,14 +101,22 @@ def main(argv=None):
     else:
         t_pv, t_pv_poa, rp, y = technologies()
         t_base, rb = baseline()
-    for name, t, r in (("baseline (3 responses)", t_base, rb), ("pvsim POA (all technologies)", t_pv_poa, rp)):
+    label = "unfused: POA + pv_yield" if args.unfused else (
+        "fused (yield model in the stream" + (", currents written)" if args.keep_currents else ")"))
+    for name, t, r in (("baseline (3 responses)", t_base, rb), (f"all technologies, {label}", t_pv_poa, rp)):
         tm = r.timings
         print(f"{name}: {t:.1f} s; " + ", ".join(f"{k} {v:.1f} s" for k, v in tm.items()
                                                if isinstance(v, float) and k != "total"))
-    print(f"pvsim yield model: {t_pv - t_pv_poa:.1f} s for {len(techs)} technologies x {len(y.groups)} groups "
-          f"({scene.n_faces * len(states) * len(techs) / max(t_pv - t_pv_poa, 1e-9) / 1e6:.1f} M face-steps/s)")
-    print(f"ratio all technologies (POA + yield) / POA with three responses = {t_pv / t_base:.2f} "
-          f"(POA alone {t_pv_poa / t_base:.2f}; target <= 1.25)")
+    if args.unfused:
+        print(f"pvsim yield model (reads the file back): {t_pv - t_pv_poa:.1f} s for {len(techs)} technologies x "
+              f"{len(y.groups)} groups ({scene.n_faces * len(states) * len(techs) / max(t_pv - t_pv_poa, 1e-9) / 1e6:.1f}"
+              " M face-steps/s)")
+    else:
+        c = rp.timings.get("consumer", 0.0)
+        print(f"pvsim yield model in the stream (consumer): {c:.1f} s for {len(techs)} technologies x "
+              f"{len(y.groups)} groups ({scene.n_faces * rp.timings['lit_steps'] * len(techs) / max(c, 1e-9) / 1e6:.0f}"
+              " M face-steps/s over the daylight steps)")
+    print(f"ratio all technologies (POA + yield) / POA with three responses = {t_pv / t_base:.2f} (target <= 1.25)")
     print(f"CPU seconds (this process + ray-casting workers; steadier than wall time on a shared machine): "
           f"baseline {cpu_s['baseline']:.1f}, all technologies {cpu_s['pvsim']:.1f}, "
           f"ratio {cpu_s['pvsim'] / cpu_s['baseline']:.2f}")

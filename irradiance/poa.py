@@ -22,6 +22,7 @@ import hashlib
 import os
 import time
 from dataclasses import asdict
+from typing import NamedTuple
 
 import numpy as np
 
@@ -35,7 +36,7 @@ from .result import ALL_PARTS, PARTS, FaceTable, H5Writer, POAResult, atomic_h5
 from .scene import Scene
 from .skies import SkyStates
 
-__all__ = ["poa_irradiance", "contraction_columns", "estimate_run"]
+__all__ = ["poa_irradiance", "contraction_columns", "estimate_run", "GlobalParts"]
 
 #: Memory for one block of output steps held before it is written [bytes].
 BLOCK_BYTES = 384 << 20
@@ -135,8 +136,9 @@ def stored_parts(names, parts):
         v = parts.get(n, PARTS)
         v = (v,) if isinstance(v, str) else tuple(v)
         bad = [p for p in v if p not in ALL_PARTS]
-        if bad or not v:
-            raise ValueError(f"parts[{n!r}]={v!r}: each part must be one of {ALL_PARTS} (at least one)")
+        if bad:
+            raise ValueError(f"parts[{n!r}]={v!r}: each part must be one of {ALL_PARTS} (or none: "
+                             "the response is then only handed to a consumer)")
         out.append(tuple(p for p in ALL_PARTS if p in v))
     return tuple(out)
 
@@ -252,7 +254,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
                    measured=None, times=None, dni_scale=None, diffuse_scale=None, output=None,
                    spectral=False, n_jobs=None, executor=None, progress=False, coefficients=None,
                    optic_nodes=DEFAULT_NODES, provenance=None, block_steps=None, compression=None,
-                   spectral_model="clear", allsky_options=None, parts=None):
+                   spectral_model="clear", allsky_options=None, parts=None, consumer=None):
     """Plane-of-array irradiance per face, step and response: direct, sky-diffuse and reflected parts.
 
     Parameters
@@ -318,7 +320,22 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         response kept as ``"global"`` alone is stored as one (T, F) array, the float32 sum of its
         three face-mean parts (the same numbers ``get(name, "global")`` gives from a full run), so
         many responses of which only the total is needed (PV cell currents) cost a third of the
-        output; ``get`` of a part not kept is a ValueError.
+        output; ``get`` of a part not kept is a ValueError. An empty tuple keeps nothing: the
+        response is computed only for ``consumer`` (and absent from the result). Responses kept as
+        "global" only (or not at all) without an angle x wavelength optic take the fused product:
+        sky and reflected light through one matrix per optic, ``X @ (D + R x reflection optic)``,
+        averaged over each face's points before the product (equal to the three-part sum within
+        float32 rounding: tests/test_poa_parts.py).
+    consumer : callable, optional
+        Called once per chunk of daylight steps, when the chunk is assembled, as
+        ``consumer(steps, block, rows, currents)``: ``steps`` (Tc,) step indices; ``block`` dict key
+        -> (n, F) float32 arrays of the current output block (the kept parts as ``(name, part)``,
+        ``"aoi"`` [deg] and ``"sun_visible"`` [1]), the chunk's values at rows ``rows`` (Tc,);
+        ``currents`` dict name -> :class:`GlobalParts` of every response the fused product serves
+        and of every response kept for the consumer only (the fused product's factors, so a consumer
+        can use them without a copy; other kept globals are in ``block``). The
+        arrays are reused afterwards: a consumer reduces them, it does not keep them (pvsim's yield
+        model uses this to never write sub-cell currents).
 
     Returns
     -------
@@ -380,6 +397,10 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     units = {r[0]: r[2] for r in resp}
     stored = stored_parts(names, parts)
     keys = [(n, p) for n, st in zip(names, stored) for p in st]
+    transient = [n for n, st in zip(names, stored) if not st]
+    if transient and consumer is None:
+        raise ValueError(f"parts keeps nothing of {transient} and no consumer reads them")
+    kept_names = [n for n, st in zip(names, stored) if st]
 
     # output blocks of consecutive steps, each cut into chunks of lit steps sorted by sky state
     # (sources that share work between equal states see them together)
@@ -465,10 +486,12 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
             raise ValueError("coefficients lack the optics of these responses")
         t_rays = time.perf_counter()
         ctx = _ProductContext(scene, cf, states, lit, J, J_all, col_mat, spectral,
-                              spectral_ground, settings.time_chunk)
-        sink = _Sink(keys, T, F, C, None if output is None else os.fspath(output), names, units,
-                     faces_tab, spectral, compression, stored=dict(zip(names, stored)))
-        t_prod = 0.0
+                              spectral_ground, settings.time_chunk,
+                              fast_columns(resp, col_of, plan, stored))
+        sink = _Sink(keys, T, F, C, None if output is None else os.fspath(output), kept_names,
+                     {n: units[n] for n in kept_names}, faces_tab, spectral, compression,
+                     stored={n: st for n, st in zip(names, stored) if st})
+        t_prod = t_consumer = 0.0
         ci = 0
         bar = None
         if progress:
@@ -490,10 +513,27 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
                 block["aoi"][upb] = cz
             while ci < len(chunk_plan) and chunk_plan[ci][0] == bi:
                 idx = chunk_plan[ci][1]
+                band = np.full(idx.size, -1)
+                band[up[idx]] = cf.step_band(sun_rank[idx[up[idx]]])
+                order = np.argsort(band, kind="stable")      # steps of one shading cell together
+                idx, band = idx[order], band[order]
                 Lp, dni = Lp_all[pos[idx]].astype(np.float64), dni_all[pos[idx]]
                 t1 = time.perf_counter()
-                terms = chunk_products(ctx, idx, Lp, dni, up, sun_rank)
-                assemble_parts(ctx, resp, col_of, plan, terms, block, idx - b0, names, stored)
+                terms = chunk_products(ctx, idx, Lp, dni, up, sun_rank, band)
+                currents = assemble_parts(ctx, resp, col_of, plan, terms, block, idx - b0, names,
+                                          stored)
+                if consumer is not None:
+                    if np.any(invalid):
+                        for v in block.values():
+                            v[np.ix_(idx - b0, np.nonzero(invalid)[0])] = 0
+                        for gp in currents.values():
+                            gp.diffuse[:, invalid] = 0
+                            gp.beam[:, invalid] = 0
+                    t_prod += time.perf_counter() - t1
+                    t1 = time.perf_counter()
+                    consumer(idx, block, idx - b0, currents)
+                    t_consumer += time.perf_counter() - t1
+                    t1 = time.perf_counter()
                 t_prod += time.perf_counter() - t1
                 ci += 1
                 if bar is not None:
@@ -515,6 +555,8 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         timings = {"rays": (t_rays - t_start) if pending is not None else 0.0,
                    "sky_during_rays": t_sky_ahead, "n_rays": cf.n_rays, "sun_bins": cf.n_sun_bins,
                    "sky": t_sky, "product": t_prod, "steps": T, "lit_steps": int(lit.size)}
+        if consumer is not None:
+            timings["consumer"] = t_consumer
         finish = dict(times=times, states=states, scaling=scaling, provenance=prov,
                       wavelengths=np.asarray(sky.wavelengths, dtype=float),
                       channel_edges=np.asarray(sky.channel_edges, dtype=float))
@@ -532,18 +574,54 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         return res
     full = sink.full
     spec = ({p: full[("spectral", p)] for p in PARTS + ("global",)} if spectral else None)
-    return POAResult(responses=names, units=units, data={k: full[k] for k in keys},
+    return POAResult(responses=kept_names, units={n: units[n] for n in kept_names},
+                     data={k: full[k] for k in keys},
                      aoi=full["aoi"], sun_visible=full["sun_visible"], faces=faces_tab, times=times,
                      states=states, scaling=scaling, provenance=prov, spectral=spec,
                      wavelengths=finish["wavelengths"], channel_edges=finish["channel_edges"],
                      timings=timings)
 
 
+class GlobalParts(NamedTuple):
+    """A response's global part on the faces of a chunk of steps, factored as the fused product
+    gives it: ``diffuse + dni[:, None] * beam`` [the response's unit].
+
+    Attributes
+    ----------
+    diffuse : numpy.ndarray
+        (Tc, F) float32 sky-diffuse plus reflected light after the optics (may be a row-strided view).
+    dni : numpy.ndarray
+        (Tc,) float32 contracted direct normal irradiance.
+    beam : numpy.ndarray
+        (Tc, F) float32 face mean of ``max(0, cos aoi) x sun visibility x angular optic`` [1].
+    """
+
+    diffuse: np.ndarray
+    dni: np.ndarray
+    beam: np.ndarray
+
+    def total(self, out=None):
+        """(Tc, F) float32 global part."""
+        out = np.multiply(self.beam, self.dni[:, None], out=out)
+        out += self.diffuse
+        return out
+
+
+def fast_columns(resp, col_of, plan, stored):
+    """[(response index, column, optic matrix)] of the responses the fused product serves: kept as
+    "global" only (or not at all) with no optic or an angle-only one (matrix -1: none)."""
+    out = []
+    for i in range(len(resp)):
+        if stored[i] in (("global",), ()) and plan.kind[i] in ("none", "angular"):
+            out.append((i, col_of[i][0], -1 if plan.kind[i] == "none" else int(plan.index[i])))
+    return out
+
+
 class _ProductContext:
     """The coefficient matrices in the layout of the products, and reusable work buffers."""
 
     def __init__(self, scene, cf, states, lit, J, J_all, col_mat, spectral, spectral_ground,
-                 tmax):
+                 tmax, fast=()):
         N, P = cf.sky.shape
         self.N, self.P, self.F, self.k = N, P, scene.n_faces, scene.samples_per_face
         self.J, self.J_all, self.C = J, J_all, J_all - J
@@ -576,10 +654,16 @@ class _ProductContext:
             [cf.reflect_sun / np.pi, cf.ground_sun[:, :, None]], axis=2).transpose(0, 2, 1),
             dtype=np.float32)                                                       # (G, B+1, N)
         self.normals_T = np.ascontiguousarray(scene.point_normal.T.astype(np.float32))   # (3, N)
+        # points that share a normal share the beam's angle of incidence: an angular optic is
+        # evaluated per distinct normal (rows of modules, the walls of a building: a handful)
+        un, inv = np.unique(self.normals_T.T, axis=0, return_inverse=True)
+        self.normal_groups = ((np.ascontiguousarray(un.T), inv.reshape(-1))
+                              if un.shape[0] <= max(1, N // 4) else None)
         self.sun_vis = cf.sun_visibility_bins()                                      # (S_b, N)
         self.sun_bin_of = np.arange(cf.n_sun) if cf.sun_index is None else cf.sun_index
         self.Hb = reinhart_vector_z(P)
-        rows = tmax * J_all
+        self._fused_setup(fast if fold is not None else ())
+        rows = tmax * self.slow_cols.size
         self.buf_sky = lazy_zeros((rows, N), np.float32)
         self.buf_refl = lazy_zeros((rows, N), np.float32)
         self.buf_aux = lazy_zeros((rows, N), np.float32)
@@ -588,6 +672,36 @@ class _ProductContext:
         self.buf_vis = lazy_zeros((tmax, N), np.float32)
         self.buf_beam = lazy_zeros((tmax, N), np.float32)
         self.buf_part = [lazy_zeros((tmax, N), np.float32) for _ in range(3)]
+        self.buf_fast = {m: lazy_zeros((tmax, len(c), self.F), np.float32)
+                         for m, c in self.fast_cols.items()}
+        self.buf_fbeam = {m: lazy_zeros((tmax, self.F), np.float32) for m in self.fast_cols if m >= 0}
+
+    def _fused_setup(self, fast):
+        """The fused product's matrices per optic: ``[faces(D + R rf); faces(wall_ground rf);
+        faces(Ksun rf) of a shading cell]`` (P + 1 + B + 1, F), the last rows set per cell, and the
+        cells' nonzero reflector bins. Only where the ground albedo folds into R (constant)."""
+        self.fast = list(fast)
+        self.fast_cols = {}
+        for _i, j, m in self.fast:
+            self.fast_cols.setdefault(m, []).append(j)
+        fj = {j for _i, j, _m in self.fast}
+        self.slow_cols = np.array([j for j in range(self.J_all) if j not in fj], dtype=int)
+        self.slow_pos = np.full(self.J_all, -1)
+        self.slow_pos[self.slow_cols] = np.arange(self.slow_cols.size)
+        self.fast_mat = {}
+        P = self.P
+        for m in self.fast_cols:
+            rf = None if m < 0 else self.refl_factor[m].astype(np.float64)
+            top = self.D_T[m].astype(np.float64)
+            top += self.R_T if rf is None else self.R_T * rf
+            wg = self.wall_ground.astype(np.float64) * (1.0 if rf is None else rf)
+            ks = self.Ksun_T if rf is None else self.Ksun_T * rf.astype(np.float32)
+            ks = np.ascontiguousarray(self.faces(ks), dtype=np.float32)                # (G, B+1, F)
+            W = np.empty((P + 1 + ks.shape[1], self.F), np.float32)
+            W[:P] = self.faces(top)
+            W[P] = self.faces(wg)
+            nz = [np.nonzero(np.any(ks[g] != 0, axis=1))[0] for g in range(ks.shape[0])]
+            self.fast_mat[m] = (W, ks, nz)
 
     def faces(self, a):
         """(..., N) -> (..., F): mean over each face's points."""
@@ -601,13 +715,16 @@ def reinhart_vector_z(P):
     return reinhart(mf).vector[:, 2]
 
 
-def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank):
+def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank, band=None):
     """Stage 3: per column the sky, reflected and beam terms of the steps ``idx``.
 
     Returns a dict: ``sky`` (Tc, J', N) sky-diffuse per column (the column's own coefficients),
     ``refl`` (Tc, J', N) reflected light per column (no optic), ``beam`` (Tc, N) ``max(0, n . s)
     x sun visibility`` [1], ``cos`` (Tc, N) ``n . s`` (for the optics' angles; 0 with the sun down),
-    ``dni`` (Tc, J') float32 contracted direct normal irradiance, ``vis`` (Tc, N) sun visibility.
+    ``dni`` (Tc, J') float32 contracted direct normal irradiance, ``vis`` (Tc, N) sun visibility;
+    ``sky`` and ``refl`` hold the columns ``ctx.slow_cols`` (at ``ctx.slow_pos``); ``fast`` dict
+    optic matrix -> (Tc, columns, F) face-mean sky + reflected light after the optic of the fused
+    columns ``ctx.fast_cols`` (``band``, the steps' shading cells, then runs in blocks of one cell).
     """
     cf = ctx.cf
     Tc, N, P = idx.size, ctx.N, ctx.P
@@ -625,11 +742,16 @@ def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank):
         alb = (alb_steps if ctx.ga is None else np.full(Tc, float(ctx.ga)))[:, None]
         g_sky, g_sun = alb * Hs / np.pi, alb * Hd / np.pi                  # (Tc, J')
     Lg = g_sky + g_sun                             # unshaded ground radiance
-    Rp = Lp.shape[2]
     cos_b = np.maximum(s @ cf.bins.T, 0.0)                                  # (Tc, B)
-    Xs = np.ascontiguousarray(Lp.transpose(0, 2, 1), dtype=np.float32)      # (Tc, Rp, P)
+    if band is None:
+        band = np.full(Tc, -1)
+        band[up[idx]] = cf.step_band(sun_rank[idx[up[idx]]])
+    sc = ctx.slow_cols
+    Rp = sc.size
+    every = Rp == Lp.shape[2]
+    Xs = np.ascontiguousarray((Lp if every else Lp[..., sc]).transpose(0, 2, 1), dtype=np.float32)
     sky_all = ctx.buf_sky[:Tc * Rp].reshape(Tc, Rp, N)
-    mats = ctx.col_mat[:Rp]
+    mats = ctx.col_mat[sc]
     for m in np.unique(mats):
         cols = np.nonzero(mats == m)[0]
         if cols.size == Rp:
@@ -645,29 +767,60 @@ def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank):
         refl_all += np.matmul(Xa, ctx.A_T, out=ctx.buf_aux[:Tc * Rp]).reshape(Tc, Rp, N)
     Lg32 = Lg.astype(np.float32)
     tmp = ctx.buf_tmp[:Tc]
-    for r in range(Rp):                            # walls pass on the unshaded ground's light
-        refl_all[:, r] += np.multiply(Lg32[:, r:r + 1], ctx.wall_ground, out=tmp)
-    band = np.full(Tc, -1)
-    band[up[idx]] = cf.step_band(sun_rank[idx[up[idx]]])
-    for g in np.unique(band[band >= 0]):           # reflected sun per shading cell
+    for r, c in enumerate(sc):                     # walls pass on the unshaded ground's light
+        refl_all[:, r] += np.multiply(Lg32[:, c:c + 1], ctx.wall_ground, out=tmp)
+    for g in np.unique(band[band >= 0]) if Rp else ():   # reflected sun per shading cell
         rows = np.nonzero(band == g)[0]
-        Xu = np.concatenate([dni[rows, None, :] * cos_b[rows, :, None], g_sun[rows, None, :]],
+        Xu = np.concatenate([dni[rows][:, None, sc] * cos_b[rows, :, None], g_sun[rows][:, None, sc]],
                             axis=1)                                         # (Tg, B+1, Rp)
         Xu = np.ascontiguousarray(Xu.transpose(0, 2, 1).reshape(rows.size * Rp, -1),
                                   dtype=np.float32)
         refl_all[rows] += np.matmul(Xu, ctx.Ksun_T[g], out=ctx.buf_aux[:rows.size * Rp]).reshape(
             rows.size, Rp, N)
+    fast = {m: _fused_product(ctx, m, cols, Lp, Lg, dni, cos_b, g_sun, band)
+            for m, cols in ctx.fast_cols.items()}
     cos, vis, beam = ctx.buf_cos[:Tc], ctx.buf_vis[:Tc], ctx.buf_beam[:Tc]
     cos.fill(0.0)
     vis.fill(0.0)
     upc = np.nonzero(up[idx])[0]
+    cos_u = None if ctx.normal_groups is None else np.zeros((Tc, ctx.normal_groups[0].shape[1]),
+                                                             np.float32)
     if upc.size:
         cos[upc] = s[upc].astype(np.float32) @ ctx.normals_T
         vis[upc] = ctx.sun_vis[ctx.sun_bin_of[sun_rank[idx[upc]]]]
+        if cos_u is not None:
+            cos_u[upc] = s[upc].astype(np.float32) @ ctx.normal_groups[0]
     np.maximum(cos, 0.0, out=beam)
     beam *= vis
     return {"sky": sky_all, "refl": refl_all, "beam": beam, "cos": cos, "vis": vis,
-            "dni": dni.astype(np.float32)}
+            "dni": dni.astype(np.float32), "fast": fast, "cos_u": cos_u}
+
+
+def _fused_product(ctx, m, cols, Lp, Lg, dni, cos_b, g_sun, band):
+    """(Tc, len(cols), F) face-mean sky + reflected light after optic ``m`` of columns ``cols``: per
+    run of steps in one shading cell one product ``[L_patches | L_ground | DNI cos_bins | G_sun]
+    @ [D + R rf; wall rf; Ksun rf]`` (only the cell's nonzero reflector bins)."""
+    W, ks, nz = ctx.fast_mat[m]
+    Tc, P, nc = Lp.shape[0], ctx.P, len(cols)
+    P1 = P + 1
+    X = np.empty((Tc, nc, W.shape[0]), np.float32)
+    X[:, :, :P] = Lp[..., cols].transpose(0, 2, 1)
+    X[:, :, P] = Lg[:, cols]
+    X[:, :, P1:-1] = dni[:, cols][:, :, None] * cos_b[:, None, :]
+    X[:, :, -1] = g_sun[:, cols]
+    out = ctx.buf_fast[m][:Tc]
+    starts = np.flatnonzero(np.r_[True, band[1:] != band[:-1]])
+    for a, b in zip(starts, np.r_[starts[1:], Tc]):
+        g = int(band[a])
+        Gr = out[a:b].reshape((b - a) * nc, ctx.F)
+        Xr = X[a:b].reshape((b - a) * nc, -1)
+        if g < 0 or nz[g].size == 0:               # sun down, or no sunlit reflector in view
+            np.matmul(Xr[:, :P1], W[:P1], out=Gr)
+            continue
+        q = nz[g]
+        W[P1:P1 + q.size] = ks[g, q]
+        np.matmul(np.concatenate([Xr[:, :P1], Xr[:, P1 + q]], axis=1), W[:P1 + q.size], out=Gr)
+    return out
 
 
 def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows, names, stored=None):
@@ -676,8 +829,10 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
 
     ``stored`` (per response, from :func:`stored_parts`; default the three parts) names the parts
     kept; "global" is the float32 sum ``direct + sky_diffuse + ground_diffuse`` of the face means
-    (what ``POAResult.get(name, "global")`` sums from the three). An angle-only optic is evaluated
-    once per chunk for all the responses that share it.
+    (what ``POAResult.get(name, "global")`` sums from the three), or for the fused columns their
+    :class:`GlobalParts` total. An angle-only optic is evaluated once per chunk for all the
+    responses that share it. Returns dict name -> :class:`GlobalParts` of the responses kept as
+    "global" only or not at all.
     """
     sky_all, refl_all, beam, dni = terms["sky"], terms["refl"], terms["beam"], terms["dni"]
     Tc = beam.shape[0]
@@ -685,23 +840,39 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
     f = ctx.faces
     b_dir, b_sky, b_ref = (b[:Tc] for b in ctx.buf_part)
     optic_at_aoi = {}                              # id(angular callable) -> (Tc, N) factor
+    sp = ctx.slow_pos
+    fast = {i: (j, m) for i, j, m in ctx.fast}
+    fast_beam = {}
+    currents = {}
     for i, (name, _w, _unit, r) in enumerate(resp):
         kind = plan.kind[i]
         js = col_of[i]
-        if kind != "none" and aoi_pt is None:
+        if kind == "spectral" and aoi_pt is None:
             aoi_pt = np.degrees(np.arccos(np.clip(terms["cos"], 0.0, 1.0)))
+        if kind == "angular":
+            key = id(r.angular)
+            if key not in optic_at_aoi:            # it multiplies the beam: only where that arrives
+                optic_at_aoi[key] = _optic_on_beam(ctx, r.angular, terms)
+        keep = PARTS if stored is None else stored[i]
+        if i in fast:
+            j, m = fast[i]
+            if m not in fast_beam:                 # face mean of beam x optic, shared by the columns
+                fast_beam[m] = f(beam) if m < 0 else f(np.multiply(
+                    beam, optic_at_aoi[id(r.angular)], out=ctx.buf_fbeam[m][:Tc] if ctx.k == 1 else None))
+            gp = GlobalParts(terms["fast"][m][:, ctx.fast_cols[m].index(j)], dni[:, j], fast_beam[m])
+            currents[name] = gp
+            if keep:
+                block[(name, "global")][rows] = gp.total(out=b_dir[:, :ctx.F])
+            continue
         if kind == "none":
-            j = js[0]
-            direct = np.multiply(dni[:, j:j + 1], beam, out=b_dir)
+            j = sp[js[0]]
+            direct = np.multiply(dni[:, js[0]:js[0] + 1], beam, out=b_dir)
             skyd = sky_all[:, j]
             refl = refl_all[:, j]
         elif kind == "angular":
-            j = js[0]
-            key = id(r.angular)
-            if key not in optic_at_aoi:
-                optic_at_aoi[key] = np.asarray(r.angular(aoi_pt), dtype=np.float32)
-            g = optic_at_aoi[key]
-            direct = np.multiply(dni[:, j:j + 1], beam, out=b_dir)
+            j = sp[js[0]]
+            g = optic_at_aoi[id(r.angular)]
+            direct = np.multiply(dni[:, js[0]:js[0] + 1], beam, out=b_dir)
             direct *= g
             skyd = sky_all[:, j]
             refl = np.multiply(refl_all[:, j], ctx.refl_factor[plan.index[i]][None, :], out=b_ref)
@@ -715,32 +886,49 @@ def assemble_parts(ctx: _ProductContext, resp, col_of, plan, terms, block, rows,
                 hat *= beam
                 hat *= dni[:, j:j + 1]
                 direct += hat
-                skyd += sky_all[:, j]
-                refl += refl_all[:, j] * ctx.refl_factor[plan.index[i] + a][None, :]
-        keep = PARTS if stored is None else stored[i]
+                skyd += sky_all[:, sp[j]]
+                refl += refl_all[:, sp[j]] * ctx.refl_factor[plan.index[i] + a][None, :]
         if keep == PARTS:
             block[(name, "direct")][rows] = f(direct)
             block[(name, "sky_diffuse")][rows] = f(skyd)
             block[(name, "ground_diffuse")][rows] = f(refl)
             continue
         means = {"direct": f(direct), "sky_diffuse": f(skyd), "ground_diffuse": f(refl)}
+        tot = None
+        if "global" in keep or not keep:
+            tot = np.array(means["direct"], dtype=np.float32)
+            tot += means["sky_diffuse"]
+            tot += means["ground_diffuse"]
+        if not keep:                               # for the consumer only
+            currents[name] = GlobalParts(tot, np.zeros(Tc, np.float32), np.zeros_like(tot))
         for p in keep:
-            if p == "global":
-                tot = np.array(means["direct"], dtype=np.float32)
-                tot += means["sky_diffuse"]
-                tot += means["ground_diffuse"]
-                block[(name, p)][rows] = tot
-            else:
-                block[(name, p)][rows] = means[p]
+            block[(name, p)][rows] = tot if p == "global" else means[p]
     block["sun_visible"][rows] = f(terms["vis"])
     if ctx.spectral:
         J, C = ctx.J, ctx.C
-        sd = sky_all[:, J:J + C].transpose(0, 2, 1)
-        rd = refl_all[:, J:J + C].transpose(0, 2, 1)
+        s0 = sp[J]
+        sd = sky_all[:, s0:s0 + C].transpose(0, 2, 1)
+        rd = refl_all[:, s0:s0 + C].transpose(0, 2, 1)
         dd = beam[:, :, None] * dni[:, None, J:J + C]
         for p, v in (("direct", dd), ("sky_diffuse", sd), ("ground_diffuse", rd)):
             block[("spectral", p)][rows] = _face_mean_spectral(ctx, v)
         block[("spectral", "global")][rows] = sum(block[("spectral", p)][rows] for p in PARTS)
+    return currents
+
+
+def _optic_on_beam(ctx, angular, terms):
+    """(Tc, N) float32 angular optic at each point's beam angle of incidence [1]: per distinct
+    normal (``ctx.normal_groups``) then spread, else where the beam arrives (0 elsewhere)."""
+    if ctx.normal_groups is not None:
+        aoi = np.degrees(np.arccos(np.clip(terms["cos_u"], 0.0, 1.0)))
+        return np.asarray(angular(aoi), dtype=np.float32)[:, ctx.normal_groups[1]]
+    beam = terms["beam"]
+    lit = beam > 0
+    g = np.zeros(beam.shape, np.float32)
+    if lit.any():
+        g[lit] = np.asarray(angular(np.degrees(np.arccos(np.clip(terms["cos"][lit], 0.0, 1.0)))),
+                            dtype=np.float32)
+    return g
 
 
 def _face_mean_spectral(ctx, v):

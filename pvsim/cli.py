@@ -215,7 +215,8 @@ def _run_yield(args, techs):
     res, y = simulate(c["scene"], c["sky"], c["states"], techs, c["temp_air"], c["wind_speed"],
                       cover=c["cover"], system=c["system"], measured=c["measured"], times=c["times"],
                       spectral_model=c["spectral_model"], settings=c["settings"], n_jobs=args.jobs, progress=sys.stderr.isatty(),
-                      reference=None if args.reference == "g173" else "widesky", reference_path=args.g173)
+                      reference=None if args.reference == "g173" else "widesky", reference_path=args.g173,
+                      keep_currents=False)
     return res, y, c["note"] + ("" if args.reference == "g173" else ", reference: widesky AM1.5G")
 
 

@@ -266,7 +266,7 @@ def bandgap_sweep(scene, sky, states, gaps_ev=None, terminals=2, group=None, cov
     techs = [base.with_top_bandgap(g).replace(name=f"{base.name}_{g:.3f}", label=f"{g:.2f} eV") for g in gaps]
     _, y = simulate(scene, sky, states, techs, temp_air, wind_speed, cover=cover, settings=settings,
                     spectral_model=spectral_model,
-                    measured=measured, times=times, n_jobs=n_jobs, progress=progress)
+                    measured=measured, times=times, n_jobs=n_jobs, progress=progress, keep_currents=False)
     g = _group(y, group)
     rows = []
     for gap, t in zip(gaps, techs):

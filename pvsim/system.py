@@ -325,43 +325,28 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
     -------
     YieldResult
     """
-    system = system or SystemSpec()
     techs = _techs(technologies)
     if sources is None:
         sources = technology_responses(techs)[1]
     T = result.n_steps
-    ta = _weather("temp_air", temp_air, T)
-    ws = _weather("wind_speed", wind_speed, T)
-    if np.any(ws < 0):
-        raise ValueError(f"wind_speed must be >= 0 [m s-1], got min {ws.min()!r}")
     edges = result.channel_edges if result.channel_edges is not None else channel_edges()
-    if reference is None:
-        g_ref = am15g_channels(edges, reference_path)
-    else:
-        g_ref = np.asarray(reference, dtype=float)
-        if g_ref.shape != (edges.size - 1,) or not np.all(np.isfinite(g_ref)) or np.any(g_ref < 0):
-            raise ValueError(f"reference must be finite, >= 0 with shape ({edges.size - 1},), got {g_ref.shape}")
-    g_ref_band = float(np.sum(g_ref * np.diff(edges)))
-    kb = G_STC / g_ref_band
+    setup = _yield_setup(techs, T, edges, temp_air, wind_speed, system, reference, reference_path)
+    system, ta, ws, kb, prep = setup["system"], setup["ta"], setup["ws"], setup["kb"], setup["prep"]
     needed = {src for t in techs for sub in t.subcells for src in [sources[sub][0]]} | {COVER_RESPONSE}
     missing = sorted(needed - set(result.responses))
     if missing:
         raise ValueError(f"the POA result lacks response(s) {missing}; run poa_irradiance with "
                          "pvsim.technology_responses(technologies)")
-    hours = _step_hours(result.times, T)
     faces = result.faces
     side = np.asarray(faces.side)
     dni = _dni_estimate(result, face_chunk)
-    prep = {}
-    for t in techs:
-        prep[t.name] = (_eta_stc(t, edges, g_ref), reference_currents(t, edges, reference=g_ref))
-    per = {t.name: ({}, {}, {}, {}) for t in techs}          # pdc0, series, waterfall, mismatch
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(faces.group_names), desc="pv yield", unit="group")
+    accs = {}
     for g, gname in enumerate(faces.group_names):
-        accs = {t.name: _GroupAccumulator(T, kb) for t in techs}
+        accs[gname] = {t.name: _GroupAccumulator(T, kb) for t in techs}
         idx_all = np.nonzero(faces.group == g)[0]
         front = idx_all[side[idx_all] == "front"]
         back_of = {int(faces.parent[b]): b for b in idx_all[side[idx_all] == "back"]}
@@ -372,14 +357,49 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
             if chunk.rows.size == 0:
                 continue
             for t in techs:
-                accs[t.name].add(chunk, t, sources, *prep[t.name], system)
-        area = float(faces.area[front].sum())
+                accs[gname][t.name].add(chunk, t, sources, *prep[t.name], system)
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    return _yield_finish(accs, faces, techs, setup, result.times, result.states)
+
+
+def _yield_setup(techs, T, edges, temp_air, wind_speed, system, reference, reference_path):
+    """What the yield model needs before the faces: the weather, the STC reference, per technology
+    (eta_stc, reference currents)."""
+    system = system or SystemSpec()
+    ta = _weather("temp_air", temp_air, T)
+    ws = _weather("wind_speed", wind_speed, T)
+    if np.any(ws < 0):
+        raise ValueError(f"wind_speed must be >= 0 [m s-1], got min {ws.min()!r}")
+    if reference is None:
+        g_ref = am15g_channels(edges, reference_path)
+    else:
+        g_ref = np.asarray(reference, dtype=float)
+        if g_ref.shape != (edges.size - 1,) or not np.all(np.isfinite(g_ref)) or np.any(g_ref < 0):
+            raise ValueError(f"reference must be finite, >= 0 with shape ({edges.size - 1},), got {g_ref.shape}")
+    g_ref_band = float(np.sum(g_ref * np.diff(edges)))
+    prep = {t.name: (_eta_stc(t, edges, g_ref), reference_currents(t, edges, reference=g_ref)) for t in techs}
+    return {"system": system, "ta": ta, "ws": ws, "g_ref_band": g_ref_band, "kb": G_STC / g_ref_band,
+            "prep": prep, "T": T}
+
+
+def _yield_finish(accs, faces, techs, setup, times, states):
+    """YieldResult from the accumulated sums (dict group name -> technology name -> _GroupAccumulator)."""
+    system, ta, ws, prep, T = setup["system"], setup["ta"], setup["ws"], setup["prep"], setup["T"]
+    hours = _step_hours(times, T)
+    per = {t.name: ({}, {}, {}, {}) for t in techs}          # pdc0, series, waterfall, mismatch
+    side = np.asarray(faces.side)
+    for g, gname in enumerate(faces.group_names):
+        idx_all = np.nonzero(faces.group == g)[0]
+        area = float(faces.area[idx_all[side[idx_all] == "front"]].sum())
         for t in techs:
             eta = prep[t.name][0]
             pdc0, series, waterfall, cml = per[t.name]
-            acc = accs[t.name]
+            acc = accs[gname][t.name]
             pdc0[gname] = eta * area * G_STC
-            s = acc.series(area, result.times, ta, ws)
+            s = acc.series(area, times, ta, ws)
             dc_net = s["dc"] * (1.0 - system.dc_loss)
             s["dc"] = dc_net
             s["ac"] = (pvwatts_inverter(dc_net, pdc0[gname] / system.dc_ac_ratio, system.eta_inv_nom,
@@ -388,14 +408,10 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
             series[gname] = s
             waterfall[gname] = acc.waterfall(area, eta, hours, s, pdc0[gname])
             cml[gname] = acc.mismatch_loss(t)
-        if bar is not None:
-            bar.update(1)
-    if bar is not None:
-        bar.close()
     out = {t.name: TechnologyYield(t, prep[t.name][0], *per[t.name]) for t in techs}
-    vis = np.asarray(result.states.visibility, dtype=float) if result.states is not None else np.full(T, np.nan)
-    return YieldResult(out, tuple(faces.group_names), result.times, np.broadcast_to(vis, (T,)).copy(),
-                       g_ref_band)
+    vis = np.asarray(states.visibility, dtype=float) if states is not None else np.full(T, np.nan)
+    return YieldResult(out, tuple(faces.group_names), times, np.broadcast_to(vis, (T,)).copy(),
+                       setup["g_ref_band"])
 
 
 class _Chunk:
@@ -526,8 +542,9 @@ class _GroupAccumulator:
 
 def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *, cover=None, system=None,
              measured=None, times=None, settings=None, output=None, n_jobs=None, progress=False,
-             reference=None, reference_path=None, spectral_model="clear"):
-    """One integrator run for all ``technologies`` (shared geometry and sky), then :func:`pv_yield`.
+             reference=None, reference_path=None, spectral_model="clear", keep_currents=True):
+    """One integrator run for all ``technologies`` (shared geometry and sky) with the yield model
+    fused into its output stream (:class:`pvsim.stream.YieldStream`: no current is read back).
 
     Parameters
     ----------
@@ -547,22 +564,33 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     reference : None, "widesky" or array_like (C,)
         STC reference spectrum: ASTM G173 (default), the sky model's own AM1.5G
         (:func:`pvsim.reference.widesky_am15g`), or band means [W m-2 nm-1].
+    keep_currents : bool
+        Keep every sub-cell current (its global part per face) and the cover's three parts in the POA
+        result, in memory or in ``output``, so :func:`pv_yield` can be run on it again; False keeps
+        the broadband parts and the cover's global part (the currents and the cover's split exist
+        only chunk by chunk: less memory, less writing).
 
     Returns
     -------
     (irradiance.POAResult, YieldResult)
     """
-    from irradiance import poa_irradiance
+    from irradiance import FaceTable, poa_irradiance
+
+    from .stream import YieldStream
     techs = _techs(technologies)
     resp, sources = technology_responses(techs, cover)
-    res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
-                         times=times, output=output, n_jobs=n_jobs, progress=progress,
-                         spectral_model=spectral_model, parts=technology_parts(resp))
     if isinstance(reference, str):
         if reference != "widesky":
             raise ValueError(f"reference={reference!r} must be None, 'widesky' or an array")
         from .reference import widesky_am15g
         reference = widesky_am15g(sky)["scaled"]
-    y = pv_yield(res, techs, temp_air, wind_speed, sources=sources, system=system, reference=reference,
-                 reference_path=reference_path, progress=progress)
-    return res, y
+    stream = YieldStream(FaceTable.from_scene(scene), states, techs, sources, temp_air, wind_speed,
+                         system=system, edges=sky.channel_edges, reference=reference,
+                         reference_path=reference_path)
+    parts = technology_parts(resp)
+    if not keep_currents:
+        parts = {**{k: () for k in parts}, COVER_RESPONSE: "global"}
+    res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
+                         times=times, output=output, n_jobs=n_jobs, progress=progress,
+                         spectral_model=spectral_model, parts=parts, consumer=stream)
+    return res, stream.result(times if times is not None else res.times)

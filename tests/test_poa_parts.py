@@ -1,10 +1,13 @@
 """``poa_irradiance(parts=...)``: responses kept as their global part only (the fast path for many
 PV cell currents) give the same numbers as the full run's ``get(name, "global")``.
 
-Reference: the full per-response run on the same scene, sky and states. The fast path stores the
-float32 sum of the three face-mean parts that ``POAResult.get`` would form from a full run, so the
-comparison is exact (bitwise), in memory and streamed to HDF5; angle-only optics shared by several
-responses are evaluated once per chunk (counted here), with no change to the numbers.
+Reference: the full per-response run on the same scene, sky and states. With a ground albedo that
+changes between steps the global-only path stores the float32 sum of the three face-mean parts that
+``POAResult.get`` would form from a full run, so the comparison is exact (bitwise), in memory and
+streamed to HDF5; angle-only optics shared by several responses are evaluated once per chunk (counted
+here), with no change to the numbers. With a constant albedo (it folds into the reflected-sky matrix)
+global-only responses take the fused product, one matrix per optic: compared within float32 rounding
+(the last tests), with a consumer that receives them chunk by chunk.
 """
 
 import h5py
@@ -139,7 +142,71 @@ def test_bad_parts():
     sky = UniformSky(radiance=0.05, dni=0.9)
     r = _responses(_fresnel)
     for parts, msg in (({"zz": "global"}, "not computed"), ({"broadband": "global"}, "always keeps"),
-                       ({"a": "total"}, "each part must be one of"), ({"a": []}, "at least one"),
+                       ({"a": "total"}, "each part must be one of"), ({"a": []}, "no consumer reads them"),
                        ("global", "expected a dict")):
         with pytest.raises((ValueError, TypeError), match=msg):
             poa_irradiance(scene, sky, STATES.take([1]), responses=r, n_jobs=1, parts=parts)
+
+
+# --- the fused product (one matrix per optic for global-only responses) ----------------------------
+
+STATES_FOLD = SkyStates.create([8.0, 30.0, 55.0, 20.0, -2.0, 65.0], [100.0, 150.0, 190.0, 250.0, 300.0, 175.0],
+                               40.0, 0.25)
+
+
+class Collect:
+    """A consumer that keeps copies of what it is handed."""
+
+    def __init__(self, T, F):
+        self.T, self.F = T, F
+        self.got = {}
+
+    def __call__(self, steps, block, rows, currents):
+        for name, gp in currents.items():
+            self.got.setdefault(name, np.full((self.T, self.F), np.nan, np.float32))[steps] = gp.total()
+        a = self.got.setdefault("aoi", np.full((self.T, self.F), np.nan, np.float32))
+        a[steps] = block["aoi"][rows]
+
+
+@pytest.fixture(scope="module")
+def fused_runs():
+    """A constant ground albedo (it folds into the reflected-sky matrix), four points per face, a wall
+    that reflects the sun onto the modules."""
+    rows = []
+    for tilt, y in ((30.0, 0.0), (30.0, -4.0)):
+        m = trimesh.creation.box(extents=(6.0, 2.0, 0.02))
+        m.apply_transform(trimesh.transformations.rotation_matrix(np.radians(tilt), [1, 0, 0]))
+        m.apply_translation((0.0, y, 1.5))
+        rows.append(m)
+    wall = trimesh.creation.box(extents=(8.0, 1.0, 5.0))
+    wall.apply_translation((0.0, 4.0, 2.5))
+    scene = make_scene(rows, [wall], ground_z=0.0, samples_per_face=4)
+    sky = UniformSky(radiance=0.05, dni=0.9)
+    full = poa_irradiance(scene, sky, STATES_FOLD, responses=_responses(_fresnel), n_jobs=1)
+    col = Collect(len(STATES_FOLD), scene.n_faces)
+    fused = poa_irradiance(scene, sky, STATES_FOLD, responses=_responses(_fresnel), n_jobs=1,
+                           parts={"a": "global", "b": (), "c": "global", "d": "global"}, consumer=col)
+    return full, fused, col
+
+
+def test_fused_product_matches_the_three_parts(fused_runs):
+    """Responses kept as global only (no optic, or an angle-only one) take one product per optic with
+    X @ faces(D + R rf) instead of the three parts' products: the same numbers within float32
+    rounding of sums of about 200 terms (rtol 2e-6 with an absolute floor of 2e-6 of the maximum; the
+    per-part path is what the full run gives)."""
+    full, fused, col = fused_runs
+    for name in "acd":
+        ref = full.get(name, "global")
+        np.testing.assert_allclose(fused.get(name, "global"), ref, rtol=2e-6, atol=2e-6 * ref.max(),
+                                   err_msg=name)
+    ref = full.get("b", "global")
+    lit = np.isfinite(col.got["b"][:, 0])
+    np.testing.assert_allclose(col.got["b"][lit], ref[lit], rtol=2e-6, atol=2e-6 * ref.max())
+    assert np.all(ref[~lit] == 0)
+    # the consumer sees the stored numbers, and "b" (kept for the consumer only) is not in the result
+    np.testing.assert_array_equal(col.got["a"][lit], fused.get("a", "global")[lit])
+    np.testing.assert_array_equal(col.got["aoi"][lit], full.aoi[lit])
+    assert "b" not in fused.responses and "d" not in col.got      # d has a spectral optic
+    for part in ("direct", "sky_diffuse", "ground_diffuse"):
+        np.testing.assert_array_equal(fused.get("e", part), full.get("e", part))
+    assert ref.max() > 0 and full.get("a", "ground_diffuse").max() > 0
