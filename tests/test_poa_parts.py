@@ -43,16 +43,23 @@ class Counting:
         return _fresnel(aoi)
 
 
-def _scene():
-    rows = []
-    for i, (tilt, y) in enumerate(((30.0, 0.0), (30.0, -4.0), (90.0, 6.0))):
-        m = trimesh.creation.box(extents=(6.0, 2.0, 0.02))
-        m.apply_transform(trimesh.transformations.rotation_matrix(np.radians(tilt), [1, 0, 0]))
-        m.apply_translation((0.0, y, 1.5))
-        rows.append(m)
+def _panel(tilt, y):
+    """A 6 m x 2 m module tilted by ``tilt`` [deg] about the east-west axis, 1.5 m up, at ``y`` [m]."""
+    m = trimesh.creation.box(extents=(6.0, 2.0, 0.02))
+    m.apply_transform(trimesh.transformations.rotation_matrix(np.radians(tilt), [1, 0, 0]))
+    m.apply_translation((0.0, y, 1.5))
+    return m
+
+
+def _wall(y):
     wall = trimesh.creation.box(extents=(8.0, 1.0, 5.0))
-    wall.apply_translation((0.0, 10.0, 2.5))
-    return make_scene(rows[:2], [rows[2], wall], ground_z=0.0)
+    wall.apply_translation((0.0, y, 2.5))
+    return wall
+
+
+def _scene():
+    rows = [_panel(t, y) for t, y in ((30.0, 0.0), (30.0, -4.0), (90.0, 6.0))]
+    return make_scene(rows[:2], [rows[2], _wall(10.0)], ground_z=0.0)
 
 
 def _responses(optic):
@@ -172,15 +179,8 @@ class Collect:
 def fused_runs():
     """A constant ground albedo (it folds into the reflected-sky matrix), four points per face, a wall
     that reflects the sun onto the modules."""
-    rows = []
-    for tilt, y in ((30.0, 0.0), (30.0, -4.0)):
-        m = trimesh.creation.box(extents=(6.0, 2.0, 0.02))
-        m.apply_transform(trimesh.transformations.rotation_matrix(np.radians(tilt), [1, 0, 0]))
-        m.apply_translation((0.0, y, 1.5))
-        rows.append(m)
-    wall = trimesh.creation.box(extents=(8.0, 1.0, 5.0))
-    wall.apply_translation((0.0, 4.0, 2.5))
-    scene = make_scene(rows, [wall], ground_z=0.0, samples_per_face=4)
+    rows = [_panel(30.0, 0.0), _panel(30.0, -4.0)]
+    scene = make_scene(rows, [_wall(4.0)], ground_z=0.0, samples_per_face=4)
     sky = UniformSky(radiance=0.05, dni=0.9)
     full = poa_irradiance(scene, sky, STATES_FOLD, responses=_responses(_fresnel), n_jobs=1)
     col = Collect(len(STATES_FOLD), scene.n_faces)
