@@ -317,7 +317,9 @@ def write_png(path, r: Render, *, composite=None, exposure=0.0):
     if composite is None:
         composite = r.values.shape[-1] > 1
     if not composite and r.values.shape[-1] != 1:
-        raise ValueError("a single-channel PNG needs a render of exactly one channel")
+        hint = (f" ({r.quantity} has no colour composite: choose one with --channel, e.g. --channel 550nm)"
+                if r.quantity in ("polarisation", "transmittance") else "")
+        raise ValueError("a single-channel PNG needs a render of exactly one channel" + hint)
     image = _display(r, composite, exposure)
     with open(path, "wb") as f:
         write_rgb_png(f, image)

@@ -178,13 +178,15 @@ def test_thermal_glazing_is_validated(tmp_path):
 
 # ---- weather files -----------------------------------------------------------------------------------------
 
-def _epw(path, run, factor, temp_air):
-    """An EPW on the steps of ``run`` carrying ``factor`` x the sky model's own DNI and DHI."""
+def _epw(path, run, factor, temp_air, dhi_factor=None):
+    """An EPW on the steps of ``run`` carrying ``factor`` x the sky model's own DNI and ``dhi_factor`` (default
+    ``factor``) x its DHI."""
     import irradiance as ir
     dni, dhi = ir.model_irradiance(run.dataset, run.result.states, run.settings)
     el = np.asarray(run.result.states.sun_elevation)
-    data = pd.DataFrame({"dni": factor * dni, "dhi": factor * dhi,
-                         "ghi": factor * (dni * np.maximum(np.sin(np.radians(el)), 0) + dhi),
+    fd = factor if dhi_factor is None else dhi_factor
+    data = pd.DataFrame({"dni": factor * dni, "dhi": fd * dhi,
+                         "ghi": factor * dni * np.maximum(np.sin(np.radians(el)), 0) + fd * dhi,
                          "temp_air": np.full(len(dni), temp_air), "wind_speed": 1.0}, index=run.result.times)
     site = ir.Site(50.08, 14.42, 200.0, tz=1.0, name="test site")
     ir.write_epw(path, data, site, label="left")
@@ -217,17 +219,11 @@ def test_weather_cases_use_the_allsky_spectra_by_default(tmp_path, facade_run):
     """Under a weather file a case uses the all-sky spectra (docs/all-sky.md) where the data directory is there,
     as `widesky pv compare` does; `spectral_model = "clear"` keeps the clear-sky spectra. A cloudy file (the model's
     DNI x 0.2, DHI x 2.5) moves the clear window's spectral gain but not the measured horizontal totals."""
-    import irradiance as ir
     runs = {}
     for model in ("auto", "clear"):
         folder = tmp_path / model
         folder.mkdir()
-        dni, dhi = ir.model_irradiance(facade_run.dataset, facade_run.result.states, facade_run.settings)
-        el = np.asarray(facade_run.result.states.sun_elevation)
-        data = pd.DataFrame({"dni": 0.2 * dni, "dhi": 2.5 * dhi,
-                             "ghi": 0.2 * dni * np.maximum(np.sin(np.radians(el)), 0) + 2.5 * dhi,
-                             "temp_air": 20.0, "wind_speed": 1.0}, index=facade_run.result.times)
-        ir.write_epw(folder / "w.epw", data, ir.Site(50.08, 14.42, 200.0, tz=1.0, name="test site"), label="left")
+        _epw(folder / "w.epw", facade_run, 0.2, 20.0, dhi_factor=2.5)
         _case(folder, "facade", FACADE.format(tz="1", weather=f'weather = "w.epw"\nspectral_model = "{model}"'))
         runs[model] = compute(folder, n_jobs=1, progress=False)
     assert "all-sky spectra" in runs["auto"].weather and "clear-sky spectra" in runs["clear"].weather
