@@ -36,7 +36,7 @@ import irradiance as ir
 from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors
 from irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
                                       g173_decomposition, generic_eqe, mismatch_by_kc, model_at_g173,
-                                      pvspec_fit, pvspec_published, sedes2_global_horizontal,
+                                      pvspec_annual, pvspec_fit, pvspec_published, sedes2_global_horizontal,
                                       spectral_response)
 from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
 
@@ -142,9 +142,25 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
     if sedes2 is not None:
         es = sedes2_global_horizontal(sedes2, edges, clear.dni, clear.dhi, sin_el, ghi)
         ape_kc["SEDES2"] = ape_by_kc(es, kc_model, wl, w)
-    return {"kc_model": kc_model, "am": am, "sin_el": sin_el, "pvspec_mask": pv_mask, "ape_kc": ape_kc, "name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
+    pressure_ratio = wd.site.pressure / 101325.0
+    kc_linke = linke_clearsky_index(wd.site, data.index, 90.0 - states.sun_elevation, ghi, am * pressure_ratio)
+    return {"kc_model": kc_model, "am": am, "pressure_ratio": pressure_ratio, "kc_linke": kc_linke, "sin_el": sin_el, "pvspec_mask": pv_mask, "ape_kc": ape_kc, "name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
             "ape_g173": float(ape(g173, wl, w)), "kt": kt, "spectra": spectra, "states": st,
             "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt, "stride": stride}
+
+
+def linke_clearsky_index(site, times, zenith, ghi, airmass_absolute):
+    """GHI / clear-sky GHI of pvlib's Ineichen-Perez model with its monthly Linke turbidity climatology, the
+    nearest available stand-in for the ESRA / Linke clear sky that PVSPEC's clear-sky index is defined with
+    (Pelland et al. 2020); None without pvlib (a test dependency)."""
+    try:
+        import pvlib
+    except ImportError:
+        return None
+    tl = pvlib.clearsky.lookup_linke_turbidity(times, site.latitude, site.longitude).to_numpy()
+    extra = pvlib.irradiance.get_extra_radiation(times).to_numpy()
+    cs = pvlib.clearsky.ineichen(np.asarray(zenith), np.asarray(airmass_absolute), tl, site.altitude, extra)
+    return ghi / np.maximum(np.asarray(cs["ghi"]), 1.0)
 
 
 def transposition_check(name, tilt, stride=1):
@@ -233,6 +249,18 @@ def report(res):
             b = mismatch_by_kc(res["spectra"][label][0], res["kc_model"], res["sr"]["a-Si"], res["pvspec_mask"])
             print("      a-Si median mismatch relative to kc 0.9-1.1 (PVSPEC kc^a2 at the bin centre): " + ", ".join(
                 f"[{lo:.1f}, {hi:.1f}) {v:.3f} ({c ** pub['a-Si'][0]:.3f})" for (lo, hi), c, v in b))
+    weight = (res["spectra"][VARIANTS[-1][0]][0] * res["w"]).sum(1)
+    for kc_label, kc in (("Linke (Ineichen-Perez) clear-sky index", res["kc_linke"]),
+                         ("the model's clear-sky index", res["kc_model"])):
+        pv = None if kc is None else pvspec_annual(kc, res["am"] * res["pressure_ratio"], weight)
+        if pv is None:
+            continue
+        annual, clear = pv
+        print(f"  PVSPEC's measured relation (Pelland et al. 2020) on these hours ({kc_label}, absolute air "
+              "mass, weights = all-sky POA):")
+        for label, d in (("PVSPEC at kc 1, AM 1.5", clear), ("PVSPEC, annual", annual)):
+            print(f"    {label:30s} " + " ".join(f"{100 * d[t]:+6.2f}" for t in techs)
+                  + f"  spread {100 * (d['a-Si'] - d['CIGS']):5.2f}")
     for label, ap in res["ape_kc"].items():
         print(f"  median hourly APE (horizontal) by clear-sky index, {label}: "
               + ", ".join(f"[{lo:.1f}, {hi:.1f}) {v:.3f}" for (lo, hi), v in ap))

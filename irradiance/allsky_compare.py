@@ -22,7 +22,7 @@ import numpy as np
 
 __all__ = ["generic_eqe", "spectral_response", "ape", "band_average", "g173_channels", "model_at_g173",
            "g173_decomposition", "sedes2_global_horizontal", "pvspec_fit", "pvspec_published",
-           "mismatch_by_kc", "ape_by_kc", "spectral_effects", "KC_BINS", "PVSPEC_TYPES", "HC_EV_NM"]
+           "mismatch_by_kc", "pvspec_annual", "ape_by_kc", "spectral_effects", "KC_BINS", "PVSPEC_TYPES", "HC_EV_NM"]
 
 
 def _data(rel, data_dir=None):
@@ -191,6 +191,31 @@ def pvspec_published():
         m = [float(pvlib.spectrum.spectral_factor_pvspec(am, kc, t)) for kc, am in ((1, 1), (np.e, 1), (1, np.e))]
         out[k] = (np.log(m[1] / m[0]), np.log(m[2] / m[0]))
     return out
+
+
+def pvspec_annual(kc, airmass_absolute, weight, kc_range=(0.05, 1.5)):
+    """Annual spectral effects by the measured PVSPEC relation (Pelland et al. 2020, coefficients as in
+    pvlib's ``spectral_factor_pvspec``; pvlib is a test dependency): ``sum M w / sum w - 1`` over the hours,
+    with ``M = a1 kc^a2 AM^a3`` of PVSPEC's measured modules, the clear-sky index clipped to ``kc_range``
+    (the power law diverges at kc -> 0), weights ``w`` the hours' plane-of-array irradiance [W m-2].
+
+    Also the same relation at a clear AM1.5 hour (kc 1, AM 1.5), PVSPEC's own offset from the reference
+    spectrum that measured modules see in clear sky. Returns ``({technology: annual effect},
+    {technology: effect at kc 1, AM 1.5})`` as fractions, or None without pvlib."""
+    try:
+        import pvlib
+    except ImportError:
+        return None
+    kc = np.clip(np.asarray(kc, float), *kc_range)
+    am = np.asarray(airmass_absolute, float)
+    w = np.asarray(weight, float)
+    ok = np.isfinite(kc) & np.isfinite(am) & np.isfinite(w) & (w > 0)
+    annual, clear = {}, {}
+    for k, t in PVSPEC_TYPES.items():
+        m = np.asarray(pvlib.spectrum.spectral_factor_pvspec(am[ok], kc[ok], t), float)
+        annual[k] = float((m * w[ok]).sum() / w[ok].sum() - 1.0)
+        clear[k] = float(pvlib.spectrum.spectral_factor_pvspec(1.5, 1.0, t)) - 1.0
+    return annual, clear
 
 
 KC_BINS = ((0.0, 0.2), (0.2, 0.4), (0.4, 0.6), (0.6, 0.8), (0.8, 1.0), (1.0, 2.0))

@@ -24,8 +24,11 @@ import numpy as np
 import pytest
 
 from irradiance.allsky_compare import (ape_by_kc, g173_decomposition, generic_eqe, mismatch_by_kc,
-                                       pvspec_published, sedes2_global_horizontal, spectral_response)
+                                       pvspec_annual, pvspec_published, sedes2_global_horizontal, spectral_response)
 from skymodel.generator.paths import has_data
+
+# PVSPEC's a-Si coefficients a1, a2, a3 (Pelland et al. 2020, Table; as in pvlib's spectral_factor_pvspec)
+PVSPEC_ASI = (1.051, -0.1033, 0.009838)
 
 needs_data = pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WIDESKY_DATA_DIR)")
 
@@ -127,3 +130,18 @@ def test_ape_against_sedes2(sky, amsterdam):
     ref = dict(ape_by_kc(sedes, kc, wl, w))
     for b in ((0.4, 0.6), (0.6, 0.8)):
         assert ours[b] == pytest.approx(ref[b], abs=0.02), b
+
+
+def test_pvspec_annual_weights_hours_and_clips_the_clear_sky_index():
+    pytest.importorskip("pvlib")
+    a1, a2, a3 = PVSPEC_ASI
+    kc = np.array([1.0, 0.3, 0.01])            # the last is clipped to 0.05 (the power law diverges at 0)
+    am = np.array([1.5, 3.0, 2.0])
+    w = np.array([800.0, 150.0, 20.0])         # W m-2 on the plane
+    annual, clear = pvspec_annual(kc, am, w)
+    m = a1 * np.array([1.0, 0.3, 0.05]) ** a2 * am ** a3
+    assert annual["a-Si"] == pytest.approx((m * w).sum() / w.sum() - 1.0, rel=1e-9)
+    assert clear["a-Si"] == pytest.approx(a1 * 1.5 ** a3 - 1.0, rel=1e-9)
+    assert set(annual) == {"a-Si", "CdTe", "c-Si", "CIGS"}
+    # overcast hours raise the wide-gap technology more than the narrow-gap one (PVSPEC's a2 ordering)
+    assert annual["a-Si"] - clear["a-Si"] > annual["CIGS"] - clear["CIGS"] > 0
