@@ -35,8 +35,8 @@ import numpy as np
 import irradiance as ir
 from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors
 from irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
-                                      g173_decomposition, generic_eqe, mismatch_by_kc, model_at_g173,
-                                      pvspec_annual, pvspec_fit, pvspec_published, sedes2_global_horizontal,
+                                      g173_decomposition, generic_eqe, mismatch_by_airmass, mismatch_by_kc, model_at_g173,
+                                      PVSPEC_TYPES, pvspec_annual, spctrl2_airmass_trend, pvspec_fit, pvspec_published, sedes2_global_horizontal,
                                       spectral_response)
 from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
 
@@ -144,7 +144,7 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
         ape_kc["SEDES2"] = ape_by_kc(es, kc_model, wl, w)
     pressure_ratio = wd.site.pressure / 101325.0
     kc_linke = linke_clearsky_index(wd.site, data.index, 90.0 - states.sun_elevation, ghi, am * pressure_ratio)
-    return {"kc_model": kc_model, "am": am, "pressure_ratio": pressure_ratio, "kc_linke": kc_linke, "sin_el": sin_el, "pvspec_mask": pv_mask, "ape_kc": ape_kc, "name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
+    return {"kc_model": kc_model, "am": am, "pressure_ratio": pressure_ratio, "kc_linke": kc_linke, "sky": sky, "sin_el": sin_el, "pvspec_mask": pv_mask, "ape_kc": ape_kc, "name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
             "ape_g173": float(ape(g173, wl, w)), "kt": kt, "spectra": spectra, "states": st,
             "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt, "stride": stride}
 
@@ -261,6 +261,21 @@ def report(res):
         for label, d in (("PVSPEC at kc 1, AM 1.5", clear), ("PVSPEC, annual", annual)):
             print(f"    {label:30s} " + " ".join(f"{100 * d[t]:+6.2f}" for t in techs)
                   + f"  spread {100 * (d['a-Si'] - d['CIGS']):5.2f}")
+        if kc is res["kc_linke"]:
+            import pvlib
+            E = res["spectra"][VARIANTS[-1][0]][0]
+            am_abs = res["am"] * res["pressure_ratio"]
+            clear_hours = (kc > 0.9) & (kc < 1.1) & (res["sin_el"] > np.sin(np.radians(5.0)))
+            print("    clear hours (kc 0.9-1.1): median mismatch against G173 by absolute air mass, the model "
+                  "(PVSPEC at kc 1 in brackets):")
+            for t in ("a-Si", "CIGS"):
+                print(f"      {t:5s} " + ", ".join(
+                    f"[{lo:.1f}, {hi:.1f}) n {n} {v:.3f} ({float(pvlib.spectrum.spectral_factor_pvspec(c, 1.0, PVSPEC_TYPES[t])):.3f})"
+                    for (lo, hi), c, n, v in mismatch_by_airmass(E, res["w"], res["sr"][t], res["ref"][t], am_abs,
+                                                                  clear_hours)))
+            trend = spctrl2_airmass_trend(res["sky"], res["sr"], res["tilt"])
+            print("    SPCTRL2 (clear, AOD500 0.084, the sun in the plane's azimuth) against G173 on the same plane: "
+                  + ", ".join(f"AM {am:.2f} a-Si {d['a-Si']:+.2f} % CIGS {d['CIGS']:+.2f} %" for _, am, d in trend))
     for label, ap in res["ape_kc"].items():
         print(f"  median hourly APE (horizontal) by clear-sky index, {label}: "
               + ", ".join(f"[{lo:.1f}, {hi:.1f}) {v:.3f}" for (lo, hi), v in ap))

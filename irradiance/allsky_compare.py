@@ -22,7 +22,7 @@ import numpy as np
 
 __all__ = ["generic_eqe", "spectral_response", "ape", "band_average", "g173_channels", "model_at_g173",
            "g173_decomposition", "sedes2_global_horizontal", "pvspec_fit", "pvspec_published",
-           "mismatch_by_kc", "pvspec_annual", "ape_by_kc", "spectral_effects", "KC_BINS", "PVSPEC_TYPES", "HC_EV_NM"]
+           "mismatch_by_kc", "mismatch_by_airmass", "spctrl2_airmass_trend", "pvspec_annual", "ape_by_kc", "spectral_effects", "KC_BINS", "PVSPEC_TYPES", "HC_EV_NM"]
 
 
 def _data(rel, data_dir=None):
@@ -190,6 +190,45 @@ def pvspec_published():
     for k, t in PVSPEC_TYPES.items():
         m = [float(pvlib.spectrum.spectral_factor_pvspec(am, kc, t)) for kc, am in ((1, 1), (np.e, 1), (1, np.e))]
         out[k] = (np.log(m[1] / m[0]), np.log(m[2] / m[0]))
+    return out
+
+
+AM_BINS = ((1.0, 1.3), (1.3, 1.7), (1.7, 2.2), (2.2, 3.0), (3.0, 4.0), (4.0, 6.0), (6.0, 10.0))
+
+
+def mismatch_by_airmass(E, w, s, ref, airmass, mask, min_hours=5):
+    """[((lo, hi), geometric bin centre, hours, median M)] over the air-mass bins AM_BINS for the hours in
+    ``mask``: ``M = (sum_c E s w / sum_c E w) / ref``, the hour's spectral mismatch against the reference
+    whose response-weighted mean is ``ref`` (E (T, C) [W m-2 nm-1], w (C,) channel widths [nm], s (C,)
+    response [A W-1 or relative]); bins with fewer than ``min_hours`` hours are left out."""
+    m = (E * s * w).sum(1) / (E * w).sum(1) / ref
+    out = []
+    for lo, hi in AM_BINS:
+        sel = mask & (airmass >= lo) & (airmass < hi)
+        if sel.sum() >= min_hours:
+            out.append(((lo, hi), float(np.sqrt(lo * hi)), int(sel.sum()), float(np.median(m[sel]))))
+    return out
+
+
+def spctrl2_airmass_trend(sky, sr, tilt, zeniths=(48.236, 60.0, 66.0, 70.0, 75.0), aod500=0.084,
+                          data_dir=None):
+    """Clear-sky spectral effects [%] against G173 of SPCTRL2's global spectrum (Bird & Riordan 1986, through
+    pvlib, a test dependency) on a south plane tilted ``tilt`` [deg] with the sun in the plane's azimuth at
+    each zenith angle [deg] (AOD500 ``aod500``, water 1.42 cm, ozone 0.34 atm-cm, albedo 0.2, sea level, an
+    equinox day): an independent code's air-mass trend for the clear hours. Returns
+    [(zenith, Kasten-Young relative air mass, {technology: %})]."""
+    import pvlib
+    edges = np.asarray(sky.channel_edges)
+    w = np.diff(edges)
+    g173 = g173_channels(edges, data_dir)
+    out = []
+    for z in zeniths:
+        am = float(pvlib.atmosphere.get_relative_airmass(z, "kastenyoung1989"))
+        r = pvlib.spectrum.spectrl2(apparent_zenith=z, aoi=abs(z - tilt), surface_tilt=tilt, ground_albedo=0.2,
+                                    surface_pressure=101325.0, relative_airmass=am, precipitable_water=1.42,
+                                    ozone=0.34, aerosol_turbidity_500nm=aod500, dayofyear=94)
+        g = band_average(r["wavelength"], r["poa_global"].ravel(), edges)
+        out.append((float(z), am, {k: float(v) for k, v in spectral_effects(g, g173, sr, w).items()}))
     return out
 
 

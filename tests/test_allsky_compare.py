@@ -145,3 +145,20 @@ def test_pvspec_annual_weights_hours_and_clips_the_clear_sky_index():
     assert set(annual) == {"a-Si", "CdTe", "c-Si", "CIGS"}
     # overcast hours raise the wide-gap technology more than the narrow-gap one (PVSPEC's a2 ordering)
     assert annual["a-Si"] - clear["a-Si"] > annual["CIGS"] - clear["CIGS"] > 0
+
+
+@pytest.mark.reference
+@needs_data
+def test_clear_sky_airmass_trend_of_an_independent_code(sky):
+    """SPCTRL2 (Bird & Riordan 1986, through pvlib) on a 52 deg south plane: a-Si loses and CIGS gains against
+    G173 as the air mass grows (the direct beam reddens), the trend that docs/all-sky.md section 4d sets
+    beside PVSPEC's. Monotone in both, and a-Si below -3 % by AM 2.9."""
+    pytest.importorskip("pvlib")
+    from irradiance.allsky_compare import spctrl2_airmass_trend
+    wl = np.asarray(sky.wavelengths)
+    sr = spectral_response(generic_eqe(wl), wl)
+    trend = spctrl2_airmass_trend(sky, sr, 52.3)
+    asi = [d["a-Si"] for _, _, d in trend]
+    cigs = [d["CIGS"] for _, _, d in trend]
+    assert np.all(np.diff(asi) < 0) and np.all(np.diff(cigs) > 0)
+    assert trend[3][1] == pytest.approx(2.9, abs=0.05) and asi[3] < -3.0
