@@ -246,9 +246,9 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     if W.shape[0] != C:
         raise ValueError(f"weights has {W.shape[0]} rows for a sky of {C} channels")
     P, T = patches.n_patches, len(states)
-    reg_d, reg_w = patches.subsample(settings.radiance_samples)
-    reg_p = np.repeat(np.arange(P), reg_d.shape[1])
-    reg_d, reg_w = reg_d.reshape(-1, 3), reg_w.reshape(-1)
+    reg_d, reg_w = patches.subsample(settings.radiance_samples)               # (P, n, 3), (P, n)
+    n_sub = reg_d.shape[1]
+    reg_d = reg_d.reshape(-1, 3)
     edges, r, th = circumsolar_quadrature(settings.circumsolar_radius, settings.circumsolar_rings,
                                           settings.circumsolar_sectors)
     cos_rad = np.cos(np.radians(settings.circumsolar_radius))
@@ -268,7 +268,7 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     f_sun = _step_channel_factor(sun_scale, T, C, "sun_scale") * r2[:, None]
     L = (sky.radiance(dirs, states) * f_sky[:, None, :]) @ W                 # (T, Nd, R)
     R = W.shape[1]
-    nr = reg_p.size
+    nr = P * n_sub
     Lq = L[:, nr:]
     Lq[~above] = 0.0
     # node solid angles from the first response column's radial profile (nodes below the horizon
@@ -285,13 +285,8 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     circumsolar = np.einsum("tq,tqr->tr", qwt, np.maximum(Lq - l_edge[:, None, :], 0.0))
     Lr = L[:, :nr]
     Lr = np.where(inside[..., None], np.minimum(Lr, l_edge[:, None, :]), Lr)
-    # patch mean of the capped sky from the stratified samples
-    flat = (np.arange(T)[:, None] * P + reg_p[None, :]).ravel()
-    wts = np.broadcast_to(reg_w, (T, nr))
-    den = np.bincount(flat, weights=wts.ravel(), minlength=T * P)
-    wl = (wts[..., None] * Lr).reshape(-1, R)
-    num = np.stack([np.bincount(flat, weights=wl[:, j], minlength=T * P) for j in range(R)], 1)
-    out = (num / den[:, None]).reshape(T, P, R)
+    # patch mean of the capped sky from the stratified samples (each patch's n_sub samples are contiguous)
+    out = np.einsum("pn,tpnr->tpr", reg_w / reg_w.sum(axis=1, keepdims=True), Lr.reshape(T, P, n_sub, R))
     dni = (np.asarray(sky.direct_normal(states), dtype=float) * f_sun) @ W
     return out, dni, circumsolar
 
