@@ -38,7 +38,7 @@ from irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
                                       g173_decomposition, generic_eqe, mismatch_by_airmass, mismatch_by_kc, model_at_g173,
                                       PVSPEC_TYPES, pvspec_annual, spctrl2_airmass_trend, pvspec_fit, pvspec_published, sedes2_global_horizontal,
                                       spectral_response)
-from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
+from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa, vegetation_albedo_shape
 
 DATA = Path(os.environ.get("WIDESKY_DATA_DIR") or Path(__file__).resolve().parents[1].parent / "shared" / "data")
 
@@ -130,6 +130,15 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
         rows.append((label, se, float(np.nanmedian(a)), float(ape(E[over].sum(0), wl, w)),
                      float(ape(E.sum(0), wl, w)), float((E @ w).sum() / 1000.0), f))
         spectra[label] = (E, a, poa["ghi"])
+    # sensitivity: the default all-sky hours over a vegetated ground (the weather's broadband albedo kept)
+    shape = vegetation_albedo_shape(wl)
+    poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
+                    circumsolar_dhi=f.circumsolar_dhi, albedo_shape=shape, channel_edges=edges)
+    E = poa["poa_global"]
+    tot = (E * w).sum()
+    ground_rows = [("all-sky, grey ground (default)", rows[-1][1]),
+                   ("all-sky, vegetated ground (shape)", {k: ((E * s * w).sum() / tot) / ref[k] - 1.0
+                                                          for k, s in sr.items()})]
     sin_el = np.sin(np.radians(states.sun_elevation))
     g_clear = ((clear.dni * sin_el[:, None] + clear.dhi) * w).sum(1)
     kc_model = ghi / g_clear
@@ -144,7 +153,7 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
         ape_kc["SEDES2"] = ape_by_kc(es, kc_model, wl, w)
     pressure_ratio = wd.site.pressure / 101325.0
     kc_linke = linke_clearsky_index(wd.site, data.index, 90.0 - states.sun_elevation, ghi, am * pressure_ratio)
-    return {"kc_model": kc_model, "am": am, "pressure_ratio": pressure_ratio, "kc_linke": kc_linke, "sky": sky, "sin_el": sin_el, "pvspec_mask": pv_mask, "ape_kc": ape_kc, "name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
+    return {"kc_model": kc_model, "am": am, "pressure_ratio": pressure_ratio, "kc_linke": kc_linke, "sky": sky, "ground_rows": ground_rows, "sin_el": sin_el, "pvspec_mask": pv_mask, "ape_kc": ape_kc, "name": name, "rows": rows, "t_sky": t_sky, "times": times, "n": len(states),
             "ape_g173": float(ape(g173, wl, w)), "kt": kt, "spectra": spectra, "states": st,
             "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt, "stride": stride}
 
@@ -198,6 +207,9 @@ def report(res):
     for label, se, a_med, a_ovc, a_ann, H, _ in res["rows"]:
         print(f"{label:34s} " + " ".join(f"{100 * se[t]:+6.2f}" for t in techs)
               + f"  {100 * (se['a-Si'] - se['CIGS']):6.2f}  {a_med:7.3f}  {a_ovc:7.3f}  {a_ann:7.3f}  {H:8.1f}")
+    print("ground sensitivity (irradiance.allsky_plane.vegetation_albedo_shape, the weather's broadband albedo kept):")
+    for label, se in res["ground_rows"]:
+        print(f"{label:34s} " + " ".join(f"{100 * se[t]:+6.2f}" for t in techs) + f"  {100 * (se['a-Si'] - se['CIGS']):6.2f}")
     print("relative to the sky model's own spectrum at the G173 state (*):")
     for label, se, *_ in res["rows"]:
         print(f"{label:34s} " + " ".join(f"{100 * se[t + '*']:+6.2f}" for t in techs)

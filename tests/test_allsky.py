@@ -20,7 +20,7 @@ import pytest
 import trimesh
 
 from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors, cloud_index
-from irradiance.allsky_plane import clear_plane_spectra, plane_poa
+from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa, vegetation_albedo_shape
 from irradiance.integrator import IntegratorSettings, poa_irradiance
 from irradiance.measured import measured_scale_factors
 from irradiance.scene import make_scene
@@ -292,3 +292,30 @@ def test_cloud_circumsolar_share():
     np.testing.assert_allclose(on.diffuse_scale, off.diffuse_scale, rtol=1e-12)
     with pytest.raises(ValueError, match="circumsolar"):
         AllSkyOptions(circumsolar="ring")
+
+
+def test_spectral_ground_keeps_the_broadband_albedo():
+    """An albedo shape changes the reflected spectrum, not the reflected broadband irradiance (the weather
+    file's albedometer value); a vegetation shape sends more NIR than visible light to the plane."""
+    edges = np.arange(280.0, 2481.0, 40.0)
+    wl, C, T = 0.5 * (edges[1:] + edges[:-1]), 55, 3
+    rng = np.random.default_rng(4)
+    clear = ClearPlaneSpectra(dni=rng.uniform(0.2, 1.5, (T, C)), dhi=rng.uniform(0.05, 0.4, (T, C)),
+                              circumsolar=np.zeros((T, C)), poa_sky=rng.uniform(0.05, 0.4, (T, C)),
+                              cos_aoi=np.array([0.9, 0.6, 0.3]), sin_elevation=np.array([0.8, 0.5, 0.2]),
+                              overcast_ratio=0.9, view_ground=0.19)
+    albedo = np.array([0.2, 0.25, 0.6])
+    grey = plane_poa(clear, np.ones(T), np.ones(T), albedo)
+    shape = vegetation_albedo_shape(wl)
+    veg = plane_poa(clear, np.ones(T), np.ones(T), albedo, albedo_shape=shape, channel_edges=edges)
+    w = np.diff(edges)
+    np.testing.assert_allclose(veg["poa_ground_diffuse"] @ w, grey["poa_ground_diffuse"] @ w, rtol=1e-12)
+    np.testing.assert_array_equal(veg["poa_sky_diffuse"], grey["poa_sky_diffuse"])
+    ratio = veg["poa_ground_diffuse"] / grey["poa_ground_diffuse"]
+    vis, nir = (wl > 420) & (wl < 680), (wl > 780) & (wl < 1250)
+    assert np.all(ratio[:, vis].max(1) < 0.35) and np.all(ratio[:, nir].min(1) > 1.5)
+    assert shape[wl < 650].max() < 0.06 and shape[(wl > 780) & (wl < 1250)].min() > 0.4
+    with pytest.raises(ValueError, match="channel_edges"):
+        plane_poa(clear, np.ones(T), np.ones(T), albedo, albedo_shape=shape)
+    with pytest.raises(ValueError, match="albedo_shape"):
+        plane_poa(clear, np.ones(T), np.ones(T), albedo, albedo_shape=shape[:10], channel_edges=edges)
