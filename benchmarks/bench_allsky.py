@@ -158,6 +158,13 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
             "vis": vis, "clear": clear, "wl": wl, "w": w, "sr": sr, "ref": ref, "g173": g173, "tilt": tilt, "stride": stride}
 
 
+def weighted_quantiles(x, weight, q):
+    """Quantiles q of x with weights (the share of the weight at or below each value)."""
+    o = np.argsort(x)
+    c = np.cumsum(weight[o]) / weight.sum()
+    return [float(x[o][min(np.searchsorted(c, p), len(x) - 1)]) for p in q]
+
+
 def linke_clearsky_index(site, times, zenith, ghi, airmass_absolute):
     """GHI / clear-sky GHI of pvlib's Ineichen-Perez model with its monthly Linke turbidity climatology, the
     nearest available stand-in for the ESRA / Linke clear sky that PVSPEC's clear-sky index is defined with
@@ -285,6 +292,17 @@ def report(res):
                     f"[{lo:.1f}, {hi:.1f}) n {n} {v:.3f} ({float(pvlib.spectrum.spectral_factor_pvspec(c, 1.0, PVSPEC_TYPES[t])):.3f})"
                     for (lo, hi), c, n, v in mismatch_by_airmass(E, res["w"], res["sr"][t], res["ref"][t], am_abs,
                                                                   clear_hours)))
+            kc_c = np.clip(kc, 0.05, 1.5)
+            H = (E * res["w"]).sum(1)
+            ok = (res["sin_el"] > np.sin(np.radians(5.0))) & (H > 20.0)
+            print("    hourly mismatch against G173, energy-weighted quantiles 10/25/50/75/90 % (sun above 5 deg, "
+                  "POA > 20 W m-2), the model | PVSPEC on the same hours, and their correlation:")
+            for t in techs:
+                m_mod = (E * res["sr"][t] * res["w"]).sum(1) / H / res["ref"][t]
+                m_pv = np.asarray(pvlib.spectrum.spectral_factor_pvspec(am_abs, kc_c, PVSPEC_TYPES[t]), float)
+                qm, qp = (weighted_quantiles(x[ok], H[ok], (0.1, 0.25, 0.5, 0.75, 0.9)) for x in (m_mod, m_pv))
+                print(f"      {t:5s} " + " ".join(f"{v:.3f}" for v in qm) + " | " + " ".join(f"{v:.3f}" for v in qp)
+                      + f" | r {np.corrcoef(m_mod[ok], m_pv[ok])[0, 1]:.2f}")
             trend = spctrl2_airmass_trend(res["sky"], res["sr"], res["tilt"])
             print("    SPCTRL2 (clear, AOD500 0.084, the sun in the plane's azimuth) against G173 on the same plane: "
                   + ", ".join(f"AM {am:.2f} a-Si {d['a-Si']:+.2f} % CIGS {d['CIGS']:+.2f} %" for _, am, d in trend))
