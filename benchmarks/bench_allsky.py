@@ -322,18 +322,26 @@ def figure(results, path, diffuse=None):
     ax = axes[0]
     x = np.arange(len(techs))
     rows = ams["rows"]
-    bars = [("plain (today), vs G173", rows[0][1], ""), ("all-sky, vs G173", rows[-1][1], ""),
-            ("all-sky, vs the model at the G173 state", rows[-1][1], "*")]
-    bw = 0.2
-    for i, (label, se, star) in enumerate(bars):
-        ax.bar(x + (i - 1.5) * bw, [100 * se[t + star] for t in techs], bw, label=f"Amsterdam, {label}")
-    ax.bar(x + 1.5 * bw, [DIRNBERGER_FREIBURG[t] for t in techs], bw, color="k", alpha=0.6,
-           label="Freiburg, measured (Dirnberger 2015)")
+    bars = [("all-sky, vs G173", {t: 100 * rows[-1][1][t] for t in techs}, "C1"),
+            ("all-sky, vegetated ground, vs G173", {t: 100 * ams["ground_rows"][1][1][t] for t in techs}, "C2"),
+            ("all-sky, vs the model at the G173 state", {t: 100 * rows[-1][1][t + "*"] for t in techs}, "C4")]
+    pv = None if ams["kc_linke"] is None else pvspec_annual(
+        ams["kc_linke"], ams["am"] * ams["pressure_ratio"], (ams["spectra"][VARIANTS[-1][0]][0] * ams["w"]).sum(1))
+    if pv is not None:
+        bars.append(("PVSPEC's measured relation on these hours", {t: 100 * pv[0][t] for t in techs}, "C9"))
+    bars.append(("Freiburg, measured (Dirnberger 2015)", DIRNBERGER_FREIBURG, "0.35"))
+    bw = 0.8 / len(bars)
+    for i, (label, se, colour) in enumerate(bars):
+        ax.bar(x + (i - (len(bars) - 1) / 2) * bw, [se[t] for t in techs], bw, color=colour,
+               label=label if "Freiburg" in label or "PVSPEC" in label else f"Amsterdam, {label}")
+    top = max(max(se[t] for t in techs) for _, se, _ in bars)
+    ax.set_ylim(-1.5, top + 3.5)
     ax.axhline(0, color="0.5", lw=0.8)
-    ax.set_xticks(x, techs)
+    ax.set_xticks(x, [f"{t}\nplain {100 * rows[0][1][t]:+.1f}" for t in techs])
+    ax.set_xlabel("(plain: the clear-sky shape scaled to the weather, before the all-sky model)", fontsize=8)
     ax.set_ylabel("annual spectral effect [%]")
     ax.set_title("Annual spectral effect, south plane tilted at latitude")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper right")
     ax = axes[1]
     bins = np.linspace(1.6, 2.2, 61)
     kt = ams["kt"]
