@@ -78,7 +78,7 @@ VARIANTS = (
                                                circumsolar="none")),
     ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
                                              partition="ernst", haze="clamp", circumsolar="none")),
-    ("+ cloud liquid water", AllSkyOptions(cloud_vapour=False, cloud_rayleigh=False, partition="ernst",
+    ("+ cloud droplets (Mie)", AllSkyOptions(cloud_vapour=False, cloud_rayleigh=False, partition="ernst",
                                            haze="clamp", circumsolar="none")),
     ("+ cloud water vapour", AllSkyOptions(cloud_rayleigh=False, partition="ernst", haze="clamp", circumsolar="none")),
     ("+ cloud-top Rayleigh", AllSkyOptions(partition="ernst", haze="clamp", circumsolar="none")),

@@ -28,9 +28,12 @@ Units: wavelength [nm], radius [um], optical depth [1].
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
-__all__ = ["liquid_water_k", "droplet_coalbedo", "slab_transmittance", "cloud_optical_depth",
+__all__ = ["liquid_water_k", "droplet_coalbedo", "mie_droplet_optics", "cloud_spectral_transmittance",
+           "transmitted_path_factor", "mie_droplet_table", "DROPLET_VARIANCE", "slab_transmittance", "cloud_optical_depth",
            "cloud_relative_transmittance", "DEFAULT_DROPLET_RADIUS", "DEFAULT_ASYMMETRY",
            "ADT_REFRACTION_FACTOR", "LIQUID_WATER_CONTENT", "saturation_vapour_density",
            "cloud_vapour_path", "vapour_band_deepening", "rayleigh_optical_depth", "rayleigh_spherical_albedo",
@@ -102,6 +105,125 @@ def droplet_coalbedo(wavelength_nm, k, radius_um=DEFAULT_DROPLET_RADIUS):
         raise ValueError("k must be >= 0")
     x = 2.0 * np.pi * r * 1000.0 / lam
     return np.minimum(0.5 * ADT_REFRACTION_FACTOR * _q_abs_adt(4.0 * x * kk), 0.5)
+
+
+DROPLET_VARIANCE = 0.1
+"""Effective variance [1] of the droplets' gamma size distribution (Hansen & Travis 1974, Space Sci. Rev.
+16, 527: 0.1-0.2 for water clouds; 0.1 is the usual default)."""
+
+_MIE_WAVELENGTHS_NM = np.arange(280.0, 2501.0, 20.0)
+_SHIPPED_TABLE = "droplet_mie_r10_v0.1.csv"
+
+
+def mie_droplet_table(radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANCE, data_dir=None, n_radii=320):
+    """(W, 4) table of wavelength [nm], mean extinction efficiency [1], co-albedo [1] and asymmetry [1] of water
+    droplets, every 20 nm over 280-2500 nm (see :func:`mie_droplet_optics`): Mie (miepython ``efficiencies_mx``)
+    on ``n_radii`` radii 0.5-40 um (finer than the extinction's interference ripple at 280 nm) weighted by the
+    gamma distribution's cross-section ``pi r^2 n(r)``. Some 3 minutes on one core for 320 radii."""
+    import miepython
+    from skymodel.generator.aerosol import refractive_index
+    lam = _MIE_WAVELENGTHS_NM
+    r = np.linspace(0.5, 40.0, int(n_radii))
+    area = np.pi * r ** 2 * r ** ((1.0 - 3.0 * variance) / variance) * np.exp(-r / (radius_um * variance))
+    m = refractive_index("stco", lam, 0, data_dir=data_dir)
+    rows = []
+    for li, mi in zip(lam, m):
+        qe, qs, _, g = miepython.efficiencies_mx(complex(mi.real, -abs(mi.imag)), 2.0 * np.pi * r * 1000.0 / li)
+        rows.append((li, (qe * area).sum() / area.sum(), 1.0 - (qs * area).sum() / (qe * area).sum(),
+                     (g * qs * area).sum() / (qs * area).sum()))
+    return np.array(rows)
+
+
+@functools.lru_cache(maxsize=8)
+def _mie_table(radius_um, variance, data_dir):
+    """The (W, 4) table: the shipped one for the default droplets (``irradiance/data``, made by
+    ``irradiance/data/make_droplet_table.py``), otherwise computed once and kept in the cache directory."""
+    import os
+    from pathlib import Path
+    if np.isclose(radius_um, DEFAULT_DROPLET_RADIUS) and np.isclose(variance, DROPLET_VARIANCE):
+        return np.genfromtxt(Path(__file__).with_name("data") / _SHIPPED_TABLE, delimiter=",", skip_header=2)
+    from skymodel.generator.paths import cache_dir
+    path = cache_dir() / f"droplet_mie_r{radius_um:.4g}_v{variance:.4g}.npy"
+    if path.is_file():
+        return np.load(path)
+    table = mie_droplet_table(radius_um, variance, data_dir)
+    tmp = path.with_suffix(f".{os.getpid()}.tmp.npy")
+    np.save(tmp, table)
+    os.replace(tmp, path)
+    return table
+
+
+def mie_droplet_optics(wavelength_nm, radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANCE, data_dir=None):
+    """Mie optics of water droplets with a gamma size distribution.
+
+    Mie theory (miepython ``efficiencies_mx``) for the liquid-water refractive index of the OPAC
+    water-cloud component (real and imaginary parts, :func:`liquid_water_k`'s table), averaged over the
+    gamma distribution of effective radius ``radius_um`` [um] and effective variance ``variance`` [1]
+    (Hansen & Travis 1974, eq. 2.56), tabulated every 20 nm over 280-2500 nm (:func:`mie_droplet_table`; the
+    default droplets' table ships with widesky, others are computed once and cached) and interpolated.
+
+    Returns
+    -------
+    (extinction, coalbedo, asymmetry) : numpy.ndarray
+        Extinction relative to 550 nm [1] (droplets are large but not infinitely: it rises a few % into
+        the NIR), single-scattering co-albedo ``1 - omega`` [1] and asymmetry parameter g [1] (0.87 in the
+        blue falling to 0.85 by 1.5 um), each shaped like ``wavelength_nm`` [nm].
+    """
+    r, v = float(radius_um), float(variance)
+    if not 2.0 <= r <= 30.0:
+        raise ValueError(f"radius_um={radius_um!r} um outside the valid range [2, 30]")
+    if not 0.01 <= v <= 0.3:
+        raise ValueError(f"variance={variance!r} outside the valid range [0.01, 0.3]")
+    lam = np.asarray(wavelength_nm, dtype=float)
+    if np.any((lam < 280.0) | (lam > 2500.0)):
+        raise ValueError("wavelength_nm outside the table's range [280, 2500] nm")
+    t = _mie_table(r, v, None if data_dir is None else str(data_dir))
+    q550 = np.interp(550.0, t[:, 0], t[:, 1])
+    return np.interp(lam, t[:, 0], t[:, 1]) / q550, np.interp(lam, t[:, 0], t[:, 2]), np.interp(lam, t[:, 0], t[:, 3])
+
+
+def cloud_spectral_transmittance(tau, extinction, coalbedo, asymmetry, reference_asymmetry=DEFAULT_ASYMMETRY):
+    """Spectral diffuse transmittance of a droplet cloud relative to the conservative grey cloud of the same
+    optical depth at 550 nm.
+
+    ``slab_transmittance(tau extinction(l), coalbedo(l), asymmetry(l)) / slab_transmittance(tau, 0, g_ref)``:
+    the droplets' spectral extinction and asymmetry parameter change the transport optical depth
+    ``(1 - g) tau`` (it grows about 10 % from the visible to 1.5 um), their absorption removes NIR light.
+
+    Parameters
+    ----------
+    tau : array_like
+        (T,) optical depths at 550 nm [1].
+    extinction, coalbedo, asymmetry : array_like
+        (C,) per channel [1] (:func:`mie_droplet_optics`).
+    reference_asymmetry : float
+        g [1] of the grey reference (the one the optical depth was inverted with).
+
+    Returns
+    -------
+    numpy.ndarray
+        (T, C) [1].
+    """
+    t = np.asarray(tau, dtype=float)
+    e, c, g = (np.asarray(a, dtype=float) for a in (extinction, coalbedo, asymmetry))
+    T = np.stack([slab_transmittance(t * e[j], c[j], g[j]) for j in range(e.size)], axis=1)
+    return T / slab_transmittance(t, 0.0, reference_asymmetry)[:, None]
+
+
+def transmitted_path_factor(tau, asymmetry=DEFAULT_ASYMMETRY):
+    """Mean geometric path of diffusely transmitted light in a cloud layer, in units of its thickness [1].
+
+    By the equivalence theorem the mean path equals ``-d ln T / d k`` for an absorption coefficient k
+    spread evenly through the layer; with the two-stream slab (:func:`slab_transmittance`) that is
+    ``-d ln T / d(c tau)`` at c -> 0 (a finite difference at c = 1e-6). It grows from 1.8 at tau 3 to 2.8 at
+    tau 20 and 7 at tau 80 (g 0.86); DISORT for the same slab with a beam at 40 deg gives 1.9, 2.9 and 7.0
+    (tests/test_allsky_optics.py).
+    """
+    t = np.asarray(tau, dtype=float)
+    eps = 1e-6
+    ts = np.where(t > 0, t, 1.0)
+    f = -(np.log(slab_transmittance(ts, eps, asymmetry)) - np.log(slab_transmittance(ts, 0.0, asymmetry))) / (eps * ts)
+    return np.where(t > 0, f, 1.0)
 
 
 def slab_transmittance(tau, coalbedo, asymmetry=DEFAULT_ASYMMETRY):
@@ -197,13 +319,15 @@ def saturation_vapour_density(temp):
 
 
 def cloud_vapour_path(tau, temp_dew, asymmetry=DEFAULT_ASYMMETRY, radius_um=DEFAULT_DROPLET_RADIUS,
-                      lwc=LIQUID_WATER_CONTENT):
+                      lwc=LIQUID_WATER_CONTENT, path="two_stream"):
     """Extra water-vapour path [cm] of light transmitted through a cloud layer.
 
-    Photons that diffuse through a slab of transport optical depth ``(1 - g) tau`` travel on average
-    ``L = H (1 - g) tau / 2`` (diffusion theory: the mean first-passage time of transmitted photons,
-    ``H^2 / (6 D)`` with ``D = c l_t / 3``; Davis & Marshak 2002, J. Atmos. Sci. 59, 2713), against
-    about ``H`` for light that crosses the layer once. The layer is saturated; its vapour density is
+    Photons transmitted through the layer travel on average ``L = H f(tau)`` in it, against about ``H``
+    for light that crosses it once. ``path="two_stream"`` (default): ``f`` by the equivalence theorem from
+    the two-stream slab (:func:`transmitted_path_factor`: 2.8 at tau 20, within 5 % of DISORT);
+    ``"diffusion"``: the thick-slab limit of diffusion theory ``f = (1 - g) tau / 2`` (the mean first-passage
+    time ``H^2 / (6 D)``, ``D = c l_t / 3``; Davis & Marshak 2002, J. Atmos. Sci. 59, 2713), which leaves out
+    the boundary terms and is half the two-stream path at tau 20. The layer is saturated; its vapour density is
     taken at the surface dew point (the cloud-base temperature of a well-mixed boundary layer). The
     thickness ``H = LWP / LWC`` with ``LWP = 2 rho_w r_e tau / 3`` (Stephens 1978, J. Atmos. Sci. 35,
     2123).
@@ -220,17 +344,22 @@ def cloud_vapour_path(tau, temp_dew, asymmetry=DEFAULT_ASYMMETRY, radius_um=DEFA
         Effective droplet radius [um].
     lwc : float
         Liquid water content [g m-3].
+    path : {"two_stream", "diffusion"}
+        The mean-path factor ``f`` (above).
 
     Returns
     -------
     numpy.ndarray
         (T,) extra precipitable-water path [cm], in [0, 2 US62 columns = 2.85 cm] (the cap keeps the
-        band law of :func:`vapour_band_deepening` within its range; reached above tau of about 60).
+        band law of :func:`vapour_band_deepening` within its range).
     """
+    if path not in ("two_stream", "diffusion"):
+        raise ValueError(f"path={path!r} is not one of ('two_stream', 'diffusion')")
     t = np.asarray(tau, dtype=float)
     td = np.asarray(temp_dew, dtype=float)
     thickness = (2.0 / 3.0) * t * float(radius_um) / float(lwc)              # [m] (LWP [g m-2] / LWC)
-    extra = thickness * np.maximum(0.5 * (1.0 - float(asymmetry)) * t - 1.0, 0.0)
+    factor = transmitted_path_factor(t, asymmetry) if path == "two_stream" else 0.5 * (1.0 - float(asymmetry)) * t
+    extra = thickness * np.maximum(factor - 1.0, 0.0)
     du = saturation_vapour_density(td) * extra * 1e-4                        # g m-3 * m -> g cm-2
     return np.clip(np.where(np.isfinite(du), du, 0.0), 0.0, 2.0 * US62_WATER_COLUMN)
 
