@@ -71,11 +71,12 @@ class AllSkyOptions:
     cloud_spectrum : bool
         Ernst et al. (2016) diffuse shape under cloud (off: clear-sky diffuse shape).
     cloud_absorption : bool
-        The droplets' own spectral optics in the cloud layer (needs the OPAC water optical constants in
-        the data directory): with ``droplet_optics="mie"`` their Mie extinction, asymmetry parameter and
-        absorption per channel in the two-stream slab (the transport optical depth grows about 10 % from the
-        visible to 1.5 um, liquid water absorbs beyond 900 nm); ``"adt"``: absorption only (anomalous
-        diffraction), extinction and asymmetry grey.
+        The droplets' own spectral optics in the cloud layer (the default droplets' Mie table ships with
+        widesky; another radius or ``"adt"`` needs the OPAC water optical constants in the data directory):
+        with ``droplet_optics="mie"`` their Mie extinction, asymmetry parameter and absorption per channel
+        in the two-stream slab (the transport optical depth grows about 10 % from the visible to 1.5 um,
+        liquid water absorbs beyond 900 nm); ``"adt"``: absorption only (anomalous diffraction),
+        extinction and asymmetry grey.
     droplet_optics : {"mie", "adt"}
         See ``cloud_absorption``.
     cloud_vapour : bool
