@@ -78,7 +78,9 @@ class BuildConfig:
     elevations below 0 need it); ``mc_samples`` paths per direction and channel batch, ``mc_channels_per_batch``
     neighbouring channels sharing paths, ``mc_ground_orders`` orders of ground reflection kept apart (all albedos
     from one run), ``mc_zenith_step_deg`` [deg] and ``mc_azimuths_deg`` [deg] (None: the default set) the
-    direction grid, ``mc_seed``.
+    direction grid, ``mc_seed``; ``mc_streams`` "correlated" (default: common random numbers across the directions
+    of a state, a smooth error field over the sky) or "independent" (one stream per direction, the builds before
+    2026-12-02; docs/atmosphere-and-solver.md, "Correlated streams").
     """
 
     visibilities_km: tuple = (20.0, 27.4, 37.5, 51.3, 70.2, 96.2, 131.8)
@@ -115,6 +117,7 @@ class BuildConfig:
     mc_zenith_step_deg: float = 6.0
     mc_azimuths_deg: tuple | None = None
     mc_seed: int = 20261201
+    mc_streams: str = "correlated"
     pol_knots: tuple = (24, 16)
     pol_rank: int = 3
 
@@ -140,6 +143,9 @@ class BuildConfig:
                              "must be >= 1")
         if not 1 <= int(self.mc_ground_orders) <= 16:
             raise ValueError(f"mc_ground_orders={self.mc_ground_orders} outside [1, 16]")
+        from .montecarlo import STREAM_MODES
+        if self.mc_streams not in STREAM_MODES:
+            raise ValueError(f"mc_streams={self.mc_streams!r}: valid values are {STREAM_MODES}")
         if not 0.5 <= float(self.mc_zenith_step_deg) <= 30.0:
             raise ValueError(f"mc_zenith_step_deg={self.mc_zenith_step_deg} outside [0.5, 30] deg")
         if len(tuple(self.pol_knots)) != 2 or min(int(k) for k in self.pol_knots) < 2 or int(self.pol_rank) < 1:
@@ -173,7 +179,7 @@ class BuildConfig:
 
 
 MC_KEYS = ("polarisation", "mc_below_elevation_deg", "mc_samples", "mc_channels_per_batch", "mc_ground_orders",
-           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "pol_knots", "pol_rank")
+           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "mc_streams", "pol_knots", "pol_rank")
 """The configuration keys of the Monte Carlo path (:mod:`skymodel.generator.dataset_mc`)."""
 
 
@@ -912,9 +918,17 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
     from .dataset_mc import mc_key, pol_knots, radiance_by_mc
 
     ele = [float(e) for e in config.elevations_deg]
+    from .dataset_mc import MC_FIRST_ORDER
+
     d = {"method": "polarised backward Monte Carlo in spherical shells (skymodel.generator.montecarlo), "
                    "next-event estimation, hero-wavelength batches; all albedos from one run by order of ground "
-                   "reflection",
+                   f"reflection; estimator: first order {MC_FIRST_ORDER['radiance']} (with sunlit-importance "
+                   "paths) where the Monte Carlo gives the radiance, first order "
+                   f"{MC_FIRST_ORDER['polarisation']} where it gives only the polarisation; "
+                   f"{config.mc_streams} random streams"
+                   + (" (common random numbers across the directions of a state)"
+                      if config.mc_streams == "correlated" else " (one per direction)"),
+         "streams": config.mc_streams,
          "key": mc_key(config), "samples_per_direction_and_batch": int(config.mc_samples),
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
          "zenith_step_deg": float(config.mc_zenith_step_deg), "seed": int(config.mc_seed),

@@ -69,7 +69,7 @@ def mc_config(config, visibility_km: float, elevation_deg: float):
                                  round(float(elevation_deg), 4)]).encode()).hexdigest()
     return MonteCarloConfig(samples=int(config.mc_samples), seed=int(h[:15], 16),
                             channels_per_batch=int(config.mc_channels_per_batch),
-                            ground_orders=int(config.mc_ground_orders), threads=1,
+                            ground_orders=int(config.mc_ground_orders), threads=1, streams=config.mc_streams,
                             first_order=MC_FIRST_ORDER["radiance" if radiance_by_mc(config, elevation_deg)
                                                        else "polarisation"])
 
@@ -80,6 +80,8 @@ def mc_key(config) -> str:
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
          "zenith_step": float(config.mc_zenith_step_deg), "azimuths": [float(x) for x in mc_azimuths(config)],
          "first_order": MC_FIRST_ORDER, "below": config.mc_below_elevation_deg, "v": 3}
+    if config.mc_streams != "independent":  # the keys of the builds before the stream modes stay valid
+        d["streams"] = config.mc_streams
     return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:12]
 
 
