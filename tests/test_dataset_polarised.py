@@ -59,6 +59,24 @@ def test_polarised_variant_config_is_valid():
     assert min(cfg.elevations_deg) == -4.2 and radiance_by_mc(cfg, -4.2) and not radiance_by_mc(cfg, 90.0)
 
 
+def test_stream_mode_key():
+    """``mc_streams``: correlated in the variant (and by default), passed to every state's solver config, part of the
+    cache key; "independent" keeps the key of the states solved before the stream modes existed."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import BuildConfig, load_config
+    from skymodel.generator.dataset_mc import mc_config, mc_key
+
+    cfg = load_config(ROOT / "skymodel" / "data" / "polarised-dataset.json")
+    assert cfg.mc_streams == BuildConfig().mc_streams == "correlated"
+    assert mc_config(cfg, 51.3, -2.0).streams == "correlated"
+    ind = replace(cfg, mc_streams="independent")
+    assert mc_config(ind, 51.3, -2.0).streams == "independent"
+    assert mc_key(ind) == "7e2aad883f02" != mc_key(cfg)  # 7e2a...: the variant's states of the 2026-12-02 build
+    with pytest.raises(ValueError, match="mc_streams='crn'"):
+        BuildConfig(mc_streams="crn")
+
+
 def test_twilight_without_monte_carlo_is_refused():
     from skymodel.generator.dataset_build import BuildConfig
 
