@@ -58,11 +58,14 @@ def _grid_weights(zenith_deg, azimuth_deg):
     return w / w.sum()
 
 
-def repeat_noise(config, visibility_km, elevation_deg) -> dict:
+def repeat_noise(config, visibility_km, elevation_deg, keep=None) -> dict:
     """Noise of one Monte Carlo state measured against an independent re-solve (seed + 1), albedo as :func:`noise`:
     per channel (55,) the rms over directions of I (relative) and P (absolute), the error's correlation between
     neighbouring azimuths and zeniths, its rms second difference along the azimuths over its rms, and the relative
-    error of the hemisphere-integrated radiance."""
+    error of the hemisphere-integrated radiance; and the share of the almucantars of the state's grid (its zeniths
+    but the zenith itself, all channels, both runs) with more than one turning point of I at the smoothness check's
+    0.5 % tolerance (a clear sky has one minimum along an almucantar). ``keep``: folder where the re-solve is cached
+    (reused when there)."""
     from dataclasses import replace
 
     from skymodel.generator.cache import load_state
@@ -70,7 +73,17 @@ def repeat_noise(config, visibility_km, elevation_deg) -> dict:
 
     alb = float(np.median(config.albedos))
     a = load_state(mc_file(config, visibility_km, elevation_deg))
-    b = solve_mc_state(visibility_km, elevation_deg, replace(config, mc_seed=int(config.mc_seed) + 1))
+    from skymodel.generator.cache import save_state
+    from skymodel.generator.smoothness import turning_points
+
+    kf = None if keep is None else Path(keep) / f"repeat_{config.mc_streams}_v{visibility_km:g}_e{elevation_deg:g}.npz"
+    if kf is not None and kf.exists():
+        b = load_state(kf)
+    else:
+        b = solve_mc_state(visibility_km, elevation_deg, replace(config, mc_seed=int(config.mc_seed) + 1))
+        if kf is not None:
+            kf.parent.mkdir(parents=True, exist_ok=True)
+            save_state(kf, b)
     sa, sb = (mc_stokes(x, alb)[0][..., 0] for x in (a, b))  # (T, P, 55)
     ia, ib = sa.reshape(-1, 55), sb.reshape(-1, 55)
     pa, pb = (stored_polarisation(x, alb)[0].reshape(-1, 55) for x in (a, b))
@@ -87,8 +100,9 @@ def repeat_noise(config, visibility_km, elevation_deg) -> dict:
     d2 = np.sqrt(np.mean(np.diff(e, 2, axis=1).reshape(-1, 55) ** 2, axis=0))
     w = _grid_weights(th, ph)[..., None]
     ha, hb = (np.sum(w * x, axis=(0, 1)) for x in (sa, sb))
+    tp = np.stack([turning_points(np.moveaxis(x[1:], 1, -1)) for x in (sa, sb)])  # (2, T-1, 55)
     return {"visibility_km": visibility_km, "elevation_deg": elevation_deg, "albedo": alb,
-            "streams": config.mc_streams, "rel_noise_i": rms(rel).tolist(),
+            "streams": config.mc_streams, "almucantar_tp_gt1_share": np.mean(tp > 1, axis=(0, 1)).tolist(), "rel_noise_i": rms(rel).tolist(),
             "noise_p": rms(np.where(ok, pa - pb, np.nan)).tolist(),
             "corr_azimuth_neighbours": corr(e[:, 1:], e[:, :-1]).tolist(),
             "corr_zenith_neighbours": corr(e[1:], e[:-1]).tolist(),
@@ -132,6 +146,7 @@ def main(argv=None):
     ap.add_argument("--plot", default=None)
     ap.add_argument("--json", default=None)
     ap.add_argument("--repeat", action="append", default=[], help="VIS,ELE of a state to re-solve with another seed")
+    ap.add_argument("--keep", default=None, help="folder to cache the re-solved states in (reused)")
     ap.add_argument("--streams", default=None, help="stream mode of the re-solve (default: the configuration's)")
     ap.add_argument("--smoothness-tol", action="append", default=[], type=float,
                     help="turning-point tolerance [1] of a smoothness check at the Monte Carlo elevations")
@@ -157,13 +172,14 @@ def main(argv=None):
     out["repeats"] = []
     for r in a.repeat:
         v, e = (float(x) for x in r.split(","))
-        rp = repeat_noise(cfg, v, e)
+        rp = repeat_noise(cfg, v, e, a.keep)
         out["repeats"].append(rp)
         sel = [3, 5, 10, 20, 27, 40, 50]
         print(f"re-solved vis={v} ele={e} ({cfg.mc_streams} streams): noise of I [%] / of P at " + ", ".join(
             f"{CHANNEL_CENTERS_NM[c]:.0f} nm {100 * rp['rel_noise_i'][c]:.1f} / {rp['noise_p'][c]:.3f}" for c in sel))
         for k, f in (("corr_azimuth_neighbours", "{:.2f}"), ("corr_zenith_neighbours", "{:.2f}"),
-                     ("d2_azimuth_over_rms", "{:.2f}"), ("rel_noise_hemisphere", "{:.2%}")):
+                     ("d2_azimuth_over_rms", "{:.2f}"), ("rel_noise_hemisphere", "{:.2%}"),
+                     ("almucantar_tp_gt1_share", "{:.2f}")):
             x = np.asarray(rp[k])
             print(f"   {k:26s} " + " ".join(f.format(x[c]) for c in sel) + "   mean over channels " + f.format(x.mean()))
     out["smoothness"] = smoothness_at_tolerances(cfg, a.dataset, a.smoothness_tol) if a.smoothness_tol else []

@@ -10,7 +10,9 @@ for byte and with the same cache keys.
 One Monte Carlo state = one (visibility, solar elevation) on its own product grid of view zeniths x relative
 azimuths (:func:`mc_directions`), all 55 channels in batches of neighbouring channels that share paths, traced over
 a white ground with the contributions split by the number of ground reflections (``ground_orders``), so that every
-albedo of the grid comes from one run (:func:`skymodel.generator.montecarlo.stokes_at_albedo`). It is cached as
+albedo of the grid comes from one run (:func:`skymodel.generator.montecarlo.stokes_at_albedo`), with the random
+stream mode of ``mc_streams`` (default "correlated": common random numbers across the state's directions, so that
+its error is a smooth field over the sky rather than a speckle; docs/atmosphere-and-solver.md). It is cached as
 ``mc_<key>_v<vis>_e<ele>.npz`` beside the DISORT states, ``<key>`` hashing everything that changes its numbers.
 
 **Polarisation quantity** (what the format's polarisation factors hold; docs/atmosphere-and-solver.md). The
