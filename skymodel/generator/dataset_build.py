@@ -80,7 +80,9 @@ class BuildConfig:
     from one run), ``mc_zenith_step_deg`` [deg] and ``mc_azimuths_deg`` [deg] (None: the default set) the
     direction grid, ``mc_seed``; ``mc_streams`` "correlated" (default: common random numbers across the directions
     of a state, a smooth error field over the sky) or "independent" (one stream per direction, the builds before
-    2026-12-02; docs/atmosphere-and-solver.md, "Correlated streams").
+    2026-12-02; docs/atmosphere-and-solver.md, "Correlated streams"); ``mc_fit_resample`` true: the radiance fit of a
+    Monte Carlo state runs on the DISORT states' direction grid, the state interpolated onto it shape-preservingly
+    (:func:`skymodel.generator.dataset_mc.resample_radiance`) instead of on the state's own coarse grid.
     """
 
     visibilities_km: tuple = (20.0, 27.4, 37.5, 51.3, 70.2, 96.2, 131.8)
@@ -118,6 +120,7 @@ class BuildConfig:
     mc_azimuths_deg: tuple | None = None
     mc_seed: int = 20261201
     mc_streams: str = "correlated"
+    mc_fit_resample: bool = False
     pol_knots: tuple = (24, 16)
     pol_rank: int = 3
 
@@ -179,7 +182,8 @@ class BuildConfig:
 
 
 MC_KEYS = ("polarisation", "mc_below_elevation_deg", "mc_samples", "mc_channels_per_batch", "mc_ground_orders",
-           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "mc_streams", "pol_knots", "pol_rank")
+           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "mc_streams", "mc_fit_resample", "pol_knots",
+           "pol_rank")
 """The configuration keys of the Monte Carlo path (:mod:`skymodel.generator.dataset_mc`)."""
 
 
@@ -411,8 +415,14 @@ def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: flo
     from .dataset_mc import mc_file, mc_stokes, radiance_by_mc
 
     if radiance_by_mc(config, elevation_deg):
+        from .dataset_mc import fit_grid, resample_radiance
+
         m = load_state(mc_file(config, visibility_km, elevation_deg))
-        return m["zenith"], m["azimuth"], mc_stokes(m, albedo)[0][..., 0], float(m["solved_elevation"])
+        i = mc_stokes(m, albedo)[0][..., 0]
+        th, ph = fit_grid(m, config)
+        if config.mc_fit_resample:
+            i = resample_radiance(m["zenith"], m["azimuth"], i, th, ph)
+        return th, ph, i, float(m["solved_elevation"])
     s = load_state(state_file(config, visibility_km, elevation_deg))
     g = load_state(ground_file(config, visibility_km))
     return s["zenith"], s["azimuth"], radiance_with_albedo(s, g, albedo), float(s["solved_elevation"])
@@ -611,6 +621,8 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         d["mc"] = {"key": mc_key(config), "below": config.mc_below_elevation_deg,
                    "polarisation": bool(config.polarisation), "pol_knots": list(config.pol_knots),
                    "pol_rank": int(config.pol_rank)}
+        if config.mc_fit_resample:  # (absent otherwise: the earlier polarised fits keep their names)
+            d["mc"]["resample"] = True
     key = hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
     return cache_root(config) / f"fitted_{key}_v{visibility_km:.4f}_e{elevation_deg:.4f}.npz"
 
@@ -625,7 +637,9 @@ def _fit_job(job):
     breaks = config_knots(config)
     m = load_state(mc_file(config, vis, ele)) if needs_mc_state(config, ele) else None
     if radiance_by_mc(config, ele):
-        zen_deg, az_deg, solved = m["zenith"], m["azimuth"], float(m["solved_elevation"])
+        from .dataset_mc import fit_grid
+
+        (zen_deg, az_deg), solved = fit_grid(m, config), float(m["solved_elevation"])
 
         def radiance(a):
             return state_radiance(config, vis, ele, a)[2]

@@ -145,6 +145,48 @@ def mc_stokes(state: dict, albedo: float):
     return stokes_at_albedo(state["stokes"], float(albedo), state["stderr"])
 
 
+def resample_radiance(zenith_deg, azimuth_deg, radiance, zenith_to, azimuth_to):
+    """Shape-preserving interpolation of a Monte Carlo state's radiance from its product grid onto a denser one:
+    monotone piecewise-cubic (PCHIP, Fritsch & Carlson 1980) along the azimuths of every zenith row, then along the
+    zeniths of every azimuth column. Between two samples it stays between their values and adds no extremum, so it
+    puts no ring between the samples that the fit could follow (with correlated streams the samples themselves vary
+    smoothly from one direction to the next).
+
+    Parameters
+    ----------
+    zenith_deg (T,), azimuth_deg (P,) [deg] ascending; radiance (T, P, ...) [any unit];
+    zenith_to (T2,), azimuth_to (P2,) [deg] inside the source grid's range.
+
+    Returns
+    -------
+    ndarray (T2, P2, ...)
+    """
+    from scipy.interpolate import PchipInterpolator
+
+    th, ph = np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float)
+    t2, p2 = np.asarray(zenith_to, float), np.asarray(azimuth_to, float)
+    if t2.min() < th[0] or t2.max() > th[-1] or p2.min() < ph[0] or p2.max() > ph[-1]:
+        raise ValueError(f"resample_radiance: target grid zenith {t2.min()}..{t2.max()}, azimuth {p2.min()}.."
+                         f"{p2.max()} deg outside the source grid {th[0]}..{th[-1]}, {ph[0]}..{ph[-1]} deg")
+    x = PchipInterpolator(ph, np.asarray(radiance, float), axis=1)(p2)
+    return PchipInterpolator(th, x, axis=0)(t2)
+
+
+def fit_grid(state: dict, config):
+    """Directions the radiance fit of a Monte Carlo state uses: its own product grid, or with ``mc_fit_resample``
+    the DISORT states' fit grid (zeniths every ``zenith_step_deg``, the fit azimuths) merged with it; (zenith (T,),
+    azimuth (P,)) [deg]."""
+    th, ph = np.asarray(state["zenith"], float), np.asarray(state["azimuth"], float)
+    if not config.mc_fit_resample:
+        return th, ph
+    from .dataset_build import AZIMUTHS_DEG
+
+    t2 = np.arange(0.0, th[-1], float(config.zenith_step_deg))
+    p2 = np.asarray(AZIMUTHS_DEG, float)
+    return (np.unique(np.concatenate([t2, th])),
+            np.unique(np.concatenate([p2[(p2 >= ph[0]) & (p2 <= ph[-1])], ph])))
+
+
 def scattering_plane_rotation(zenith_deg, azimuth_deg, solar_elevation_deg: float):
     """cos 2 chi, sin 2 chi of the angle chi from the Monte Carlo observer frame's first axis (in the vertical plane
     through the view) to the scattering plane (through the view and the sun), for view zenith (T,) and relative
