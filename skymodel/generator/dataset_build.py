@@ -941,8 +941,10 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
                    f"{MC_FIRST_ORDER['polarisation']} where it gives only the polarisation; "
                    f"{config.mc_streams} random streams"
                    + (" (common random numbers across the directions of a state)"
-                      if config.mc_streams == "correlated" else " (one per direction)"),
-         "streams": config.mc_streams,
+                      if config.mc_streams == "correlated" else " (one per direction)")
+                   + ("; radiance fitted on the DISORT fit grid after a monotone piecewise-cubic interpolation of "
+                      "each state" if config.mc_fit_resample else "; radiance fitted on each state's own grid"),
+         "streams": config.mc_streams, "fit_resample": bool(config.mc_fit_resample),
          "key": mc_key(config), "samples_per_direction_and_batch": int(config.mc_samples),
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
          "zenith_step_deg": float(config.mc_zenith_step_deg), "seed": int(config.mc_seed),
