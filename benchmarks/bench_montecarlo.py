@@ -22,7 +22,17 @@ Subcommands (each prints its numbers; the figure ones write docs/figures/mc_*.pn
   polarisation against a long run of the new estimator (its own variance subtracted), CPU time per path, and the
   efficiency 1 / (error^2 x time) -> docs/figures/mc_estimators.png (``--json`` writes the numbers).
 
-Usage: ``python benchmarks/bench_montecarlo.py {cds,disort,spherical,convergence,hero,estimators} [--quick]``.
+- ``streams``: independent against correlated random streams (common random numbers across directions) at the same
+  paths (1280 per direction and 4-channel batch, the variant's budget), the variant's state (51.3 km, albedo 0.5),
+  channels 420-540 nm, sun at -2 and 36 deg: along the almucantars at view zenith 60 and 85 deg (every 2 deg of
+  relative azimuth) the per-direction error (two seeds: rms difference / sqrt 2, and the rms standard error), the
+  correlation of the error between directions 2, 6, 10 and 20 deg apart, the rms second difference of the error
+  field (sqrt(6) x the error for independent errors), and the error of the hemisphere-integrated radiance (the
+  cosine-weighted mean over 256 Latin-hypercube directions, DHI / pi), which independent errors average down and
+  correlated ones do not.
+
+Usage: ``python benchmarks/bench_montecarlo.py {cds,disort,spherical,convergence,hero,estimators,streams}
+[--quick]``.
 Single-threaded kernel (threads=1) unless ``--threads N``.
 """
 
@@ -302,15 +312,57 @@ def estimators(a):
         Path(a.json).write_text(json.dumps(out, indent=1))
 
 
+def streams(a):
+    """Independent against correlated streams: per-direction and direction-to-direction error, hemisphere error."""
+    import json
+
+    st = SkyState(45.0, visibility_km=51.3, ground_albedo=0.5)
+    batch, n = [3, 4, 5, 6], (320 if a.quick else 1280)
+    az = np.arange(0.0, 181.0, 2.0)
+    hz, ha = hemisphere_directions(64 if a.quick else 256, seed=3)
+    out = []
+    print(f"{n} paths per direction and 4-channel batch, channels 420-540 nm (numbers: the mean over the 4)")
+    for el in (-2.0, 36.0):
+        fo = "quadrature" if el < 5 else "sampled"  # the build's choice (dataset_mc.MC_FIRST_ORDER)
+        for mode in ("independent", "correlated"):
+            cfg = lambda seed: MonteCarloConfig(samples=n, seed=seed, first_order=fo, streams=mode,  # noqa: E731
+                                                threads=a.threads)
+            row = {"elevation_deg": el, "streams": mode, "almucantars": []}
+            for vz in (60.0, 85.0):
+                r1, r2 = (solve_sky_mc(st, None, np.full(az.shape, vz), az, batch, cfg(s), solar_elevation_deg=el)
+                          for s in (1, 2))
+                m = 0.5 * (r1.radiance + r2.radiance)
+                e = (r1.radiance - r2.radiance) / m / np.sqrt(2)
+                rms = float(np.sqrt(np.mean(e ** 2)))
+                se = float(np.sqrt(np.mean((r1.stderr[..., 0] / r1.radiance) ** 2)))
+                lags = {2 * k: float(np.mean([np.corrcoef(e[:-k, c], e[k:, c])[0, 1] for c in range(4)]))
+                        for k in (1, 3, 5, 10)}
+                d2 = float(np.sqrt(np.mean(np.diff(e, 2, axis=0) ** 2)))
+                row["almucantars"].append({"view_zenith_deg": vz, "rms_error": rms, "rms_stderr": se,
+                                           "error_correlation_at_lag_deg": lags, "rms_second_difference": d2})
+                print(f"{el:+.0f} deg, {mode:11s}, zenith {vz:.0f}: error {100 * rms:.2f} % (se {100 * se:.2f} %); "
+                      "correlation at " + ", ".join(f"{k} deg {v:.2f}" for k, v in lags.items()) +
+                      f"; rms 2nd difference {100 * d2:.2f} % ({d2 / rms:.2f} x the error)", flush=True)
+            h = [solve_sky_mc(st, None, hz, ha, batch, cfg(s), solar_elevation_deg=el).radiance.mean(axis=0)
+                 for s in range(11, 19)]
+            hd = [(h[i] - h[i + 1]) / (0.5 * (h[i] + h[i + 1])) / np.sqrt(2) for i in range(0, 8, 2)]
+            row["hemisphere_rel_error"] = float(np.sqrt(np.mean(np.square(hd))))
+            print(f"{el:+.0f} deg, {mode:11s}: hemisphere-integrated radiance ({len(hz)} directions) error "
+                  f"{100 * row['hemisphere_rel_error']:.2f} % (four pairs of seeds)", flush=True)
+            out.append(row)
+    if a.json:
+        Path(a.json).write_text(json.dumps(out, indent=1))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["cds", "disort", "spherical", "convergence", "hero", "estimators"])
+    ap.add_argument("what", choices=["cds", "disort", "spherical", "convergence", "hero", "estimators", "streams"])
     ap.add_argument("--quick", action="store_true", help="few samples (a smoke run)")
     ap.add_argument("--threads", type=int, default=1, help="kernel OpenMP threads")
-    ap.add_argument("--json", help="estimators: write the numbers to this JSON file")
+    ap.add_argument("--json", help="estimators, streams: write the numbers to this JSON file")
     a = ap.parse_args()
     {"cds": cds, "disort": disort, "spherical": spherical, "convergence": convergence, "hero": hero,
-     "estimators": estimators}[a.what](a)
+     "estimators": estimators, "streams": streams}[a.what](a)
 
 
 if __name__ == "__main__":

@@ -20,8 +20,18 @@
  * path and the same conditioned on the part outside the shadow (a share QLIT each), so that vertices land where
  * next-event estimation finds the sun; the hero weights use every component's mixture density.
  *
- * Array in, array out, the GIL released, OpenMP over view directions; every direction has its own random
- * stream (xoshiro256** seeded by splitmix64 from (seed, direction)), so results do not depend on threads.
+ * Array in, array out, the GIL released, OpenMP over view directions. Random streams (xoshiro256** seeded by
+ * splitmix64), two modes, results independent of threads in both:
+ * - independent (corr = 0): every direction has its own stream, seeded from (seed, direction);
+ * - correlated (corr = 1, common random numbers): every vertex of every path has its own stream, seeded from
+ *   (seed, path index, scattering order) and the same for every direction, and every sampled direction takes its
+ *   azimuth in a frame that moves continuously with the view: around the view direction the caller's sampling
+ *   frame (sframes), after a scattering the polarisation reference a_cur (the new scattering plane's), around
+ *   the ground normal perpendicular(normal) (the normal stays near the observer's zenith) and after a ground
+ *   reflection the azimuthal tangent of that frame. Path i of every direction then starts from the same random
+ *   numbers and a discrete branch (layer, Rayleigh or aerosol, roulette) desynchronises only that vertex, so the
+ *   estimate is piecewise continuous in the view direction: the same noise per direction, far less from one
+ *   direction to the next.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -65,6 +75,16 @@ static inline uint64_t splitmix64(uint64_t *x)
 static void rng_seed(rng_t *r, uint64_t seed, uint64_t stream)
 {
     uint64_t x = seed ^ (stream * 0xD1B54A32D192ED03ULL + 0x2545F4914F6CDD1DULL);
+    for (int i = 0; i < 4; ++i) r->s[i] = splitmix64(&x);
+}
+
+/* stream of vertex ``order`` of path ``path`` (correlated mode) */
+static void rng_seed_vertex(rng_t *r, uint64_t seed, uint64_t path, uint64_t order)
+{
+    uint64_t x = seed ^ 0x6A09E667F3BCC909ULL, y = path;
+    x ^= splitmix64(&y);
+    y = order ^ 0xBB67AE8584CAA73BULL;
+    x += splitmix64(&y);
     for (int i = 0; i < 4; ++i) r->s[i] = splitmix64(&x);
 }
 
@@ -117,6 +137,18 @@ static inline void rotate_dir(const double *d, double mu, double phi, double *ou
 {
     double u[3], v[3];
     perpendicular(d, u);
+    cross(d, u, v);
+    double s = sqrt(fmax(0.0, 1.0 - mu * mu)), cp = cos(phi), sp = sin(phi);
+    for (int i = 0; i < 3; ++i) out[i] = mu * d[i] + s * (cp * u[i] + sp * v[i]);
+    normalize(out);
+}
+
+/* unit vector at cosine mu from unit d, azimuth phi from the reference u (perpendicular to d, re-orthogonalised) */
+static inline void rotate_dir_ref(const double *d, const double *uref, double mu, double phi, double *out)
+{
+    double u[3], v[3], c = dot(uref, d);
+    for (int i = 0; i < 3; ++i) u[i] = uref[i] - c * d[i];
+    normalize(u);
     cross(d, u, v);
     double s = sqrt(fmax(0.0, 1.0 - mu * mu)), cp = cos(phi), sp = sin(phi);
     for (int i = 0; i < 3; ++i) out[i] = mu * d[i] + s * (cp * u[i] + sp * v[i]);
@@ -357,6 +389,7 @@ typedef struct {
     uint64_t seed;
     int quad;     /* 1: first order by quadrature along escaping view rays, sampled paths from order 2 */
     double qstep; /* [km] longest quadrature sub-interval */
+    int corr;     /* 1: correlated streams (common random numbers; header comment) */
 } job_t;
 
 typedef struct {
@@ -722,14 +755,15 @@ static void tau_at(const optics_t *o, const path_t *p, double dist, double *tau)
 
 #define LITMIN 1e-12
 
-static void trace_direction(const job_t *jb, work_t *w, const double *view, const double *frame, long dir,
-                            double *sum, double *sumsq)
+static void trace_direction(const job_t *jb, work_t *w, const double *view, const double *frame,
+                            const double *sframe, long dir, double *sum, double *sumsq)
 {
     const optics_t *o = jb->o;
     const geom_t *g = jb->g;
     const int K = o->K, C = o->C;
     rng_t rng;
-    rng_seed(&rng, jb->seed, (uint64_t)dir);
+    const int corr = jb->corr;
+    if (!corr) rng_seed(&rng, jb->seed, (uint64_t)dir);
     const double x_obs[3] = {0, 0, jb->obs_r};
     int quad = 0;
     memset(w->ss, 0, sizeof(double) * 4 * C);
@@ -755,6 +789,14 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
         int l = jb->obs_layer;
         for (int order = 0; order < jb->max_order; ++order) {
             int lc;
+            /* correlated streams: this vertex's own stream, and the uniforms of its discrete choices drawn first in
+             * a fixed order, so that a branch taken differently in another direction leaves the others in step */
+            double U[7];
+            if (corr) {
+                rng_seed_vertex(&rng, jb->seed, (uint64_t)smp, (uint64_t)order);
+                for (int i = 0; i < 7; ++i) U[i] = rnd(&rng);
+            }
+#define RND(i) (corr ? U[i] : rnd(&rng))
             if (quad && order == 0) {
                 lc = l = quad_first(jb, w, &rng, x_obs, d, x);
                 if (l < 0) break;
@@ -782,9 +824,9 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
                     w->pl[k] = forced ? (qk > 0 ? m / qk : 0) : m;
                 }
             }
-            if (shade && w->pl[h] > LITMIN && rnd(&rng) >= QLIT) {
+            if (shade && w->pl[h] > LITMIN && RND(0) >= QLIT) {
                 double m1 = -expm1(-w->ta[h]), eb = clamp_exp(-w->tb[h]);
-                double m2 = fmax(eb - clamp_exp(-T_h), 0.0), v = rnd(&rng) * (m1 + m2);
+                double m2 = fmax(eb - clamp_exp(-T_h), 0.0), v = RND(1) * (m1 + m2);
                 target = v < m1 ? -log1p(-v) : -log(fmax(eb - (v - m1), 1e-300));
                 if (target > T_h) target = T_h;
                 if (forced) norm_h = -expm1(-T_h);
@@ -793,10 +835,10 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
                 /* escaping rays contribute nothing: force the collision, weight by 1 - exp(-T) */
                 double q = -expm1(-T_h);
                 if (q <= 0) break;
-                target = -log1p(-rnd(&rng) * q);
+                target = -log1p(-RND(1) * q);
                 norm_h = q;
             } else {
-                target = -log(1.0 - rnd(&rng));
+                target = -log(1.0 - RND(1));
             }
             if (!forced && target >= T_h) {
                 /* reached the ground */
@@ -826,8 +868,16 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
                 }
                 nee_ground(jb, w, x, nrm, denom);
                 /* Lambertian reflection: cosine-weighted direction, M <- albedo M E11 (depolarising) */
-                double mu = sqrt(rnd(&rng)), phi = 2 * M_PI * rnd(&rng);
-                rotate_dir(nrm, mu, phi, d);
+                double mu = sqrt(RND(5)), phi = 2 * M_PI * RND(6);
+                if (corr) {
+                    double u[3], v[3];
+                    perpendicular(nrm, u);
+                    cross(nrm, u, v);
+                    rotate_dir_ref(nrm, u, mu, phi, d);
+                    for (int i = 0; i < 3; ++i) a_cur[i] = -sin(phi) * u[i] + cos(phi) * v[i]; /* azimuthal tangent */
+                } else {
+                    rotate_dir(nrm, mu, phi, d);
+                }
                 double tmax = 0;
                 for (int k = 0; k < K; ++k) {
                     double *M = w->M + 16 * k;
@@ -837,13 +887,13 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
                     }
                     tmax = fmax(tmax, fabs(M[0]));
                 }
-                perpendicular(d, a_cur);
+                if (!corr) perpendicular(d, a_cur);
                 w->bounces++;
                 l = 0;
                 if (tmax / denom <= 0) break;
                 if (order >= 2 && tmax / denom < ROULETTE) {
                     double q = tmax / denom / ROULETTE;
-                    if (rnd(&rng) >= q) break;
+                    if (RND(4) >= q) break;
                     for (int k = 0; k < 16 * K; ++k) w->M[k] /= q;
                 }
                 continue;
@@ -892,10 +942,13 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
             /* sample the next direction from the hero's phase function */
             double br = o->sca_r[(size_t)lc * K + h], ba = o->sca_a[(size_t)lc * K + h];
             if (br + ba <= 0) break;
-            double mu = (rnd(&rng) * (br + ba) < br) ? sample_rayleigh_mu(o->ray[2 * h], &rng)
+            double mu = (RND(2) * (br + ba) < br) ? sample_rayleigh_mu(o->ray[2 * h], &rng)
                                                      : sample_aerosol_mu(o, o->ctab[h], &rng);
             double dn[3];
-            rotate_dir(d, mu, 2 * M_PI * rnd(&rng), dn);
+            if (corr)
+                rotate_dir_ref(d, order == 0 ? sframe : a_cur, mu, 2 * M_PI * U[3], dn);
+            else
+                rotate_dir(d, mu, 2 * M_PI * rnd(&rng), dn);
             mu = dot(dn, d);
             if (mu > 1) mu = 1;
             if (mu < -1) mu = -1;
@@ -944,10 +997,11 @@ static void trace_direction(const job_t *jb, work_t *w, const double *view, cons
             if (denom <= 0 || tmax <= 0) break;
             if (order >= 2 && tmax / denom < ROULETTE) {
                 double q = tmax / denom / ROULETTE;
-                if (rnd(&rng) >= q) break;
+                if (RND(4) >= q) break;
                 for (int k = 0; k < 16 * K; ++k) w->M[k] /= q;
             }
         }
+#undef RND
         for (int i = 0; i < 4 * C; ++i) {
             sum[i] += w->acc[i];
             sumsq[i] += w->acc[i] * w->acc[i];
@@ -980,12 +1034,14 @@ static int get_buf(PyObject *o, buf_t *bb, int writable, const char *name, Py_ss
 
 /* trace(radii, planar, ext, sca_r, sca_a, ray, amu, atab, acdf, ctab, albedo, cch, cw, n_channels, sun,
  *       obs_r, obs_layer, views, frames, n_samples, seed, max_order, polarised, nthreads, sum, sumsq, nbins
- *       [, quad=0, qstep=2.0])
+ *       [, quad=0, qstep=2.0, sframes=None])
  * shapes: radii (L+1,), ext/sca_r/sca_a (L, K), ray (K, 2), amu (NA,), atab (G, NA, 4), acdf (G, NA),
  * ctab (K,) int32, albedo (K,), cch (K,) int32, cw (K,), sun (3,), views/frames (N, 3),
  * sum/sumsq (N, C, 4) float64, accumulated in place; nbins >= 1 output rows per channel (cch[k] + nbins - 1 < C)
  * split by the number of ground reflections before the light reaches the observer (the last row holds the rest);
- * quad: first order by quadrature along escaping view rays with sub-intervals of at most qstep [km]. */
+ * quad: first order by quadrature along escaping view rays with sub-intervals of at most qstep [km];
+ * sframes (N, 3), unit vectors perpendicular to the views: correlated streams with these azimuth references around
+ * the view directions (None: independent streams). */
 static PyObject *py_trace(PyObject *self, PyObject *args)
 {
     (void)self;
@@ -996,13 +1052,15 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
     unsigned long long seed;
     int N, quad = 0;
     double qstep = 2.0;
-    if (!PyArg_ParseTuple(args, "iiiiiOiOOOOOOOOOOOiOdiOOlKiiiOOi|id", &L, &K, &G, &NA, &planar, &o[0], &nch, &o[1],
+    PyObject *osf = Py_None;
+    if (!PyArg_ParseTuple(args, "iiiiiOiOOOOOOOOOOOiOdiOOlKiiiOOi|idO", &L, &K, &G, &NA, &planar, &o[0], &nch, &o[1],
                           &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &N, &o[12],
                           &obs_r, &obs_layer, &o[13], &o[14], &nsamp, &seed, &max_order, &polarised, &nthreads,
-                          &o[15], &o[16], &nbins, &quad, &qstep))
+                          &o[15], &o[16], &nbins, &quad, &qstep, &osf))
         return NULL;
-    buf_t b[NB];
+    buf_t b[NB], bsf;
     memset(b, 0, sizeof(b));
+    memset(&bsf, 0, sizeof(bsf));
     PyObject *ret = NULL;
     if (L < 1 || K < 1 || G < 1 || NA < 2 || nch < 1 || N < 0 || nsamp < 1 || obs_layer < 0 || obs_layer >= L ||
         max_order < 1 || nbins < 1 || !(qstep > 0)) {
@@ -1019,6 +1077,7 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
      * 9 albedo, 10 cch, 11 cw, 12 sun, 13 views, 14 frames, 15 sum, 16 sumsq */
     for (int i = 0; i < NB; ++i)
         if (get_buf(o[i], &b[i], i >= 15, names[i], isz[i], n[i]) < 0) goto done;
+    if (osf != Py_None && get_buf(osf, &bsf, 0, "sframes", 8, 3 * (Py_ssize_t)N) < 0) goto done;
     {
         const int32_t *ctab = (const int32_t *)b[8].b.buf, *cch = (const int32_t *)b[10].b.buf;
         for (int k = 0; k < K; ++k)
@@ -1032,8 +1091,9 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
                        (const double *)b[6].b.buf, (const double *)b[7].b.buf, ctab, (const double *)b[9].b.buf,
                        cch, (const double *)b[11].b.buf, polarised, nbins};
         job_t jb = {&g, &op, (const double *)b[12].b.buf, obs_r, obs_layer, nsamp, max_order, (uint64_t)seed,
-                    quad != 0, qstep};
+                    quad != 0, qstep, osf != Py_None};
         const double *views = (const double *)b[13].b.buf, *frames = (const double *)b[14].b.buf;
+        const double *sframes = jb.corr ? (const double *)bsf.b.buf : frames;
         double *sum = (double *)b[15].b.buf, *sumsq = (double *)b[16].b.buf;
         int err = 0;
         Py_BEGIN_ALLOW_THREADS
@@ -1072,8 +1132,8 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
 #endif
             for (Py_ssize_t i = 0; i < N; ++i)
                 if (mem)
-                    trace_direction(&jb, w, views + 3 * i, frames + 3 * i, (long)i, sum + (size_t)i * nch * 4,
-                                    sumsq + (size_t)i * nch * 4);
+                    trace_direction(&jb, w, views + 3 * i, frames + 3 * i, sframes + 3 * i, (long)i,
+                                    sum + (size_t)i * nch * 4, sumsq + (size_t)i * nch * 4);
             free(mem);
             free(w);
         }
@@ -1089,6 +1149,7 @@ static PyObject *py_trace(PyObject *self, PyObject *args)
 done:
     for (int i = 0; i < NB; ++i)
         if (b[i].held) PyBuffer_Release(&b[i].b);
+    if (bsf.held) PyBuffer_Release(&bsf.b);
     return ret;
 }
 

@@ -59,6 +59,24 @@ def test_polarised_variant_config_is_valid():
     assert min(cfg.elevations_deg) == -4.2 and radiance_by_mc(cfg, -4.2) and not radiance_by_mc(cfg, 90.0)
 
 
+def test_stream_mode_key():
+    """``mc_streams``: correlated in the variant (and by default), passed to every state's solver config, part of the
+    cache key; "independent" keeps the key of the states solved before the stream modes existed."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import BuildConfig, load_config
+    from skymodel.generator.dataset_mc import mc_config, mc_key
+
+    cfg = load_config(ROOT / "skymodel" / "data" / "polarised-dataset.json")
+    assert cfg.mc_streams == BuildConfig().mc_streams == "correlated"
+    assert mc_config(cfg, 51.3, -2.0).streams == "correlated"
+    ind = replace(cfg, mc_streams="independent")
+    assert mc_config(ind, 51.3, -2.0).streams == "independent"
+    assert mc_key(ind) == "7e2aad883f02" != mc_key(cfg)  # 7e2a...: the variant's states of the 2026-12-02 build
+    with pytest.raises(ValueError, match="mc_streams='crn'"):
+        BuildConfig(mc_streams="crn")
+
+
 def test_twilight_without_monte_carlo_is_refused():
     from skymodel.generator.dataset_build import BuildConfig
 
@@ -248,3 +266,33 @@ def test_variant_twilight_glow_and_polarisation_pattern():
     d = skymodel.directions_from_angles(np.array([0.0, 80.0]), np.array([0.0, 180.0]))
     p = skymodel.polarisation(m, d, 0.0, 180.0, 51.3, 0.5, wavelengths=[520.0])[:, 0]
     assert 0.45 < p[0] < 0.9 and abs(p[1]) < 0.25
+
+
+def test_resampled_monte_carlo_radiance_keeps_the_samples_and_adds_no_extremum():
+    """``mc_fit_resample``: the shape-preserving interpolation onto the fit grid reproduces the state's samples at its
+    own nodes (1e-12), stays inside the range of every pair of neighbouring samples (no new ring), and refuses a
+    target outside the state's grid; the fit grid contains the state's grid, and the key renames the fit cache."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import fit_file, load_config
+    from skymodel.generator.dataset_mc import fit_grid, resample_radiance
+
+    rng = np.random.default_rng(5)
+    th = np.array([0.0, 10.0, 20.0, 40.0, 70.0, 84.0, 89.95])
+    ph = np.array([0.0, 2.0, 6.0, 12.0, 22.0, 35.0, 55.0, 80.0, 130.0, 180.0])
+    rad = np.exp(rng.normal(size=(len(th), len(ph), 3)))
+    cfg = replace(load_config(ROOT / "skymodel" / "data" / "polarised-dataset.json"), mc_fit_resample=True)
+    t2, p2 = fit_grid({"zenith": th, "azimuth": ph}, cfg)
+    assert set(th) <= set(t2) and set(ph) <= set(p2) and len(t2) > 3 * len(th) and len(p2) > 3 * len(ph)
+    out = resample_radiance(th, ph, rad, t2, p2)
+    i, j = np.searchsorted(t2, th), np.searchsorted(p2, ph)
+    np.testing.assert_allclose(out[np.ix_(i, j)], rad, rtol=1e-12)
+    row = resample_radiance(th, ph, rad, th, p2)  # along the azimuths of the state's own zeniths
+    k = np.clip(np.searchsorted(ph, p2, side="right") - 1, 0, len(ph) - 2)
+    lo, hi = np.minimum(rad[:, k], rad[:, k + 1]), np.maximum(rad[:, k], rad[:, k + 1])
+    assert np.all((row >= lo * (1 - 1e-12)) & (row <= hi * (1 + 1e-12)))
+    with pytest.raises(ValueError, match="outside the source grid"):
+        resample_radiance(th, ph, rad, [0.0, 90.0], ph)
+    assert fit_file(cfg, 51.3, -2.0) != fit_file(replace(cfg, mc_fit_resample=False), 51.3, -2.0)
+    t0, p0 = fit_grid({"zenith": th, "azimuth": ph}, replace(cfg, mc_fit_resample=False))
+    assert np.array_equal(t0, th) and np.array_equal(p0, ph)  # off: the state's own grid, as before

@@ -78,7 +78,11 @@ class BuildConfig:
     elevations below 0 need it); ``mc_samples`` paths per direction and channel batch, ``mc_channels_per_batch``
     neighbouring channels sharing paths, ``mc_ground_orders`` orders of ground reflection kept apart (all albedos
     from one run), ``mc_zenith_step_deg`` [deg] and ``mc_azimuths_deg`` [deg] (None: the default set) the
-    direction grid, ``mc_seed``.
+    direction grid, ``mc_seed``; ``mc_streams`` "correlated" (default: common random numbers across the directions
+    of a state, a smooth error field over the sky) or "independent" (one stream per direction, the builds before
+    2026-12-02; docs/atmosphere-and-solver.md, "Correlated streams"); ``mc_fit_resample`` true: the radiance fit of a
+    Monte Carlo state runs on the DISORT states' direction grid, the state interpolated onto it shape-preservingly
+    (:func:`skymodel.generator.dataset_mc.resample_radiance`) instead of on the state's own coarse grid.
     """
 
     visibilities_km: tuple = (20.0, 27.4, 37.5, 51.3, 70.2, 96.2, 131.8)
@@ -115,6 +119,8 @@ class BuildConfig:
     mc_zenith_step_deg: float = 6.0
     mc_azimuths_deg: tuple | None = None
     mc_seed: int = 20261201
+    mc_streams: str = "correlated"
+    mc_fit_resample: bool = False
     pol_knots: tuple = (24, 16)
     pol_rank: int = 3
 
@@ -140,6 +146,9 @@ class BuildConfig:
                              "must be >= 1")
         if not 1 <= int(self.mc_ground_orders) <= 16:
             raise ValueError(f"mc_ground_orders={self.mc_ground_orders} outside [1, 16]")
+        from .montecarlo import STREAM_MODES
+        if self.mc_streams not in STREAM_MODES:
+            raise ValueError(f"mc_streams={self.mc_streams!r}: valid values are {STREAM_MODES}")
         if not 0.5 <= float(self.mc_zenith_step_deg) <= 30.0:
             raise ValueError(f"mc_zenith_step_deg={self.mc_zenith_step_deg} outside [0.5, 30] deg")
         if len(tuple(self.pol_knots)) != 2 or min(int(k) for k in self.pol_knots) < 2 or int(self.pol_rank) < 1:
@@ -173,7 +182,8 @@ class BuildConfig:
 
 
 MC_KEYS = ("polarisation", "mc_below_elevation_deg", "mc_samples", "mc_channels_per_batch", "mc_ground_orders",
-           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "pol_knots", "pol_rank")
+           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "mc_streams", "mc_fit_resample", "pol_knots",
+           "pol_rank")
 """The configuration keys of the Monte Carlo path (:mod:`skymodel.generator.dataset_mc`)."""
 
 
@@ -405,8 +415,14 @@ def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: flo
     from .dataset_mc import mc_file, mc_stokes, radiance_by_mc
 
     if radiance_by_mc(config, elevation_deg):
+        from .dataset_mc import fit_grid, resample_radiance
+
         m = load_state(mc_file(config, visibility_km, elevation_deg))
-        return m["zenith"], m["azimuth"], mc_stokes(m, albedo)[0][..., 0], float(m["solved_elevation"])
+        i = mc_stokes(m, albedo)[0][..., 0]
+        th, ph = fit_grid(m, config)
+        if config.mc_fit_resample:
+            i = resample_radiance(m["zenith"], m["azimuth"], i, th, ph)
+        return th, ph, i, float(m["solved_elevation"])
     s = load_state(state_file(config, visibility_km, elevation_deg))
     g = load_state(ground_file(config, visibility_km))
     return s["zenith"], s["azimuth"], radiance_with_albedo(s, g, albedo), float(s["solved_elevation"])
@@ -605,6 +621,8 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         d["mc"] = {"key": mc_key(config), "below": config.mc_below_elevation_deg,
                    "polarisation": bool(config.polarisation), "pol_knots": list(config.pol_knots),
                    "pol_rank": int(config.pol_rank)}
+        if config.mc_fit_resample:  # (absent otherwise: the earlier polarised fits keep their names)
+            d["mc"]["resample"] = True
     key = hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
     return cache_root(config) / f"fitted_{key}_v{visibility_km:.4f}_e{elevation_deg:.4f}.npz"
 
@@ -619,7 +637,9 @@ def _fit_job(job):
     breaks = config_knots(config)
     m = load_state(mc_file(config, vis, ele)) if needs_mc_state(config, ele) else None
     if radiance_by_mc(config, ele):
-        zen_deg, az_deg, solved = m["zenith"], m["azimuth"], float(m["solved_elevation"])
+        from .dataset_mc import fit_grid
+
+        (zen_deg, az_deg), solved = fit_grid(m, config), float(m["solved_elevation"])
 
         def radiance(a):
             return state_radiance(config, vis, ele, a)[2]
@@ -912,9 +932,19 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
     from .dataset_mc import mc_key, pol_knots, radiance_by_mc
 
     ele = [float(e) for e in config.elevations_deg]
+    from .dataset_mc import MC_FIRST_ORDER
+
     d = {"method": "polarised backward Monte Carlo in spherical shells (skymodel.generator.montecarlo), "
                    "next-event estimation, hero-wavelength batches; all albedos from one run by order of ground "
-                   "reflection",
+                   f"reflection; estimator: first order {MC_FIRST_ORDER['radiance']} (with sunlit-importance "
+                   "paths) where the Monte Carlo gives the radiance, first order "
+                   f"{MC_FIRST_ORDER['polarisation']} where it gives only the polarisation; "
+                   f"{config.mc_streams} random streams"
+                   + (" (common random numbers across the directions of a state)"
+                      if config.mc_streams == "correlated" else " (one per direction)")
+                   + ("; radiance fitted on the DISORT fit grid after a monotone piecewise-cubic interpolation of "
+                      "each state" if config.mc_fit_resample else "; radiance fitted on each state's own grid"),
+         "streams": config.mc_streams, "fit_resample": bool(config.mc_fit_resample),
          "key": mc_key(config), "samples_per_direction_and_batch": int(config.mc_samples),
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
          "zenith_step_deg": float(config.mc_zenith_step_deg), "seed": int(config.mc_seed),

@@ -10,7 +10,9 @@ for byte and with the same cache keys.
 One Monte Carlo state = one (visibility, solar elevation) on its own product grid of view zeniths x relative
 azimuths (:func:`mc_directions`), all 55 channels in batches of neighbouring channels that share paths, traced over
 a white ground with the contributions split by the number of ground reflections (``ground_orders``), so that every
-albedo of the grid comes from one run (:func:`skymodel.generator.montecarlo.stokes_at_albedo`). It is cached as
+albedo of the grid comes from one run (:func:`skymodel.generator.montecarlo.stokes_at_albedo`), with the random
+stream mode of ``mc_streams`` (default "correlated": common random numbers across the state's directions, so that
+its error is a smooth field over the sky rather than a speckle; docs/atmosphere-and-solver.md). It is cached as
 ``mc_<key>_v<vis>_e<ele>.npz`` beside the DISORT states, ``<key>`` hashing everything that changes its numbers.
 
 **Polarisation quantity** (what the format's polarisation factors hold; docs/atmosphere-and-solver.md). The
@@ -69,7 +71,7 @@ def mc_config(config, visibility_km: float, elevation_deg: float):
                                  round(float(elevation_deg), 4)]).encode()).hexdigest()
     return MonteCarloConfig(samples=int(config.mc_samples), seed=int(h[:15], 16),
                             channels_per_batch=int(config.mc_channels_per_batch),
-                            ground_orders=int(config.mc_ground_orders), threads=1,
+                            ground_orders=int(config.mc_ground_orders), threads=1, streams=config.mc_streams,
                             first_order=MC_FIRST_ORDER["radiance" if radiance_by_mc(config, elevation_deg)
                                                        else "polarisation"])
 
@@ -80,6 +82,8 @@ def mc_key(config) -> str:
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
          "zenith_step": float(config.mc_zenith_step_deg), "azimuths": [float(x) for x in mc_azimuths(config)],
          "first_order": MC_FIRST_ORDER, "below": config.mc_below_elevation_deg, "v": 3}
+    if config.mc_streams != "independent":  # the keys of the builds before the stream modes stay valid
+        d["streams"] = config.mc_streams
     return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:12]
 
 
@@ -139,6 +143,48 @@ def mc_stokes(state: dict, albedo: float):
     from .montecarlo import stokes_at_albedo
 
     return stokes_at_albedo(state["stokes"], float(albedo), state["stderr"])
+
+
+def resample_radiance(zenith_deg, azimuth_deg, radiance, zenith_to, azimuth_to):
+    """Shape-preserving interpolation of a Monte Carlo state's radiance from its product grid onto a denser one:
+    monotone piecewise-cubic (PCHIP, Fritsch & Carlson 1980) along the azimuths of every zenith row, then along the
+    zeniths of every azimuth column. Between two samples it stays between their values and adds no extremum, so it
+    puts no ring between the samples that the fit could follow (with correlated streams the samples themselves vary
+    smoothly from one direction to the next).
+
+    Parameters
+    ----------
+    zenith_deg (T,), azimuth_deg (P,) [deg] ascending; radiance (T, P, ...) [any unit];
+    zenith_to (T2,), azimuth_to (P2,) [deg] inside the source grid's range.
+
+    Returns
+    -------
+    ndarray (T2, P2, ...)
+    """
+    from scipy.interpolate import PchipInterpolator
+
+    th, ph = np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float)
+    t2, p2 = np.asarray(zenith_to, float), np.asarray(azimuth_to, float)
+    if t2.min() < th[0] or t2.max() > th[-1] or p2.min() < ph[0] or p2.max() > ph[-1]:
+        raise ValueError(f"resample_radiance: target grid zenith {t2.min()}..{t2.max()}, azimuth {p2.min()}.."
+                         f"{p2.max()} deg outside the source grid {th[0]}..{th[-1]}, {ph[0]}..{ph[-1]} deg")
+    x = PchipInterpolator(ph, np.asarray(radiance, float), axis=1)(p2)
+    return PchipInterpolator(th, x, axis=0)(t2)
+
+
+def fit_grid(state: dict, config):
+    """Directions the radiance fit of a Monte Carlo state uses: its own product grid, or with ``mc_fit_resample``
+    the DISORT states' fit grid (zeniths every ``zenith_step_deg``, the fit azimuths) merged with it; (zenith (T,),
+    azimuth (P,)) [deg]."""
+    th, ph = np.asarray(state["zenith"], float), np.asarray(state["azimuth"], float)
+    if not config.mc_fit_resample:
+        return th, ph
+    from .dataset_build import AZIMUTHS_DEG
+
+    t2 = np.arange(0.0, th[-1], float(config.zenith_step_deg))
+    p2 = np.asarray(AZIMUTHS_DEG, float)
+    return (np.unique(np.concatenate([t2, th])),
+            np.unique(np.concatenate([p2[(p2 >= ph[0]) & (p2 <= ph[-1])], ph])))
 
 
 def scattering_plane_rotation(zenith_deg, azimuth_deg, solar_elevation_deg: float):

@@ -38,8 +38,16 @@ Method (kernel comments give the details):
   conditioned on the part outside the shadow. The densities of the mixtures enter the weights (hero balance
   heuristic over every component's mixture density).
 
-Each view direction has its own random stream (seed, direction index), so results are reproducible and do not depend
-on the number of threads. Angles as in :mod:`skymodel.generator.solver`: view zenith [deg] 0-90, azimuth [deg]
+Random streams (``streams``), reproducible and independent of the number of threads in both modes:
+``"independent"`` (the default): each view direction has its own stream (seed, direction index), so the errors of
+two directions are independent; ``"correlated"`` (common random numbers): path i of every direction starts from
+the same random numbers (one stream per path and scattering order, the same for all directions) and every sampled
+direction takes its azimuth in a frame that moves continuously with the view direction (around the view: the frame
+parallel-transported from the zenith, :func:`sampling_frames`; later: the current polarisation reference, and
+around the ground normal a frame that is continuous near the observer), so the estimate is a piecewise-continuous
+function of the view direction: the same error per direction, but an error field that is smooth across directions
+(the sky has no direction-to-direction speckle, at the price that averages over directions, e.g. the hemispherical
+integral, no longer average the noise down; docs/atmosphere-and-solver.md, "Correlated streams"). Angles as in :mod:`skymodel.generator.solver`: view zenith [deg] 0-90, azimuth [deg]
 relative to the sun's (0 = toward the sun).
 """
 
@@ -58,6 +66,7 @@ from .rayleigh import depolarization_ratio
 
 MIN_SOLAR_ELEVATION_DEG = -10.0
 FIRST_ORDER_METHODS = ("quadrature", "sampled")
+STREAM_MODES = ("independent", "correlated")
 
 
 @dataclass(frozen=True)
@@ -81,6 +90,8 @@ class MonteCarloConfig:
         end on the ground are always sampled.
     quadrature_step_km : [km] longest sub-interval of that quadrature (also split at layer boundaries and at the edge
         of the Earth's shadow), > 0.
+    streams : "independent" (default: one random stream per view direction) or "correlated" (common random numbers
+        across directions: a smooth error field over the sky; module docstring).
     ground_orders : 0 (default): the ground reflects with the components' albedo. B >= 1: every path is traced over
         a white ground (albedo 1) and its contributions are split by the number n of ground reflections before they
         reach the observer (n = 0 .. B - 2 exactly, the last order holding n >= B - 1), so that one run gives the
@@ -97,6 +108,7 @@ class MonteCarloConfig:
     ground_orders: int = 0
     first_order: str = "quadrature"
     quadrature_step_km: float = 2.0
+    streams: str = "independent"
 
     def __post_init__(self):
         if int(self.samples) < 1:
@@ -115,6 +127,8 @@ class MonteCarloConfig:
             raise ValueError(f"ground_orders={self.ground_orders} outside [0, 16]")
         if self.first_order not in FIRST_ORDER_METHODS:
             raise ValueError(f"first_order={self.first_order!r}: valid values are {FIRST_ORDER_METHODS}")
+        if self.streams not in STREAM_MODES:
+            raise ValueError(f"streams={self.streams!r}: valid values are {STREAM_MODES}")
         if not (0.01 <= float(self.quadrature_step_km) <= 1000.0):
             raise ValueError(f"quadrature_step_km={self.quadrature_step_km} outside [0.01, 1000] km")
 
@@ -211,6 +225,20 @@ def _unit_views(view_zenith_deg, relative_azimuth_deg, downward: bool):
     return np.ascontiguousarray(v), np.ascontiguousarray(a)
 
 
+def sampling_frames(views, downward: bool = False):
+    """Azimuth references of the correlated streams (N, 3): for each unit view vector (N, 3) the x axis carried to it
+    from the pole of its hemisphere (the zenith, or the nadir for ``downward``) by the rotation about pole x view, a
+    unit vector perpendicular to the view that is continuous over the whole hemisphere, the pole and the horizon
+    included (unlike the meridian frame, undefined at the pole)."""
+    v = np.asarray(views, float)
+    pz = -1.0 if downward else 1.0
+    dz = pz * v[:, 2]
+    f = v[:, 0] / (1.0 + dz)  # R(e_x) = e_x - (v_x / (1 + pole . v)) (pole + v)
+    u = np.stack([1.0 - f * v[:, 0], -f * v[:, 1], -f * (pz + v[:, 2])], axis=1)
+    u -= np.einsum("ij,ij->i", u, v)[:, None] * v
+    return np.ascontiguousarray(u / np.linalg.norm(u, axis=1)[:, None])
+
+
 @dataclass
 class StokesResult:
     """Monte Carlo output (N directions, C outputs).
@@ -301,14 +329,15 @@ def trace(components: Components, solar_zenith_deg: float, view_zenith_deg, rela
                       np.ascontiguousarray(cch, np.int32), f64(cp.weight), len(vz), f64(sun), alt + R, layer,
                       views, frames, n, int(config.seed), int(config.max_order), int(bool(config.polarised)),
                       int(config.threads), s, s2, max(B, 1), int(config.first_order == "quadrature"),
-                      float(config.quadrature_step_km))
+                      float(config.quadrature_step_km),
+                      sampling_frames(views, downward) if config.streams == "correlated" else None)
     mean = s / n
     var = np.maximum(s2 / n - mean ** 2, 0.0)
     se = np.sqrt(var / n)
     if B:
         mean, se = mean.reshape(len(vz), C, B, 4), se.reshape(len(vz), C, B, 4)
     return StokesResult(stokes=mean, stderr=se, samples=n, seconds=time.perf_counter() - t0,
-                        meta={"components": K, "ground_orders": B})
+                        meta={"components": K, "ground_orders": B, "streams": config.streams})
 
 
 def stokes_at_albedo(orders, albedo, stderr=None):

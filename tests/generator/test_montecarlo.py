@@ -6,7 +6,7 @@ Tolerances are 4 standard errors of the Monte Carlo mean (seeded, deterministic)
 import numpy as np
 import pytest
 
-from skymodel.generator.montecarlo import Components, MonteCarloConfig, rayleigh_slab, trace
+from skymodel.generator.montecarlo import STREAM_MODES, Components, MonteCarloConfig, rayleigh_slab, trace
 from skymodel.generator.rayleigh import depolarization_ratio
 
 PP = dict(planet_radius_km=None)
@@ -41,8 +41,9 @@ def _single_scattering_stokes(tau, sza, vz, va, rho, downward=False):
     return np.stack([i, lin * np.cos(2 * chi), lin * np.sin(2 * chi)], 1)
 
 
+@pytest.mark.parametrize("streams", STREAM_MODES)
 @pytest.mark.parametrize("downward", [False, True])
-def test_first_order_matches_analytic_single_scattering(downward):
+def test_first_order_matches_analytic_single_scattering(downward, streams):
     """max_order=1 is exactly single scattering: I, Q, U within 4 se of the closed form (also checks the Stokes
     rotations into the meridian frame, and U's sign under azimuth reversal)."""
     rho = float(depolarization_ratio(450.0))
@@ -50,7 +51,8 @@ def test_first_order_matches_analytic_single_scattering(downward):
     vz = np.array([0.0, 30.0, 60.0, 80.0, 60.0, 60.0, 45.0])
     va = np.array([0.0, 0.0, 90.0, 180.0, 45.0, -135.0, 135.0])
     sza = 40.0
-    r = trace(slab, sza, vz, va, MonteCarloConfig(samples=40000 if downward else 3000, max_order=1, seed=3, **PP),
+    r = trace(slab, sza, vz, va, MonteCarloConfig(samples=40000 if downward else 3000, max_order=1, seed=3, streams=streams,
+                                                       **PP),
               observer_altitude_km=10.0 if downward else 0.0, downward=downward)
     ref = _single_scattering_stokes(0.1, sza, vz, va, rho, downward)
     got, se = r.stokes[:, 0, :3], r.stderr[:, 0, :3]
@@ -59,7 +61,8 @@ def test_first_order_matches_analytic_single_scattering(downward):
     assert np.all(r.stokes[:, 0, 3] == 0.0)  # Rayleigh makes no circular polarisation from unpolarised light
 
 
-def test_degree_of_polarisation_single_scattering_limit():
+@pytest.mark.parametrize("streams", STREAM_MODES)
+def test_degree_of_polarisation_single_scattering_limit(streams):
     """At optical depth 0.002 (multiple scattering ~0.2 %) the degree of polarisation is the single-scattering
     value Delta sin^2 / (Delta (1 + cos^2) + 4 (1 - Delta) / 3) for air's depolarisation at 550 nm (0.0279),
     within 0.005 absolute; the polarisation is perpendicular to the scattering plane within 0.5 deg."""
@@ -68,7 +71,7 @@ def test_degree_of_polarisation_single_scattering_limit():
     vz = np.array([0.0, 20.0, 50.0, 70.0, 85.0, 50.0, 70.0])
     va = np.array([0.0, 180.0, 90.0, 120.0, 180.0, 30.0, 60.0])
     sza = 55.0
-    r = trace(slab, sza, vz, va, MonteCarloConfig(samples=2000, seed=11, **PP))
+    r = trace(slab, sza, vz, va, MonteCarloConfig(samples=2000, seed=11, streams=streams, **PP))
     dl = (1 - rho) / (1 + rho / 2)
     ss = _single_scattering_stokes(0.002, sza, vz, va, rho)
     th, ph, z = np.radians(vz), np.radians(va), np.radians(sza)
@@ -107,41 +110,45 @@ def test_hero_components_are_unbiased_against_separate_runs():
         assert np.all(np.abs(a - b) <= 4 * se), (a - b) / se
 
 
-def test_large_planet_equals_plane_parallel_and_twilight_needs_shells():
+@pytest.mark.parametrize("streams", STREAM_MODES)
+def test_large_planet_equals_plane_parallel_and_twilight_needs_shells(streams):
     """Spherical shells of radius 1e7 km reproduce the plane-parallel slab within 4 se; a sun 2 deg below the
     horizon lights a spherical sky (positive radiance) and is refused for plane-parallel slabs."""
     slab = rayleigh_slab(0.25, albedo=0.2, n_layers=4, thickness_km=20.0)
     vz, va = np.array([0.0, 45.0, 80.0]), np.array([0.0, 90.0, 0.0])
-    pp = trace(slab, 60.0, vz, va, MonteCarloConfig(samples=6000, seed=1, **PP))
-    sp = trace(slab, 60.0, vz, va, MonteCarloConfig(samples=6000, seed=2, planet_radius_km=1e7))
+    pp = trace(slab, 60.0, vz, va, MonteCarloConfig(samples=6000, seed=1, streams=streams, **PP))
+    sp = trace(slab, 60.0, vz, va, MonteCarloConfig(samples=6000, seed=2, planet_radius_km=1e7, streams=streams))
     se = np.hypot(pp.stderr[:, 0, 0], sp.stderr[:, 0, 0])
     assert np.all(np.abs(pp.stokes[:, 0, 0] - sp.stokes[:, 0, 0]) <= 4 * se)
-    tw = trace(slab, 92.0, vz, va, MonteCarloConfig(samples=8000, seed=3))
+    tw = trace(slab, 92.0, vz, va, MonteCarloConfig(samples=8000, seed=3, streams=streams))
     assert np.all(tw.stokes[:, 0, 0] > 10 * tw.stderr[:, 0, 0])
     assert tw.stokes[2, 0, 0] > tw.stokes[0, 0, 0]  # brighter toward the set sun
     with pytest.raises(ValueError, match="below the horizon needs spherical"):
         trace(slab, 92.0, vz, va, MonteCarloConfig(samples=10, **PP))
 
 
-def test_ground_orders_give_every_albedo_from_one_run():
+@pytest.mark.parametrize("streams", STREAM_MODES)
+def test_ground_orders_give_every_albedo_from_one_run(streams):
     """A run over a white ground split by order of ground reflection (``ground_orders``) reproduces separate runs at
     albedo 0.6 (Rayleigh slab tau 0.3, polarised, plane-parallel) within 4 se, and exactly its own orders at a = 0 / 1;
     spherical shells with a sun below the horizon too."""
     from skymodel.generator.montecarlo import stokes_at_albedo
 
     vz, va = np.array([10.0, 40.0, 60.0, 80.0, 40.0]), np.array([0.0, 30.0, 90.0, 140.0, 180.0])
-    direct = trace(rayleigh_slab(0.3, 0.6), 50.0, vz, va, MonteCarloConfig(samples=20000, seed=5, **PP))
-    orders = trace(rayleigh_slab(0.3, 0.0), 50.0, vz, va, MonteCarloConfig(samples=20000, seed=6, ground_orders=4,
+    direct = trace(rayleigh_slab(0.3, 0.6), 50.0, vz, va, MonteCarloConfig(samples=20000, seed=5, streams=streams,
                                                                            **PP))
+    orders = trace(rayleigh_slab(0.3, 0.0), 50.0, vz, va, MonteCarloConfig(samples=20000, seed=6, ground_orders=4,
+                                                                           streams=streams, **PP))
     assert orders.stokes.shape == (5, 1, 4, 4)
     v, se = stokes_at_albedo(orders.stokes, 0.6, orders.stderr)
     tol = 4 * np.hypot(se, direct.stderr) + 1e-12
     assert np.all(np.abs(v - direct.stokes)[..., :3] <= tol[..., :3])
     np.testing.assert_allclose(stokes_at_albedo(orders.stokes, 0.0), orders.stokes[:, :, 0])
     np.testing.assert_allclose(stokes_at_albedo(orders.stokes, 1.0), orders.stokes.sum(axis=2))
-    sph = MonteCarloConfig(samples=4000, seed=7)
+    sph = MonteCarloConfig(samples=4000, seed=7, streams=streams)
     d2 = trace(rayleigh_slab(0.3, 0.6), 92.0, vz, va, sph)
-    o2 = trace(rayleigh_slab(0.3, 0.0), 92.0, vz, va, MonteCarloConfig(samples=4000, seed=8, ground_orders=3))
+    o2 = trace(rayleigh_slab(0.3, 0.0), 92.0, vz, va, MonteCarloConfig(samples=4000, seed=8, ground_orders=3,
+                                                                      streams=streams))
     v2, se2 = stokes_at_albedo(o2.stokes, 0.6, o2.stderr)
     assert np.all(np.abs(v2 - d2.stokes)[..., 0] <= 4 * np.hypot(se2, d2.stderr)[..., 0] + 1e-15)
     with pytest.raises(ValueError, match="albedo"):
@@ -150,12 +157,13 @@ def test_ground_orders_give_every_albedo_from_one_run():
         MonteCarloConfig(ground_orders=-1)
 
 
-def test_reproducible_and_thread_independent():
+@pytest.mark.parametrize("streams", STREAM_MODES)
+def test_reproducible_and_thread_independent(streams):
     slab = rayleigh_slab(0.3, albedo=0.1, n_layers=2)
     vz, va = np.array([0.0, 50.0, 70.0, 30.0]), np.array([0.0, 90.0, 180.0, 45.0])
-    a = trace(slab, 30.0, vz, va, MonteCarloConfig(samples=200, seed=7, threads=1, **PP))
-    b = trace(slab, 30.0, vz, va, MonteCarloConfig(samples=200, seed=7, threads=2, **PP))
-    c = trace(slab, 30.0, vz, va, MonteCarloConfig(samples=200, seed=8, threads=1, **PP))
+    a = trace(slab, 30.0, vz, va, MonteCarloConfig(samples=200, seed=7, threads=1, streams=streams, **PP))
+    b = trace(slab, 30.0, vz, va, MonteCarloConfig(samples=200, seed=7, threads=2, streams=streams, **PP))
+    c = trace(slab, 30.0, vz, va, MonteCarloConfig(samples=200, seed=8, threads=1, streams=streams, **PP))
     assert np.array_equal(a.stokes, b.stokes)
     assert not np.array_equal(a.stokes, c.stokes)
 

@@ -8,7 +8,7 @@ tests are deterministic. Full-precision numbers: ``python benchmarks/bench_monte
 import numpy as np
 import pytest
 
-from skymodel.generator.montecarlo import MonteCarloConfig, hemisphere_directions, rayleigh_slab, trace
+from skymodel.generator.montecarlo import STREAM_MODES, MonteCarloConfig, hemisphere_directions, rayleigh_slab, trace
 
 # Natraj, Li & Yung (2009), ApJ 691, 1909, "Rayleigh scattering in planetary atmospheres: corrected tables through
 # accurate computation of X and Y functions" (the corrected Coulson, Dave & Sekera 1960 tables): light reflected at
@@ -31,18 +31,21 @@ in the sun's vertical, where single-scattered Rayleigh light is polarised perpen
 that meridian plane); ours against the meridian plane, so Q_table = -Q_ours; U agrees in sign."""
 
 
-def run_cds(albedo, samples, threads=1):
+def run_cds(albedo, samples, threads=1, streams="independent"):
     slab = rayleigh_slab(0.5, albedo, 0.0, thickness_km=10.0)
     vz = np.degrees(np.arccos(CDS_MU))
     return trace(slab, np.degrees(np.arccos(0.2)), vz, np.array(CDS_PHI),
-                 MonteCarloConfig(samples=samples, seed=2009, planet_radius_km=None, threads=threads),
+                 MonteCarloConfig(samples=samples, seed=2009, planet_radius_km=None, threads=threads,
+                                  streams=streams),
                  observer_altitude_km=10.0, downward=True)
 
 
+@pytest.mark.parametrize("streams", STREAM_MODES)
 @pytest.mark.parametrize("albedo", [0.0, 0.8])
-def test_polarised_rayleigh_against_coulson_dave_sekera_tables(albedo):
-    """I, Q, U of light reflected by a Rayleigh layer within 0.5 % (of I) plus 4 standard errors."""
-    r = run_cds(albedo, 30000)
+def test_polarised_rayleigh_against_coulson_dave_sekera_tables(albedo, streams):
+    """I, Q, U of light reflected by a Rayleigh layer within 0.5 % (of I) plus 4 standard errors, with both random
+    stream modes."""
+    r = run_cds(albedo, 30000, streams=streams)
     mc = r.stokes[:, 0, :3] * np.pi * np.array([1.0, Q_SIGN, 1.0])
     se = r.stderr[:, 0, :3] * np.pi
     ref = np.array(CDS_REFLECTED[albedo])
