@@ -90,6 +90,35 @@ def test_an_aureole_ray_rising_from_a_low_sun_counts_only_its_valid_part():
     assert m["aureole_tp"][0] == S.turning_points(ray[valid[0]]) == 1
 
 
+def test_a_solver_reference_allows_its_own_turning_points_and_no_more():
+    """A profile with 2 turning points fails by the limit (1 on an almucantar); with a reference row saying the
+    solver's own sky has 2 there it passes, one more turning point still fails, and between grid states the largest
+    count of the bracketing grid states applies (reference: the counts set here)."""
+    d = S.profile_directions(30.0)
+    x = np.linspace(0.0, 1.0, d["almucantar"].shape[1])
+    alm = np.ones(d["almucantar"].shape[:-1] + (2,))
+    alm[3, :, 0] = 1.0 + 0.05 * np.cos(1.5 * 2 * np.pi * x)   # channel 0, almucantar 3: 2 turning points
+    alm[3, :, 1] = 1.0 + 0.05 * np.cos(2.5 * 2 * np.pi * x)   # channel 1: 4
+    rad = {"almucantar": alm, "vertical": np.ones(d["vertical"].shape[:-1] + (2,)),
+           "aureole": np.repeat(np.linspace(2.0, 1.0, d["aureole"].shape[1])[None, :, None], 8, 0).repeat(2, -1),
+           "zenith": np.ones((len(d["zenith"]), 2))}
+    tp = S.profile_turning_points(rad, d["aureole_valid"][..., None])
+    assert tp["almucantar"][:, 3].tolist() == [2, 4] and tp["aureole"].max() == 0
+    grid = ([20.0, 40.0], [20.0, 40.0], [0.0, 1.0])
+    ref = S.reference_from_entries(S.reference_entries({(20.0, 20.0, 0.0): {
+        "almucantar": np.array([[1] * 3 + [2] + [1] * 5, [1] * 3 + [3] + [1] * 5]),
+        "vertical": np.zeros((2, 2), int), "aureole": np.zeros((2, 8), int)}}), grid)
+    assert len(ref["tp"][(20.0, 20.0, 0.0)]["almucantar"]) == 2   # only the rows above the limit are kept
+    at_grid = S.allowed_turning_points(ref, (20.0, 20.0, 0.0), 2)["almucantar"]
+    assert at_grid[:, 3].tolist() == [2, 3] and at_grid[:, 0].tolist() == [1, 1]
+    between = S.allowed_turning_points(ref, (28.0, 30.0, 0.5), 2)["almucantar"]   # (20, 20, 0) is a corner
+    assert between[:, 3].tolist() == [2, 3]
+    elsewhere = S.allowed_turning_points(ref, (40.0, 30.0, 0.5), 2)["almucantar"]  # not a corner
+    assert elsewhere[:, 3].tolist() == [1, 1]
+    ok = (tp["almucantar"] > at_grid).any(-1)
+    assert ok.tolist() == [False, True]   # channel 0 has the reference's 2; channel 1 has 4 > 3
+
+
 needs_data = pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
 
 
@@ -178,15 +207,21 @@ def test_default_fit_settings_give_a_smooth_accurate_sky(solved_channels):
                    "(docs/default-dataset.md, 'What the check still flags in the second rebuild'); remove this mark "
                    "when a file passes")
 def test_default_dataset_passes_the_smoothness_check():
+    import json
+
     import skymodel
+    from skymodel.dataset import default_dataset_path
 
     model = skymodel.load_dataset()
+    # the solver's own turning points at the grid states, written by the build into the sidecar
+    rows = json.loads(default_dataset_path().with_name("default.dat.json").read_text())["smoothness_reference"]["rows"]
+    ref = S.reference_from_entries(rows, (model.visibilities, model.elevations, model.albedos))
     # every grid elevation at three visibilities and the middle albedo, and the states between those (the full check,
     # 881 states, is the build's report: about 100 s on an idle core)
     v = model.visibilities[[0, len(model.visibilities) // 2, -1]]
     grid = [(float(x), float(e), 0.5) for x in v for e in model.elevations]
     e = np.asarray(model.elevations, float)
     between = [(float(np.sqrt(v[0] * v[1])), float(y), 0.25) for y in 0.5 * (e[1:] + e[:-1])]
-    res = {"grid": S.check_states(model, grid), "between": S.check_states(model, between)}
+    res = {"grid": S.check_states(model, grid, reference=ref), "between": S.check_states(model, between, reference=ref)}
     summary = S.summarise(res, model.wavelengths)
     assert summary["grid"]["failing_pairs"] == 0 and summary["between"]["failing_pairs"] == 0, summary
