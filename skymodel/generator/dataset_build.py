@@ -935,9 +935,10 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
 
 def solver_reference(config: BuildConfig, progress: bool = False) -> list:
     """The solver's own turning points along the smoothness check's profiles at every grid state, where they exceed
-    the check's limits (:func:`skymodel.generator.smoothness.reference_entries` rows; from the cached solves, sun at
-    the solved elevation; the grid's 0 deg states hold the sky solved at ``min_solve_elevation_deg``). Grid elevations
-    whose radiance comes from the Monte Carlo solution are left out (its noise is not the sky's shape)."""
+    the check's limits (:func:`skymodel.generator.smoothness.reference_entries` rows; from the cached solves). Only
+    grid states that hold the sky solved at their own elevation count: the 0 deg states (a sky solved at
+    ``min_solve_elevation_deg``), those above ``max_fit_elevation_deg`` (the highest fit) and those whose radiance
+    comes from the Monte Carlo solution (its noise is not the sky's shape) get no allowance."""
     from .dataset_mc import radiance_by_mc
     from tqdm import tqdm
 
@@ -948,10 +949,10 @@ def solver_reference(config: BuildConfig, progress: bool = False) -> list:
     jobs = [(float(v), float(e)) for v in config.visibilities_km for e in config.elevations_deg]
     for v, e in tqdm(jobs, desc="solver reference", disable=not progress):
         e_fit = max([x for x in fitted if x <= e] or fitted[:1])
-        if radiance_by_mc(config, e_fit):
+        if radiance_by_mc(config, e_fit) or e_fit != e or e < config.min_solve_elevation_deg:
             continue
         for a in config.albedos:
-            zen, az, rad, solved = state_radiance(config, v, e_fit, float(a))
+            zen, az, rad, solved = state_radiance(config, v, e, float(a))
             ref[(v, e, float(a))] = solver_turning_points(zen, az, rad, solved)
     return reference_entries(ref)
 
@@ -986,8 +987,9 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
     meta["smoothness_reference"] = {
         "description": "profiles of the smoothness check where the solver's own sky (interpolated from its grid) has "
                        "more turning points than the limit: [visibility km, elevation deg, albedo, channel index, "
-                       "profile kind, profile index, turning points]; the check allows these counts there "
-                       "(docs/default-dataset.md, 'Smoothness')", "rows": rows}
+                       "profile kind, profile index, turning points]; the check allows these counts there; grid states "
+                       "that hold a sky solved at another elevation (0 deg) have none (docs/default-dataset.md, "
+                       "'Smoothness')", "rows": rows}
     meta["smoothness"] = smoothness_report(output, rows)
     meta["build_seconds"] = round(time.perf_counter() - t0, 1)
     Path(output).with_name(Path(output).name + ".json").write_text(json.dumps(meta, indent=1))

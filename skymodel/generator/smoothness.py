@@ -16,6 +16,13 @@ channel whose sky carries measurable energy, at every grid state and at states b
   make more;
 - **zenith spot**: ``|L(zenith) / mean(L on a ring of ZENITH_RING_DEG) - 1|``.
 
+Where the solver's own sky has more turning points along a profile than the limit (a minimum between the aureole and
+the bright band a few degrees above the horizon on a ray rising from a low sun, structure of the water bands along the
+antisolar vertical), the check can compare with it: :func:`solver_turning_points` counts the solver's, the build keeps
+the profiles above the limit (:func:`reference_entries`, the sidecar's ``smoothness_reference``), and a profile then
+fails only with more turning points than both the limit and the solver's there (between grid states: the most of the
+bracketing grid states'). The verdict by the limits alone is kept beside it.
+
 Pure functions over arrays; :func:`check_dataset` runs everything and :func:`summarise` reduces it for the sidecar.
 """
 
