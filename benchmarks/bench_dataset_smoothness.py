@@ -9,6 +9,10 @@ With ``--issue-renders PATH`` it draws the three renders issue 11 names (the sRG
 side view toward azimuth 200 deg at 540 nm, 8 deg sun, 50 km; the 1260 nm sky at 45 deg sun, 40 km; albedo 0.3, as
 ``widesky sky render`` gives them), before above after when ``--before`` is given.
 
+The check allows, per profile, the turning points the solver's own sky has there (the sidecar's
+``smoothness_reference`` rows, written by the build; ``--no-reference`` for the limits alone); both counts are
+printed.
+
 Run:  python benchmarks/bench_dataset_smoothness.py skymodel/data/default.dat --json /tmp/smooth.json \
           --sheet docs/figures/dataset_contact_sheet.png [--before old.dat] [--issue-renders PATH]
 """
@@ -17,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 import warnings
 
@@ -123,7 +128,7 @@ def contact_sheet(models, labels, path, visibility=30.0, albedo=0.3, resolution=
 
 def main(argv=None):
     from skymodel import load_dataset
-    from skymodel.generator.smoothness import check_dataset, summarise
+    from skymodel.generator.smoothness import check_dataset, reference_from_entries, summarise
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dataset")
@@ -131,20 +136,34 @@ def main(argv=None):
     ap.add_argument("--sheet", default=None, help="contact sheet PNG")
     ap.add_argument("--before", default=None, help="a second dataset drawn above (the sheet's 'before')")
     ap.add_argument("--no-check", action="store_true", help="only draw the sheet")
+    ap.add_argument("--reference", default=None,
+                    help="sidecar JSON whose 'smoothness_reference' rows (the solver's own turning points at the grid "
+                         "states) the check allows; default: DATASET.json when it has them")
+    ap.add_argument("--no-reference", action="store_true", help="the limits alone (no solver reference)")
     ap.add_argument("--issue-renders", default=None, help="PNG of the three renders issue 11 names")
     ap.add_argument("--visibility", type=float, default=30.0, help="visibility of the sheet [km]")
     ap.add_argument("--albedo", type=float, default=0.3, help="ground albedo of the sheet [1]")
     a = ap.parse_args(argv)
     model = load_dataset(a.dataset)
     if not a.no_check:
+        ref = None
+        side = a.reference or a.dataset + ".json"
+        if not a.no_reference and os.path.exists(side):
+            rows = json.load(open(side)).get("smoothness_reference", {}).get("rows")
+            if rows is not None:
+                ref = reference_from_entries(rows, (model.visibilities, model.elevations, model.albedos))
+                print(f"solver reference: {len(rows)} profiles from {side}")
+        if ref is None:
+            print("no solver reference: the limits alone")
         t0 = time.perf_counter()
-        summary = summarise(check_dataset(model), model.wavelengths)
+        summary = summarise(check_dataset(model, reference=ref), model.wavelengths)
         summary["seconds"] = round(time.perf_counter() - t0, 1)
         for g in ("grid", "between"):
             s = summary.get(g)
             if s:
                 print(f"{g}: {s['states']} states, {s['checked_pairs']} checked (state, channel) pairs, "
-                      f"{s['failing_pairs']} failing ({s['failing_states']} states); almucantar >1 turning point "
+                      f"{s['failing_pairs']} failing ({s['failing_states']} states; by the limits alone "
+                      f"{s['failing_pairs_by_limits']}); by the limits: almucantar >1 turning point "
                       f"{s['almucantar_tp_gt1']}, vertical >2 {s['vertical_tp_gt2']}, aureole ray >1 "
                       f"{s['aureole_tp_gt1']}, zenith spot {s['zenith_spot_pairs']} (max "
                       f"{100 * s['max_zenith_spot']:.1f} %)")

@@ -45,8 +45,7 @@ __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", 
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
            "knots", "config_knots", "direction_samples", "fit_sky", "fit_all", "segment_path_factors",
            "transmittance_grid", "transmittance_samples", "fit_transmittance_bounded", "assemble", "build_dataset",
-           "smoothness_report",
-           "cache_root"]
+           "solver_reference", "smoothness_report", "cache_root"]
 
 PLANET_RADIUS_M = 6378000.0
 """Planet radius of the format's geometry [m] (the reference's value)."""
@@ -964,14 +963,42 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
     return d
 
 
-def smoothness_report(dataset_path) -> dict:
+def solver_reference(config: BuildConfig, progress: bool = False) -> list:
+    """The solver's own turning points along the smoothness check's profiles at every grid state, where they exceed
+    the check's limits (:func:`skymodel.generator.smoothness.reference_entries` rows; from the cached solves). Only
+    grid states that hold the sky solved at their own elevation count: the 0 deg states (a sky solved at
+    ``min_solve_elevation_deg``), those above ``max_fit_elevation_deg`` (the highest fit) and those whose radiance
+    comes from the Monte Carlo solution (its noise is not the sky's shape) get no allowance."""
+    from .dataset_mc import radiance_by_mc
+    from tqdm import tqdm
+
+    from .smoothness import reference_entries, solver_turning_points
+
+    fitted = _fitted_elevations(config)
+    ref = {}
+    jobs = [(float(v), float(e)) for v in config.visibilities_km for e in config.elevations_deg]
+    for v, e in tqdm(jobs, desc="solver reference", disable=not progress):
+        e_fit = max([x for x in fitted if x <= e] or fitted[:1])
+        if radiance_by_mc(config, e_fit) or e_fit != e or e < config.min_solve_elevation_deg:
+            continue
+        for a in config.albedos:
+            zen, az, rad, solved = state_radiance(config, v, e, float(a))
+            ref[(v, e, float(a))] = solver_turning_points(zen, az, rad, solved)
+    return reference_entries(ref)
+
+
+def smoothness_report(dataset_path, reference_rows=None) -> dict:
     """The smoothness check (:mod:`skymodel.generator.smoothness`) of a written dataset over its grid and between grid
-    points, summarised for the sidecar."""
+    points, summarised for the sidecar; with ``reference_rows`` (:func:`solver_reference`) a profile fails only beyond
+    the solver's own turning points there."""
     from ..dataset import load_dataset
-    from .smoothness import check_dataset, summarise
+    from .smoothness import check_dataset, reference_from_entries, summarise
 
     model = load_dataset(dataset_path)
-    return summarise(check_dataset(model), model.wavelengths)
+    ref = None
+    if reference_rows is not None:
+        ref = reference_from_entries(reference_rows, (model.visibilities, model.elevations, model.albedos))
+    return summarise(check_dataset(model, reference=ref), model.wavelengths)
 
 
 def build_dataset(config: BuildConfig, output, processes: int = 2, progress: bool = True, validation: bool = True,
@@ -986,7 +1013,14 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
         from .dataset_errors import evaluate_errors, summarise
         errs = evaluate_errors(config, output)
         meta["errors"] = summarise(errs)
-    meta["smoothness"] = smoothness_report(output)
+    rows = solver_reference(config, progress)
+    meta["smoothness_reference"] = {
+        "description": "profiles of the smoothness check where the solver's own sky (interpolated from its grid) has "
+                       "more turning points than the limit: [visibility km, elevation deg, albedo, channel index, "
+                       "profile kind, profile index, turning points]; the check allows these counts there; grid states "
+                       "that hold a sky solved at another elevation (0 deg) have none (docs/default-dataset.md, "
+                       "'Smoothness')", "rows": rows}
+    meta["smoothness"] = smoothness_report(output, rows)
     meta["build_seconds"] = round(time.perf_counter() - t0, 1)
     Path(output).with_name(Path(output).name + ".json").write_text(json.dumps(meta, indent=1))
     return meta

@@ -16,6 +16,13 @@ channel whose sky carries measurable energy, at every grid state and at states b
   make more;
 - **zenith spot**: ``|L(zenith) / mean(L on a ring of ZENITH_RING_DEG) - 1|``.
 
+Where the solver's own sky has more turning points along a profile than the limit (a minimum between the aureole and
+the bright band a few degrees above the horizon on a ray rising from a low sun, structure of the water bands along the
+antisolar vertical), the check can compare with it: :func:`solver_turning_points` counts the solver's, the build keeps
+the profiles above the limit (:func:`reference_entries`, the sidecar's ``smoothness_reference``), and a profile then
+fails only with more turning points than both the limit and the solver's there (between grid states: the most of the
+bracketing grid states'). The verdict by the limits alone is kept beside it.
+
 Pure functions over arrays; :func:`check_dataset` runs everything and :func:`summarise` reduces it for the sidecar.
 """
 
@@ -27,8 +34,9 @@ import numpy as np
 
 __all__ = ["ALMUCANTAR_ZENITHS_DEG", "VERTICAL_AZIMUTHS_DEG", "REL_TOL", "ZENITH_SPOT_TOL", "MAX_ALMUCANTAR_TP",
            "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "turning_points",
-           "monotone_violations", "profile_directions", "profile_metrics", "check_states", "grid_states",
-           "between_grid_states", "check_dataset", "summarise"]
+           "monotone_violations", "profile_directions", "profile_turning_points", "profile_metrics", "LIMITS",
+           "check_states", "solver_turning_points", "reference_entries", "reference_from_entries",
+           "allowed_turning_points", "grid_states", "between_grid_states", "check_dataset", "summarise"]
 
 ALMUCANTAR_ZENITHS_DEG = (20.0, 40.0, 60.0, 70.0, 75.0, 80.0, 84.0, 87.0, 89.0)
 """View zeniths of the checked almucantars [deg]."""
@@ -155,6 +163,29 @@ def profile_directions(sun_elevation_deg: float):
     return {"almucantar": alm, "vertical": ver, "aureole": dirs, "aureole_valid": valid, "zenith": zen}
 
 
+def _last(a, n):
+    """Move the profile's ``n`` leading axes to the end."""
+    return np.moveaxis(a, list(range(n)), list(range(a.ndim - n, a.ndim)))
+
+
+def profile_turning_points(radiance: dict, aureole_valid, rel_tol: float = REL_TOL) -> dict:
+    """Turning points of every single profile (radiance as for :func:`profile_metrics`): dict of int arrays
+    ``almucantar`` (..., C, nZ), ``vertical`` (..., C, nV), ``aureole`` (..., C, 8) (the ray's checked part only)."""
+    aur = _last(radiance["aureole"], 2)                                          # (..., C, 8, nG)
+    valid = np.broadcast_to(_last(np.asarray(aureole_valid), 2), aur.shape)
+    # the valid part of a ray is contiguous: a prefix where the ray runs toward the horizon, a suffix where it rises
+    # from a sun below AUREOLE_MAX_ZENITH_DEG. Hold the nearest valid value over the rest (the last one after it, the
+    # first one before it), which adds no turning point
+    n = aur.shape[-1]
+    idx = np.maximum.accumulate(np.where(valid, np.arange(n), -1), axis=-1)
+    first = np.argmax(valid, axis=-1)[..., None]
+    idx = np.where(idx < 0, first, idx)
+    held = np.take_along_axis(np.where(valid, aur, 0.0), idx, axis=-1)
+    return {"almucantar": turning_points(_last(radiance["almucantar"], 2), rel_tol),
+            "vertical": turning_points(_last(radiance["vertical"], 2), rel_tol),
+            "aureole": turning_points(held, rel_tol)}
+
+
 def profile_metrics(radiance: dict, aureole_valid, sun_elevation_deg: float, rel_tol: float = REL_TOL) -> dict:
     """Smoothness metrics from the radiance along the profiles of :func:`profile_directions` for one solar elevation.
 
@@ -170,22 +201,10 @@ def profile_metrics(radiance: dict, aureole_valid, sun_elevation_deg: float, rel
     over almucantars: above 1 each), vertical_tp (max), aureole_tp (max over rays), aureole_rise [1] (largest rise
     above the running minimum, max over rays; reported, not a criterion), zenith_spot [1].
     """
-    def last(a, n):  # move the profile's n leading axes to the end
-        return np.moveaxis(a, list(range(n)), list(range(a.ndim - n, a.ndim)))
-
-    tp_alm = turning_points(last(radiance["almucantar"], 2), rel_tol)          # (..., C, nZ)
-    tp_ver = turning_points(last(radiance["vertical"], 2), rel_tol)
-    aur = last(radiance["aureole"], 2)                                          # (..., C, 8, nG)
-    valid = np.broadcast_to(last(np.asarray(aureole_valid), 2), aur.shape)
-    # the valid part of a ray is contiguous: a prefix where the ray runs toward the horizon, a suffix where it rises
-    # from a sun below AUREOLE_MAX_ZENITH_DEG. Hold the nearest valid value over the rest (the last one after it, the
-    # first one before it), which adds no turning point
-    n = aur.shape[-1]
-    idx = np.maximum.accumulate(np.where(valid, np.arange(n), -1), axis=-1)
-    first = np.argmax(valid, axis=-1)[..., None]
-    idx = np.where(idx < 0, first, idx)
-    held = np.take_along_axis(np.where(valid, aur, 0.0), idx, axis=-1)
-    tp_aur = turning_points(held, rel_tol)
+    tp = profile_turning_points(radiance, aureole_valid, rel_tol)
+    tp_alm, tp_ver, tp_aur = tp["almucantar"], tp["vertical"], tp["aureole"]
+    aur = _last(radiance["aureole"], 2)
+    valid = np.broadcast_to(_last(np.asarray(aureole_valid), 2), aur.shape)
     rise = monotone_violations(aur, rel_tol, valid=valid)
     z = radiance["zenith"]
     ring = z[1:].mean(axis=0)
@@ -205,13 +224,23 @@ def _fails(m, rel_tol):
         (m["aureole_tp"] > MAX_AUREOLE_TP) | (m["zenith_spot"] > ZENITH_SPOT_TOL)
 
 
-def check_states(model, states, rel_tol: float = REL_TOL) -> list:
+LIMITS = {"almucantar": MAX_ALMUCANTAR_TP, "vertical": MAX_VERTICAL_TP, "aureole": MAX_AUREOLE_TP}
+"""Turning points allowed per profile kind (the check's limits)."""
+
+
+def check_states(model, states, rel_tol: float = REL_TOL, reference=None) -> list:
     """Run the check on ``model`` for sky states ``states`` = [(visibility [km], elevation [deg], albedo [1]), ...].
+
+    ``reference`` (optional, :func:`reference_from_entries`): the solver's own turning points at the grid states. A
+    profile then fails only where it has more turning points than both the limit and the reference at that profile
+    (:func:`allowed_turning_points`: at a grid state its own solve, between grid states the most of the bracketing
+    grid states'); ``fails_plain`` keeps the verdict by the limits alone.
 
     Returns
     -------
     list of dict per state (in the order given): visibility, elevation, albedo, checked (C,) bool (channels with
-    measurable energy), the metrics of :func:`profile_metrics` and fails (C,) bool.
+    measurable energy), the metrics of :func:`profile_metrics`, profile_tp (turning points of every profile), fails
+    and fails_plain (C,) bool.
     """
     from ..evaluate import sky_radiance
 
@@ -243,10 +272,87 @@ def check_states(model, states, rel_tol: float = REL_TOL) -> list:
             rad[k] = np.moveaxis(L[:, j:j + n].reshape((len(idx),) + d[k].shape[:-1] + (L.shape[-1],)), 0, -2)
             j += n
         m = profile_metrics(rad, d["aureole_valid"][..., None], ele, rel_tol)  # arrays (S, C)
+        tp = profile_turning_points(rad, d["aureole_valid"][..., None], rel_tol)  # arrays (S, C, n)
         f = _fails(m, rel_tol) & checked
         for q, i in enumerate(idx):
+            fq = f[q]
+            if reference is not None:
+                allow = allowed_turning_points(reference, states[i], L.shape[-1])
+                fq = (m["zenith_spot"][q] > ZENITH_SPOT_TOL) & checked[q]
+                for k in LIMITS:
+                    fq = fq | ((tp[k][q] > allow[k]).any(axis=-1) & checked[q])
             out[i] = {"visibility": float(states[i][0]), "elevation": ele, "albedo": float(states[i][2]),
-                      "checked": checked[q], **{k: v[q] for k, v in m.items()}, "fails": f[q]}
+                      "checked": checked[q], **{k: v[q] for k, v in m.items()}, "fails": fq, "fails_plain": f[q],
+                      "profile_tp": {k: v[q] for k, v in tp.items()}}
+    return out
+
+
+def solver_turning_points(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: float, rel_tol: float = REL_TOL):
+    """Turning points of the solver's own radiance along every profile: ``radiance`` (T, P, C) [W m-2 sr-1 nm-1] on a
+    product grid of view zeniths ``zenith_deg`` (T,) and relative azimuths ``azimuth_deg`` (P,, 0 = toward the sun
+    ... 180) [deg] with the sun at ``sun_elevation_deg`` [deg], interpolated bilinearly in log radiance onto the
+    profiles of :func:`profile_directions`. Returns :func:`profile_turning_points`' dict of (C, n) int arrays."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    d = profile_directions(sun_elevation_deg)
+    zen = np.asarray(zenith_deg, float)
+    az = np.asarray(azimuth_deg, float)
+    logr = np.log(np.maximum(np.asarray(radiance, float), 1e-300))
+    f = RegularGridInterpolator((zen, az), logr, bounds_error=False, fill_value=None)
+    rad = {}
+    for k in ("almucantar", "vertical", "aureole"):
+        v = d[k]
+        z = np.clip(np.degrees(np.arccos(np.clip(v[..., 2], -1, 1))), zen[0], zen[-1])
+        a = np.degrees(np.arctan2(v[..., 0], v[..., 1]))
+        rel = np.clip(np.abs((a - 180.0 + 180.0) % 360.0 - 180.0), az[0], az[-1])
+        rad[k] = np.exp(f(np.stack([z.ravel(), rel.ravel()], -1))).reshape(v.shape[:-1] + (logr.shape[-1],))
+    return profile_turning_points(rad, d["aureole_valid"][..., None], rel_tol)
+
+
+def reference_entries(reference: dict) -> list:
+    """The profiles where the solver's own sky has more turning points than the limit, as JSON-ready rows
+    ``[visibility, elevation, albedo, channel index, kind, profile index, turning points]`` (``reference``:
+    {(visibility [km], elevation [deg], albedo [1]): :func:`solver_turning_points` dict})."""
+    rows = []
+    for (v, e, a), tp in sorted(reference.items()):
+        for k, lim in LIMITS.items():
+            for c, j in zip(*np.nonzero(np.asarray(tp[k]) > lim)):
+                rows.append([float(v), float(e), float(a), int(c), k, int(j), int(tp[k][c, j])])
+    return rows
+
+
+def reference_from_entries(rows, grid) -> dict:
+    """Inverse of :func:`reference_entries`: {"grid": (visibilities, elevations, albedos) of the dataset,
+    "tp": {(v, e, a): {kind: {(channel, profile): turning points}}}} for :func:`check_states`."""
+    tp = {}
+    for v, e, a, c, k, j, n in rows:
+        tp.setdefault((float(v), float(e), float(a)), {}).setdefault(k, {})[(int(c), int(j))] = int(n)
+    return {"grid": tuple(np.asarray(x, float) for x in grid), "tp": tp}
+
+
+def _bracket(x, grid):
+    """The grid values around ``x``: [x] on a grid value, else the two neighbours (the edge value outside)."""
+    g = np.asarray(grid, float)
+    hit = np.isclose(g, x, rtol=1e-9, atol=1e-9)
+    if hit.any():
+        return [float(g[hit][0])]
+    i = int(np.clip(np.searchsorted(g, x), 1, len(g) - 1))
+    return [float(g[i - 1]), float(g[i])] if g[0] < x < g[-1] else [float(g[0] if x < g[0] else g[-1])]
+
+
+def allowed_turning_points(reference: dict, state, n_channels: int) -> dict:
+    """Turning points allowed per profile at ``state`` (visibility, elevation, albedo): the limit, or the solver's own
+    count where that is larger, at a grid state that state's, between grid states the largest of the bracketing grid
+    states' (in each of the three dimensions). Returns {kind: (C, n) int}."""
+    n_prof = {"almucantar": len(ALMUCANTAR_ZENITHS_DEG), "vertical": len(VERTICAL_AZIMUTHS_DEG), "aureole": 8}
+    out = {k: np.full((n_channels, n_prof[k]), lim) for k, lim in LIMITS.items()}
+    gv, ge, ga = reference["grid"]
+    for v in _bracket(state[0], gv):
+        for e in _bracket(state[1], ge):
+            for a in _bracket(state[2], ga):
+                for k, d in reference["tp"].get((v, e, a), {}).items():
+                    for (c, j), n in d.items():
+                        out[k][c, j] = max(out[k][c, j], n)
     return out
 
 
@@ -268,12 +374,12 @@ def between_grid_states(model) -> list:
     return [(float(x), float(y), float(z)) for x in vm for y in em for z in am]
 
 
-def check_dataset(model, rel_tol: float = REL_TOL, between: bool = True) -> dict:
+def check_dataset(model, rel_tol: float = REL_TOL, between: bool = True, reference=None) -> dict:
     """The smoothness check over the grid (and between grid points): {'grid': [...], 'between': [...]}, each a list of
-    :func:`check_states` results."""
-    res = {"grid": check_states(model, grid_states(model), rel_tol)}
+    :func:`check_states` results (``reference``: see there)."""
+    res = {"grid": check_states(model, grid_states(model), rel_tol, reference)}
     if between:
-        res["between"] = check_states(model, between_grid_states(model), rel_tol)
+        res["between"] = check_states(model, between_grid_states(model), rel_tol, reference)
     return res
 
 
@@ -289,7 +395,9 @@ def summarise(result: dict, wavelengths_nm=None) -> dict:
         chk = np.array([r["checked"] for r in rows])
         get = lambda k: np.array([r[k] for r in rows])  # noqa: E731
         fails = get("fails")
+        plain = get("fails_plain") if "fails_plain" in rows[0] else fails
         g = {"states": len(rows), "checked_pairs": int(chk.sum()), "failing_pairs": int(fails.sum()),
+             "failing_pairs_by_limits": int(plain.sum()),
              "failing_states": int(fails.any(axis=1).sum()),
              "almucantar_tp_gt1": int(((get("almucantar_tp") > 1) & chk).sum()),
              "vertical_tp_gt2": int(((get("vertical_tp") > 2) & chk).sum()),
