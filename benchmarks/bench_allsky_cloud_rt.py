@@ -132,6 +132,10 @@ def main(argv=None):
         taus = [float(x) for x in args.taus.split(",")]
     except ValueError as exc:
         ap.error(f"--elevations/--taus: {exc}")
+    if any(not 10.0 < e <= 90.0 for e in els):
+        ap.error(f"--elevations: {args.elevations!r} must lie in (10, 90] deg (plane-parallel beam)")
+    if any(not 0.0 <= t <= 200.0 for t in taus):
+        ap.error(f"--taus: {args.taus!r} must lie in [0, 200]")
     if taus[0] != 0:
         taus = [0.0] + taus
     rows, wl, w, sr = run(els, taus, args.aod550)
