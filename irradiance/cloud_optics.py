@@ -115,7 +115,8 @@ _MIE_WAVELENGTHS_NM = np.arange(280.0, 2501.0, 20.0)
 _SHIPPED_TABLE = "droplet_mie_r10_v0.1.csv"
 
 
-def mie_droplet_table(radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANCE, data_dir=None, n_radii=320):
+def mie_droplet_table(radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANCE, data_dir=None, n_radii=320,
+                      progress=True):
     """(W, 4) table of wavelength [nm], mean extinction efficiency [1], co-albedo [1] and asymmetry [1] of water
     droplets, every 20 nm over 280-2500 nm (see :func:`mie_droplet_optics`): Mie (miepython ``efficiencies_mx``)
     on ``n_radii`` radii 0.5-40 um (finer than the extinction's interference ripple at 280 nm) weighted by the
@@ -127,7 +128,9 @@ def mie_droplet_table(radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANC
     area = np.pi * r ** 2 * r ** ((1.0 - 3.0 * variance) / variance) * np.exp(-r / (radius_um * variance))
     m = refractive_index("stco", lam, 0, data_dir=data_dir)
     rows = []
-    for li, mi in zip(lam, m):
+    from tqdm import tqdm
+    for li, mi in tqdm(list(zip(lam, m)), desc="droplet Mie table", unit="wavelength", disable=not progress,
+                       leave=False):
         qe, qs, _, g = miepython.efficiencies_mx(complex(mi.real, -abs(mi.imag)), 2.0 * np.pi * r * 1000.0 / li)
         rows.append((li, (qe * area).sum() / area.sum(), 1.0 - (qs * area).sum() / (qe * area).sum(),
                      (g * qs * area).sum() / (qs * area).sum()))
