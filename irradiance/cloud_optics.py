@@ -33,7 +33,7 @@ import functools
 import numpy as np
 
 __all__ = ["liquid_water_k", "droplet_coalbedo", "mie_droplet_optics", "cloud_spectral_transmittance",
-           "transmitted_path_factor", "mie_droplet_table", "DROPLET_VARIANCE", "slab_transmittance", "cloud_optical_depth",
+           "transmitted_path_factor", "mie_droplet_table", "cloud_thickness_m", "DROPLET_VARIANCE", "slab_transmittance", "cloud_optical_depth",
            "cloud_relative_transmittance", "DEFAULT_DROPLET_RADIUS", "DEFAULT_ASYMMETRY",
            "ADT_REFRACTION_FACTOR", "LIQUID_WATER_CONTENT", "saturation_vapour_density",
            "cloud_vapour_path", "vapour_band_deepening", "rayleigh_optical_depth", "rayleigh_spherical_albedo",
@@ -321,6 +321,12 @@ def saturation_vapour_density(temp):
     return e / (461.5 * (t + 273.15)) * 1000.0
 
 
+def cloud_thickness_m(tau, radius_um=DEFAULT_DROPLET_RADIUS, lwc=LIQUID_WATER_CONTENT):
+    """Geometric thickness [m] of a water cloud of optical depth ``tau`` [1], effective droplet radius [um] and
+    liquid water content [g m-3]: ``H = LWP / LWC`` with ``LWP = 2 rho_w r_e tau / 3`` (Stephens 1978)."""
+    return (2.0 / 3.0) * np.asarray(tau, dtype=float) * float(radius_um) / float(lwc)
+
+
 def cloud_vapour_path(tau, temp_dew, asymmetry=DEFAULT_ASYMMETRY, radius_um=DEFAULT_DROPLET_RADIUS,
                       lwc=LIQUID_WATER_CONTENT, path="two_stream"):
     """Extra water-vapour path [cm] of light transmitted through a cloud layer.
@@ -360,7 +366,7 @@ def cloud_vapour_path(tau, temp_dew, asymmetry=DEFAULT_ASYMMETRY, radius_um=DEFA
         raise ValueError(f"path={path!r} is not one of ('two_stream', 'diffusion')")
     t = np.asarray(tau, dtype=float)
     td = np.asarray(temp_dew, dtype=float)
-    thickness = (2.0 / 3.0) * t * float(radius_um) / float(lwc)              # [m] (LWP [g m-2] / LWC)
+    thickness = cloud_thickness_m(t, radius_um, lwc)
     factor = transmitted_path_factor(t, asymmetry) if path == "two_stream" else 0.5 * (1.0 - float(asymmetry)) * t
     extra = thickness * np.maximum(factor - 1.0, 0.0)
     du = saturation_vapour_density(td) * extra * 1e-4                        # g m-3 * m -> g cm-2

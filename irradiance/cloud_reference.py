@@ -35,19 +35,9 @@ from skymodel.generator.ozone import ozone_optical_depth
 from skymodel.generator.solar import extraterrestrial_spectrum
 from skymodel.generator.solver import AtmosphereSpec, SolverConfig, run_disort
 
-from .cloud_optics import mie_droplet_optics, saturation_vapour_density
+from .cloud_optics import cloud_thickness_m, mie_droplet_optics, saturation_vapour_density
 
-__all__ = ["cloud_geometry_km", "cloudy_fluxes", "CloudyFluxes", "allsky_global_horizontal"]
-
-WATER_DENSITY = 1.0e6
-"""[g m-3]."""
-
-
-def cloud_geometry_km(tau550, radius_um=10.0, lwc=0.3):
-    """Geometric thickness [km] of a cloud of optical depth ``tau550`` [1], effective radius [um] and liquid
-    water content [g m-3]: ``H = LWP / LWC``, ``LWP = 2 rho_w r_e tau / 3`` (Stephens 1978)."""
-    return (2.0 / 3.0) * WATER_DENSITY * radius_um * 1e-6 * float(tau550) / float(lwc) / 1000.0
-
+__all__ = ["cloudy_fluxes", "CloudyFluxes", "allsky_global_horizontal"]
 
 @dataclass
 class _Layers:
@@ -124,7 +114,7 @@ def cloudy_fluxes(tau550: float, solar_elevation_deg: float, aod550: float = 0.1
     if not 0.05 <= lwc <= 2.0:
         raise ValueError(f"lwc={lwc} outside [0.05, 2] g m-3")
     dd = None if data_dir is None else str(data_dir)
-    H = cloud_geometry_km(max(tau550, 1e-6), radius_um, lwc) if tau550 > 0 else 0.0
+    H = float(cloud_thickness_m(tau550, radius_um, lwc)) / 1000.0                 # [km]
     base, top = float(cloud_base_km), float(cloud_base_km) + H
     levels = np.asarray(DEFAULT_LEVELS_KM if spec.levels_km is None else spec.levels_km, float)
     cloud_levels = np.linspace(base, top, 4) if H > 0 else np.array([base])
