@@ -81,7 +81,12 @@ class BuildConfig:
     of a state, a smooth error field over the sky) or "independent" (one stream per direction, the builds before
     2026-12-02; docs/atmosphere-and-solver.md, "Correlated streams"); ``mc_fit_resample`` true: the radiance fit of a
     Monte Carlo state runs on the DISORT states' direction grid, the state interpolated onto it shape-preservingly
-    (:func:`skymodel.generator.dataset_mc.resample_radiance`) instead of on the state's own coarse grid.
+    (:func:`skymodel.generator.dataset_mc.resample_radiance`) instead of on the state's own coarse grid;
+    ``mc_single_scatter_exact`` true: the Monte Carlo radiance is scalar (DISORT's physics) and split, the singly
+    scattered light computed deterministically in spherical shells on the DISORT fit grid (held-out grid for the
+    validation states) and only the rest (orders >= 2 and all ground-reflected light, smooth over the sky) taken from
+    the Monte Carlo grid, interpolated (:func:`skymodel.generator.dataset_mc.split_radiance`); the low-sun states of
+    the default dataset (docs/default-dataset.md, "Low sun in spherical shells").
     """
 
     visibilities_km: tuple = (20.0, 27.4, 37.5, 51.3, 70.2, 96.2, 131.8)
@@ -120,6 +125,7 @@ class BuildConfig:
     mc_seed: int = 20261201
     mc_streams: str = "correlated"
     mc_fit_resample: bool = False
+    mc_single_scatter_exact: bool = False
     pol_knots: tuple = (24, 16)
     pol_rank: int = 3
 
@@ -181,7 +187,8 @@ class BuildConfig:
 
 
 MC_KEYS = ("polarisation", "mc_below_elevation_deg", "mc_samples", "mc_channels_per_batch", "mc_ground_orders",
-           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "mc_streams", "mc_fit_resample", "pol_knots",
+           "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "mc_streams", "mc_fit_resample",
+           "mc_single_scatter_exact", "pol_knots",
            "pol_rank")
 """The configuration keys of the Monte Carlo path (:mod:`skymodel.generator.dataset_mc`)."""
 
@@ -295,7 +302,7 @@ def solve_state(visibility_km: float, solar_elevation_deg: float, config: BuildC
     mu0 = np.cos(np.radians(90.0 - solar_elevation_deg))
     f_sph = slant_path_factors(atm.levels_km, [90.0 - solar_elevation_deg])[0]
     rad = np.zeros((len(th), len(ph), 55))
-    e0, tdir, dif = [], np.zeros(55), np.zeros(55)
+    e0, dif = [], np.zeros(55)
     for c in range(55):
         ek = []
         for p in probs[c]:
@@ -303,11 +310,54 @@ def solve_state(visibility_km: float, solar_elevation_deg: float, config: BuildC
             rad[:, :, c] += p.weight * r
             ek.append(fd + fb)
             dif[c] += p.weight * fd
-            tdir[c] += p.weight * np.exp(-(p.tau_total * f_sph).sum())
         e0.append(np.array(ek))
+    tdir = _direct_transmittance(probs, f_sph)
     return {"zenith": th, "azimuth": ph, "radiance": rad * et_ch, "e0": e0, "et": et_ch, "dni": et_ch * tdir,
             "dhi": dif * et_ch, "seconds": time.perf_counter() - t0,
             "weights": [np.array([p.weight for p in probs[c]]) for c in range(55)]}
+
+
+def _direct_transmittance(probs, path_factors) -> np.ndarray:
+    """Band transmittance of the direct beam per channel (55,) [1]: sum over the sub-problems of weight x
+    exp(-sum_l tau_l s_l / dz_l) for the spherical-shell path factors (L,) of the sun's direction."""
+    return np.array([sum(p.weight * np.exp(-(p.tau_total * path_factors).sum()) for p in probs[c])
+                     for c in range(55)])
+
+
+def solve_split_validation(visibility_km: float, elevation_deg: float, albedo: float, config: BuildConfig,
+                           data_dir=None) -> dict:
+    """Held-out reference of a validation state whose elevation takes the split Monte Carlo radiance
+    (:func:`skymodel.generator.dataset_mc.split_state`): the exact singly scattered light on the held-out grid
+    (:func:`validation_directions`) plus the rest from the Monte Carlo state at that elevation (the grid state's own
+    where it is cached); the same keys as :func:`solve_state` uses for validation (zenith, azimuth [deg], radiance
+    (T, P, 55) [W m-2 sr-1 nm-1] at ``albedo`` [1], dni, et (55,) [W m-2 nm-1], seconds)."""
+    from .atmosphere import slant_path_factors
+    from .dataset_mc import mc_file, single_scatter, solve_mc_state, split_radiance
+
+    t0 = time.perf_counter()
+    th, ph = validation_directions(elevation_deg)
+    grid = mc_file(config, visibility_km, elevation_deg)
+    if grid.exists():
+        m = load_state(grid)
+        m.update(fine_zenith=th, fine_azimuth=ph,
+                 single_fine=single_scatter(visibility_km, elevation_deg, th, ph, config, data_dir))
+    else:
+        m = solve_mc_state(visibility_km, elevation_deg, config, data_dir, fine_directions=(th, ph))
+    probs, et_ch, atm = _problems(visibility_km, config, data_dir)
+    tdir = _direct_transmittance(probs, slant_path_factors(atm.levels_km, [90.0 - elevation_deg])[0])
+    return {"zenith": th, "azimuth": ph, "radiance": split_radiance(m, albedo), "et": et_ch, "dni": et_ch * tdir,
+            "solved_elevation": float(elevation_deg), "albedo": float(albedo), "seconds": time.perf_counter() - t0}
+
+
+def validation_file(config: BuildConfig, kind: str, visibility_km: float, elevation_deg: float, albedo: float):
+    """Cache file of a validation state (``kind`` 'on' or 'off') [.npz]: the DISORT solve's, or where its elevation
+    takes the split Monte Carlo radiance, one named by the Monte Carlo key."""
+    from .dataset_mc import mc_key, split_state
+
+    if split_state(config, elevation_deg):
+        return cache_root(config) / (f"mcval_{mc_key(config)}_{kind}_v{visibility_km:.4f}_e{elevation_deg:.4f}"
+                                     f"_a{albedo:.4f}.npz")
+    return state_file(config, visibility_km, elevation_deg, "val_" + kind, albedo)
 
 
 def solve_ground(visibility_km: float, config: BuildConfig, data_dir=None) -> dict:
@@ -377,6 +427,8 @@ def _job_file(job) -> Path:
     if kind == "mc":
         from .dataset_mc import mc_file
         return mc_file(config, vis, ele)
+    if kind.startswith("val_"):
+        return validation_file(config, kind[4:], vis, ele, extra)
     return state_file(config, vis, ele, kind, extra)
 
 
@@ -393,9 +445,11 @@ def _solve_job(job):
         if not path.exists():
             save_state(path, solve_ground(vis, config))
         return kind, vis, ele, path
-    path = state_file(config, vis, ele, kind, extra)
+    path = _job_file(job)
     if not path.exists():
-        if kind == "fit":
+        if kind.startswith("val_") and path.name.startswith("mcval_"):
+            save_state(path, solve_split_validation(vis, ele, extra, config))
+        elif kind == "fit":
             d = solve_state(vis, max(ele, config.min_solve_elevation_deg), config)
             d["solved_elevation"] = max(ele, config.min_solve_elevation_deg)
         else:  # validation state: its own albedo, held-out directions
@@ -417,8 +471,11 @@ def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: flo
         from .dataset_mc import fit_grid, resample_radiance
 
         m = load_state(mc_file(config, visibility_km, elevation_deg))
-        i = mc_stokes(m, albedo)[0][..., 0]
         th, ph = fit_grid(m, config)
+        if "single_fine" in m:
+            from .dataset_mc import split_radiance
+            return th, ph, split_radiance(m, albedo), float(m["solved_elevation"])
+        i = mc_stokes(m, albedo)[0][..., 0]
         if config.mc_fit_resample:
             i = resample_radiance(m["zenith"], m["azimuth"], i, th, ph)
         return th, ph, i, float(m["solved_elevation"])
@@ -614,9 +671,11 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
     if config.sun_penalty_order != 1:  # (absent for first-order builds: their cached fits keep their names)
         d["sun_penalty_order"] = config.sun_penalty_order
     d.update(fit_options(config))  # likewise: only the options a configuration sets
-    from .dataset_mc import mc_key, uses_mc
+    from .dataset_mc import mc_key, needs_mc_state, uses_mc
 
-    if uses_mc(config):  # only then: a scalar configuration keeps its fit-cache names
+    # only where the state uses the Monte Carlo solver: a scalar configuration keeps its fit-cache names, and so do the
+    # DISORT states of a build whose low sun alone comes from the Monte Carlo (every state of a polarised build has one)
+    if uses_mc(config) and needs_mc_state(config, elevation_deg):
         d["mc"] = {"key": mc_key(config), "below": config.mc_below_elevation_deg,
                    "polarisation": bool(config.polarisation), "pol_knots": list(config.pol_knots),
                    "pol_rank": int(config.pol_rank)}
@@ -847,6 +906,12 @@ def extraterrestrial_table(config: BuildConfig, data_dir=None):
 
 
 def _low_sun_note(config: BuildConfig) -> str:
+    if config.mc_below_elevation_deg is not None and config.mc_single_scatter_exact:
+        return (f"grid elevations below {config.mc_below_elevation_deg} deg take their sky radiance from spherical "
+                "shells, solved at their own elevation: single scattering exact (deterministic quadrature) on the fit "
+                "grid, higher orders and ground-reflected light from the scalar Monte Carlo solver, interpolated "
+                "(the plane-parallel sky is 2-50x too dark below 3 deg: docs/default-dataset.md, 'Low sun in "
+                "spherical shells')")
     if config.mc_below_elevation_deg is not None:
         return (f"grid elevations below {config.mc_below_elevation_deg} deg take their sky radiance from the Monte "
                 "Carlo solver in spherical shells, solved at their own elevation (twilight included)")
@@ -933,7 +998,9 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
     ele = [float(e) for e in config.elevations_deg]
     from .dataset_mc import MC_FIRST_ORDER
 
-    d = {"method": "polarised backward Monte Carlo in spherical shells (skymodel.generator.montecarlo), "
+    split = bool(config.mc_single_scatter_exact)
+    d = {"method": ("scalar" if split else "polarised")
+         + " backward Monte Carlo in spherical shells (skymodel.generator.montecarlo), "
                    "next-event estimation, hero-wavelength batches; all albedos from one run by order of ground "
                    f"reflection; estimator: first order {MC_FIRST_ORDER['radiance']} (with sunlit-importance "
                    "paths) where the Monte Carlo gives the radiance, first order "
@@ -942,8 +1009,11 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
                    + (" (common random numbers across the directions of a state)"
                       if config.mc_streams == "correlated" else " (one per direction)")
                    + ("; radiance fitted on the DISORT fit grid after a monotone piecewise-cubic interpolation of "
-                      "each state" if config.mc_fit_resample else "; radiance fitted on each state's own grid"),
-         "streams": config.mc_streams, "fit_resample": bool(config.mc_fit_resample),
+                      "each state" if config.mc_fit_resample else "; radiance fitted on each state's own grid")
+                   + ("; split: single scattering exact (the first-order quadrature, deterministic) on the DISORT "
+                      "fit grid, the rest (orders >= 2, ground-reflected light) from the Monte Carlo grid, "
+                      "interpolated monotonically" if split else ""),
+         "streams": config.mc_streams, "fit_resample": bool(config.mc_fit_resample), "single_scatter_exact": split,
          "key": mc_key(config), "samples_per_direction_and_batch": int(config.mc_samples),
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),
          "zenith_step_deg": float(config.mc_zenith_step_deg), "seed": int(config.mc_seed),
@@ -966,10 +1036,12 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
 def solver_reference(config: BuildConfig, progress: bool = False) -> list:
     """The solver's own turning points along the smoothness check's profiles at every grid state, where they exceed
     the check's limits (:func:`skymodel.generator.smoothness.reference_entries` rows; from the cached solves). Only
-    grid states that hold the sky solved at their own elevation count: the 0 deg states (a sky solved at
-    ``min_solve_elevation_deg``), those above ``max_fit_elevation_deg`` (the highest fit) and those whose radiance
-    comes from the Monte Carlo solution (its noise is not the sky's shape) get no allowance."""
-    from .dataset_mc import radiance_by_mc
+    grid states that hold the sky solved at their own elevation count: the 0 deg states of a DISORT build (a sky
+    solved at ``min_solve_elevation_deg``), those above ``max_fit_elevation_deg`` (the highest fit) and those whose
+    radiance comes from the Monte Carlo solution (its noise is not the sky's shape) get no allowance, except the split
+    Monte Carlo states (:func:`skymodel.generator.dataset_mc.split_radiance`: their structure is the exact single
+    scattering, the noise only in the smooth rest), which are solved at their own elevation."""
+    from .dataset_mc import radiance_by_mc, split_state
     from tqdm import tqdm
 
     from .smoothness import reference_entries, solver_turning_points
@@ -979,7 +1051,8 @@ def solver_reference(config: BuildConfig, progress: bool = False) -> list:
     jobs = [(float(v), float(e)) for v in config.visibilities_km for e in config.elevations_deg]
     for v, e in tqdm(jobs, desc="solver reference", disable=not progress):
         e_fit = max([x for x in fitted if x <= e] or fitted[:1])
-        if radiance_by_mc(config, e_fit) or e_fit != e or e < config.min_solve_elevation_deg:
+        own = split_state(config, e) if radiance_by_mc(config, e) else e >= config.min_solve_elevation_deg
+        if e_fit != e or not own:
             continue
         for a in config.albedos:
             zen, az, rad, solved = state_radiance(config, v, e, float(a))

@@ -38,8 +38,8 @@ def evaluate_errors(config, dataset_path) -> list:
     """
 
     from ..dataset import load_dataset
-    from .cache import load_state, state_file, validation_states
-    from .dataset_build import direction_samples
+    from .cache import load_state, validation_states
+    from .dataset_build import direction_samples, validation_file
     from ..evaluate import sky_radiance, solar_direct_normal
 
     model = load_dataset(dataset_path)
@@ -47,7 +47,7 @@ def evaluate_errors(config, dataset_path) -> list:
     b = np.radians(TILT_DEG)
     normal = np.array([0.0, -np.sin(b), np.cos(b)])  # facing the sun at azimuth 180 (south)
     for kind, vis, ele, alb in validation_states(config):
-        path = state_file(config, vis, ele, "val_" + kind, alb)
+        path = validation_file(config, kind, vis, ele, alb)
         if not path.exists():
             continue
         s = load_state(path)

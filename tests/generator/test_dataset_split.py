@@ -1,0 +1,115 @@
+"""Split Monte Carlo states of a dataset build (``mc_single_scatter_exact``): the low-sun sky in spherical shells.
+
+What is checked:
+- the recombination (:func:`skymodel.generator.dataset_mc.split_radiance`) on synthetic states with a known answer:
+  exact where the rest (the multiple scattering) lies in its model space (cosine series in azimuth up to order 2,
+  a smooth function of the view zenith), within the noise where 2 % noise is added, with no turning point along
+  an almucantar beyond the noise-free sky's, and with the single scattering carried over unchanged on the fine grid;
+- the configuration: split states are scalar (DISORT's physics), their key differs, validation states at split
+  elevations get their own cache files, and the DISORT states keep the fit-cache names of the plain build;
+- on the real atmosphere (``reference``): the exact single scattering in spherical shells tends to the
+  plane-parallel one for a high sun and short slant paths (analytic limit: the shells' curvature is negligible
+  when the path length is far below the Earth's radius; within 1 % at sun 40 deg, view zenith <= 60 deg), and at
+  sun 0 deg it stays finite and positive to the horizon where the plane-parallel beam is extinguished.
+"""
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from skymodel.generator.dataset_mc import MC_AZIMUTHS_DEG, split_radiance
+from skymodel.generator.smoothness import turning_points
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _synthetic_state(noise=0.0, seed=0):
+    """A state with a known rest: (1 + 0.3 cos phi + 0.1 cos 2 phi) x (1 + 2 (theta/90)^2) on a Monte Carlo grid,
+    a single scattering with an aureole, all light in ground order 0 (albedo-independent)."""
+    th = np.unique(np.concatenate([np.arange(0.0, 89.0, 6.0), [84.0, 87.0, 88.5, 89.95]]))
+    ph = np.asarray(MC_AZIMUTHS_DEG, float)
+    t2 = np.unique(np.concatenate([np.arange(0.0, 89.0, 2.0), [85.5, 87.0, 88.0, 89.0, 89.95]]))
+    p2 = np.unique(np.concatenate([ph, np.arange(50.0, 180.1, 5.0)]))
+
+    def rest(t, p):
+        T, P = np.meshgrid(t, np.radians(p), indexing="ij")
+        return ((1.0 + 0.3 * np.cos(P) + 0.1 * np.cos(2 * P)) * (1.0 + 2.0 * (T / 90.0) ** 2))[..., None]
+
+    def single(t, p):
+        T, P = np.meshgrid(np.radians(t), np.radians(p), indexing="ij")
+        cos_g = np.cos(T) * 0.0 + np.sin(T) * np.cos(P)          # sun on the horizon at azimuth 0
+        return (0.5 + 3.0 * np.exp(-np.degrees(np.arccos(np.clip(cos_g, -1, 1))) / 10.0))[..., None]
+
+    r = rest(th, ph) * np.ones(3)
+    rng = np.random.default_rng(seed)
+    sd = noise * r
+    tot = single(th, ph) + r + sd * rng.standard_normal(r.shape)
+    stokes = np.zeros(tot.shape + (1, 4))
+    stokes[..., 0, 0] = tot
+    err = np.zeros_like(stokes)
+    err[..., 0, 0] = np.maximum(sd, 1e-6)
+    state = {"zenith": th, "azimuth": ph, "stokes": stokes, "stderr": err, "single": single(th, ph) * np.ones(3),
+             "fine_zenith": t2, "fine_azimuth": p2, "single_fine": single(t2, p2) * np.ones(3)}
+    return state, rest(t2, p2) * np.ones(3), single(t2, p2) * np.ones(3)
+
+
+def test_split_radiance_is_exact_for_a_rest_in_its_model_space():
+    state, rest, single = _synthetic_state()
+    got = split_radiance(state, 0.3)
+    assert got.shape == single.shape
+    np.testing.assert_allclose(got - single, rest, rtol=2e-3)
+
+
+def test_split_radiance_averages_the_noise_and_adds_no_ripple():
+    """2 % noise on the rest: the recombined rest within 1.5 % of the truth everywhere (the fit averages 18
+    azimuths and ~20 zenith rows), and no almucantar of the sky gets more turning points than the noise-free one."""
+    clean, rest, single = _synthetic_state()
+    ref = split_radiance(clean, 0.0)
+    for seed in range(3):
+        state, _, _ = _synthetic_state(noise=0.02, seed=seed)
+        got = split_radiance(state, 0.0)
+        assert np.abs(got - single - rest).max() / rest.max() < 0.015
+        # along every almucantar (the check's zigzag count, 0.5 % tolerance)
+        assert np.all(turning_points(got[..., 0]) <= turning_points(ref[..., 0])), seed
+
+
+def test_split_configuration_keys_and_files():
+    from skymodel.generator.dataset_build import fit_file, load_config, validation_file
+    from skymodel.generator.dataset_mc import mc_config, mc_key, split_state
+
+    plain = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
+    low = replace(plain, mc_below_elevation_deg=9.0)
+    split = replace(low, mc_single_scatter_exact=True)
+    assert split_state(split, 8.0) and not split_state(split, 10.5) and not split_state(low, 8.0)
+    assert mc_config(split, 51.3, 0.0).polarised is False       # DISORT's scalar physics
+    assert mc_config(low, 51.3, 0.0).polarised is True
+    assert mc_key(split) != mc_key(low)
+    assert validation_file(split, "off", 36.59, 4.694, 0.208).name.startswith("mcval_")
+    assert validation_file(split, "on", 20.0, 13.5, 1.0).name.startswith("val_on_")
+    assert validation_file(low, "off", 36.59, 4.694, 0.208).name.startswith("val_off_")
+    # the DISORT states of a low-sun Monte Carlo build reuse the plain build's fits; its Monte Carlo states do not
+    assert fit_file(split, 51.3, 36.0) == fit_file(plain, 51.3, 36.0)
+    assert fit_file(split, 51.3, 3.0) != fit_file(plain, 51.3, 3.0)
+
+
+@pytest.mark.reference
+def test_single_scatter_tends_to_plane_parallel_for_a_high_sun():
+    from skymodel.generator.dataset_build import load_config
+    from skymodel.generator.dataset_mc import single_scatter
+    from skymodel.generator.montecarlo import MonteCarloConfig, solve_sky_mc
+    from skymodel.generator.solver import SkyState
+
+    cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
+    th, ph = np.array([0.0, 30.0, 60.0]), np.array([0.0, 45.0, 120.0, 180.0])
+    sph = single_scatter(29.2, 40.0, th, ph, cfg)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    pp = solve_sky_mc(SkyState(40.0, visibility_km=29.2, ground_albedo=0.0), cfg.spec(), T.ravel(), P.ravel(), None,
+                      MonteCarloConfig(samples=1, polarised=False, max_order=1, ground_orders=0,
+                                       planet_radius_km=None), solar_elevation_deg=40.0)
+    pp = pp.stokes[..., 0].reshape(sph.shape)
+    lit = pp > 1e-6 * pp.max()
+    assert np.abs(sph[lit] / pp[lit] - 1).max() < 0.01
+    low = single_scatter(29.2, 0.0, np.array([60.0, 85.0, 89.95]), np.array([0.0, 90.0, 180.0]), cfg)
+    assert np.all(np.isfinite(low)) and np.all(low[:, :, 7] > 0)
