@@ -233,15 +233,18 @@ def default_integration_grid(solar_zenith_deg: float):
     return th, ph
 
 
-_SOLVER = None
+_SOLVERS: dict = {}
 
 
-def _disort():
-    global _SOLVER
-    if _SOLVER is None:
+def _disort(num_phi: int):
+    """The process's disortpp solver for runs with ``num_phi`` output azimuths. One solver per azimuth count:
+    disortpp 1.2.1 keeps a solver's azimuth buffer from its first run, so a reused solver given fewer azimuths
+    returns the old count's columns (tests/generator/test_disortpp_guards.py)."""
+    solver = _SOLVERS.get(int(num_phi))
+    if solver is None:
         import disortpp
-        _SOLVER = disortpp.DisortSolver()
-    return _SOLVER
+        solver = _SOLVERS[int(num_phi)] = disortpp.DisortSolver()
+    return solver
 
 
 def run_disort(problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config: SolverConfig, repair=True):
@@ -292,7 +295,7 @@ def run_disort(problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config: S
     cfg.bc.direct_beam_mu = float(mu0)
     cfg.bc.direct_beam_phi = 0.0
     cfg.bc.surface_albedo = float(albedo)
-    r = _disort().solve(cfg)
+    r = _disort(len(rel_azimuth_deg)).solve(cfg)
     rad = np.asarray(r.intensity)[0]
     if repair and table is not None and not np.isfinite(rad).all():
         rad = _repair_nonfinite(rad, problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config)

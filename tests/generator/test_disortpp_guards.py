@@ -107,3 +107,54 @@ def test_isolated_nan_of_the_tabulated_correction_is_repaired():
     # the defect is still there without the repair (if disortpp fixes it, this guard can go)
     r0, _, _ = solver.run_disort(p, mu0, 0.201, th, ph, cfg.solver_config(), repair=False)
     assert np.isnan(r0[0, 1])
+
+
+def _with_azimuths(n):
+    c = _cfg(False)
+    c.num_phi = n
+    c.allocate()
+    c.delta_tau = [0.03] * 10
+    c.single_scat_albedo = [0.99] * 10
+    c.set_rayleigh()
+    c.tau_user = [0.3]
+    c.mu_user = [-0.9, -0.5, -0.2]
+    c.phi_user = list(np.linspace(0.0, 180.0, n))
+    c.bc.direct_beam_flux = 1.0
+    c.bc.direct_beam_mu = 0.8
+    c.bc.surface_albedo = 0.1
+    return c
+
+
+def test_reused_solver_keeps_its_first_azimuth_count_in_1_2_1():
+    # a DisortSolver that ran with 12 azimuths returns 12 columns for a later run with 8: the solver module keeps one
+    # solver per azimuth count (solver._disort) because of it
+    s = disortpp.DisortSolver()
+    s.solve(_with_azimuths(12))
+    assert np.asarray(s.solve(_with_azimuths(8)).intensity).shape[-1] == 12, \
+        "disortpp reuses buffers differently now: re-check solver._disort"
+
+
+def test_run_disort_with_fewer_azimuths_after_more_matches_a_fresh_solve():
+    from skymodel.generator import solver
+
+    class _Rayleigh:  # a SubProblem-like homogeneous layer (the interface run_disort uses)
+        weight = 1.0
+
+        def disort_layers(self):
+            mom = np.zeros((4, 17))
+            mom[:, 0], mom[:, 2] = 1.0, 0.1
+            return np.full(4, 0.05), np.full(4, 0.99), mom
+
+        def phase_table(self):
+            return None
+
+    cfg = solver.SolverConfig(n_streams=16, n_moments=16)
+    th = np.array([0.0, 40.0, 80.0])
+    many, few = np.linspace(0.0, 180.0, 30), np.array([0.0, 90.0, 180.0])
+    solver.run_disort(_Rayleigh(), 0.7, 0.2, th, many, cfg)
+    r, fd, _ = solver.run_disort(_Rayleigh(), 0.7, 0.2, th, few, cfg)
+    solver._SOLVERS.clear()
+    ref, fd_ref, _ = solver.run_disort(_Rayleigh(), 0.7, 0.2, th, few, cfg)
+    assert r.shape == (3, 3)
+    np.testing.assert_allclose(r, ref, rtol=1e-12)
+    assert fd == pytest.approx(fd_ref, rel=1e-12)
