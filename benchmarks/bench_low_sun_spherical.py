@@ -8,7 +8,13 @@ plane-parallel side is the DISORT state the build solved for that elevation (the
 ``min_solve_elevation_deg``; solved here once if not cached, about 20 s per state); the spherical side is the split
 state (exact single scattering plus the Monte Carlo rest) from the build cache, which the build must have solved.
 
+With ``--slabs`` it also shows that the difference is the geometry's, not the solver's: at 51.3 km and 580 nm the
+Monte Carlo solver run in plane-parallel slabs (scalar, 4096 paths) against DISORT at the same (solved) elevation,
+beside the spherical-shell radiance, at view zenith 60 and 87 deg toward the sun and away from it (about 10 s per
+elevation).
+
 Run:  python benchmarks/bench_low_sun_spherical.py skymodel/data/default-dataset.json [--visibilities 20 51.3 131.8]
+          [--slabs]
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("config", help="build configuration (JSON) with mc_single_scatter_exact")
     ap.add_argument("--visibilities", type=float, nargs="+", default=[20.0, 51.3, 131.8], help="[km]")
+    ap.add_argument("--slabs", action="store_true", help="also the Monte Carlo in plane-parallel slabs vs DISORT")
     a = ap.parse_args(argv)
     from skymodel.generator.cache import load_state, state_file
     from skymodel.generator.dataset_build import (_solve_job, direction_samples, load_config, state_radiance)
@@ -59,6 +66,33 @@ def main(argv=None):
         l_sph, l_pp = sph[i87, [0, -1], ch[2]], np.asarray(pp["radiance"])[j87, [0, -1], ch[2]]
         print(f"{v:7.1f} {e:7.1f} " + " ".join(f"{dhi_pp[c] / dhi_sph[c]:7.3f}" for c in ch)
               + f" {dhi_pp[:55].sum() / dhi_sph.sum():9.3f} {l_pp[0] / l_sph[0]:8.3f} {l_pp[1] / l_sph[1]:9.3f}")
+
+    if a.slabs:
+        slabs(cfg, [e for v, e in have if v == 51.3])
+
+
+def slabs(cfg, elevations):
+    """Monte Carlo in plane-parallel slabs against DISORT, and the spherical shells, at 51.3 km and 580 nm."""
+    from skymodel.generator.dataset_build import state_radiance
+    from skymodel.generator.montecarlo import MonteCarloConfig, solve_sky_mc
+    from skymodel.generator.solver import SkyState, solve_sky
+
+    vz, az = np.array([60.0, 60.0, 87.0, 87.0]), np.array([0.0, 180.0, 0.0, 180.0])
+    print("\n51.3 km, 580 nm, albedo 0.5, radiance [mW m-2 sr-1 nm-1] at (view zenith, azimuth) "
+          + " ".join(f"({z:.0f},{x:.0f})" for z, x in zip(vz, az)))
+    for e in elevations:
+        solved = max(e, cfg.min_solve_elevation_deg)
+        st = SkyState(solved, visibility_km=51.3, ground_albedo=0.5)
+        d = solve_sky(st, cfg.spec(), vz, az, channels=[7], config=cfg.solver_config(), processes=1)
+        m = solve_sky_mc(st, cfg.spec(), vz, az, [7], MonteCarloConfig(samples=4096, polarised=False,
+                                                                          planet_radius_km=None, channels_per_batch=1))
+        zs, azs, sph, _ = state_radiance(cfg, 51.3, e, 0.5)
+        i = [int(np.argmin(np.abs(zs - z))) for z in vz]
+        j = [int(np.argmin(np.abs(azs - x))) for x in az]
+        row = lambda x: " ".join(f"{1e3 * y:8.3f}" for y in x)  # noqa: E731
+        print(f"sun {e:4.1f} deg (plane-parallel at {solved} deg)\n  DISORT            {row(d.radiance[:, 0])}\n"
+              f"  MC slabs          {row(m.stokes[:, 0, 0])}   (+- {row(m.stderr[:, 0, 0])})\n"
+              f"  spherical shells  {row(sph[i, j, 7])}")
 
 
 if __name__ == "__main__":
