@@ -11,7 +11,8 @@ state (exact single scattering plus the Monte Carlo rest) from the build cache, 
 With ``--slabs`` it also shows that the difference is the geometry's, not the solver's: at 51.3 km and 580 nm the
 Monte Carlo solver run in plane-parallel slabs (scalar, 4096 paths) against DISORT at the same (solved) elevation,
 beside the spherical-shell radiance, at view zenith 60 and 87 deg toward the sun and away from it (about 10 s per
-elevation).
+elevation), and the same at 10.5 and 13.5 deg, where DISORT gives the sky (there the spherical side is a
+Monte Carlo run on these directions).
 
 Run:  python benchmarks/bench_low_sun_spherical.py skymodel/data/default-dataset.json [--visibilities 20 51.3 131.8]
           [--slabs]
@@ -80,19 +81,24 @@ def slabs(cfg, elevations):
     vz, az = np.array([60.0, 60.0, 87.0, 87.0]), np.array([0.0, 180.0, 0.0, 180.0])
     print("\n51.3 km, 580 nm, albedo 0.5, radiance [mW m-2 sr-1 nm-1] at (view zenith, azimuth) "
           + " ".join(f"({z:.0f},{x:.0f})" for z, x in zip(vz, az)))
-    for e in elevations:
+    for e in list(elevations) + [10.5, 13.5]:
         solved = max(e, cfg.min_solve_elevation_deg)
         st = SkyState(solved, visibility_km=51.3, ground_albedo=0.5)
         d = solve_sky(st, cfg.spec(), vz, az, channels=[7], config=cfg.solver_config(), processes=1)
         m = solve_sky_mc(st, cfg.spec(), vz, az, [7], MonteCarloConfig(samples=4096, polarised=False,
                                                                           planet_radius_km=None, channels_per_batch=1))
-        zs, azs, sph, _ = state_radiance(cfg, 51.3, e, 0.5)
-        i = [int(np.argmin(np.abs(zs - z))) for z in vz]
-        j = [int(np.argmin(np.abs(azs - x))) for x in az]
+        if e in elevations:
+            zs, azs, sph, _ = state_radiance(cfg, 51.3, e, 0.5)
+            i = [int(np.argmin(np.abs(zs - z))) for z in vz]
+            j = [int(np.argmin(np.abs(azs - x))) for x in az]
+            sph = sph[i, j, 7]
+        else:  # above the split elevations: the spherical Monte Carlo on these directions alone
+            sph = solve_sky_mc(st, cfg.spec(), vz, az, [7], MonteCarloConfig(samples=4096, polarised=False,
+                                                                                channels_per_batch=1)).stokes[:, 0, 0]
         row = lambda x: " ".join(f"{1e3 * y:8.3f}" for y in x)  # noqa: E731
         print(f"sun {e:4.1f} deg (plane-parallel at {solved} deg)\n  DISORT            {row(d.radiance[:, 0])}\n"
               f"  MC slabs          {row(m.stokes[:, 0, 0])}   (+- {row(m.stderr[:, 0, 0])})\n"
-              f"  spherical shells  {row(sph[i, j, 7])}")
+              f"  spherical shells  {row(sph)}")
 
 
 if __name__ == "__main__":
