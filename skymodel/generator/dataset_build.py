@@ -448,7 +448,7 @@ def _solve_job(job):
     path = _job_file(job)
     if not path.exists():
         if kind.startswith("val_") and path.name.startswith("mcval_"):
-            save_state(path, solve_split_validation(vis, ele, extra, config))
+            d = solve_split_validation(vis, ele, extra, config)
         elif kind == "fit":
             d = solve_state(vis, max(ele, config.min_solve_elevation_deg), config)
             d["solved_elevation"] = max(ele, config.min_solve_elevation_deg)

@@ -113,3 +113,24 @@ def test_single_scatter_tends_to_plane_parallel_for_a_high_sun():
     assert np.abs(sph[lit] / pp[lit] - 1).max() < 0.01
     low = single_scatter(29.2, 0.0, np.array([60.0, 85.0, 89.95]), np.array([0.0, 90.0, 180.0]), cfg)
     assert np.all(np.isfinite(low)) and np.all(low[:, :, 7] > 0)
+
+
+def test_split_validation_job_writes_its_state(tmp_path, monkeypatch):
+    """The build's job for a validation state at a split elevation solves it with the split reference and caches it
+    under the Monte Carlo key (the solve itself replaced by a stub returning a marked state)."""
+    from skymodel.generator import dataset_build
+    from skymodel.generator.cache import load_state
+
+    monkeypatch.setenv("WIDESKY_CACHE_DIR", str(tmp_path))
+    cfg = replace(dataset_build.load_config(ROOT / "skymodel" / "data" / "default-dataset.json"),
+                  mc_below_elevation_deg=9.0, mc_single_scatter_exact=True)
+    calls = []
+
+    def fake(vis, ele, alb, config, data_dir=None):
+        calls.append((vis, ele, alb))
+        return {"radiance": np.full((2, 2, 55), 7.0), "solved_elevation": ele}
+
+    monkeypatch.setattr(dataset_build, "solve_split_validation", fake)
+    kind, vis, ele, path = dataset_build._solve_job(("val_off", cfg, 36.59, 4.694, 0.208))
+    assert calls == [(36.59, 4.694, 0.208)] and path.name.startswith("mcval_")
+    assert load_state(path)["radiance"][0, 0, 0] == 7.0
