@@ -79,7 +79,8 @@ def test_split_configuration_keys_and_files():
     from skymodel.generator.dataset_build import fit_file, load_config, validation_file
     from skymodel.generator.dataset_mc import mc_config, mc_key, split_state
 
-    plain = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
+    plain = replace(load_config(ROOT / "skymodel" / "data" / "default-dataset.json"), mc_below_elevation_deg=None,
+                    mc_single_scatter_exact=False)
     low = replace(plain, mc_below_elevation_deg=9.0)
     split = replace(low, mc_single_scatter_exact=True)
     assert split_state(split, 8.0) and not split_state(split, 10.5) and not split_state(low, 8.0)
