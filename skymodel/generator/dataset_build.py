@@ -85,8 +85,8 @@ class BuildConfig:
     ``mc_single_scatter_exact`` true: the Monte Carlo radiance is scalar (DISORT's physics) and split, the singly
     scattered light computed deterministically in spherical shells on the DISORT fit grid (held-out grid for the
     validation states) and only the rest (orders >= 2 and all ground-reflected light, smooth over the sky) taken from
-    the Monte Carlo grid, interpolated (:func:`skymodel.generator.dataset_mc.split_radiance`); the low-sun states of
-    the default dataset (docs/default-dataset.md, "Low sun in spherical shells").
+    the Monte Carlo grid, smoothed (:func:`skymodel.generator.dataset_mc.split_radiance`;
+    skymodel/data/default-dataset-spherical.json, docs/default-dataset.md, "Low sun in spherical shells").
     """
 
     visibilities_km: tuple = (20.0, 27.4, 37.5, 51.3, 70.2, 96.2, 131.8)
@@ -909,9 +909,9 @@ def _low_sun_note(config: BuildConfig) -> str:
     if config.mc_below_elevation_deg is not None and config.mc_single_scatter_exact:
         return (f"grid elevations below {config.mc_below_elevation_deg} deg take their sky radiance from spherical "
                 "shells, solved at their own elevation: single scattering exact (deterministic quadrature) on the fit "
-                "grid, higher orders and ground-reflected light from the scalar Monte Carlo solver, interpolated "
-                "(the plane-parallel sky is 2-50x too dark below 3 deg: docs/default-dataset.md, 'Low sun in "
-                "spherical shells')")
+                "grid, higher orders and ground-reflected light from the scalar Monte Carlo solver, smoothed "
+                "(the plane-parallel sky-diffuse irradiance is 0.3-0.8x the spherical one below 3 deg: "
+                "docs/default-dataset.md, 'Low sun in spherical shells')")
     if config.mc_below_elevation_deg is not None:
         return (f"grid elevations below {config.mc_below_elevation_deg} deg take their sky radiance from the Monte "
                 "Carlo solver in spherical shells, solved at their own elevation (twilight included)")
