@@ -1,8 +1,8 @@
 """Low sun: the plane-parallel DISORT sky against the same atmosphere in spherical shells (the build's split states).
 
 For grid states of a build configuration whose low sun comes from split Monte Carlo states
-(``mc_single_scatter_exact``; skymodel/data/default-dataset-spherical.json), prints per solar elevation and visibility the
-ratio plane-parallel / spherical of the sky-diffuse horizontal irradiance (ground albedo 0) in a few channels and
+(``mc_single_scatter_exact``; skymodel/data/default-dataset-spherical.json), prints per solar elevation and
+visibility the ratio plane-parallel / spherical of the sky-diffuse horizontal irradiance (ground albedo 0) in a few channels and
 summed over 300-2460 nm, and of the radiance at view zenith 87 deg toward the sun and away from it (580 nm). The
 plane-parallel side is the DISORT state the build solved for that elevation (the 0 deg states hold the sky solved at
 ``min_solve_elevation_deg``; solved here once if not cached, about 20 s per state); the spherical side is the split
@@ -14,14 +14,15 @@ beside the spherical-shell radiance, at view zenith 60 and 87 deg toward the sun
 elevation), and the same at 10.5 and 13.5 deg, where DISORT gives the sky (there the spherical side is a
 Monte Carlo run on these directions).
 
-Run:  python benchmarks/bench_low_sun_spherical.py skymodel/data/default-dataset-spherical.json [--visibilities 20 51.3 131.8]
-          [--slabs]
+Run:  python benchmarks/bench_low_sun_spherical.py skymodel/data/default-dataset-spherical.json \
+          [--visibilities 20 51.3 131.8] [--slabs]
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -34,6 +35,8 @@ def main(argv=None):
     ap.add_argument("--visibilities", type=float, nargs="+", default=[20.0, 51.3, 131.8], help="[km]")
     ap.add_argument("--slabs", action="store_true", help="also the Monte Carlo in plane-parallel slabs vs DISORT")
     a = ap.parse_args(argv)
+    if not Path(a.config).is_file():
+        ap.error(f"config {a.config!r}: no such file")
     from skymodel.generator.cache import load_state, state_file
     from skymodel.generator.dataset_build import (_solve_job, direction_samples, load_config, state_radiance)
     from skymodel.generator.dataset_mc import mc_file, split_state
@@ -41,7 +44,8 @@ def main(argv=None):
     cfg = load_config(a.config)
     low = [float(e) for e in cfg.elevations_deg if split_state(cfg, e)]
     if not low:
-        sys.exit(f"{a.config}: no split Monte Carlo elevations (set mc_below_elevation_deg and mc_single_scatter_exact)")
+        sys.exit(f"{a.config}: no split Monte Carlo elevations (set mc_below_elevation_deg and "
+                 "mc_single_scatter_exact)")
     have = [(v, e) for v in a.visibilities for e in low if mc_file(cfg, v, e).exists()]
     if not have:
         sys.exit(f"no split state of {a.config} in the build cache: run `widesky dataset build {a.config} -o ...` "

@@ -255,8 +255,8 @@ def resample_radiance(zenith_deg, azimuth_deg, radiance, zenith_to, azimuth_to):
 
 def fit_grid(state: dict, config):
     """Directions the radiance fit of a Monte Carlo state uses: a split state's fine grid (:func:`split_radiance`),
-    its own product grid, or with ``mc_fit_resample`` the DISORT states' fit grid (zeniths every ``zenith_step_deg``, the fit azimuths) merged with it; (zenith (T,),
-    azimuth (P,)) [deg]."""
+    its own product grid, or with ``mc_fit_resample`` the DISORT states' fit grid (zeniths every
+    ``zenith_step_deg``, the fit azimuths) merged with it; (zenith (T,), azimuth (P,)) [deg]."""
     if "single_fine" in state:
         return np.asarray(state["fine_zenith"], float), np.asarray(state["fine_azimuth"], float)
     th, ph = np.asarray(state["zenith"], float), np.asarray(state["azimuth"], float)
