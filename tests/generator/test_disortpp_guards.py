@@ -8,7 +8,7 @@ import pytest
 disortpp = pytest.importorskip("disortpp")
 
 
-def _cfg(spherical=False, nl=10):
+def _cfg(spherical=False, nl=10, phi=(0.0, 180.0)):
     c = disortpp.DisortConfig(nl, 16)
     c.flags.use_lambertian_surface = True
     c.flags.use_user_mu = True
@@ -16,7 +16,7 @@ def _cfg(spherical=False, nl=10):
     c.flags.use_spherical_beam = spherical
     c.num_user_tau = 1
     c.num_user_mu = 3
-    c.num_phi = 2
+    c.num_phi = len(phi)
     c.num_phase_func_moments = 16
     if spherical:
         c.bottom_radius = 6371.0
@@ -28,7 +28,7 @@ def _cfg(spherical=False, nl=10):
     c.set_rayleigh()
     c.tau_user = [0.3]
     c.mu_user = [-0.9, -0.5, -0.2]
-    c.phi_user = [0.0, 180.0]
+    c.phi_user = [float(x) for x in phi]
     c.bc.direct_beam_flux = 1.0
     c.bc.direct_beam_mu = 0.8
     c.bc.surface_albedo = 0.1
@@ -110,19 +110,7 @@ def test_isolated_nan_of_the_tabulated_correction_is_repaired():
 
 
 def _with_azimuths(n):
-    c = _cfg(False)
-    c.num_phi = n
-    c.allocate()
-    c.delta_tau = [0.03] * 10
-    c.single_scat_albedo = [0.99] * 10
-    c.set_rayleigh()
-    c.tau_user = [0.3]
-    c.mu_user = [-0.9, -0.5, -0.2]
-    c.phi_user = list(np.linspace(0.0, 180.0, n))
-    c.bc.direct_beam_flux = 1.0
-    c.bc.direct_beam_mu = 0.8
-    c.bc.surface_albedo = 0.1
-    return c
+    return _cfg(phi=np.linspace(0.0, 180.0, n))
 
 
 def test_reused_solver_keeps_its_first_azimuth_count_in_1_2_1():
