@@ -146,6 +146,10 @@ class BuildConfig:
                              f"mc_below_elevation_deg above them (got {b})")
         if low < -10.0:
             raise ValueError(f"elevations_deg: {low} deg below the Monte Carlo solver's range [-10, 90] deg")
+        if self.mc_single_scatter_exact and (b is None or self.polarisation):
+            raise ValueError("mc_single_scatter_exact needs mc_below_elevation_deg (the elevations it applies to) and "
+                             f"no polarisation (its states are scalar); got mc_below_elevation_deg={b}, "
+                             f"polarisation={self.polarisation}")
         if int(self.mc_samples) < 1 or int(self.mc_channels_per_batch) < 1:
             raise ValueError(f"mc_samples={self.mc_samples} and mc_channels_per_batch={self.mc_channels_per_batch} "
                              "must be >= 1")
@@ -352,11 +356,11 @@ def solve_split_validation(visibility_km: float, elevation_deg: float, albedo: f
 def validation_file(config: BuildConfig, kind: str, visibility_km: float, elevation_deg: float, albedo: float):
     """Cache file of a validation state (``kind`` 'on' or 'off') [.npz]: the DISORT solve's, or where its elevation
     takes the split Monte Carlo radiance, one named by the Monte Carlo key."""
-    from .dataset_mc import mc_key, split_state
+    from .dataset_mc import SPLIT_SMOOTHING, mc_key, split_state
 
-    if split_state(config, elevation_deg):
-        return cache_root(config) / (f"mcval_{mc_key(config)}_{kind}_v{visibility_km:.4f}_e{elevation_deg:.4f}"
-                                     f"_a{albedo:.4f}.npz")
+    if split_state(config, elevation_deg):  # the file holds the recombined radiance: named by the smoothing too
+        return cache_root(config) / (f"mcval_{mc_key(config)}_{SPLIT_SMOOTHING}_{kind}_v{visibility_km:.4f}"
+                                     f"_e{elevation_deg:.4f}_a{albedo:.4f}.npz")
     return state_file(config, visibility_km, elevation_deg, "val_" + kind, albedo)
 
 
@@ -681,6 +685,9 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
                    "pol_rank": int(config.pol_rank)}
         if config.mc_fit_resample:  # (absent otherwise: the earlier polarised fits keep their names)
             d["mc"]["resample"] = True
+        if config.mc_single_scatter_exact:
+            from .dataset_mc import SPLIT_SMOOTHING
+            d["mc"]["split"] = SPLIT_SMOOTHING
     key = hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
     return cache_root(config) / f"fitted_{key}_v{visibility_km:.4f}_e{elevation_deg:.4f}.npz"
 
@@ -996,7 +1003,7 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
     from .dataset_mc import mc_key, pol_knots, radiance_by_mc
 
     ele = [float(e) for e in config.elevations_deg]
-    from .dataset_mc import MC_FIRST_ORDER
+    from .dataset_mc import MC_FIRST_ORDER, SPLIT_SMOOTHING
 
     split = bool(config.mc_single_scatter_exact)
     d = {"method": ("scalar" if split else "polarised")
@@ -1011,8 +1018,9 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
                    + ("; radiance fitted on the DISORT fit grid after a monotone piecewise-cubic interpolation of "
                       "each state" if config.mc_fit_resample else "; radiance fitted on each state's own grid")
                    + ("; split: single scattering exact (the first-order quadrature, deterministic) on the DISORT "
-                      "fit grid, the rest (orders >= 2, ground-reflected light) from the Monte Carlo grid, "
-                      "interpolated monotonically" if split else ""),
+                      "fit grid, the rest (orders >= 2, ground-reflected light) from the Monte Carlo grid, smoothed "
+                      f"({SPLIT_SMOOTHING}: cosine series to order 2 in azimuth, GCV smoothing spline in zenith)"
+                      if split else ""),
          "streams": config.mc_streams, "fit_resample": bool(config.mc_fit_resample), "single_scatter_exact": split,
          "key": mc_key(config), "samples_per_direction_and_batch": int(config.mc_samples),
          "channels_per_batch": int(config.mc_channels_per_batch), "ground_orders": int(config.mc_ground_orders),

@@ -58,6 +58,11 @@ def radiance_by_mc(config, elevation_deg: float) -> bool:
     return b is not None and float(elevation_deg) < float(b)
 
 
+SPLIT_SMOOTHING = "cos2-gcv"
+"""Name of :func:`split_radiance`'s smoothing (azimuth orders, zenith spline); part of the cache names of what is
+computed from it (fits, validation states), so that a change of it never reuses stale results."""
+
+
 def split_state(config, elevation_deg: float) -> bool:
     """Whether the grid elevation ``elevation_deg`` [deg] takes its radiance from a split Monte Carlo state: scalar,
     the singly scattered light exact on the fit grid (``mc_single_scatter_exact``; :func:`split_radiance`)."""
@@ -195,9 +200,11 @@ def split_radiance(state: dict, albedo: float, azimuth_orders: int = 2) -> np.nd
     a cubic smoothing spline in the view zenith with its penalty chosen by generalised cross-validation (Craven &
     Wahba 1979; scipy's ``make_smoothing_spline``), evaluated on the fine grid. Two orders are what multiple
     scattering needs at the build's noise level: measured at 51.3 km, sun 0 deg, against a 16x longer run
-    (docs/default-dataset.md, "Low sun in spherical shells"), orders 2 / 3 / 4 are within 2.4 / 2.0 / 2.7 % of the
-    longer run (median over rows of the largest difference, relative to the row's maximum, itself noisy by about
-    2 %), and only with 2 do no almucantar turning points appear beyond the single scattering's."""
+    (docs/default-dataset.md, "Low sun in spherical shells"), the azimuth fit alone with orders 2 / 3 / 4 is within
+    2.4 / 2.0 / 2.7 % of the longer run (median over rows of the largest difference, relative to the row's maximum;
+    the longer run is itself noisy by about 2 %), with the zenith spline 2.5 %, and only with 2 orders do no
+    almucantar turning points appear beyond the single scattering's. ``azimuth_orders`` other than 2 is for study:
+    the build's cache names assume :data:`SPLIT_SMOOTHING`."""
     from scipy.interpolate import make_smoothing_spline
 
     value, err = mc_stokes(state, albedo)

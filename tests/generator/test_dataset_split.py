@@ -92,7 +92,7 @@ def test_split_configuration_keys_and_files():
     assert validation_file(low, "off", 36.59, 4.694, 0.208).name.startswith("val_off_")
     # the DISORT states of a low-sun Monte Carlo build reuse the plain build's fits; its Monte Carlo states do not
     assert fit_file(split, 51.3, 36.0) == fit_file(plain, 51.3, 36.0)
-    assert fit_file(split, 51.3, 3.0) != fit_file(plain, 51.3, 3.0)
+    assert fit_file(split, 51.3, 3.0) != fit_file(plain, 51.3, 3.0) != fit_file(low, 51.3, 3.0)
 
 
 @pytest.mark.reference
@@ -135,3 +135,13 @@ def test_split_validation_job_writes_its_state(tmp_path, monkeypatch):
     kind, vis, ele, path = dataset_build._solve_job(("val_off", cfg, 36.59, 4.694, 0.208))
     assert calls == [(36.59, 4.694, 0.208)] and path.name.startswith("mcval_")
     assert load_state(path)["radiance"][0, 0, 0] == 7.0
+
+
+def test_split_configuration_refuses_what_it_cannot_build():
+    from skymodel.generator.dataset_build import BuildConfig
+
+    with pytest.raises(ValueError, match="mc_single_scatter_exact needs mc_below_elevation_deg"):
+        BuildConfig(mc_single_scatter_exact=True)
+    with pytest.raises(ValueError, match="no polarisation"):
+        BuildConfig(mc_single_scatter_exact=True, mc_below_elevation_deg=9.0, polarisation=True)
+    assert BuildConfig(mc_single_scatter_exact=True, mc_below_elevation_deg=9.0).mc_single_scatter_exact
