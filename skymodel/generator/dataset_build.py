@@ -1019,7 +1019,8 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
                       "each state" if config.mc_fit_resample else "; radiance fitted on each state's own grid")
                    + ("; split: single scattering exact (the first-order quadrature, deterministic) on the DISORT "
                       "fit grid, the rest (orders >= 2, ground-reflected light) from the Monte Carlo grid, smoothed "
-                      f"({SPLIT_SMOOTHING}: cosine series to order 2 in azimuth, GCV smoothing spline in zenith)"
+                      f"({SPLIT_SMOOTHING}: cosine series to order 2 in azimuth, each term sin^m(zenith) times an "
+                      "even smoothing spline in zenith, regular at the zenith)"
                       if split else ""),
          "streams": config.mc_streams, "fit_resample": bool(config.mc_fit_resample), "single_scatter_exact": split,
          "key": mc_key(config), "samples_per_direction_and_batch": int(config.mc_samples),

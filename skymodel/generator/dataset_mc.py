@@ -58,9 +58,15 @@ def radiance_by_mc(config, elevation_deg: float) -> bool:
     return b is not None and float(elevation_deg) < float(b)
 
 
-SPLIT_SMOOTHING = "cos2-gcv"
-"""Name of :func:`split_radiance`'s smoothing (azimuth orders, zenith spline); part of the cache names of what is
-computed from it (fits, validation states), so that a change of it never reuses stale results."""
+SPLIT_SMOOTHING = "cos2-pole-lam1e-3"
+"""Name of :func:`split_radiance`'s smoothing (azimuth orders, regularity at the zenith, zenith penalty); part of the
+cache names of what is computed from it (fits, validation states), so that a change of it never reuses stale
+results."""
+
+SPLIT_ZENITH_PENALTY = 1e-3
+"""Penalty of :func:`split_radiance`'s zenith smoothing spline [rad^3, for weights normalised to mean 1]: its
+equivalent kernel is about 6 deg wide on the Monte Carlo grid's ~35 mirrored zenith samples (measured choice,
+docs/default-dataset.md, "Low sun in spherical shells")."""
 
 
 def split_state(config, elevation_deg: float) -> bool:
@@ -187,7 +193,21 @@ def single_scatter(visibility_km: float, elevation_deg: float, zenith_deg, azimu
     return r.stokes[..., 0].reshape(len(th), len(ph), -1)
 
 
-def split_radiance(state: dict, albedo: float, azimuth_orders: int = 2) -> np.ndarray:
+def _even_smoothing_spline(x, y, sd, lam: float, x_to) -> np.ndarray:
+    """Cubic smoothing spline of samples ``y`` with standard errors ``sd`` at ``x`` >= 0 [rad], constrained even in
+    ``x`` (fitted to the samples mirrored onto -x; a sample at x = 0 is not doubled), penalty ``lam`` [rad^3] for
+    inverse-variance weights normalised to mean 1; evaluated at ``x_to`` [rad]. Even in x means zero slope at 0."""
+    from scipy.interpolate import make_smoothing_spline
+
+    pos = x > 0
+    xm = np.concatenate([-x[pos][::-1], x])
+    ym = np.concatenate([y[pos][::-1], y])
+    wm = 1.0 / np.concatenate([sd[pos][::-1], sd]) ** 2
+    return make_smoothing_spline(xm, ym, w=wm / wm.mean(), lam=float(lam))(x_to)
+
+
+def split_radiance(state: dict, albedo: float, azimuth_orders: int = 2,
+                   zenith_penalty: float = SPLIT_ZENITH_PENALTY) -> np.ndarray:
     """Radiance of a split Monte Carlo state over a ground of albedo ``albedo`` [1] on its fine grid, (T2, P2, 55)
     [W m-2 sr-1 nm-1]: the exact singly scattered light there plus the rest of the Monte Carlo radiance (orders
     >= 2 and all ground-reflected light: the Monte Carlo total minus its single scattering on the Monte Carlo grid),
@@ -195,18 +215,21 @@ def split_radiance(state: dict, albedo: float, azimuth_orders: int = 2) -> np.nd
 
     The sharp structure of a low-sun sky (aureole, horizon band, the Earth's shadow) is single scattering and so
     noise-free; the rest carries the Monte Carlo noise and is smooth over the sky. Along each zenith row of the Monte
-    Carlo grid it is fitted by the cosine series sum_m a_m cos(m phi), m = 0..``azimuth_orders`` (the azimuthal
-    Fourier form of the radiance field), weighted by the inverse standard error; each coefficient a_m(theta) is then
-    a cubic smoothing spline in the view zenith with its penalty chosen by generalised cross-validation (Craven &
-    Wahba 1979; scipy's ``make_smoothing_spline``), evaluated on the fine grid. Two orders are what multiple
-    scattering needs at the build's noise level: measured at 51.3 km, sun 0 deg, against a 16x longer run
-    (docs/default-dataset.md, "Low sun in spherical shells"), the azimuth fit alone with orders 2 / 3 / 4 is within
-    2.4 / 2.0 / 2.7 % of the longer run (median over rows of the largest difference, relative to the row's maximum;
-    the longer run is itself noisy by about 2 %), with the zenith spline 2.5 %, and only with 2 orders do no
-    almucantar turning points appear beyond the single scattering's. ``azimuth_orders`` other than 2 is for study:
-    the build's cache names assume :data:`SPLIT_SMOOTHING`."""
-    from scipy.interpolate import make_smoothing_spline
+    Carlo grid it is fitted by the cosine series sum_m a_m(theta) cos(m phi), m = 0..``azimuth_orders`` (the
+    azimuthal Fourier form of the radiance field), weighted by the inverse standard error. Each coefficient is then
+    smoothed in the view zenith theta as a field on the sphere must be at its pole: a_m = sin^m(theta) b_m(theta)
+    with every b_m even in theta (so the m >= 1 terms vanish at the zenith and a_0 has zero slope there; without it
+    the noise leaves a spot at the zenith, up to 4 % of the sky at sun 0 deg), b_m a cubic smoothing spline
+    weighted by the coefficients' inverse variances with penalty ``zenith_penalty`` [rad^3]
+    (:func:`_even_smoothing_spline`).
 
+    Measured at 51.3 km, sun 0 deg, against a 16x longer run (docs/default-dataset.md, "Low sun in spherical
+    shells"; median over rows of the largest difference, relative to the row's maximum, the longer run itself noisy
+    by about 2 %): 2.7 % (the earlier unconstrained GCV spline 2.5 %, with zenith spots to 4 %); the zenith then
+    differs from a ring 2 deg around it by at most 0.6 % at the states measured (sun 0-6 deg). Two azimuth orders
+    are what multiple scattering needs at the build's noise level: orders 2 / 3 / 4 of the azimuth fit alone are
+    within 2.4 / 2.0 / 2.7 %, and only order 2 adds no almucantar turning points beyond the single scattering's.
+    Arguments other than the defaults are for study: the build's cache names assume :data:`SPLIT_SMOOTHING`."""
     value, err = mc_stokes(state, albedo)
     rest = value[..., 0] - np.asarray(state["single"], float)                   # (T, P, C)
     w = 1.0 / np.maximum(err[..., 0], 1e-9 * np.maximum(np.abs(rest).max(axis=1, keepdims=True), 1e-300))
@@ -214,14 +237,20 @@ def split_radiance(state: dict, albedo: float, azimuth_orders: int = 2) -> np.nd
     A = np.cos(np.radians(np.asarray(state["azimuth"], float))[:, None] * m)    # (P, M)
     A2 = np.cos(np.radians(np.asarray(state["fine_azimuth"], float))[:, None] * m)
     Aw = A[None, :, None, :] * w[..., None]                                     # (T, P, C, M)
-    coef = np.linalg.solve(np.einsum("tpcm,tpcn->tcmn", Aw, Aw) + 1e-12 * np.eye(len(m)),
-                           np.einsum("tpcm,tpc->tcm", Aw, rest * w)[..., None])[..., 0]  # (T, C, M)
-    th, t2 = np.asarray(state["zenith"], float), np.asarray(state["fine_zenith"], float)
+    normal = np.einsum("tpcm,tpcn->tcmn", Aw, Aw) + 1e-12 * np.eye(len(m))
+    coef = np.linalg.solve(normal, np.einsum("tpcm,tpc->tcm", Aw, rest * w)[..., None])[..., 0]  # (T, C, M)
+    sd = np.sqrt(np.maximum(np.diagonal(np.linalg.inv(normal), axis1=-2, axis2=-1), 1e-300))    # (T, C, M)
+    th = np.radians(np.asarray(state["zenith"], float))
+    t2 = np.radians(np.asarray(state["fine_zenith"], float))
     fine = np.zeros((len(t2),) + coef.shape[1:])
-    for c in range(coef.shape[1]):
-        for k in m:
-            if np.any(coef[:, c, k] != 0.0):
-                fine[:, c, k] = make_smoothing_spline(th, coef[:, c, k])(t2)
+    for k in m:
+        keep = th > 0 if k > 0 else np.ones(len(th), bool)   # at the zenith sin^m = 0 for m >= 1: no information
+        tap, tap2 = np.sin(th[keep]) ** k, np.sin(t2) ** k
+        for c in range(coef.shape[1]):
+            y = coef[keep, c, k]
+            if np.any(y != 0.0):
+                fine[:, c, k] = tap2 * _even_smoothing_spline(th[keep], y / tap, sd[keep, c, k] / tap,
+                                                              zenith_penalty, t2)
     return np.asarray(state["single_fine"], float) + np.maximum(np.einsum("qm,tcm->tqc", A2, fine), 0.0)
 
 

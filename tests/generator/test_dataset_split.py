@@ -26,8 +26,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _synthetic_state(noise=0.0, seed=0):
-    """A state with a known rest: (1 + 0.3 cos phi + 0.1 cos 2 phi) x (1 + 2 (theta/90)^2) on a Monte Carlo grid,
-    a single scattering with an aureole, all light in ground order 0 (albedo-independent)."""
+    """A state with a known rest, a field regular at the zenith: (1 + 0.3 sin(theta) cos phi + 0.1 sin^2(theta)
+    cos 2 phi) x (1 + 2 (theta/90)^2) on a Monte Carlo grid, a single scattering with an aureole, all light in
+    ground order 0 (albedo-independent)."""
     th = np.unique(np.concatenate([np.arange(0.0, 89.0, 6.0), [84.0, 87.0, 88.5, 89.95]]))
     ph = np.asarray(MC_AZIMUTHS_DEG, float)
     t2 = np.unique(np.concatenate([np.arange(0.0, 89.0, 2.0), [85.5, 87.0, 88.0, 89.0, 89.95]]))
@@ -35,7 +36,8 @@ def _synthetic_state(noise=0.0, seed=0):
 
     def rest(t, p):
         T, P = np.meshgrid(t, np.radians(p), indexing="ij")
-        return ((1.0 + 0.3 * np.cos(P) + 0.1 * np.cos(2 * P)) * (1.0 + 2.0 * (T / 90.0) ** 2))[..., None]
+        S = np.sin(np.radians(T))
+        return ((1.0 + 0.3 * S * np.cos(P) + 0.1 * S ** 2 * np.cos(2 * P)) * (1.0 + 2.0 * (T / 90.0) ** 2))[..., None]
 
     def single(t, p):
         T, P = np.meshgrid(np.radians(t), np.radians(p), indexing="ij")
@@ -55,11 +57,32 @@ def _synthetic_state(noise=0.0, seed=0):
     return state, rest(t2, p2) * np.ones(3), single(t2, p2) * np.ones(3)
 
 
-def test_split_radiance_is_exact_for_a_rest_in_its_model_space():
+def test_split_radiance_reproduces_a_rest_in_its_model_space():
+    """Noise-free rest regular at the zenith: reproduced within 0.3 % (the zenith spline's penalty bends the
+    horizon's curvature by 0.22 %; a rest linear in theta^2 near the zenith and in theta at the horizon would be
+    exact), the single scattering carried over unchanged."""
     state, rest, single = _synthetic_state()
     got = split_radiance(state, 0.3)
     assert got.shape == single.shape
-    np.testing.assert_allclose(got - single, rest, rtol=2e-3)
+    np.testing.assert_allclose(got - single, rest, rtol=3e-3)
+
+
+def test_split_radiance_is_regular_at_the_zenith():
+    """With 2 % noise on the rest the smoothed field is one value at the zenith (every azimuth: the m >= 1 terms
+    vanish there) and has no spot: the zenith against the mean of the 2 deg ring differs from the noise-free sky's
+    by under 0.3 % (an unconstrained spline left up to 4 % at the build's real states)."""
+    clean, rest, single = _synthetic_state()
+    w = np.gradient(clean["fine_azimuth"])
+    assert clean["fine_zenith"][0] == 0.0 and clean["fine_zenith"][1] == 2.0
+
+    def spot(r):
+        return r[0, 0, 0] / (np.sum(w * r[1, :, 0]) / w.sum()) - 1.0
+
+    for seed in range(3):
+        state, _, _ = _synthetic_state(noise=0.02, seed=seed)
+        got = split_radiance(state, 0.0)
+        assert np.ptp(got[0], axis=0).max() <= 1e-12 * got[0].max()
+        assert abs(spot(got) - spot(single + rest)) < 0.003, seed
 
 
 def test_split_radiance_averages_the_noise_and_adds_no_ripple():
