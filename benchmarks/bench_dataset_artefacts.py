@@ -129,7 +129,7 @@ def run(old_path=None, plot=None):
     from skymodel.evaluate import sky_radiance
     from skymodel.generator.dataset_build import AZIMUTHS_DEG, load_config
 
-    cfg = load_config("skymodel/data/default-dataset.json")
+    cfg = load_config("skymodel/data/default-dataset-plane-parallel.json")
     old_cfg = dataclasses.replace(cfg, iterations=4, smoothing=1e-6)
     old = load_dataset(old_path) if old_path else None
     results = []

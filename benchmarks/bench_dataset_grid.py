@@ -16,7 +16,7 @@ Printed: per candidate, the worst (over channels 400-1300 nm) median and the max
 Cost: 380 solver states with one view direction (about 2 s each), 6.5 minutes on 2 processes; ``--data``
 reuses a saved run.
 
-Run:  python benchmarks/bench_dataset_grid.py skymodel/data/default-dataset.json [--data grid.json] [--plot F]
+Run:  python benchmarks/bench_dataset_grid.py skymodel/data/default-dataset-plane-parallel.json [--data grid.json] [--plot F]
 """
 
 from __future__ import annotations

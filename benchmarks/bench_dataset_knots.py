@@ -7,7 +7,7 @@ held out; each (knots, rank) setting is fitted on the first part and its solid-a
 absolute error measured on the held-out part, per channel. The dataset size is that of the configuration's grid
 with those knots and rank.
 
-Run:  python benchmarks/bench_dataset_knots.py skymodel/data/default-dataset.json --states 6 --max-elevation 4.5 --plot
+Run:  python benchmarks/bench_dataset_knots.py skymodel/data/default-dataset-plane-parallel.json --states 6 --max-elevation 4.5 --plot
 (the published figure: the 6 low-sun states, sun 2-4.5 deg, the hardest to fit)
 """
 

@@ -3,7 +3,7 @@ path, measured in the same run, and the projected cost of the official SWIR grid
 
     python benchmarks/bench_dataset_states.py [--states 4] [--processes 2] [--json out.json]
 
-DISORT path: one grid state of the default configuration (skymodel/data/default-dataset.json: 16 streams, 256
+DISORT path: one grid state of the default configuration (skymodel/data/default-dataset-plane-parallel.json: 16 streams, 256
 moments, its fit directions, all 55 channels, albedo 0; the albedos of the grid then cost nothing). Monte Carlo
 path: one state of the polarised variant (skymodel/data/polarised-dataset.json: its direction grid, paths per
 direction and batch, all 55 channels, every albedo from one run). Each state is a task of a spawn pool of
@@ -36,7 +36,7 @@ def _disort_job(args):
     from skymodel.generator.dataset_build import load_config, solve_state
 
     vis, ele = args
-    cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
+    cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset-plane-parallel.json")
     t0 = time.process_time()
     d = solve_state(vis, ele, cfg)
     return time.process_time() - t0, d["radiance"].shape[0] * d["radiance"].shape[1]

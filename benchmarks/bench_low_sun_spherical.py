@@ -1,7 +1,7 @@
 """Low sun: the plane-parallel DISORT sky against the same atmosphere in spherical shells (the build's split states).
 
 For grid states of a build configuration whose low sun comes from split Monte Carlo states
-(``mc_single_scatter_exact``; skymodel/data/default-dataset-spherical.json), prints per solar elevation and
+(``mc_single_scatter_exact``; skymodel/data/default-dataset.json), prints per solar elevation and
 visibility the ratio plane-parallel / spherical of the sky-diffuse horizontal irradiance (ground albedo 0) in a few channels and
 summed over 300-2460 nm, and of the radiance at view zenith 87 deg toward the sun and away from it (580 nm). The
 plane-parallel side is the DISORT state the build solved for that elevation (the 0 deg states hold the sky solved at
@@ -14,7 +14,7 @@ beside the spherical-shell radiance, at view zenith 60 and 87 deg toward the sun
 elevation), and the same at 10.5 and 13.5 deg, where DISORT gives the sky (there the spherical side is a
 Monte Carlo run on these directions).
 
-Run:  python benchmarks/bench_low_sun_spherical.py skymodel/data/default-dataset-spherical.json \
+Run:  python benchmarks/bench_low_sun_spherical.py skymodel/data/default-dataset.json \
           [--visibilities 20 51.3 131.8] [--slabs]
 """
 

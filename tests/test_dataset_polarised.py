@@ -32,13 +32,19 @@ TINY_POL = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 0.8], "elevations
 
 
 def test_default_config_keeps_its_cache_keys():
-    """The scalar default configuration: the same solver key (the folder of the solved states) and fit-cache names as
-    before the Monte Carlo path existed, and no Monte Carlo keys in its sidecar."""
+    """The plane-parallel configuration (the third rebuild's): the same solver key (the folder of the solved states)
+    and fit-cache names as before the Monte Carlo path existed, and no Monte Carlo keys in its sidecar. The default
+    configuration (low sun in spherical shells) shares its folder and the fits of its DISORT elevations."""
     from skymodel.generator.dataset_build import fit_file, load_config
 
     from dataclasses import replace
 
-    cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
+    default = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
+    cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset-plane-parallel.json")
+    assert default.solver_key() == cfg.solver_key()
+    assert fit_file(default, 20.0, 10.5) == fit_file(cfg, 20.0, 10.5)
+    assert fit_file(default, 20.0, 8.0) != fit_file(cfg, 20.0, 8.0)
+    assert default.mc_single_scatter_exact and default.mc_below_elevation_deg == 9.0
     assert cfg.solver_key() == "8ac5c7f1f1a7"  # the folder of the solved default states
     # the Monte Carlo keys at their defaults (off) change no cache name and no sidecar entry
     off = replace(cfg, polarisation=False, mc_below_elevation_deg=None, mc_samples=7, pol_rank=5)

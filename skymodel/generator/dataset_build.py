@@ -86,7 +86,8 @@ class BuildConfig:
     scattered light computed deterministically in spherical shells on the DISORT fit grid (held-out grid for the
     validation states) and only the rest (orders >= 2 and all ground-reflected light, smooth over the sky) taken from
     the Monte Carlo grid, smoothed (:func:`skymodel.generator.dataset_mc.split_radiance`;
-    skymodel/data/default-dataset-spherical.json, docs/default-dataset.md, "Low sun in spherical shells").
+    skymodel/data/default-dataset.json, the default dataset's build; docs/default-dataset.md, "Low sun in spherical
+    shells").
     """
 
     visibilities_km: tuple = (20.0, 27.4, 37.5, 51.3, 70.2, 96.2, 131.8)
