@@ -102,6 +102,9 @@ if __name__ == "__main__":
     ap.add_argument("dataset")
     ap.add_argument("--no-plot", action="store_true")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--below", type=float, default=None, metavar="DEG",
+                    help="also print, per validation state with the sun below DEG, the worst and the median channel's "
+                         "sky-diffuse horizontal error 400-1300 nm")
     a = ap.parse_args()
     errs = evaluate_errors(load_config(a.config), a.dataset)
     summ = summarise(errs)
@@ -115,3 +118,12 @@ if __name__ == "__main__":
     for g in ("all", "on", "off"):
         if g in summ:
             print(g, summ["n_states"][g], "states; channel-mean NMAE", summ[g]["nmae_channel_mean"], summ[g]["targets"])
+    if a.below is not None:
+        wl = np.asarray(summ["wavelength_nm"], float)
+        band = (wl >= 400.0) & (wl <= 1300.0)
+        for e in sorted(errs, key=lambda e: (e["elevation"], e["visibility"])):
+            if e["elevation"] < a.below:
+                x = np.abs(np.asarray(e["e_horizontal"], float)[band]) * 100
+                print(f"{e['kind']:3s} {e['visibility']:6.1f} km, sun {e['elevation']:5.2f} deg, albedo {e['albedo']:.2f}: "
+                      f"sky-diffuse horizontal worst {np.nanmax(x):.2f} % ({wl[band][np.nanargmax(x)]:.0f} nm), "
+                      f"median channel {np.nanmedian(x):.2f} %")
