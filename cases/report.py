@@ -141,8 +141,7 @@ the cell's effective irradiance against the same broadband light at the AM1.5G s
 {pv['temp_air']:g} degC and wind {pv['wind_speed']:g} m s-1 (constant), {pv['temperature_model']} cell temperature,
 DC losses {100 * pv['dc_loss']:g} %, PVWatts inverter (pvsim, docs/pvsim.md). The rank is by AC specific yield:
 where the inverter clips (DC/AC ratio 1.2, pvsim's default), technologies with close DC yields can tie or swap in AC
-(in a clear-sky year pv_plant's CdTe and CIGS tie at 1910.4 kWh/kWp AC with 2044.5 and 2039.7 DC): compare the DC
-column.</p>
+(docs/pvsim.md, "Two oddities"): compare the DC column.</p>
 <h3>Loss waterfall (reference yield per stage)</h3>
 {waterfall}
 {chart}

@@ -19,7 +19,7 @@ References and tolerances:
 - a solver reference allows exactly the counts it holds at a profile (grid state: its own; between grid states: the
   largest of the bracketing grid states'), and the solver's own sky at 29.2 km / 8 deg needs no allowance (the
   solver passes there, measured);
-- the default.dat of the third rebuild still fails at low sun, also against the solver's own turning points: the
+- the default.dat of the fourth rebuild still fails at low sun, also against the solver's own turning points: the
   check flags it (strict xfail until a file passes).
 """
 
@@ -216,12 +216,10 @@ def test_default_fit_settings_give_a_smooth_accurate_sky(solved_channels):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the third rebuild of default.dat (2026-12-02) still fails the check beyond "
-                   "the solver's own turning points in 1.0 % of grid pairs: almucantars at sun 0 deg (the 0.5 deg "
-                   "solve's own, no allowance there; that plane-parallel sky is itself 3-12x too dark, and the "
-                   "spherical-shell candidate that fixes it fails on verticals and zenith spots instead: "
-                   "docs/default-dataset.md, 'Low sun in spherical shells') and aureole rays at sun 1-10.5 deg "
-                   "(docs/default-dataset.md, 'What the check still flags'); remove this mark when a file passes")
+@pytest.mark.xfail(strict=True, reason="the fourth rebuild of default.dat (2026-12-02, low sun in spherical shells) "
+                   "still fails the check beyond the solver's own turning points in 0.6 % of grid pairs, mostly aureole "
+                   "rays at sun 0-10.5 deg (docs/default-dataset.md, 'What the check still flags in the fourth "
+                   "rebuild'); remove this mark when a file passes")
 def test_default_dataset_passes_the_smoothness_check():
     import json
 
