@@ -85,7 +85,7 @@ class BuildConfig:
     ``mc_single_scatter_exact`` true: the Monte Carlo radiance is scalar (DISORT's physics) and split, the singly
     scattered light computed deterministically in spherical shells on the DISORT fit grid (held-out grid for the
     validation states) and only the rest (orders >= 2 and all ground-reflected light, smooth over the sky) taken from
-    the Monte Carlo grid, smoothed (:func:`skymodel.generator.dataset_mc.split_radiance`;
+    the Monte Carlo grid, smoothed (:func:`skymodel.generator.dataset_mc.split_radiance`, the rest smoothed across visibility;
     skymodel/data/default-dataset.json, the default dataset's build; docs/default-dataset.md, "Low sun in spherical
     shells").
     """
@@ -333,34 +333,46 @@ def solve_split_validation(visibility_km: float, elevation_deg: float, albedo: f
                            data_dir=None) -> dict:
     """Held-out reference of a validation state whose elevation takes the split Monte Carlo radiance
     (:func:`skymodel.generator.dataset_mc.split_state`): the exact singly scattered light on the held-out grid
-    (:func:`validation_directions`) plus the rest from the Monte Carlo state at that elevation (the grid state's own
-    where it is cached); the same keys as :func:`solve_state` uses for validation (zenith, azimuth [deg], radiance
-    (T, P, 55) [W m-2 sr-1 nm-1] at ``albedo`` [1], dni, et (55,) [W m-2 nm-1], seconds)."""
+    (:func:`validation_directions`) plus the rest from the Monte Carlo state at that elevation: at a grid state the
+    grid's own, smoothed across visibility as the fit's is (:func:`skymodel.generator.dataset_mc.rest_across_visibility`
+    on the held-out grid), elsewhere a run of its own with :data:`skymodel.generator.dataset_mc.SPLIT_VALIDATION_SAMPLES_FACTOR`
+    times the paths; the same keys as :func:`solve_state` uses for validation
+    (zenith, azimuth [deg], radiance (T, P, 55) [W m-2 sr-1 nm-1] at ``albedo`` [1], dni, et (55,) [W m-2 nm-1],
+    seconds)."""
     from .atmosphere import slant_path_factors
-    from .dataset_mc import mc_file, single_scatter, solve_mc_state, split_radiance
+    from dataclasses import replace
+
+    from .dataset_mc import (SPLIT_VALIDATION_SAMPLES_FACTOR, mc_file, rest_across_visibility, single_scatter,
+                             solve_mc_state, split_radiance)
 
     t0 = time.perf_counter()
     th, ph = validation_directions(elevation_deg)
     grid = mc_file(config, visibility_km, elevation_deg)
-    if grid.exists():
+    vis = [float(v) for v in config.visibilities_km]
+    if grid.exists() and float(visibility_km) in vis:
         m = load_state(grid)
         m.update(fine_zenith=th, fine_azimuth=ph,
                  single_fine=single_scatter(visibility_km, elevation_deg, th, ph, config, data_dir))
+        rest = rest_across_visibility(config, elevation_deg, albedo, th, ph)[vis.index(float(visibility_km))]
+        radiance = split_radiance(m, albedo, rest=rest)
     else:
-        m = solve_mc_state(visibility_km, elevation_deg, config, data_dir, fine_directions=(th, ph))
+        longer = replace(config, mc_samples=int(config.mc_samples) * SPLIT_VALIDATION_SAMPLES_FACTOR)
+        m = solve_mc_state(visibility_km, elevation_deg, longer, data_dir, fine_directions=(th, ph))
+        radiance = split_radiance(m, albedo)
     probs, et_ch, atm = _problems(visibility_km, config, data_dir)
     tdir = _direct_transmittance(probs, slant_path_factors(atm.levels_km, [90.0 - elevation_deg])[0])
-    return {"zenith": th, "azimuth": ph, "radiance": split_radiance(m, albedo), "et": et_ch, "dni": et_ch * tdir,
+    return {"zenith": th, "azimuth": ph, "radiance": radiance, "et": et_ch, "dni": et_ch * tdir,
             "solved_elevation": float(elevation_deg), "albedo": float(albedo), "seconds": time.perf_counter() - t0}
 
 
 def validation_file(config: BuildConfig, kind: str, visibility_km: float, elevation_deg: float, albedo: float):
     """Cache file of a validation state (``kind`` 'on' or 'off') [.npz]: the DISORT solve's, or where its elevation
     takes the split Monte Carlo radiance, one named by the Monte Carlo key."""
-    from .dataset_mc import SPLIT_SMOOTHING, mc_key, split_state
+    from .dataset_mc import SPLIT_SMOOTHING, SPLIT_VALIDATION_SAMPLES_FACTOR, mc_key, split_state
 
     if split_state(config, elevation_deg):  # the file holds the recombined radiance: named by the smoothing too
-        return cache_root(config) / (f"mcval_{mc_key(config)}_{SPLIT_SMOOTHING}_{kind}_v{visibility_km:.4f}"
+        return cache_root(config) / (f"mcval_{mc_key(config)}_{SPLIT_SMOOTHING}_x{SPLIT_VALIDATION_SAMPLES_FACTOR}"
+                                     f"_{kind}_v{visibility_km:.4f}"
                                      f"_e{elevation_deg:.4f}_a{albedo:.4f}.npz")
     return state_file(config, visibility_km, elevation_deg, "val_" + kind, albedo)
 
@@ -477,9 +489,11 @@ def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: flo
 
         m = load_state(mc_file(config, visibility_km, elevation_deg))
         th, ph = fit_grid(m, config)
-        if "single_fine" in m:
-            from .dataset_mc import split_radiance
-            return th, ph, split_radiance(m, albedo), float(m["solved_elevation"])
+        if "single_fine" in m:  # split: the rest smoothed across the elevation's visibilities
+            from .dataset_mc import cached_rest_across_visibility, split_radiance
+            i = [float(v) for v in config.visibilities_km].index(float(visibility_km))
+            rest = cached_rest_across_visibility(config, elevation_deg, albedo)[i]
+            return th, ph, split_radiance(m, albedo, rest=rest), float(m["solved_elevation"])
         i = mc_stokes(m, albedo)[0][..., 0]
         if config.mc_fit_resample:
             i = resample_radiance(m["zenith"], m["azimuth"], i, th, ph)
@@ -1021,7 +1035,8 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
                    + ("; split: single scattering exact (the first-order quadrature, deterministic) on the DISORT "
                       "fit grid, the rest (orders >= 2, ground-reflected light) from the Monte Carlo grid, smoothed "
                       f"({SPLIT_SMOOTHING}: cosine series to order 2 in azimuth, each term sin^m(zenith) times an "
-                      "even smoothing spline in zenith, regular at the zenith)"
+                      "even smoothing spline in zenith, regular at the zenith; then a cubic in log visibility across "
+                      "the elevation's states)"
                       if split else ""),
          "streams": config.mc_streams, "fit_resample": bool(config.mc_fit_resample), "single_scatter_exact": split,
          "key": mc_key(config), "samples_per_direction_and_batch": int(config.mc_samples),

@@ -58,10 +58,22 @@ def radiance_by_mc(config, elevation_deg: float) -> bool:
     return b is not None and float(elevation_deg) < float(b)
 
 
-SPLIT_SMOOTHING = "cos2-pole-lam1e-3"
-"""Name of :func:`split_radiance`'s smoothing (azimuth orders, regularity at the zenith, zenith penalty); part of the
-cache names of what is computed from it (fits, validation states), so that a change of it never reuses stale
-results."""
+SPLIT_SMOOTHING = "cos2-pole-lam1e-3-xv3"
+"""Name of the split states' smoothing (:func:`split_rest`: azimuth orders, regularity at the zenith, zenith penalty;
+:func:`smooth_across_visibility`: the polynomial degree in log visibility); part of the cache names of what is
+computed from it (fits, validation states, :func:`rest_across_visibility` files), so that a change of it never reuses
+stale results."""
+
+SPLIT_VALIDATION_SAMPLES_FACTOR = 4
+"""Paths per direction of a split validation state's own Monte Carlo run (one between grid points), as a multiple of
+``mc_samples``: the reference's noise then halves, so the held-out error measures the dataset more than the
+reference (docs/default-dataset.md, "Low sun in spherical shells")."""
+
+SPLIT_VISIBILITY_DEGREE = 3
+"""Degree of the polynomial in log visibility that smooths the split states' rest across the visibilities of one
+elevation (:func:`smooth_across_visibility`). The solver's own sky-diffuse irradiance departs from a cubic in log V by
+at most 0.08 % over the 11 visibilities 20-131.8 km (DISORT, sun 10.5 and 13.5 deg, 460-900 nm), the Monte Carlo
+rest's by 0.7-1.2 % rms at 460 nm (docs/default-dataset.md, "Low sun in spherical shells")."""
 
 SPLIT_ZENITH_PENALTY = 1e-3
 """Penalty of :func:`split_radiance`'s zenith smoothing spline [rad^3, for weights normalised to mean 1]: its
@@ -206,21 +218,19 @@ def _even_smoothing_spline(x, y, sd, lam: float, x_to) -> np.ndarray:
     return make_smoothing_spline(xm, ym, w=wm / wm.mean(), lam=float(lam))(x_to)
 
 
-def split_radiance(state: dict, albedo: float, azimuth_orders: int = 2,
-                   zenith_penalty: float = SPLIT_ZENITH_PENALTY) -> np.ndarray:
-    """Radiance of a split Monte Carlo state over a ground of albedo ``albedo`` [1] on its fine grid, (T2, P2, 55)
-    [W m-2 sr-1 nm-1]: the exact singly scattered light there plus the rest of the Monte Carlo radiance (orders
-    >= 2 and all ground-reflected light: the Monte Carlo total minus its single scattering on the Monte Carlo grid),
-    kept non-negative.
+def split_rest(state: dict, albedo: float, zenith_deg=None, azimuth_deg=None, azimuth_orders: int = 2,
+               zenith_penalty: float = SPLIT_ZENITH_PENALTY) -> np.ndarray:
+    """The smoothed rest of a split Monte Carlo state over a ground of albedo ``albedo`` [1] (orders >= 2 and all
+    ground-reflected light: the Monte Carlo total minus its single scattering on the Monte Carlo grid), evaluated on
+    the product grid ``zenith_deg`` (T2,) x ``azimuth_deg`` (P2,) [deg] (default the state's fine grid):
+    (T2, P2, 55) [W m-2 sr-1 nm-1], not clipped.
 
-    The sharp structure of a low-sun sky (aureole, horizon band, the Earth's shadow) is single scattering and so
-    noise-free; the rest carries the Monte Carlo noise and is smooth over the sky. Along each zenith row of the Monte
-    Carlo grid it is fitted by the cosine series sum_m a_m(theta) cos(m phi), m = 0..``azimuth_orders`` (the
-    azimuthal Fourier form of the radiance field), weighted by the inverse standard error. Each coefficient is then
-    smoothed in the view zenith theta as a field on the sphere must be at its pole: a_m = sin^m(theta) b_m(theta)
-    with every b_m even in theta (so the m >= 1 terms vanish at the zenith and a_0 has zero slope there; without it
-    the noise leaves a spot at the zenith, up to 4 % of the sky at sun 0 deg), b_m a cubic smoothing spline
-    weighted by the coefficients' inverse variances with penalty ``zenith_penalty`` [rad^3]
+    Along each zenith row of the Monte Carlo grid the rest is fitted by the cosine series sum_m a_m(theta) cos(m phi),
+    m = 0..``azimuth_orders`` (the azimuthal Fourier form of the radiance field), weighted by the inverse standard
+    error. Each coefficient is then smoothed in the view zenith theta as a field on the sphere must be at its pole:
+    a_m = sin^m(theta) b_m(theta) with every b_m even in theta (so the m >= 1 terms vanish at the zenith and a_0 has
+    zero slope there; without it the noise leaves a spot at the zenith, up to 4 % of the sky at sun 0 deg), b_m a
+    cubic smoothing spline weighted by the coefficients' inverse variances with penalty ``zenith_penalty`` [rad^3]
     (:func:`_even_smoothing_spline`).
 
     Measured at 51.3 km, sun 0 deg, against a 16x longer run (docs/default-dataset.md, "Low sun in spherical
@@ -235,13 +245,14 @@ def split_radiance(state: dict, albedo: float, azimuth_orders: int = 2,
     w = 1.0 / np.maximum(err[..., 0], 1e-9 * np.maximum(np.abs(rest).max(axis=1, keepdims=True), 1e-300))
     m = np.arange(int(azimuth_orders) + 1)
     A = np.cos(np.radians(np.asarray(state["azimuth"], float))[:, None] * m)    # (P, M)
-    A2 = np.cos(np.radians(np.asarray(state["fine_azimuth"], float))[:, None] * m)
+    az_to = state["fine_azimuth"] if azimuth_deg is None else azimuth_deg
+    A2 = np.cos(np.radians(np.asarray(az_to, float))[:, None] * m)
     Aw = A[None, :, None, :] * w[..., None]                                     # (T, P, C, M)
     normal = np.einsum("tpcm,tpcn->tcmn", Aw, Aw) + 1e-12 * np.eye(len(m))
     coef = np.linalg.solve(normal, np.einsum("tpcm,tpc->tcm", Aw, rest * w)[..., None])[..., 0]  # (T, C, M)
     sd = np.sqrt(np.maximum(np.diagonal(np.linalg.inv(normal), axis1=-2, axis2=-1), 1e-300))    # (T, C, M)
     th = np.radians(np.asarray(state["zenith"], float))
-    t2 = np.radians(np.asarray(state["fine_zenith"], float))
+    t2 = np.radians(np.asarray(state["fine_zenith"] if zenith_deg is None else zenith_deg, float))
     fine = np.zeros((len(t2),) + coef.shape[1:])
     for k in m:
         keep = th > 0 if k > 0 else np.ones(len(th), bool)   # at the zenith sin^m = 0 for m >= 1: no information
@@ -251,7 +262,72 @@ def split_radiance(state: dict, albedo: float, azimuth_orders: int = 2,
             if np.any(y != 0.0):
                 fine[:, c, k] = tap2 * _even_smoothing_spline(th[keep], y / tap, sd[keep, c, k] / tap,
                                                               zenith_penalty, t2)
-    return np.asarray(state["single_fine"], float) + np.maximum(np.einsum("qm,tcm->tqc", A2, fine), 0.0)
+    return np.einsum("qm,tcm->tqc", A2, fine)
+
+
+def split_radiance(state: dict, albedo: float, rest=None, **kw) -> np.ndarray:
+    """Radiance of a split Monte Carlo state over a ground of albedo ``albedo`` [1] on its fine grid, (T2, P2, 55)
+    [W m-2 sr-1 nm-1]: the exact singly scattered light there plus the smoothed rest (:func:`split_rest` of this
+    state with keywords ``kw``, or ``rest`` (T2, P2, 55) given, e.g. from :func:`rest_across_visibility`), the rest
+    kept non-negative. The sharp structure of a low-sun sky (aureole, horizon band, the Earth's shadow) is single
+    scattering and so noise-free; the rest carries the Monte Carlo noise and is smooth over the sky."""
+    if rest is None:
+        rest = split_rest(state, albedo, **kw)
+    return np.asarray(state["single_fine"], float) + np.maximum(rest, 0.0)
+
+
+def smooth_across_visibility(values, visibilities_km, degree: int = SPLIT_VISIBILITY_DEGREE) -> np.ndarray:
+    """Least-squares polynomial of degree ``degree`` in log visibility through ``values`` (V, ...) [any unit] given at
+    ``visibilities_km`` (V,) [km], evaluated at the same visibilities, element by element (the degree is lowered to
+    V - 1 where there are fewer visibilities). Pure array function."""
+    x = np.log(np.asarray(visibilities_km, float))
+    y = np.asarray(values, float)
+    if y.shape[0] != len(x):
+        raise ValueError(f"smooth_across_visibility: {y.shape[0]} value rows for {len(x)} visibilities")
+    deg = min(int(degree), len(x) - 1)
+    X = np.vander(x - x.mean(), deg + 1)                                        # (V, deg + 1)
+    coef, *_ = np.linalg.lstsq(X, y.reshape(len(x), -1), rcond=None)
+    return (X @ coef).reshape(y.shape)
+
+
+def rest_across_visibility(config, elevation_deg: float, albedo: float, zenith_deg=None, azimuth_deg=None,
+                           states=None) -> np.ndarray:
+    """The split states' smoothed rest at one grid elevation ``elevation_deg`` [deg] and albedo ``albedo`` [1] for
+    every visibility of ``config``, each :func:`split_rest` on the grid ``zenith_deg`` x ``azimuth_deg`` [deg]
+    (default the states' common fine grid), then smoothed across visibility (:func:`smooth_across_visibility`): the
+    multiple scattering is smooth in the aerosol amount, each state's Monte Carlo noise is not. Returns (V, T2, P2, 55)
+    [W m-2 sr-1 nm-1] in the order of ``config.visibilities_km``. ``states``: the loaded Monte Carlo states (default:
+    read from the build cache)."""
+    from .cache import load_state
+
+    vis = [float(v) for v in config.visibilities_km]
+    if states is None:
+        states = [load_state(mc_file(config, v, elevation_deg)) for v in vis]
+    rests = np.stack([split_rest(m, albedo, zenith_deg, azimuth_deg) for m in states])
+    return smooth_across_visibility(rests, vis)
+
+
+def rest_across_visibility_file(config, elevation_deg: float, albedo: float):
+    """Cache file of :func:`rest_across_visibility` on the fit grid [.npz], named by the Monte Carlo key and
+    :data:`SPLIT_SMOOTHING`."""
+    return cache_root(config) / (f"mcxv_{mc_key(config)}_{SPLIT_SMOOTHING}_e{elevation_deg:.4f}"
+                                 f"_a{albedo:.4f}.npz")
+
+
+def cached_rest_across_visibility(config, elevation_deg: float, albedo: float) -> np.ndarray:
+    """:func:`rest_across_visibility` on the fit grid, computed once per (elevation, albedo) and kept in the build
+    cache (written atomically, so parallel fit workers can share it)."""
+    import os
+
+    path = rest_across_visibility_file(config, elevation_deg, albedo)
+    if path.exists():
+        with np.load(path) as z:
+            return z["rest"]
+    rest = rest_across_visibility(config, elevation_deg, albedo)
+    tmp = path.with_name(path.name + f".{os.getpid()}.tmp.npz")
+    np.savez(tmp, rest=rest)
+    os.replace(tmp, path)
+    return rest
 
 
 def mc_stokes(state: dict, albedo: float):
