@@ -124,6 +124,6 @@ if __name__ == "__main__":
         for e in sorted(errs, key=lambda e: (e["elevation"], e["visibility"])):
             if e["elevation"] < a.below:
                 x = np.abs(np.asarray(e["e_horizontal"], float)[band]) * 100
-                print(f"{e['kind']:3s} {e['visibility']:6.1f} km, sun {e['elevation']:5.2f} deg, albedo {e['albedo']:.2f}: "
-                      f"sky-diffuse horizontal worst {np.nanmax(x):.2f} % ({wl[band][np.nanargmax(x)]:.0f} nm), "
+                print(f"{e['kind']:3s} {e['visibility']:6.1f} km, sun {e['elevation']:5.2f} deg, "
+                      f"albedo {e['albedo']:.2f}: sky-diffuse horizontal worst {np.nanmax(x):.2f} % ({wl[band][np.nanargmax(x)]:.0f} nm), "
                       f"median channel {np.nanmedian(x):.2f} %")

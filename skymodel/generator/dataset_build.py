@@ -85,9 +85,9 @@ class BuildConfig:
     ``mc_single_scatter_exact`` true: the Monte Carlo radiance is scalar (DISORT's physics) and split, the singly
     scattered light computed deterministically in spherical shells on the DISORT fit grid (held-out grid for the
     validation states) and only the rest (orders >= 2 and all ground-reflected light, smooth over the sky) taken from
-    the Monte Carlo grid, smoothed (:func:`skymodel.generator.dataset_mc.split_radiance`, the rest smoothed across visibility;
-    skymodel/data/default-dataset.json, the default dataset's build; docs/default-dataset.md, "Low sun in spherical
-    shells").
+    the Monte Carlo grid, smoothed (:func:`skymodel.generator.dataset_mc.split_radiance`, the rest smoothed across
+    visibility; skymodel/data/default-dataset.json, the default dataset's build; docs/default-dataset.md, "Low sun in
+    spherical shells").
     """
 
     visibilities_km: tuple = (20.0, 27.4, 37.5, 51.3, 70.2, 96.2, 131.8)
@@ -334,11 +334,11 @@ def solve_split_validation(visibility_km: float, elevation_deg: float, albedo: f
     """Held-out reference of a validation state whose elevation takes the split Monte Carlo radiance
     (:func:`skymodel.generator.dataset_mc.split_state`): the exact singly scattered light on the held-out grid
     (:func:`validation_directions`) plus the rest from the Monte Carlo state at that elevation: at a grid state the
-    grid's own, smoothed across visibility as the fit's is (:func:`skymodel.generator.dataset_mc.rest_across_visibility`
-    on the held-out grid), elsewhere a run of its own with :data:`skymodel.generator.dataset_mc.SPLIT_VALIDATION_SAMPLES_FACTOR`
-    times the paths; the same keys as :func:`solve_state` uses for validation
-    (zenith, azimuth [deg], radiance (T, P, 55) [W m-2 sr-1 nm-1] at ``albedo`` [1], dni, et (55,) [W m-2 nm-1],
-    seconds)."""
+    grid's own, smoothed across visibility as the fit's is
+    (:func:`skymodel.generator.dataset_mc.rest_across_visibility` on the held-out grid), elsewhere a run of its own
+    with :data:`skymodel.generator.dataset_mc.SPLIT_VALIDATION_SAMPLES_FACTOR` times the paths; the same keys as
+    :func:`solve_state` uses for validation (zenith, azimuth [deg], radiance (T, P, 55) [W m-2 sr-1 nm-1] at
+    ``albedo`` [1], dni, et (55,) [W m-2 nm-1], seconds)."""
     from .atmosphere import slant_path_factors
     from dataclasses import replace
 
