@@ -76,6 +76,8 @@ def main(argv=None):
     ap.add_argument("--visibilities", type=float, nargs="+", default=[20.0, 51.3, 131.8])
     ap.add_argument("--elevations", type=float, nargs="+", default=[1.0, 2.0, 3.0, 4.5, 6.0, 8.0])
     a = ap.parse_args(argv)
+    if a.extra < 0 or not 0.0 <= a.between[0] < a.between[1] <= 180.0:
+        sys.exit("--extra must be >= 0 and --between LO HI within 0-180 deg with LO < HI")
     try:
         cfg = load_config(a.config)
     except (OSError, ValueError) as exc:
