@@ -540,7 +540,8 @@ def _pool_map(fn, jobs, processes, progress, desc):
 def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, validation: bool = True,
               log=None):
     """Solve (or find in the cache) every grid state, ground response and validation state of ``config``; the
-    Monte Carlo states (:mod:`skymodel.generator.dataset_mc`), the longest tasks, go first."""
+    Monte Carlo states (:mod:`skymodel.generator.dataset_mc`), the longest tasks, go first; the split validation
+    states, which read every visibility's Monte Carlo state of their elevation, run after all of them."""
     from .dataset_mc import needs_mc_state, radiance_by_mc
 
     fitted = _fitted_elevations(config)
@@ -559,9 +560,17 @@ def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, va
     if log:
         log(f"solve: {len(jobs) - len(todo)} of {len(jobs)} states cached in {cache_root(config)}")
     t0 = time.perf_counter()
-    for i, r in enumerate(_pool_map(_solve_job, todo, processes, progress, "solve")):
-        if log:
-            log(f"solved {r[0]} vis={r[1]} ele={r[2]} ({i + 1}/{len(todo)}, {time.perf_counter() - t0:.0f} s)")
+    # split validation states at grid points read every visibility's Monte Carlo state of their elevation
+    # (rest_across_visibility): they run after the grid states have all been solved
+    from .dataset_mc import split_state
+    later = [j for j in todo if j[0].startswith("val_") and split_state(config, j[3])]
+    phases = [[j for j in todo if j not in later], later]
+    done = 0
+    for phase in (ph for ph in phases if ph):
+        for r in _pool_map(_solve_job, phase, processes, progress, "solve"):
+            done += 1
+            if log:
+                log(f"solved {r[0]} vis={r[1]} ele={r[2]} ({done}/{len(todo)}, {time.perf_counter() - t0:.0f} s)")
     return len(todo), time.perf_counter() - t0
 
 

@@ -76,7 +76,7 @@ at most 0.08 % over the 11 visibilities 20-131.8 km (DISORT, sun 10.5 and 13.5 d
 rest's by 0.7-1.2 % rms at 460 nm (docs/default-dataset.md, "Low sun in spherical shells")."""
 
 SPLIT_ZENITH_PENALTY = 1e-3
-"""Penalty of :func:`split_radiance`'s zenith smoothing spline [rad^3, for weights normalised to mean 1]: its
+"""Penalty of :func:`split_rest`'s zenith smoothing spline [rad^3, for weights normalised to mean 1]: its
 equivalent kernel is about 6 deg wide on the Monte Carlo grid's ~35 mirrored zenith samples (measured choice,
 docs/default-dataset.md, "Low sun in spherical shells")."""
 

@@ -207,3 +207,26 @@ def test_rest_across_visibility_lowers_the_noise_of_each_state():
     e_own = np.sqrt(np.mean((own - truth) ** 2, axis=(1, 2, 3)))
     e_xv = np.sqrt(np.mean((xv - truth) ** 2, axis=(1, 2, 3)))
     assert np.mean(e_xv / e_own) < 0.8, e_xv / e_own
+
+
+def test_split_validation_runs_after_the_grid_states(tmp_path, monkeypatch):
+    """solve_all runs the split validation states (which read every visibility's Monte Carlo state of their elevation)
+    in a second pool, after every grid state; the other jobs in the first."""
+    from skymodel.generator import dataset_build
+
+    monkeypatch.setenv("WIDESKY_CACHE_DIR", str(tmp_path))
+    cfg = replace(dataset_build.load_config(ROOT / "skymodel" / "data" / "default-dataset.json"),
+                  mc_below_elevation_deg=9.0, mc_single_scatter_exact=True)
+    phases = []
+
+    def fake_pool(fn, jobs, processes, progress, desc):
+        phases.append([(j[0], j[3]) for j in jobs])
+        return iter([(j[0], j[2], j[3], None) for j in jobs])
+
+    monkeypatch.setattr(dataset_build, "_pool_map", fake_pool)
+    dataset_build.solve_all(cfg, processes=2, progress=False)
+    assert len(phases) == 2
+    first, second = phases
+    assert second and all(k.startswith("val_") and e < 9.0 for k, e in second)
+    assert any(k == "mc" for k, _ in first)
+    assert not any(k.startswith("val_") and e < 9.0 for k, e in first)
