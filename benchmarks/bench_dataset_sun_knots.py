@@ -4,12 +4,14 @@ smoothness check's failures of each fit (docs/default-dataset.md, "What the chec
 For the states (visibility x elevation, albedo 0.5) the cached solver radiance of the build (``state_radiance``:
 DISORT, or the split Monte Carlo states) is refitted with the configuration's settings, except that the sun knots
 strictly between ``--between LO HI`` degrees from the sun are replaced by that many plus ``--extra`` evenly spaced
-ones. The fit is evaluated on the check's profiles at the solved geometry; a (state, channel) pair fails on a profile
+ones, or (``--midpoints LO HI``) every sun-knot interval inside LO-HI degrees is halved (the build option
+``sun_knot_midpoints_deg``). The fit is evaluated on the check's profiles at the solved geometry; a (state, channel) pair fails on a profile
 kind where the fit has more turning points than both the limit and the reference at that profile
 (``smoothness.solver_turning_points``), or a zenith spot above 1 %; channels with less than 1 % of the brightest
 channel's sky-diffuse irradiance are not checked. Prints the failures per state and in all, and the in-sample NMAE.
 
 Run:  python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset.json --extra 6 [--between 2 12]
+      python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset.json --midpoints 0.5 9.5
       (--extra 0: the configuration's own knots; about 10 min for the 18 default states on one core)
 """
 
@@ -73,23 +75,34 @@ def main(argv=None):
     ap.add_argument("config")
     ap.add_argument("--extra", type=int, default=6, help="knots added between --between LO HI [deg] (0: as configured)")
     ap.add_argument("--between", type=float, nargs=2, default=(2.0, 12.0), metavar=("LO", "HI"))
+    ap.add_argument("--midpoints", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                    help="instead of --extra: halve every sun-knot interval inside LO-HI [deg]")
+    ap.add_argument("--albedo", type=float, default=0.5, help="ground albedo of the refitted states [1] (a grid albedo)")
     ap.add_argument("--visibilities", type=float, nargs="+", default=[20.0, 51.3, 131.8])
     ap.add_argument("--elevations", type=float, nargs="+", default=[1.0, 2.0, 3.0, 4.5, 6.0, 8.0])
     a = ap.parse_args(argv)
     if a.extra < 0 or not 0.0 <= a.between[0] < a.between[1] <= 180.0:
         sys.exit("--extra must be >= 0 and --between LO HI within 0-180 deg with LO < HI")
+    if a.midpoints is not None and not 0.0 <= a.midpoints[0] < a.midpoints[1] <= 180.0:
+        sys.exit("--midpoints LO HI must lie within 0-180 deg with LO < HI")
     try:
         cfg = load_config(a.config)
     except (OSError, ValueError) as exc:
         sys.exit(f"{a.config}: {exc}")
-    br = sun_knots(cfg, a.extra, *a.between)
+    if a.albedo not in [float(x) for x in cfg.albedos]:
+        sys.exit(f"--albedo {a.albedo}: not one of the configuration's albedos {list(cfg.albedos)}")
+    if a.midpoints is not None:
+        from skymodel.generator.dataset_build import config_knots, with_midpoints
+        br = with_midpoints(config_knots(cfg)[0], *np.radians(a.midpoints))
+    else:
+        br = sun_knots(cfg, a.extra, *a.between)
     print(f"{len(br)} sun knots; below 16 deg: {np.degrees(br[np.degrees(br) < 16]).round(2).tolist()}", flush=True)
     total = {"almucantar": 0, "vertical": 0, "aureole": 0, "zenith": 0}
     nm, t0 = [], time.perf_counter()
     for v in a.visibilities:
         for e in a.elevations:
             try:
-                f, n = fit_failures(cfg, v, e, br)
+                f, n = fit_failures(cfg, v, e, br, a.albedo)
             except FileNotFoundError as exc:
                 sys.exit(f"state {v} km / {e} deg is not in the build cache ({exc}); run widesky dataset build first")
             for k in total:

@@ -238,3 +238,31 @@ def test_a_configuration_without_the_new_fit_terms_fits_and_caches_as_before():
     assert fit_file(cfg, 20.0, 8.0).name.startswith(f"fitted_{key}_")
     assert fit_options(BuildConfig(relative_power=1.0, sobolev=3.0)) == {"relative_power": 1.0,
                                                                         "relative_floor": 0.01, "sobolev": 3.0}
+
+
+def test_sun_knot_midpoints_halve_the_intervals_inside_the_range_only():
+    """with_midpoints inserts the midpoint of each interval lying inside [lo, hi] (analytic: breaks 0, 1, 2, 4, 8 and
+    [1, 4] give 1.5 and 3); config_knots applies it to the sun knots of a configuration that sets the key, and the
+    fit-cache name then changes while a configuration without the key keeps its name."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import BuildConfig, config_knots, fit_file, with_midpoints
+
+    assert with_midpoints([0.0, 1.0, 2.0, 4.0, 8.0], 1.0, 4.0).tolist() == [0.0, 1.0, 1.5, 2.0, 3.0, 4.0, 8.0]
+    assert with_midpoints([0.0, 1.0, 2.0], 0.2, 0.9).tolist() == [0.0, 1.0, 2.0]
+    cfg = BuildConfig(knots=(36, 28, 2), knot_powers=(2.0, 2.5, 1.6))
+    mid = replace(cfg, sun_knot_midpoints_deg=(0.5, 9.5))
+    sb, sb2 = config_knots(cfg)[0], config_knots(mid)[0]
+    inside = np.degrees(sb2[~np.isin(sb2, sb)])
+    assert len(sb2) == 42 and np.all((inside > 0.5) & (inside < 9.5))   # 6 halved intervals, 0.59-9.40 deg
+    assert np.array_equal(config_knots(mid)[1], config_knots(cfg)[1])
+    assert fit_file(mid, 20.0, 3.0) != fit_file(cfg, 20.0, 3.0)
+    assert "sun_knot_midpoints_deg" not in cfg.to_dict() and mid.to_dict()["sun_knot_midpoints_deg"] == [0.5, 9.5]
+
+
+@pytest.mark.parametrize("value", [(9.5, 0.5), (0.5,), (-1.0, 5.0), (1.0, 200.0)])
+def test_build_config_refuses_bad_sun_knot_midpoints(value):
+    from skymodel.generator.dataset_build import BuildConfig
+
+    with pytest.raises(ValueError, match="sun_knot_midpoints_deg="):
+        BuildConfig(sun_knot_midpoints_deg=value)

@@ -43,7 +43,7 @@ from .cache import cache_root, ground_file, load_state, save_state, state_file, 
 
 __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", "solve_state", "solve_ground",
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
-           "knots", "config_knots", "direction_samples", "fit_sky", "fit_all", "segment_path_factors",
+           "knots", "with_midpoints", "config_knots", "direction_samples", "fit_sky", "fit_all", "segment_path_factors",
            "transmittance_grid", "transmittance_samples", "fit_transmittance_bounded", "assemble", "build_dataset",
            "solver_reference", "smoothness_report", "cache_root"]
 
@@ -63,7 +63,9 @@ class BuildConfig:
 
     visibilities_km [km], albedos [1], elevations_deg [deg] (ascending; values below ``min_solve_elevation_deg``
     are solved at that elevation; values above ``max_fit_elevation_deg`` hold the fit of the highest elevation
-    below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), rank,
+    below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), knot_powers,
+    sun_knot_midpoints_deg (optional (lo, hi) [deg]: a knot inserted at the midpoint of every sun-knot interval
+    inside [lo, hi], :func:`config_knots`; None: none, the builds before it), rank,
     smoothing [1], sun_penalty_order, iterations, refine, relative_power, relative_floor, sobolev (see
     :func:`skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments);
     atmosphere (AtmosphereSpec fields);
@@ -98,6 +100,7 @@ class BuildConfig:
     max_fit_elevation_deg: float = 85.0
     knots: tuple = (48, 36, 24)
     knot_powers: tuple = (2.0, 1.6, 1.6)
+    sun_knot_midpoints_deg: tuple | None = None
     rank: int = 6
     smoothing: float = 1e-6
     sun_penalty_order: int = 1
@@ -131,6 +134,9 @@ class BuildConfig:
     pol_rank: int = 3
 
     def __post_init__(self):
+        m = self.sun_knot_midpoints_deg
+        if m is not None and not (len(tuple(m)) == 2 and 0.0 <= float(m[0]) < float(m[1]) <= 180.0):
+            raise ValueError(f"sun_knot_midpoints_deg={m!r}: expected (lo, hi) [deg] with 0 <= lo < hi <= 180")
         if self.sun_penalty_order not in (1, 2):  # refused before any solve, not in the fit after them
             raise ValueError(f"sun_penalty_order={self.sun_penalty_order!r}: expected 1 or 2")
         if not 0.0 <= float(self.relative_power) <= 4.0:
@@ -181,13 +187,15 @@ class BuildConfig:
 
     def to_dict(self) -> dict:
         """The configuration as JSON-ready values; the Monte Carlo keys only where the configuration uses the Monte
-        Carlo solver (so a scalar build's sidecar is unchanged)."""
+        Carlo solver and ``sun_knot_midpoints_deg`` only where set (so earlier builds' sidecars are unchanged)."""
         from .dataset_mc import uses_mc
 
         d = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
         if not uses_mc(self):
             for k in MC_KEYS:
                 d.pop(k)
+        if self.sun_knot_midpoints_deg is None:  # (absent, as in the builds before the key)
+            d.pop("sun_knot_midpoints_deg")
         return d
 
 
@@ -584,13 +592,26 @@ def knots(n: int, lo: float, hi: float, power: float, dense_at: str = "lo") -> n
     return hi - (hi - lo) * (1.0 - t) ** power
 
 
+def with_midpoints(breaks, lo: float, hi: float) -> np.ndarray:
+    """``breaks`` (ascending) with the midpoint of every interval that lies inside [``lo``, ``hi``] inserted (same
+    unit as ``breaks``). Pure array function."""
+    b = np.asarray(breaks, float)
+    inside = (b[:-1] >= lo) & (b[1:] <= hi)
+    return np.sort(np.concatenate([b, 0.5 * (b[:-1] + b[1:])[inside]]))
+
+
 def config_knots(config: BuildConfig):
     """(sun_breaks, zenith_breaks, emph_breaks) [rad] of ``config``: gamma knots dense near the sun, zenith and
-    emphasis knots (altitude-corrected view zenith ``zero``) dense near the horizon, up to pi/2."""
+    emphasis knots (altitude-corrected view zenith ``zero``) dense near the horizon, up to pi/2; with
+    ``sun_knot_midpoints_deg`` (lo, hi) [deg] the sun-knot intervals inside it are halved (:func:`with_midpoints`:
+    the aureole of a low sun, where the product form's piecewise-linear factors otherwise scallop along the rays from
+    the sun; docs/default-dataset.md, "Sun knots near a low sun")."""
     ns, nz, ne = (int(x) for x in config.knots)
     ps, pz, pe = (float(x) for x in config.knot_powers)
-    return (knots(ns, 0.0, np.pi, ps, "lo"), knots(nz, 0.0, 0.5 * np.pi, pz, "hi"),
-            knots(ne, 0.0, 0.5 * np.pi, pe, "hi"))
+    sb = knots(ns, 0.0, np.pi, ps, "lo")
+    if config.sun_knot_midpoints_deg is not None:
+        sb = with_midpoints(sb, *np.radians(np.asarray(config.sun_knot_midpoints_deg, float)))
+    return (sb, knots(nz, 0.0, 0.5 * np.pi, pz, "hi"), knots(ne, 0.0, 0.5 * np.pi, pe, "hi"))
 
 
 def direction_samples(zenith_deg, azimuth_deg, solar_elevation_deg):
@@ -698,6 +719,8 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
          "albedos": list(config.albedos), "v": 1}
     if config.sun_penalty_order != 1:  # (absent for first-order builds: their cached fits keep their names)
         d["sun_penalty_order"] = config.sun_penalty_order
+    if config.sun_knot_midpoints_deg is not None:  # likewise
+        d["sun_knot_midpoints_deg"] = [float(x) for x in config.sun_knot_midpoints_deg]
     d.update(fit_options(config))  # likewise: only the options a configuration sets
     from .dataset_mc import mc_key, needs_mc_state, uses_mc
 

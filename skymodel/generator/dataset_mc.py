@@ -187,11 +187,12 @@ def solve_mc_state(visibility_km: float, elevation_deg: float, config, data_dir=
     return out
 
 
-def single_scatter(visibility_km: float, elevation_deg: float, zenith_deg, azimuth_deg, config, data_dir=None):
+def single_scatter(visibility_km: float, elevation_deg: float, zenith_deg, azimuth_deg, config, data_dir=None,
+                   channels=None):
     """Singly scattered sky radiance of one state in spherical shells, scalar (P11 only), on the product grid of view
-    zeniths (T,) and relative azimuths (P,) [deg]: (T, P, 55) [W m-2 sr-1 nm-1]. Deterministic: the Monte Carlo
-    solver's first-order quadrature along each view ray (``max_order=1``; no sampled path contributes), independent
-    of the ground."""
+    zeniths (T,) and relative azimuths (P,) [deg]: (T, P, C) [W m-2 sr-1 nm-1], C = 55 or ``len(channels)`` (channel
+    indices 0..54). Deterministic: the Monte Carlo solver's first-order quadrature along each view ray
+    (``max_order=1``; no sampled path contributes), independent of the ground."""
     from .montecarlo import MonteCarloConfig, solve_sky_mc
     from .solver import SkyState
 
@@ -200,8 +201,8 @@ def single_scatter(visibility_km: float, elevation_deg: float, zenith_deg, azimu
     state = SkyState(45.0, visibility_km=float(visibility_km), ground_albedo=0.0)
     cfg = MonteCarloConfig(samples=1, polarised=False, max_order=1, ground_orders=0, first_order="quadrature",
                            channels_per_batch=int(config.mc_channels_per_batch), threads=1)
-    r = solve_sky_mc(state, config.spec(), T.ravel(), P.ravel(), None, cfg, solar_elevation_deg=float(elevation_deg),
-                     data_dir=data_dir)
+    r = solve_sky_mc(state, config.spec(), T.ravel(), P.ravel(), channels, cfg,
+                     solar_elevation_deg=float(elevation_deg), data_dir=data_dir)
     return r.stokes[..., 0].reshape(len(th), len(ph), -1)
 
 
