@@ -65,14 +65,12 @@ def _grid(ele, step, azimuths):
 def _fit(rad, th, ph, ele, cfg, half=False):
     """Fitted factors of every channel of ``rad`` and an evaluator f(directions) -> (N, nC)."""
     from skymodel.evaluate import reference_angles
-    from skymodel.generator.dataset_build import config_knots, direction_samples, fit_options, fit_sky
+    from skymodel.generator.dataset_build import config_knots, fit_state
     from skymodel.generator.fit import hat_weights
     from skymodel.writer import encode_radiance_blocks
 
-    smp = direction_samples(th, ph, ele)
     br = config_knots(cfg)
-    sun, zen, emph, _ = fit_sky(rad, smp, br, cfg.rank, cfg.smoothing, cfg.iterations, cfg.refine,
-                                cfg.sun_penalty_order, **fit_options(cfg))
+    sun, zen, emph, _ = fit_state(cfg, th, ph, rad, ele, br)
     if half:
         b = encode_radiance_blocks(sun, zen, emph)
         sun, emph = b["r"]["sun"].astype(float), b["emph"].astype(float)

@@ -4,15 +4,16 @@ smoothness check's failures of each fit (docs/default-dataset.md, "What the chec
 For the states (visibility x elevation, albedo 0.5) the cached solver radiance of the build (``state_radiance``:
 DISORT, or the split Monte Carlo states) is refitted with the configuration's settings, except that the sun knots
 strictly between ``--between LO HI`` degrees from the sun are replaced by that many plus ``--extra`` evenly spaced
-ones, or (``--midpoints LO HI``) every sun-knot interval inside LO-HI degrees is halved (the build option
-``sun_knot_midpoints_deg``). The fit is evaluated on the check's profiles at the solved geometry; a (state, channel) pair fails on a profile
-kind where the fit has more turning points than both the limit and the reference at that profile
+ones, or (``--midpoints LO HI``, the build option ``sun_knot_midpoints_deg``) every sun-knot interval inside LO-HI
+degrees is halved and the fit takes the samples filling the new cells (``dataset_build.fill_grid``). ``--extra 0``
+fits with the configuration's own knots, ``--no-midpoints`` with them less its midpoints. The fit is evaluated on
+the check's profiles at the solved geometry; a (state, channel) pair fails on a profile kind where the fit has more turning points than both the limit and the reference at that profile
 (``smoothness.solver_turning_points``), or a zenith spot above 1 %; channels with less than 1 % of the brightest
 channel's sky-diffuse irradiance are not checked. Prints the failures per state and in all, and the in-sample NMAE.
 
 Run:  python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset.json --extra 6 [--between 2 12]
-      python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset.json --midpoints 0.5 9.5
-      (--extra 0: the configuration's own knots; about 10 min for the 18 default states on one core)
+      python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset.json --extra 0 [--no-midpoints]
+      (about 10 min for the 18 default states on one core)
 """
 
 from __future__ import annotations
@@ -49,8 +50,7 @@ def fit_failures(config, visibility_km: float, elevation_deg: float, sun_breaks,
     ref = S.solver_turning_points(th, ph, rad, es)
     _, zb, eb = B.config_knots(config)
     br = (sun_breaks, zb, eb)
-    sun, zen, emph, nmae = B.fit_sky(rad, smp, br, config.rank, config.smoothing, config.iterations, config.refine,
-                                     config.sun_penalty_order, **B.fit_options(config))
+    sun, zen, emph, nmae = B.fit_state(config, th, ph, rad, es, br)
     d = S.profile_directions(elevation_deg)
     C = rad.shape[-1]
     out = {}
@@ -73,10 +73,13 @@ def main(argv=None):
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("config")
-    ap.add_argument("--extra", type=int, default=6, help="knots added between --between LO HI [deg] (0: as configured)")
+    ap.add_argument("--extra", type=int, default=6, help="knots added between --between LO HI [deg] (0: as configured); "
+                    "the configuration's midpoints are left out")
     ap.add_argument("--between", type=float, nargs=2, default=(2.0, 12.0), metavar=("LO", "HI"))
     ap.add_argument("--midpoints", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                     help="instead of --extra: halve every sun-knot interval inside LO-HI [deg]")
+    ap.add_argument("--no-midpoints", action="store_true",
+                    help="the configuration's knots without its sun_knot_midpoints_deg (the fourth rebuild's)")
     ap.add_argument("--albedo", type=float, default=0.5, help="ground albedo of the refitted states [1] (a grid albedo)")
     ap.add_argument("--visibilities", type=float, nargs="+", default=[20.0, 51.3, 131.8])
     ap.add_argument("--elevations", type=float, nargs="+", default=[1.0, 2.0, 3.0, 4.5, 6.0, 8.0])
@@ -91,11 +94,12 @@ def main(argv=None):
         sys.exit(f"{a.config}: {exc}")
     if a.albedo not in [float(x) for x in cfg.albedos]:
         sys.exit(f"--albedo {a.albedo}: not one of the configuration's albedos {list(cfg.albedos)}")
-    if a.midpoints is not None:
-        from skymodel.generator.dataset_build import config_knots, with_midpoints
-        br = with_midpoints(config_knots(cfg)[0], *np.radians(a.midpoints))
-    else:
-        br = sun_knots(cfg, a.extra, *a.between)
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import config_knots
+    if a.no_midpoints or a.extra or a.midpoints is not None:
+        cfg = replace(cfg, sun_knot_midpoints_deg=None if a.midpoints is None else tuple(a.midpoints))
+    br = sun_knots(cfg, a.extra, *a.between) if a.extra else config_knots(cfg)[0]
     print(f"{len(br)} sun knots; below 16 deg: {np.degrees(br[np.degrees(br) < 16]).round(2).tolist()}", flush=True)
     total = {"almucantar": 0, "vertical": 0, "aureole": 0, "zenith": 0}
     nm, t0 = [], time.perf_counter()

@@ -260,6 +260,30 @@ def test_sun_knot_midpoints_halve_the_intervals_inside_the_range_only():
     assert "sun_knot_midpoints_deg" not in cfg.to_dict() and mid.to_dict()["sun_knot_midpoints_deg"] == [0.5, 9.5]
 
 
+def test_fit_samples_fill_the_halved_cells_and_keep_the_solved_values():
+    """Without midpoints the fit takes the solved grid unchanged; with them fill_grid adds the fill azimuths and
+    zenith offsets around the sun (inside the grid's range) and the radiance there is interpolated between the solved
+    samples: exact at the solved directions, within the neighbours' range between them (reference: a field linear in
+    zenith and azimuth, which the shape-preserving interpolation reproduces to rounding)."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import (FILL_AZIMUTHS_DEG, BuildConfig, fill_grid, fit_directions,
+                                                  fit_samples)
+
+    th, ph = fit_directions(3.0)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    rad = (1.0 + 0.01 * T + 0.002 * P)[..., None] * np.array([1.0, 2.0])
+    cfg = BuildConfig()
+    t, p, r = fit_samples(cfg, th, ph, rad, 3.0)
+    assert t is not None and np.array_equal(t, th) and np.array_equal(p, ph) and r is rad
+    t2, p2, r2 = fit_samples(replace(cfg, sun_knot_midpoints_deg=(0.5, 9.5)), th, ph, rad, 3.0)
+    assert np.all(np.isin(FILL_AZIMUTHS_DEG, p2)) and np.all(np.isin(ph, p2))
+    assert np.all(np.isin([85.0, 83.75, 82.0], t2)) and t2.max() <= th.max() and np.all(np.isin(th, t2))
+    T2, P2 = np.meshgrid(t2, p2, indexing="ij")
+    np.testing.assert_allclose(r2, (1.0 + 0.01 * T2 + 0.002 * P2)[..., None] * np.array([1.0, 2.0]), rtol=1e-12)
+    assert np.array_equal(fill_grid(th, ph, 3.0)[0], t2)
+
+
 @pytest.mark.parametrize("value", [(9.5, 0.5), (0.5,), (-1.0, 5.0), (1.0, 200.0)])
 def test_build_config_refuses_bad_sun_knot_midpoints(value):
     from skymodel.generator.dataset_build import BuildConfig

@@ -189,14 +189,13 @@ def test_the_solvers_own_sky_at_8_deg_is_within_the_limits(solved_channels):
 @pytest.mark.slow
 def test_default_fit_settings_give_a_smooth_accurate_sky(solved_channels):
     from skymodel.evaluate import reference_angles
-    from skymodel.generator.dataset_build import config_knots, direction_samples, fit_options, fit_sky, load_config
+    from skymodel.generator.dataset_build import config_knots, fit_state, load_config
     from skymodel.generator.fit import RadianceFit
 
     cfg = load_config("skymodel/data/default-dataset.json")
-    smp = direction_samples(solved_channels["zenith"], solved_channels["azimuth"], 8.0)
     br = config_knots(cfg)
-    sun, zen, emph, _ = fit_sky(solved_channels["tab"]["grid"], smp, br, cfg.rank, cfg.smoothing, cfg.iterations,
-                                cfg.refine, cfg.sun_penalty_order, **fit_options(cfg))
+    sun, zen, emph, _ = fit_state(cfg, solved_channels["zenith"], solved_channels["azimuth"],
+                                  solved_channels["tab"]["grid"], 8.0)
     d = S.profile_directions(8.0)
     rad = {}
     for k in ("almucantar", "vertical", "aureole", "zenith"):
@@ -227,8 +226,7 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
     from dataclasses import replace
 
     from skymodel.evaluate import reference_angles
-    from skymodel.generator.dataset_build import (config_knots, direction_samples, fit_directions, fit_options,
-                                                  fit_sky, load_config)
+    from skymodel.generator.dataset_build import config_knots, fit_directions, fit_state, load_config
     from skymodel.generator.dataset_mc import single_scatter
     from skymodel.generator.fit import RadianceFit
 
@@ -243,13 +241,11 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
     ray_zen = np.degrees(np.arccos(ray[:, 2]))
     exact = single_scatter(20.0, ele, ray_zen, [0.0], cfg, channels=ch)[:, 0, :]        # (48, 2)
     tp_exact = S.turning_points(exact.T)
-    smp = direction_samples(th, ph, ele)
     a = reference_angles(ray, ele, 180.0)
     tp = {}
     for name, c in (("knots", cfg), ("midpoints", mid)):
         br = config_knots(c)
-        sun, zen, emph, _ = fit_sky(rad, smp, br, c.rank, c.smoothing, c.iterations, c.refine, c.sun_penalty_order,
-                                    **fit_options(c))
+        sun, zen, emph, _ = fit_state(c, th, ph, rad, ele)   # with the midpoints, samples filling the halved cells
         fit = np.stack([RadianceFit(sun[k], zen[k], emph[k], 0).evaluate(a["gamma"], a["zero"], a["zero"], *br)
                         for k in range(len(ch))], -1)
         tp[name] = S.turning_points(fit.T)

@@ -43,7 +43,8 @@ from .cache import cache_root, ground_file, load_state, save_state, state_file, 
 
 __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", "solve_state", "solve_ground",
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
-           "knots", "with_midpoints", "config_knots", "direction_samples", "fit_sky", "fit_all", "segment_path_factors",
+           "knots", "with_midpoints", "fill_grid", "fit_samples",
+           "fit_state", "config_knots", "direction_samples", "fit_sky", "fit_all", "segment_path_factors",
            "transmittance_grid", "transmittance_samples", "fit_transmittance_bounded", "assemble", "build_dataset",
            "solver_reference", "smoothness_report", "cache_root"]
 
@@ -65,7 +66,8 @@ class BuildConfig:
     are solved at that elevation; values above ``max_fit_elevation_deg`` hold the fit of the highest elevation
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), knot_powers,
     sun_knot_midpoints_deg (optional (lo, hi) [deg]: a knot inserted at the midpoint of every sun-knot interval
-    inside [lo, hi], :func:`config_knots`; None: none, the builds before it), rank,
+    inside [lo, hi], :func:`config_knots`, and the fit samples that fill the new cells, :func:`fill_grid`; None:
+    neither, the builds before it), rank,
     smoothing [1], sun_penalty_order, iterations, refine, relative_power, relative_floor, sobolev (see
     :func:`skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments);
     atmosphere (AtmosphereSpec fields);
@@ -250,6 +252,41 @@ def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 2.0):
                          zs + SUN_OFFSETS_DEG, zs - SUN_OFFSETS_DEG, [zs]])
     th = np.unique(np.round(np.clip(th, 0.0, MAX_VIEW_ZENITH_DEG), 6))
     return th, AZIMUTHS_DEG.copy()
+
+
+FILL_AZIMUTHS_DEG = np.array([2.0, 3.25, 5.0, 7.5, 10.75])
+"""Relative azimuths [deg] added to the fit samples of a configuration with ``sun_knot_midpoints_deg`` (:func:`fill_grid`):
+one inside each halved sun-knot cell along the sun's almucantar that :data:`AZIMUTHS_DEG` leaves empty."""
+FILL_SUN_OFFSETS_DEG = np.array([2.0, 3.25, 5.0])
+"""Offsets of view zeniths around the solar zenith [deg] added likewise (the cells along the sun's vertical)."""
+
+
+def fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg: float):
+    """The product grid ``zenith_deg`` (T,) x ``azimuth_deg`` (P,) [deg] with :data:`FILL_SUN_OFFSETS_DEG` around the
+    solar zenith and :data:`FILL_AZIMUTHS_DEG` added, clipped to the grid's own range: (zenith (T2,), azimuth (P2,))
+    [deg]. With the sun-knot intervals near the sun halved, some knot cells hold no sample of the build's grid and the
+    fit sags there (the piecewise-linear factors follow the regulariser between samples); the fit then takes these
+    directions too, the solved radiance interpolated shape-preservingly onto them
+    (:func:`skymodel.generator.dataset_mc.resample_radiance`), which adds no extremum between the solved samples."""
+    th, ph = np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float)
+    zs = 90.0 - float(solar_elevation_deg)
+    t2 = np.concatenate([th, zs + FILL_SUN_OFFSETS_DEG, zs - FILL_SUN_OFFSETS_DEG])
+    t2 = np.unique(np.round(np.clip(t2, th[0], th[-1]), 6))
+    p2 = np.unique(np.round(np.clip(np.concatenate([ph, FILL_AZIMUTHS_DEG]), ph[0], ph[-1]), 6))
+    return t2, p2
+
+
+def fit_samples(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float):
+    """The fit's samples of one state solved on the product grid ``zenith_deg`` (T,) x ``azimuth_deg`` (P,) [deg]:
+    (zenith (T2,), azimuth (P2,), radiance (T2, P2, ...)): the solved grid itself, or with ``sun_knot_midpoints_deg``
+    set, :func:`fill_grid` with ``radiance`` [W m-2 sr-1 nm-1] interpolated onto it shape-preservingly
+    (``radiance`` None: the grid only)."""
+    if config.sun_knot_midpoints_deg is None:
+        return np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float), radiance
+    from .dataset_mc import resample_radiance
+
+    t2, p2 = fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg)
+    return t2, p2, None if radiance is None else resample_radiance(zenith_deg, azimuth_deg, radiance, t2, p2)
 
 
 def validation_directions(solar_elevation_deg: float):
@@ -700,6 +737,17 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
     return sun, zen, emph, nmae
 
 
+def fit_state(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float, breaks=None):
+    """:func:`fit_sky` of one state's radiance (T, P, C) [W m-2 sr-1 nm-1], solved on the product grid ``zenith_deg``
+    (T,) x ``azimuth_deg`` (P,) [deg] at ``solar_elevation_deg`` [deg], with the settings of ``config``: its knots (or
+    ``breaks``), rank, penalties and fit terms, on its fit samples (:func:`fit_samples`). Returns fit_sky's (sun, zen,
+    emph, nmae)."""
+    t2, p2, rad = fit_samples(config, zenith_deg, azimuth_deg, radiance, solar_elevation_deg)
+    br = config_knots(config) if breaks is None else breaks
+    return fit_sky(rad, direction_samples(t2, p2, solar_elevation_deg), br, config.rank, config.smoothing,
+                   config.iterations, config.refine, config.sun_penalty_order, **fit_options(config))
+
+
 def fit_options(config: BuildConfig) -> dict:
     """The fit's optional terms that ``config`` sets (keyword arguments of :func:`fit_sky`; empty for a configuration
     without them, which fits as the builds before them did): relative weighting (``relative_power``,
@@ -762,14 +810,9 @@ def _fit_job(job):
 
         def radiance(a):
             return radiance_with_albedo(s, g, a)
-    samples = direction_samples(zen_deg, az_deg, solved)
     out = {k: [] for k in ("sun", "zen", "emph", "nmae")}
     for a in config.albedos:
-        rad = radiance(a)
-        for k, v in zip(("sun", "zen", "emph", "nmae"), fit_sky(rad, samples, breaks, config.rank,
-                                                                config.smoothing, config.iterations,
-                                                                config.refine, config.sun_penalty_order,
-                                                                **fit_options(config))):
+        for k, v in zip(("sun", "zen", "emph", "nmae"), fit_state(config, zen_deg, az_deg, radiance(a), solved, breaks)):
             out[k].append(v)
     if config.polarisation:
         out.update(_fit_polarisation_state(config, m))
