@@ -94,7 +94,7 @@ def main(argv=None):
         try:
             L = file_ray(f, a.visibility, a.elevation, a.albedo, channel, g)
         except (OSError, ValueError) as exc:
-            sys.exit(f"{f}: {exc}")
+            sys.exit(str(exc) if f in str(exc) else f"{f}: {exc}")
         rows.append((f, L))
         dev = L / ref - 1.0
         print(f"{f}: turning points on the checked part {int(turning_points(L[checked]))} (solver "
