@@ -61,7 +61,7 @@ class DatasetError(ValueError):
         self.path, self.field, self.offset, self.problem = str(path), field, offset, problem
         where = f" field '{field}'" if field else ""
         at = f" at byte offset {offset}" if offset is not None else ""
-        super().__init__(f"{path}:{where}{at}: {problem}")
+        super().__init__(f"{path}:{where}{at}: {problem}" if where or at else f"{path}: {problem}")
 
 
 class _Cursor:
