@@ -7,7 +7,8 @@ strictly between ``--between LO HI`` degrees from the sun are replaced by that m
 ones, or (``--midpoints LO HI``, the build option ``sun_knot_midpoints_deg``) every sun-knot interval inside LO-HI
 degrees is halved and the fit takes the samples filling the new cells (``dataset_build.fill_grid``). ``--extra 0``
 fits with the configuration's own knots, ``--no-midpoints`` with them less its midpoints. The fit is evaluated on
-the check's profiles at the solved geometry; a (state, channel) pair fails on a profile kind where the fit has more turning points than both the limit and the reference at that profile
+the check's profiles at the solved geometry; a (state, channel) pair fails on a profile kind where the fit has more
+turning points than both the limit and the reference at that profile
 (``smoothness.solver_turning_points``), or a zenith spot above 1 %; channels with less than 1 % of the brightest
 channel's sky-diffuse irradiance are not checked. Prints the failures per state and in all, and the in-sample NMAE.
 
@@ -73,8 +74,8 @@ def main(argv=None):
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("config")
-    ap.add_argument("--extra", type=int, default=6, help="knots added between --between LO HI [deg] (0: as configured); "
-                    "the configuration's midpoints are left out")
+    ap.add_argument("--extra", type=int, default=None, help="knots added between --between LO HI [deg] (default 6; 0: as "
+                    "configured); the configuration's midpoints are left out")
     ap.add_argument("--between", type=float, nargs=2, default=(2.0, 12.0), metavar=("LO", "HI"))
     ap.add_argument("--midpoints", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                     help="instead of --extra: halve every sun-knot interval inside LO-HI [deg]")
@@ -84,6 +85,10 @@ def main(argv=None):
     ap.add_argument("--visibilities", type=float, nargs="+", default=[20.0, 51.3, 131.8])
     ap.add_argument("--elevations", type=float, nargs="+", default=[1.0, 2.0, 3.0, 4.5, 6.0, 8.0])
     a = ap.parse_args(argv)
+    if a.midpoints is not None and a.extra:
+        sys.exit("--midpoints replaces --extra: give one of them")
+    if a.extra is None:
+        a.extra = 0 if a.midpoints is not None or a.no_midpoints else 6
     if a.extra < 0 or not 0.0 <= a.between[0] < a.between[1] <= 180.0:
         sys.exit("--extra must be >= 0 and --between LO HI within 0-180 deg with LO < HI")
     if a.midpoints is not None and not 0.0 <= a.midpoints[0] < a.midpoints[1] <= 180.0:

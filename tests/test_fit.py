@@ -263,8 +263,8 @@ def test_sun_knot_midpoints_halve_the_intervals_inside_the_range_only():
 def test_fit_samples_fill_the_halved_cells_and_keep_the_solved_values():
     """Without midpoints the fit takes the solved grid unchanged; with them fill_grid adds the fill azimuths and
     zenith offsets around the sun (inside the grid's range) and the radiance there is interpolated between the solved
-    samples: exact at the solved directions, within the neighbours' range between them (reference: a field linear in
-    zenith and azimuth, which the shape-preserving interpolation reproduces to rounding)."""
+    samples (reference: a field linear in zenith and azimuth, which the shape-preserving interpolation reproduces to
+    rounding, at the solved directions and between them)."""
     from dataclasses import replace
 
     from skymodel.generator.dataset_build import (FILL_AZIMUTHS_DEG, BuildConfig, fill_grid, fit_directions,

@@ -221,8 +221,9 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
     sun-knot intervals at 0.5-9.5 deg removes it. Reference: the exact singly scattered sky in spherical shells (the
     part of a split low-sun state that carries the aureole; 20 km, sun 3 deg, 500 and 540 nm) solved on the build's
     fit grid, fitted with the default dataset's settings, and solved again directly along the check's ray (position
-    angle 0: azimuth 0, view zenith 85-75 deg, as checked). Measured: the fit with the configuration's earlier knots has 4 turning
-    points at 540 nm where the solver's ray has none; with the midpoints none (and at 500 nm 2, as the solver's)."""
+    angle 0: azimuth 0, view zenith 85-75 deg, as checked). Measured: the fit with the configuration's earlier knots
+    has 4 turning points at 540 nm where the solver's ray has none; with the midpoints none (and at 500 nm 2, as the
+    solver's)."""
     from dataclasses import replace
 
     from skymodel.evaluate import reference_angles

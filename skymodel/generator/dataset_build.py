@@ -255,8 +255,9 @@ def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 2.0):
 
 
 FILL_AZIMUTHS_DEG = np.array([2.0, 3.25, 5.0, 7.5, 10.75])
-"""Relative azimuths [deg] added to the fit samples of a configuration with ``sun_knot_midpoints_deg`` (:func:`fill_grid`):
-one inside each halved sun-knot cell along the sun's almucantar that :data:`AZIMUTHS_DEG` leaves empty."""
+"""Relative azimuths [deg] added to the fit samples of a configuration with ``sun_knot_midpoints_deg``
+(:func:`fill_grid`): one inside each halved sun-knot cell along the sun's almucantar that :data:`AZIMUTHS_DEG` leaves
+empty."""
 FILL_SUN_OFFSETS_DEG = np.array([2.0, 3.25, 5.0])
 """Offsets of view zeniths around the solar zenith [deg] added likewise (the cells along the sun's vertical)."""
 
@@ -812,7 +813,8 @@ def _fit_job(job):
             return radiance_with_albedo(s, g, a)
     out = {k: [] for k in ("sun", "zen", "emph", "nmae")}
     for a in config.albedos:
-        for k, v in zip(("sun", "zen", "emph", "nmae"), fit_state(config, zen_deg, az_deg, radiance(a), solved, breaks)):
+        fitted = fit_state(config, zen_deg, az_deg, radiance(a), solved, breaks)
+        for k, v in zip(("sun", "zen", "emph", "nmae"), fitted):
             out[k].append(v)
     if config.polarisation:
         out.update(_fit_polarisation_state(config, m))
