@@ -74,14 +74,16 @@ def main(argv=None):
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("config")
-    ap.add_argument("--extra", type=int, default=None, help="knots added between --between LO HI [deg] (default 6; 0: as "
-                    "configured); the configuration's midpoints are left out")
+    ap.add_argument("--extra", type=int, default=None,
+                    help="knots added between --between LO HI [deg] (default 6; 0: as configured); the "
+                         "configuration's midpoints are left out")
     ap.add_argument("--between", type=float, nargs=2, default=(2.0, 12.0), metavar=("LO", "HI"))
     ap.add_argument("--midpoints", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                     help="instead of --extra: halve every sun-knot interval inside LO-HI [deg]")
     ap.add_argument("--no-midpoints", action="store_true",
                     help="the configuration's knots without its sun_knot_midpoints_deg (the fourth rebuild's)")
-    ap.add_argument("--albedo", type=float, default=0.5, help="ground albedo of the refitted states [1] (a grid albedo)")
+    ap.add_argument("--albedo", type=float, default=0.5,
+                    help="ground albedo of the refitted states [1] (a grid albedo)")
     ap.add_argument("--visibilities", type=float, nargs="+", default=[20.0, 51.3, 131.8])
     ap.add_argument("--elevations", type=float, nargs="+", default=[1.0, 2.0, 3.0, 4.5, 6.0, 8.0])
     a = ap.parse_args(argv)
