@@ -258,8 +258,8 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="the fifth rebuild of default.dat (2026-12-02, sun-knot intervals near the sun "
                    "halved) still fails the check beyond the solver's own turning points in 0.23 % of grid pairs, "
-                   "aureole rays at sun 0-21 deg and the antisolar vertical at sun 1 deg (docs/default-dataset.md, 'What the "
-                   "check still flags in the fifth rebuild'); remove this mark when a file passes")
+                   "aureole rays at sun 0-21 deg and the antisolar vertical at sun 1 deg (docs/default-dataset.md, "
+                   "'What the check still flags in the fifth rebuild'); remove this mark when a file passes")
 def test_default_dataset_passes_the_smoothness_check():
     import json
 
