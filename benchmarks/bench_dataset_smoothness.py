@@ -11,7 +11,10 @@ side view toward azimuth 200 deg at 540 nm, 8 deg sun, 50 km; the 1260 nm sky at
 
 The check allows, per profile, the turning points the solver's own sky has there (the sidecar's
 ``smoothness_reference`` rows, written by the build; ``--no-reference`` for the limits alone); both counts are
-printed.
+printed. Between grid points the pairs that the build solved at their own state (``smoothness_between_reference``)
+are judged against that solve, and the count by the bracketing grid states alone is printed beside it.
+``--hysteresis-ladder`` reruns the failing states with a hysteresis of 0.75-3 % (how large the spurious reversals
+are).
 
 Run:  python benchmarks/bench_dataset_smoothness.py skymodel/data/default.dat --json /tmp/smooth.json \
           --sheet docs/figures/dataset_contact_sheet.png [--before old.dat] [--issue-renders PATH]
@@ -140,6 +143,8 @@ def main(argv=None):
                     help="sidecar JSON whose 'smoothness_reference' rows (the solver's own turning points at the grid "
                          "states) the check allows; default: DATASET.json when it has them")
     ap.add_argument("--no-reference", action="store_true", help="the limits alone (no solver reference)")
+    ap.add_argument("--hysteresis-ladder", action="store_true",
+                    help="also count how many failing pairs still fail with a hysteresis of 0.75-3 %% (their size)")
     ap.add_argument("--issue-renders", default=None, help="PNG of the three renders issue 11 names")
     ap.add_argument("--visibility", type=float, default=30.0, help="visibility of the sheet [km]")
     ap.add_argument("--albedo", type=float, default=0.3, help="ground albedo of the sheet [1]")
@@ -149,10 +154,13 @@ def main(argv=None):
         ref = None
         side = a.reference or a.dataset + ".json"
         if not a.no_reference and os.path.exists(side):
-            rows = json.load(open(side)).get("smoothness_reference", {}).get("rows")
+            meta = json.load(open(side))
+            rows = meta.get("smoothness_reference", {}).get("rows")
+            between = meta.get("smoothness_between_reference")
             if rows is not None:
-                ref = reference_from_entries(rows, (model.visibilities, model.elevations, model.albedos))
-                print(f"solver reference: {len(rows)} profiles from {side}")
+                ref = reference_from_entries(rows, (model.visibilities, model.elevations, model.albedos), between)
+                print(f"solver reference: {len(rows)} profiles from {side}" + (
+                    f"; {len(between['examined'])} between-grid pairs solved at their own state" if between else ""))
         if ref is None:
             print("no solver reference: the limits alone")
         t0 = time.perf_counter()
@@ -167,7 +175,21 @@ def main(argv=None):
                       f"{s['almucantar_tp_gt1']}, vertical >2 {s['vertical_tp_gt2']}, aureole ray >1 "
                       f"{s['aureole_tp_gt1']}, zenith spot {s['zenith_spot_pairs']} (max "
                       f"{100 * s['max_zenith_spot']:.1f} %)")
+                if "failing_pairs_by_bracketing_states" in s:
+                    print(f"  {g}: by the bracketing grid states' allowance alone "
+                          f"{s['failing_pairs_by_bracketing_states']} failing")
         print(f"check: {summary['seconds']} s")
+        if a.hysteresis_ladder:
+            from skymodel.generator.smoothness import between_grid_states, check_states, grid_states
+            # how far back the failing profiles turn: the same check with a larger hysteresis, failing states only
+            for g, states in (("grid", grid_states(model)), ("between", between_grid_states(model))):
+                rows0 = check_states(model, states, reference=ref)
+                fail = [(st, r["fails"]) for st, r in zip(states, rows0) if r["fails"].any()]
+                counts = []
+                for tol in (0.0075, 0.01, 0.015, 0.02, 0.03):
+                    rr = check_states(model, [st for st, _ in fail], rel_tol=tol, reference=ref) if fail else []
+                    counts.append(f"{100 * tol:g} %: {sum(int((r['fails'] & f).sum()) for r, (_, f) in zip(rr, fail))}")
+                print(f"  {g}: failing pairs that still fail with the hysteresis at " + ", ".join(counts))
         if a.json:
             with open(a.json, "w") as f:
                 json.dump(summary, f, indent=1)

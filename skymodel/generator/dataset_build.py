@@ -67,7 +67,9 @@ class BuildConfig:
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), knot_powers,
     sun_knot_midpoints_deg (optional (lo, hi) [deg]: a knot inserted at the midpoint of every sun-knot interval
     inside [lo, hi], :func:`config_knots`, and the fit samples that fill the new cells, :func:`fill_grid`; None:
-    neither, the builds before it), rank,
+    neither, the builds before it), band_max_gamma_deg (optional [deg]: the fit also takes the elevation-interpolation
+    band, :func:`band_samples`, out to this angle from the sun, with weight ``band_weight`` [1] relative to the
+    smallest real sample's; None: not, the builds before it), rank,
     smoothing [1], sun_penalty_order, iterations, refine, relative_power, relative_floor, sobolev (see
     :func:`skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments);
     atmosphere (AtmosphereSpec fields);
@@ -103,6 +105,8 @@ class BuildConfig:
     knots: tuple = (48, 36, 24)
     knot_powers: tuple = (2.0, 1.6, 1.6)
     sun_knot_midpoints_deg: tuple | None = None
+    band_max_gamma_deg: float | None = None
+    band_weight: float = 1.0
     rank: int = 6
     smoothing: float = 1e-6
     sun_penalty_order: int = 1
@@ -145,6 +149,11 @@ class BuildConfig:
             raise ValueError(f"relative_power={self.relative_power!r}: expected a value in [0, 4]")
         if not 0.0 < float(self.relative_floor) <= 1.0:
             raise ValueError(f"relative_floor={self.relative_floor!r}: expected a value in (0, 1]")
+        g = self.band_max_gamma_deg
+        if g is not None and not 0.0 < float(g) <= 90.0:
+            raise ValueError(f"band_max_gamma_deg={g!r}: expected a value in (0, 90] deg, or null")
+        if not 0.0 < float(self.band_weight) <= 1e4:
+            raise ValueError(f"band_weight={self.band_weight!r}: expected a value in (0, 10000]")
         if not 0.0 <= float(self.sobolev) <= 1e3:
             raise ValueError(f"sobolev={self.sobolev!r}: expected a value in [0, 1000]")
         ele = np.asarray(self.elevations_deg, float)
@@ -198,6 +207,9 @@ class BuildConfig:
                 d.pop(k)
         if self.sun_knot_midpoints_deg is None:  # (absent, as in the builds before the key)
             d.pop("sun_knot_midpoints_deg")
+        if self.band_max_gamma_deg is None:  # likewise
+            d.pop("band_max_gamma_deg")
+            d.pop("band_weight")
         return d
 
 
@@ -290,6 +302,79 @@ def fit_samples(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_el
     return t2, p2, None if radiance is None else resample_radiance(zenith_deg, azimuth_deg, radiance, t2, p2)
 
 
+BAND_GAMMAS_DEG = np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.25, 4.0, 5.0, 6.0, 7.0, 8.0, 9.5, 11.0,
+                            12.5, 14.0, 16.0, 18.0, 20.0, 23.0, 26.0, 30.0])
+"""Angles from the sun of the elevation-interpolation band's samples [deg] (:func:`band_samples`); from the grid's
+smallest offset from the sun (0.25 deg) up: closer in, the interpolation along the vertical would straddle the sun."""
+
+
+def band_deltas(config: BuildConfig, elevation_deg: float):
+    """(up, down) [deg]: how far the grid's elevation interpolation moves the sun from grid elevation
+    ``elevation_deg`` [deg] toward the neighbouring grid elevations (0 where there is none)."""
+    e = np.asarray(config.elevations_deg, float)
+    k = int(np.argmin(np.abs(e - float(elevation_deg))))
+    return (float(e[k + 1] - e[k]) if k + 1 < len(e) else 0.0, float(e[k] - e[k - 1]) if k > 0 else 0.0)
+
+
+def band_samples(zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float, deltas_deg, max_gamma_deg: float):
+    """Fit samples of one grid state in its elevation-interpolation band, where the evaluator looks although no
+    direction of this state's sky lies there.
+
+    Between grid elevations the evaluator blends the bracketing states' fits at the query's own angles (gamma to the
+    sun, view zenith alpha), as the reference does. A pair (gamma, alpha) with gamma < |alpha - zs| (zs: this state's
+    solar zenith) is no direction of this state's sky, yet a query sun up to ``deltas_deg`` (up, down) [deg] away
+    asks for it: the band ``|alpha - zs| - delta <= gamma < |alpha - zs|`` (up: alpha above the sun, down: below).
+    The fit sees no sample there and its product of factors takes any value: between 17 and 21 deg the 17 deg state
+    gives a ray from the sun that rises for 2 deg before the aureole falls, and the blend turns three times where
+    the sky solved at 19 deg turns once (docs/default-dataset.md, "The elevation-interpolation band"). These samples
+    give the band the radiance at the same angle from the sun on this state's own solar vertical, on the same side
+    (view zenith zs -+ gamma, relative azimuth 0): near the sun the sky is close to symmetric about the sun, so
+    each state then answers the band as its sky would with the sun moved there, and the blend of two states is the
+    blend of their aureoles at the same gamma.
+
+    Parameters
+    ----------
+    zenith_deg (T,), azimuth_deg (P,) [deg]: the solved product grid (it holds relative azimuth 0);
+    radiance (T, P, C) [W m-2 sr-1 nm-1] on it; solar_elevation_deg [deg]; deltas_deg (up, down) [deg]
+    (:func:`band_deltas`); max_gamma_deg [deg]: the band is sampled out to this angle from the sun
+    (:data:`BAND_GAMMAS_DEG`, at the view zeniths of the grid).
+
+    Returns
+    -------
+    dict: gamma, alpha, zero (m,) [rad] (the fit's angles), values (m, C) [W m-2 sr-1 nm-1]; m may be 0.
+    """
+    from scipy.interpolate import PchipInterpolator
+
+    from ..evaluate import directions_from_angles, reference_angles
+
+    th = np.asarray(zenith_deg, float)
+    ph = np.asarray(azimuth_deg, float)
+    rad = np.asarray(radiance, float)
+    zs = 90.0 - float(solar_elevation_deg)
+    if ph[0] != 0.0:
+        raise ValueError("band_samples: the grid's first relative azimuth must be 0 (the solar vertical)")
+    column = PchipInterpolator(th, np.log(np.maximum(rad[:, 0, :], 1e-300)), axis=0, extrapolate=False)
+    gam = BAND_GAMMAS_DEG[BAND_GAMMAS_DEG <= float(max_gamma_deg)]
+    rows_g, rows_t = [], []
+    for t in th:
+        d = abs(t - zs)
+        delta = deltas_deg[0] if t < zs else deltas_deg[1]
+        for g in gam[(gam < d) & (gam >= d - delta)]:
+            tb = zs - g if t < zs else zs + g           # the same angle from the sun on the solar vertical
+            if th[0] <= tb <= th[-1]:
+                rows_g.append(g)
+                rows_t.append((t, tb))
+    if not rows_g:
+        return {"gamma": np.zeros(0), "alpha": np.zeros(0), "zero": np.zeros(0), "values": np.zeros((0,) + rad.shape[2:])}
+    t_view = np.array([r[0] for r in rows_t])
+    t_on = np.array([r[1] for r in rows_t])
+    # the fit's zenith angles of the band's view zeniths (the altitude-corrected zenith, as the evaluator computes it)
+    zero = reference_angles(directions_from_angles(t_view, np.full(len(t_view), 90.0)), float(solar_elevation_deg),
+                            180.0)["zero"]
+    values = np.exp(column(t_on))
+    return {"gamma": np.radians(np.array(rows_g)), "alpha": zero, "zero": zero, "values": values}
+
+
 def validation_directions(solar_elevation_deg: float):
     """Held-out product grid (no zenith or azimuth of :func:`fit_directions` except the horizon limit):
     zenith (T,) [deg], relative azimuth (P,) [deg]; fine enough for hemispherical integrals."""
@@ -323,7 +408,7 @@ def _problems(visibility_km, config: BuildConfig, data_dir=None):
 
 
 def solve_state(visibility_km: float, solar_elevation_deg: float, config: BuildConfig, zenith_deg=None,
-                azimuth_deg=None, albedo: float = 0.0, data_dir=None) -> dict:
+                azimuth_deg=None, albedo: float = 0.0, data_dir=None, channels=None) -> dict:
     """Solve one sky state (ground albedo ``albedo``) on a product grid of directions.
 
     Parameters
@@ -332,6 +417,7 @@ def solve_state(visibility_km: float, solar_elevation_deg: float, config: BuildC
     zenith_deg, azimuth_deg : (T,), (P,) view zeniths [deg] and relative azimuths [deg]; default
         :func:`fit_directions`.
     albedo : [1] Lambertian ground albedo.
+    channels : channel indices (0..54) to solve (default all; the others stay 0).
 
     Returns
     -------
@@ -356,7 +442,7 @@ def solve_state(visibility_km: float, solar_elevation_deg: float, config: BuildC
     e0, dif = [], np.zeros(55)
     for c in range(55):
         ek = []
-        for p in probs[c]:
+        for p in (probs[c] if channels is None or c in set(int(x) for x in channels) else ()):
             r, fd, fb = run_disort(p, mu0, albedo, th, ph, cfg)
             rad[:, :, c] += p.weight * r
             ek.append(fd + fb)
@@ -695,13 +781,16 @@ def neighbour_pairs(n_zenith: int, n_azimuth: int) -> np.ndarray:
                            np.stack([idx[:-1].ravel(), idx[1:].ravel()], 1)])
 
 
-def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refine=2, sun_penalty_order=1, **fit_kw):
+def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refine=2, sun_penalty_order=1, band=None,
+            band_weight=1.0, **fit_kw):
     """Fit every channel of one configuration.
 
     Parameters
     ----------
     radiance : (T, P, C) [W m-2 sr-1 nm-1] on the grid of ``samples`` (:func:`direction_samples`).
     breaks : (sun, zenith, emph) knots [rad]; rank : int.
+    band : optional :func:`band_samples` dict, fitted too, each with ``band_weight`` times the smallest fit weight of
+        the grid's samples (not counted in ``nmae``).
     fit_kw : further keyword arguments of :func:`skymodel.generator.fit.fit_radiance` (:func:`fit_options`); with
         ``sobolev`` the neighbour pairs of the (T, P) grid (:func:`neighbour_pairs`) are added.
 
@@ -724,12 +813,18 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
             raise ValueError(f"sobolev needs the radiance on its (zenith, azimuth) grid, got shape "
                              f"{np.shape(radiance)}")
         fit_kw = dict(fit_kw, pairs=neighbour_pairs(*radiance.shape[:2]))
+    alpha = samples.get("alpha", samples["zero"])
+    gam, alp, zer, wall = samples["gamma"], alpha, samples["zero"], w
+    yb = np.zeros((0, C))
+    if band is not None and len(band["gamma"]):
+        gam, alp, zer = (np.concatenate([a, band[k]]) for a, k in ((gam, "gamma"), (alp, "alpha"), (zer, "zero")))
+        wall = np.concatenate([w, np.full(len(band["gamma"]), float(band_weight) * w.min())])
+        yb = np.asarray(band["values"], float).reshape(len(band["gamma"]), C)
     for c in range(C):
         if not np.any(y[:, c] > 0):
             continue
-        alpha = samples.get("alpha", samples["zero"])
-        f = fit_radiance(samples["gamma"], alpha, samples["zero"], y[:, c], sb, zb, eb, rank,
-                         weights=w, smoothing=smoothing, iterations=iterations, refine=refine,
+        f = fit_radiance(gam, alp, zer, np.concatenate([y[:, c], yb[:, c]]), sb, zb, eb, rank,
+                         weights=wall, smoothing=smoothing, iterations=iterations, refine=refine,
                          sun_penalty_order=sun_penalty_order, **fit_kw)
         sun[c], zen[c], emph[c] = f.sun, f.zen, f.emph
         pred = f.evaluate(samples["gamma"], alpha, samples["zero"], sb, zb, eb)
@@ -738,15 +833,24 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
     return sun, zen, emph, nmae
 
 
-def fit_state(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float, breaks=None):
+def fit_state(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float, breaks=None,
+              grid_elevation_deg=None):
     """:func:`fit_sky` of one state's radiance (T, P, C) [W m-2 sr-1 nm-1], solved on the product grid ``zenith_deg``
     (T,) x ``azimuth_deg`` (P,) [deg] at ``solar_elevation_deg`` [deg], with the settings of ``config``: its knots (or
-    ``breaks``), rank, penalties and fit terms, on its fit samples (:func:`fit_samples`). Returns fit_sky's (sun, zen,
-    emph, nmae)."""
+    ``breaks``), rank, penalties and fit terms, on its fit samples (:func:`fit_samples`) and, with
+    ``band_max_gamma_deg`` set, the elevation-interpolation band (:func:`band_samples`) toward the neighbours of grid
+    elevation ``grid_elevation_deg`` [deg] (default ``solar_elevation_deg``). Returns fit_sky's (sun, zen, emph,
+    nmae)."""
     t2, p2, rad = fit_samples(config, zenith_deg, azimuth_deg, radiance, solar_elevation_deg)
     br = config_knots(config) if breaks is None else breaks
+    band = None
+    if config.band_max_gamma_deg is not None:
+        e = solar_elevation_deg if grid_elevation_deg is None else grid_elevation_deg
+        band = band_samples(zenith_deg, azimuth_deg, radiance, solar_elevation_deg, band_deltas(config, e),
+                            float(config.band_max_gamma_deg))
     return fit_sky(rad, direction_samples(t2, p2, solar_elevation_deg), br, config.rank, config.smoothing,
-                   config.iterations, config.refine, config.sun_penalty_order, **fit_options(config))
+                   config.iterations, config.refine, config.sun_penalty_order, band=band,
+                   band_weight=float(config.band_weight), **fit_options(config))
 
 
 def fit_options(config: BuildConfig) -> dict:
@@ -770,6 +874,9 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         d["sun_penalty_order"] = config.sun_penalty_order
     if config.sun_knot_midpoints_deg is not None:  # likewise
         d["sun_knot_midpoints_deg"] = [float(x) for x in config.sun_knot_midpoints_deg]
+    if config.band_max_gamma_deg is not None:  # likewise
+        d["band"] = [float(config.band_max_gamma_deg), float(config.band_weight), BAND_GAMMAS_DEG.tolist(),
+                     list(config.elevations_deg)]
     d.update(fit_options(config))  # likewise: only the options a configuration sets
     from .dataset_mc import mc_key, needs_mc_state, uses_mc
 
@@ -813,7 +920,7 @@ def _fit_job(job):
             return radiance_with_albedo(s, g, a)
     out = {k: [] for k in ("sun", "zen", "emph", "nmae")}
     for a in config.albedos:
-        fitted = fit_state(config, zen_deg, az_deg, radiance(a), solved, breaks)
+        fitted = fit_state(config, zen_deg, az_deg, radiance(a), solved, breaks, grid_elevation_deg=ele)
         for k, v in zip(("sun", "zen", "emph", "nmae"), fitted):
             out[k].append(v)
     if config.polarisation:
@@ -1162,18 +1269,23 @@ def solver_reference(config: BuildConfig, progress: bool = False) -> list:
     return reference_entries(ref)
 
 
-def smoothness_report(dataset_path, reference_rows=None) -> dict:
+def smoothness_report(dataset_path, reference_rows=None, between=None) -> dict:
     """The smoothness check (:mod:`skymodel.generator.smoothness`) of a written dataset over its grid and between grid
     points, summarised for the sidecar; with ``reference_rows`` (:func:`solver_reference`) a profile fails only beyond
-    the solver's own turning points there."""
+    the solver's own turning points there, and with ``between``
+    (:func:`skymodel.generator.smoothness_between.between_reference`) the pairs between grid points solved at their
+    own state are judged against that solve."""
     from ..dataset import load_dataset
     from .smoothness import check_dataset, reference_from_entries, summarise
 
     model = load_dataset(dataset_path)
     ref = None
     if reference_rows is not None:
-        ref = reference_from_entries(reference_rows, (model.visibilities, model.elevations, model.albedos))
-    return summarise(check_dataset(model, reference=ref), model.wavelengths)
+        ref = reference_from_entries(reference_rows, (model.visibilities, model.elevations, model.albedos), between)
+    out = summarise(check_dataset(model, reference=ref), model.wavelengths)
+    if between is not None and "between" in out:
+        out["between"]["pairs_solved_at_their_state"] = len(between["examined"])
+    return out
 
 
 def build_dataset(config: BuildConfig, output, processes: int = 2, progress: bool = True, validation: bool = True,
@@ -1195,7 +1307,20 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
                        "profile kind, profile index, turning points]; the check allows these counts there; grid states "
                        "that hold a sky solved at another elevation (0 deg) have none (docs/default-dataset.md, "
                        "'Smoothness')", "rows": rows}
-    meta["smoothness"] = smoothness_report(output, rows)
+    from ..dataset import load_dataset
+    from .smoothness import reference_from_entries
+    from .smoothness_between import between_reference
+
+    model = load_dataset(output)
+    between = between_reference(config, model, reference_from_entries(
+        rows, (model.visibilities, model.elevations, model.albedos)), processes, progress)
+    meta["smoothness_between_reference"] = {
+        "description": "(state, channel) pairs between grid points that fail the check by the bracketing grid states' "
+                       "allowance, solved at their own state ('examined': [visibility km, elevation deg, albedo, "
+                       "channel index]) and the profiles where that solve has more turning points than the limit "
+                       "('rows', as smoothness_reference); the check judges those pairs against their own solve "
+                       "(skymodel.generator.smoothness_between; docs/default-dataset.md, 'The check')", **between}
+    meta["smoothness"] = smoothness_report(output, rows, between)
     meta["build_seconds"] = round(time.perf_counter() - t0, 1)
     Path(output).with_name(Path(output).name + ".json").write_text(json.dumps(meta, indent=1))
     return meta

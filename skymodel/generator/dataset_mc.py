@@ -277,10 +277,10 @@ def split_radiance(state: dict, albedo: float, rest=None, **kw) -> np.ndarray:
     return np.asarray(state["single_fine"], float) + np.maximum(rest, 0.0)
 
 
-def smooth_across_visibility(values, visibilities_km, degree: int = SPLIT_VISIBILITY_DEGREE) -> np.ndarray:
+def smooth_across_visibility(values, visibilities_km, degree: int = SPLIT_VISIBILITY_DEGREE, at_km=None) -> np.ndarray:
     """Least-squares polynomial of degree ``degree`` in log visibility through ``values`` (V, ...) [any unit] given at
-    ``visibilities_km`` (V,) [km], evaluated at the same visibilities, element by element (the degree is lowered to
-    V - 1 where there are fewer visibilities). Pure array function."""
+    ``visibilities_km`` (V,) [km], evaluated at the same visibilities (or at ``at_km`` (A,) [km]: then (A, ...)),
+    element by element (the degree is lowered to V - 1 where there are fewer visibilities). Pure array function."""
     x = np.log(np.asarray(visibilities_km, float))
     y = np.asarray(values, float)
     if y.shape[0] != len(x):
@@ -288,7 +288,10 @@ def smooth_across_visibility(values, visibilities_km, degree: int = SPLIT_VISIBI
     deg = min(int(degree), len(x) - 1)
     X = np.vander(x - x.mean(), deg + 1)                                        # (V, deg + 1)
     coef, *_ = np.linalg.lstsq(X, y.reshape(len(x), -1), rcond=None)
-    return (X @ coef).reshape(y.shape)
+    if at_km is None:
+        return (X @ coef).reshape(y.shape)
+    xa = np.log(np.atleast_1d(np.asarray(at_km, float)))
+    return (np.vander(xa - x.mean(), deg + 1) @ coef).reshape((len(xa),) + y.shape[1:])
 
 
 def rest_across_visibility(config, elevation_deg: float, albedo: float, zenith_deg=None, azimuth_deg=None,

@@ -21,7 +21,9 @@ the bright band a few degrees above the horizon on a ray rising from a low sun, 
 antisolar vertical), the check can compare with it: :func:`solver_turning_points` counts the solver's, the build keeps
 the profiles above the limit (:func:`reference_entries`, the sidecar's ``smoothness_reference``), and a profile then
 fails only with more turning points than both the limit and the solver's there (between grid states: the most of the
-bracketing grid states'). The verdict by the limits alone is kept beside it.
+bracketing grid states'). A between-grid pair that fails by that rule is solved at its own state by the build
+(:mod:`skymodel.generator.smoothness_between`) and then judged against that solve instead (``between`` of
+:func:`reference_from_entries`). The verdicts by the limits alone and by the bracketing rule are kept beside it.
 
 Pure functions over arrays; :func:`check_dataset` runs everything and :func:`summarise` reduces it for the sidecar.
 """
@@ -276,14 +278,19 @@ def check_states(model, states, rel_tol: float = REL_TOL, reference=None) -> lis
         f = _fails(m, rel_tol) & checked
         for q, i in enumerate(idx):
             fq = f[q]
+            extra = {}
             if reference is not None:
-                allow = allowed_turning_points(reference, states[i], L.shape[-1])
-                fq = (m["zenith_spot"][q] > ZENITH_SPOT_TOL) & checked[q]
-                for k in LIMITS:
-                    fq = fq | ((tp[k][q] > allow[k]).any(axis=-1) & checked[q])
+                spot = (m["zenith_spot"][q] > ZENITH_SPOT_TOL) & checked[q]
+
+                def beyond(allow):
+                    return spot | np.any([(tp[k][q] > allow[k]).any(axis=-1) & checked[q] for k in LIMITS], axis=0)
+
+                fq = beyond(allowed_turning_points(reference, states[i], L.shape[-1]))
+                if tuple(float(x) for x in states[i]) in reference.get("own", {}):
+                    extra["fails_bracket"] = beyond(allowed_turning_points(reference, states[i], L.shape[-1], False))
             out[i] = {"visibility": float(states[i][0]), "elevation": ele, "albedo": float(states[i][2]),
                       "checked": checked[q], **{k: v[q] for k, v in m.items()}, "fails": fq, "fails_plain": f[q],
-                      "profile_tp": {k: v[q] for k, v in tp.items()}}
+                      **extra, "profile_tp": {k: v[q] for k, v in tp.items()}}
     return out
 
 
@@ -321,13 +328,26 @@ def reference_entries(reference: dict) -> list:
     return rows
 
 
-def reference_from_entries(rows, grid) -> dict:
-    """Inverse of :func:`reference_entries`: {"grid": (visibilities, elevations, albedos) of the dataset,
-    "tp": {(v, e, a): {kind: {(channel, profile): turning points}}}} for :func:`check_states`."""
+def _rows_by_state(rows) -> dict:
     tp = {}
     for v, e, a, c, k, j, n in rows:
         tp.setdefault((float(v), float(e), float(a)), {}).setdefault(k, {})[(int(c), int(j))] = int(n)
-    return {"grid": tuple(np.asarray(x, float) for x in grid), "tp": tp}
+    return tp
+
+
+def reference_from_entries(rows, grid, between=None) -> dict:
+    """Inverse of :func:`reference_entries`: {"grid": (visibilities, elevations, albedos) of the dataset,
+    "tp": {(v, e, a): {kind: {(channel, profile): turning points}}}} for :func:`check_states`; with ``between``
+    (:func:`skymodel.generator.smoothness_between.between_reference`: the (state, channel) pairs off the grid
+    re-examined against the solver's sky solved there, and its rows) also "own": {(v, e, a): {channel, ...}} and
+    "own_tp" (as "tp"), which replace the bracketing rule for those pairs (:func:`allowed_turning_points`)."""
+    out = {"grid": tuple(np.asarray(x, float) for x in grid), "tp": _rows_by_state(rows)}
+    if between is not None:
+        own = {}
+        for v, e, a, c in between["examined"]:
+            own.setdefault((float(v), float(e), float(a)), set()).add(int(c))
+        out["own"], out["own_tp"] = own, _rows_by_state(between["rows"])
+    return out
 
 
 def _bracket(x, grid):
@@ -340,10 +360,11 @@ def _bracket(x, grid):
     return [float(g[i - 1]), float(g[i])] if g[0] < x < g[-1] else [float(g[0] if x < g[0] else g[-1])]
 
 
-def allowed_turning_points(reference: dict, state, n_channels: int) -> dict:
+def allowed_turning_points(reference: dict, state, n_channels: int, own: bool = True) -> dict:
     """Turning points allowed per profile at ``state`` (visibility, elevation, albedo): the limit, or the solver's own
     count where that is larger, at a grid state that state's, between grid states the largest of the bracketing grid
-    states' (in each of the three dimensions). Returns {kind: (C, n) int}."""
+    states' (in each of the three dimensions), except for the channels solved at the state itself (the reference's
+    "own", with ``own``): there the solve's. Returns {kind: (C, n) int}."""
     n_prof = {"almucantar": len(ALMUCANTAR_ZENITHS_DEG), "vertical": len(VERTICAL_AZIMUTHS_DEG), "aureole": 8}
     out = {k: np.full((n_channels, n_prof[k]), lim) for k, lim in LIMITS.items()}
     gv, ge, ga = reference["grid"]
@@ -353,6 +374,15 @@ def allowed_turning_points(reference: dict, state, n_channels: int) -> dict:
                 for k, d in reference["tp"].get((v, e, a), {}).items():
                     for (c, j), n in d.items():
                         out[k][c, j] = max(out[k][c, j], n)
+    key = tuple(float(x) for x in state)
+    solved = reference.get("own", {}).get(key, ()) if own else ()
+    for c in solved:
+        for k, lim in LIMITS.items():
+            out[k][c] = lim
+    for k, d in (reference.get("own_tp", {}).get(key, {}) if solved else {}).items():
+        for (c, j), n in d.items():
+            if c in solved:
+                out[k][c, j] = max(LIMITS[k], n)
     return out
 
 
@@ -396,6 +426,7 @@ def summarise(result: dict, wavelengths_nm=None) -> dict:
         get = lambda k: np.array([r[k] for r in rows])  # noqa: E731
         fails = get("fails")
         plain = get("fails_plain") if "fails_plain" in rows[0] else fails
+        bracket = np.array([r.get("fails_bracket", r["fails"]) for r in rows])
         g = {"states": len(rows), "checked_pairs": int(chk.sum()), "failing_pairs": int(fails.sum()),
              "failing_pairs_by_limits": int(plain.sum()),
              "failing_states": int(fails.any(axis=1).sum()),
@@ -407,6 +438,8 @@ def summarise(result: dict, wavelengths_nm=None) -> dict:
              "max_aureole_rise": round(float(np.max(np.where(chk, get("aureole_rise"), 0))), 5),
              "max_zenith_spot": round(float(np.max(np.where(chk, get("zenith_spot"), 0))), 5),
              "failing_channels_per_state_max": int(fails.sum(axis=1).max())}
+        if any("fails_bracket" in r for r in rows):
+            g["failing_pairs_by_bracketing_states"] = int(bracket.sum())
         ele = np.array([r["elevation"] for r in rows])
         g["failing_pairs_by_elevation"] = {f"{e:g}": int(fails[ele == e].sum()) for e in np.unique(ele)}
         g["checked_pairs_by_elevation"] = {f"{e:g}": int(chk[ele == e].sum()) for e in np.unique(ele)}

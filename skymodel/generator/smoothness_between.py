@@ -1,0 +1,134 @@
+"""The solver's own sky at states between grid points, for the smoothness check (issue 11).
+
+Between grid states the check (:mod:`skymodel.generator.smoothness`) first allows a profile the most turning points
+that the solver's own sky has at the bracketing grid states. That rule cannot see what the sky does *between* them:
+two neighbours whose rays from the sun have one turning point each, one a minimum close to the sun (the aureole
+falling onto the brightening above a low sun), the other a maximum further out, blend into a ray with both, and so
+does the sky itself in between (docs/default-dataset.md, "The check"). Every between-grid (state, channel) pair that
+fails by that rule is therefore looked at again against the solver's sky solved at that state itself:
+
+- at elevations that the build solves with DISORT, a DISORT solve at the state (its visibility, elevation and
+  albedo) on the build's fit directions (:func:`skymodel.generator.dataset_build.fit_directions`);
+- at elevations that take the split Monte Carlo radiance, what the build itself would solve there: the exact single
+  scattering at the state (:func:`skymodel.generator.dataset_mc.single_scatter`, noise-free) plus the smoothed rest
+  (multiple scattering and ground light, a cosine series of order 2 in azimuth, :func:`split_rest`) of the grid's
+  Monte Carlo states at the two bracketing elevations, each smoothed across visibility by the build's cubic in log
+  visibility and evaluated at the state's visibility, then blended linearly in elevation with the evaluator's weights.
+
+The solver's turning points there (:func:`skymodel.generator.smoothness.solver_turning_points`) replace the
+bracketing rule for that (state, channel): the pair fails only with more turning points than the limit and that
+solve. Results are cached in the build cache.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["between_state_radiance", "between_reference"]
+
+
+def _elevation_bracket(grid_deg, elevation_deg: float):
+    """Grid elevations around ``elevation_deg`` and the evaluator's linear weights: [(elevation, weight), ...]."""
+    g = np.asarray(grid_deg, float)
+    k = int(np.clip(np.searchsorted(g, elevation_deg, side="right"), 1, len(g) - 1))
+    f = float(np.clip((elevation_deg - g[k - 1]) / (g[k] - g[k - 1]), 0.0, 1.0))
+    return [(float(g[k - 1]), 1.0 - f), (float(g[k]), f)]
+
+
+def _split_rest_at(config, elevation_deg: float, albedo: float, zenith_deg, azimuth_deg, visibility_km: float):
+    """The grid's split rest at grid elevation ``elevation_deg`` [deg] and ``albedo`` [1] on the product grid
+    ``zenith_deg`` x ``azimuth_deg`` [deg], smoothed across the grid visibilities and evaluated at ``visibility_km``
+    [km]: (T, P, 55) [W m-2 sr-1 nm-1]."""
+    from .cache import load_state
+    from .dataset_mc import mc_file, smooth_across_visibility, split_rest
+
+    vis = [float(v) for v in config.visibilities_km]
+    rests = np.stack([split_rest(load_state(mc_file(config, v, elevation_deg)), albedo, zenith_deg, azimuth_deg)
+                      for v in vis])
+    return smooth_across_visibility(rests, vis, at_km=[visibility_km])[0]
+
+
+def between_state_radiance(config, visibility_km: float, elevation_deg: float, albedo: float, channels=None,
+                           data_dir=None):
+    """The solver's own sky at a state off the grid (see the module docstring), on the build's fit directions.
+
+    Parameters
+    ----------
+    config : :class:`skymodel.generator.dataset_build.BuildConfig` (its cache holds the grid's Monte Carlo states).
+    visibility_km [km], elevation_deg [deg], albedo [1]: the state.
+    channels : channel indices (0..54) to return (default all 55).
+
+    Returns
+    -------
+    zenith (T,) [deg], relative azimuth (P,) [deg], radiance (T, P, C) [W m-2 sr-1 nm-1].
+    """
+    from .dataset_build import fit_directions, solve_state
+    from .dataset_mc import single_scatter, split_state
+
+    ch = np.arange(55) if channels is None else np.asarray(channels, int)
+    th, ph = fit_directions(elevation_deg, config.zenith_step_deg)
+    bracket = _elevation_bracket(config.elevations_deg, elevation_deg)
+    if split_state(config, elevation_deg) and all(split_state(config, e) for e, _ in bracket):
+        single = single_scatter(visibility_km, elevation_deg, th, ph, config, data_dir, channels=ch)
+        rest = sum(w * _split_rest_at(config, e, albedo, th, ph, visibility_km)[..., ch] for e, w in bracket if w)
+        return th, ph, single + np.maximum(rest, 0.0)
+    s = solve_state(visibility_km, elevation_deg, config, th, ph, albedo=albedo, data_dir=data_dir, channels=ch)
+    return th, ph, s["radiance"][..., ch]
+
+
+def _reference_file(config, visibility_km, elevation_deg, albedo, channels):
+    import hashlib
+
+    from .cache import cache_root
+
+    key = hashlib.sha1(repr([int(c) for c in channels]).encode()).hexdigest()[:8]
+    return cache_root(config) / (f"smoothbetween_v{visibility_km:.4f}_e{elevation_deg:.4f}_a{albedo:.4f}_{key}"
+                                 ".npz")
+
+
+def _reference_job(job):
+    """Turning points of the solver's own sky at one state for some channels: (state, channels, {kind: (C, n)})."""
+    import os
+
+    config, state, channels = job
+    from .smoothness import solver_turning_points
+
+    path = _reference_file(config, *state, channels)
+    if path.exists():
+        with np.load(path) as z:
+            return state, channels, {k: z[k] for k in ("almucantar", "vertical", "aureole")}
+    th, ph, rad = between_state_radiance(config, *state, channels=channels)
+    tp = solver_turning_points(th, ph, rad, state[1])
+    tmp = path.with_name(path.name + f".{os.getpid()}.tmp.npz")
+    np.savez(tmp, **tp)
+    os.replace(tmp, path)
+    return state, channels, tp
+
+
+def between_reference(config, model, grid_reference, processes: int = 2, progress: bool = True) -> dict:
+    """Re-examine every between-grid (state, channel) pair of ``model`` that fails the smoothness check by the
+    bracketing rule (``grid_reference``: :func:`skymodel.generator.smoothness.reference_from_entries` of the grid
+    rows) against the solver's own sky at that state.
+
+    Returns
+    -------
+    dict, JSON-ready: ``examined`` [[visibility km, elevation deg, albedo, channel index], ...] and ``rows`` (the
+    profiles of those pairs where the solve has more turning points than the limit, as
+    :func:`skymodel.generator.smoothness.reference_entries` rows), for
+    :func:`skymodel.generator.smoothness.reference_from_entries`'s ``between``.
+    """
+    from .dataset_build import _pool_map
+    from .smoothness import LIMITS, between_grid_states, check_states
+
+    states = between_grid_states(model)
+    rows = check_states(model, states, reference=grid_reference)
+    jobs = [(config, s, [int(c) for c in np.flatnonzero(r["fails"])]) for s, r in zip(states, rows) if r["fails"].any()]
+    examined, out = [], []
+    for state, channels, tp in _pool_map(_reference_job, jobs, processes, progress, "between-grid solves"):
+        for q, c in enumerate(channels):
+            examined.append([float(state[0]), float(state[1]), float(state[2]), int(c)])
+            for k, lim in LIMITS.items():
+                for j in np.flatnonzero(np.asarray(tp[k])[q] > lim):
+                    out.append([float(state[0]), float(state[1]), float(state[2]), int(c), k, int(j),
+                                int(tp[k][q][j])])
+    return {"examined": sorted(examined), "rows": sorted(out)}
