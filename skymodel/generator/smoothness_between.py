@@ -77,11 +77,18 @@ def between_state_radiance(config, visibility_km: float, elevation_deg: float, a
 
 
 def _reference_file(config, visibility_km, elevation_deg, albedo, channels):
+    """Cache file of one state's turning points [.npz], named by what the solve depends on beyond the solver's key:
+    the channels, and for the split Monte Carlo states their key, smoothing and the grid they are blended from."""
     import hashlib
 
     from .cache import cache_root
+    from .dataset_mc import SPLIT_SMOOTHING, mc_key, split_state
 
-    key = hashlib.sha1(repr([int(c) for c in channels]).encode()).hexdigest()[:8]
+    parts = [[int(c) for c in channels]]
+    if split_state(config, elevation_deg):
+        parts += [mc_key(config), SPLIT_SMOOTHING, [float(v) for v in config.visibilities_km],
+                  [float(e) for e in config.elevations_deg]]
+    key = hashlib.sha1(repr(parts).encode()).hexdigest()[:8]
     return cache_root(config) / (f"smoothbetween_v{visibility_km:.4f}_e{elevation_deg:.4f}_a{albedo:.4f}_{key}"
                                  ".npz")
 

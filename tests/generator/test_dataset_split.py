@@ -187,6 +187,29 @@ def test_smooth_across_visibility_keeps_a_cubic_and_averages_noise():
     np.testing.assert_allclose(smooth_across_visibility(two, [20.0, 40.0]), two)
     with pytest.raises(ValueError):
         smooth_across_visibility(two, [20.0, 40.0, 60.0])
+    # evaluated between the visibilities (the between-grid reference of the smoothness check): the same cubic
+    at = [22.0, 38.68, 119.97]
+    xa = np.log(at)
+    want = (0.3 + 0.2 * xa - 0.05 * xa ** 2 + 0.01 * xa ** 3)[:, None] * np.ones((1, 4))
+    np.testing.assert_allclose(smooth_across_visibility(cubic, vis, at_km=at), want, rtol=1e-10)
+
+
+def test_between_elevation_bracket_uses_the_evaluators_weights():
+    """The split between-grid reference (skymodel.generator.smoothness_between) blends the bracketing grid elevations
+    with the evaluator's linear weights (skymodel.evaluate: linear in elevation between grid values)."""
+    from skymodel.generator.smoothness_between import _elevation_bracket
+
+    grid = [0.0, 1.0, 2.0, 3.0, 4.5, 6.0, 8.0, 10.5]
+    assert _elevation_bracket(grid, 2.5) == [(2.0, 0.5), (3.0, 0.5)]
+    (e0, w0), (e1, w1) = _elevation_bracket(grid, 5.25)
+    assert (e0, e1) == (4.5, 6.0) and abs(w0 - 0.5) < 1e-12 and abs(w1 - 0.5) < 1e-12
+    (e0, w0), (e1, w1) = _elevation_bracket(grid, 7.0)
+    assert (e0, e1) == (6.0, 8.0) and abs(w1 - 0.5) < 1e-12
+    from skymodel.evaluate import _reference_lookup
+
+    for q in (0.5, 3.75, 9.25, 9.9):
+        i, f = _reference_lookup(q, np.asarray(grid))
+        assert _elevation_bracket(grid, q) == [(grid[i], 1.0 - f), (grid[i + 1], f)]
 
 
 def test_rest_across_visibility_lowers_the_noise_of_each_state():
