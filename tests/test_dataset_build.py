@@ -161,6 +161,6 @@ def test_tiny_build_direct_beam_and_error_report(tiny):
     # the between-grid pairs failing by the bracketing rule were solved at their own state and judged against it
     bref = meta["smoothness_between_reference"]
     failing_by_bracket = sm["between"].get("failing_pairs_by_bracketing_states", 0)
-    assert len(bref["examined"]) == failing_by_bracket and sm["between"]["failing_pairs"] <= failing_by_bracket
+    assert len(bref["examined"]) <= failing_by_bracket and sm["between"]["failing_pairs"] <= failing_by_bracket
     et = m.metadata["extraterrestrial"]
     assert et["wavelength"][0] == 280.0 and et["wavelength"][-1] == 2480.0

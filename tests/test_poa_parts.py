@@ -207,6 +207,11 @@ def test_fused_product_matches_the_three_parts(fused_runs):
     np.testing.assert_array_equal(col.got["a"][lit], fused.get("a", "global")[lit])
     np.testing.assert_array_equal(col.got["aoi"][lit], full.aoi[lit])
     assert "b" not in fused.responses and "d" not in col.got      # d has a spectral optic
+    # "e" takes the per-part path in both runs, but its product shares a matrix with other columns in one run and not
+    # the other, and the BLAS kernel's blocking (chosen by the CPU) need not round the two alike: float32 rounding
+    # (measured on one machine: equal; on another: 3e-7 relative)
     for part in ("direct", "sky_diffuse", "ground_diffuse"):
-        np.testing.assert_array_equal(fused.get("e", part), full.get("e", part))
+        ref_e = full.get("e", part)
+        np.testing.assert_allclose(fused.get("e", part), ref_e, rtol=2e-6, atol=2e-6 * max(ref_e.max(), 1e-30),
+                                   err_msg=part)
     assert ref.max() > 0 and full.get("a", "ground_diffuse").max() > 0

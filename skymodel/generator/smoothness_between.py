@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["between_state_radiance", "between_reference"]
+__all__ = ["solvable", "between_state_radiance", "between_reference"]
 
 
 def _elevation_bracket(grid_deg, elevation_deg: float):
@@ -48,6 +48,21 @@ def _split_rest_at(config, elevation_deg: float, albedo: float, zenith_deg, azim
     return smooth_across_visibility(rests, vis, at_km=[visibility_km])[0]
 
 
+def solvable(config, elevation_deg: float) -> str | None:
+    """How the solver's own sky at an off-grid elevation [deg] is had: "split" (exact single scattering plus the
+    bracketing split states' rest), "disort", or None where the build has no noise-free reference there (a sky taken
+    from an unsplit Monte Carlo solution, e.g. a polarised or twilight build, or below ``min_solve_elevation_deg`` in
+    a plane-parallel one); such pairs keep the bracketing rule."""
+    from .dataset_mc import radiance_by_mc, split_state
+
+    if split_state(config, elevation_deg):
+        ok = all(split_state(config, e) for e, _ in _elevation_bracket(config.elevations_deg, elevation_deg))
+        return "split" if ok else None
+    if radiance_by_mc(config, elevation_deg) or elevation_deg < float(config.min_solve_elevation_deg):
+        return None
+    return "disort"
+
+
 def between_state_radiance(config, visibility_km: float, elevation_deg: float, albedo: float, channels=None,
                            data_dir=None):
     """The solver's own sky at a state off the grid (see the module docstring), on the build's fit directions.
@@ -63,12 +78,15 @@ def between_state_radiance(config, visibility_km: float, elevation_deg: float, a
     zenith (T,) [deg], relative azimuth (P,) [deg], radiance (T, P, C) [W m-2 sr-1 nm-1].
     """
     from .dataset_build import fit_directions, solve_state
-    from .dataset_mc import single_scatter, split_state
+    from .dataset_mc import single_scatter
 
     ch = np.arange(55) if channels is None else np.asarray(channels, int)
     th, ph = fit_directions(elevation_deg, config.zenith_step_deg)
     bracket = _elevation_bracket(config.elevations_deg, elevation_deg)
-    if split_state(config, elevation_deg) and all(split_state(config, e) for e, _ in bracket):
+    how = solvable(config, elevation_deg)
+    if how is None:
+        raise ValueError(f"no noise-free solver reference at elevation {elevation_deg} deg for this configuration")
+    if how == "split":
         single = single_scatter(visibility_km, elevation_deg, th, ph, config, data_dir, channels=ch)
         rest = sum(w * _split_rest_at(config, e, albedo, th, ph, visibility_km)[..., ch] for e, w in bracket if w)
         return th, ph, single + np.maximum(rest, 0.0)
@@ -119,7 +137,8 @@ def between_reference(config, model, grid_reference, processes: int = 2, progres
 
     Returns
     -------
-    dict, JSON-ready: ``examined`` [[visibility km, elevation deg, albedo, channel index], ...] and ``rows`` (the
+    dict, JSON-ready: ``examined`` [[visibility km, elevation deg, albedo, channel index], ...] (the pairs at
+    elevations where :func:`solvable` gives a reference; the others keep the bracketing rule) and ``rows`` (the
     profiles of those pairs where the solve has more turning points than the limit, as
     :func:`skymodel.generator.smoothness.reference_entries` rows), for
     :func:`skymodel.generator.smoothness.reference_from_entries`'s ``between``.
@@ -129,7 +148,8 @@ def between_reference(config, model, grid_reference, processes: int = 2, progres
 
     states = between_grid_states(model)
     rows = check_states(model, states, reference=grid_reference)
-    jobs = [(config, s, [int(c) for c in np.flatnonzero(r["fails"])]) for s, r in zip(states, rows) if r["fails"].any()]
+    jobs = [(config, s, [int(c) for c in np.flatnonzero(r["fails"])]) for s, r in zip(states, rows)
+            if r["fails"].any() and solvable(config, s[1]) is not None]
     examined, out = [], []
     for state, channels, tp in _pool_map(_reference_job, jobs, processes, progress, "between-grid solves"):
         for q, c in enumerate(channels):
