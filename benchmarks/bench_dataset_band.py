@@ -6,7 +6,8 @@ view zenith), so each state is asked for pairs that no direction of its own sky 
 the two grid elevations and at the elevation between them, fits the grid states with the configuration's settings
 with and without the band, blends them with the evaluator's weights, and compares along the smoothness check's ray
 from the sun toward the horizon (position angle 180 deg) and the ray toward the zenith (0 deg), both on the solar
-vertical and solved there directly: turning points (0.5 % hysteresis) and the departure from the solve. Also prints each fit's in-sample NMAE.
+vertical and solved there directly: turning points (0.5 % hysteresis) and the departure from the solve. Also prints
+each fit's in-sample NMAE.
 
 Run:  python benchmarks/bench_dataset_band.py skymodel/data/default-dataset.json \
           --figure docs/figures/dataset_elevation_band.png [--visibility 20 --low 17 --high 21 --channels 33 6]

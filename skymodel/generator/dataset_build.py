@@ -365,7 +365,8 @@ def band_samples(zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float, 
                 rows_g.append(g)
                 rows_t.append((t, tb))
     if not rows_g:
-        return {"gamma": np.zeros(0), "alpha": np.zeros(0), "zero": np.zeros(0), "values": np.zeros((0,) + rad.shape[2:])}
+        empty = np.zeros(0)
+        return {"gamma": empty, "alpha": empty, "zero": empty, "values": np.zeros((0,) + rad.shape[2:])}
     t_view = np.array([r[0] for r in rows_t])
     t_on = np.array([r[1] for r in rows_t])
     # the fit's zenith angles of the band's view zeniths (the altitude-corrected zenith, as the evaluator computes it)

@@ -277,7 +277,8 @@ def split_radiance(state: dict, albedo: float, rest=None, **kw) -> np.ndarray:
     return np.asarray(state["single_fine"], float) + np.maximum(rest, 0.0)
 
 
-def smooth_across_visibility(values, visibilities_km, degree: int = SPLIT_VISIBILITY_DEGREE, at_km=None) -> np.ndarray:
+def smooth_across_visibility(values, visibilities_km, degree: int = SPLIT_VISIBILITY_DEGREE,
+                             at_km=None) -> np.ndarray:
     """Least-squares polynomial of degree ``degree`` in log visibility through ``values`` (V, ...) [any unit] given at
     ``visibilities_km`` (V,) [km], evaluated at the same visibilities (or at ``at_km`` (A,) [km]: then (A, ...)),
     element by element (the degree is lowered to V - 1 where there are fewer visibilities). Pure array function."""
