@@ -22,7 +22,8 @@ References and tolerances:
 - the elevation-interpolation band: its samples lie where the evaluator looks between grid elevations and no
   direction of the state's sky does, with the radiance of the state's solar vertical at the same angle from the sun
   (analytic aureole); with it the blend of the 17 and 21 deg fits turns on a ray from a 19 deg sun no more than DISORT
-  solved at 19 deg (without it 3 times against once, 1620 nm);
+  solved at 19 deg (without it 3 times against once, 1620 nm); ``band_min_elevation_deg`` keeps it off below a
+  grid elevation, with the fit-cache names of the builds without and with the band (names set in the test);
 - the default.dat of the fourth rebuild still fails at low sun, also against the solver's own turning points: the
   check flags it (strict xfail until a file passes).
 """
@@ -311,6 +312,29 @@ def test_band_samples_lie_in_the_interpolation_band_and_copy_the_solar_vertical(
     assert np.all(gam < d + 0.3) and np.all(gam >= d - np.where(zen < zs, 4.0, 3.5) - 0.3)
     np.testing.assert_allclose(b["values"][:, 0], 1.0 / (gam + 1.0), rtol=5e-3)
     assert len(band_samples(th, ph, rad, ele, (0.0, 0.0), 15.0)["gamma"]) == 0
+
+
+def test_band_min_elevation_keeps_the_band_off_below_it_and_the_cache_names_of_both_kinds_of_state():
+    """``band_min_elevation_deg`` (dataset_build.has_band): the band only for grid elevations at or above it. A state
+    below it is fitted and cached exactly as without the band (the same fit-cache name), one at or above it exactly
+    as with the band everywhere (the same name), so the two earlier builds' cached fits serve it; the key needs
+    ``band_max_gamma_deg`` and is written to the sidecar only where set (reference: the names and values set here)."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import BuildConfig, fit_file, has_band
+
+    plain = BuildConfig()
+    band = replace(plain, band_max_gamma_deg=15.0, band_weight=0.03)
+    part = replace(band, band_min_elevation_deg=10.5)
+    assert not has_band(plain, 20.0) and has_band(band, 0.0) and has_band(band, 20.0)
+    assert not has_band(part, 8.0) and has_band(part, 10.5) and has_band(part, 90.0)
+    assert fit_file(part, 20.0, 8.0) == fit_file(plain, 20.0, 8.0) != fit_file(band, 20.0, 8.0)
+    assert fit_file(part, 20.0, 10.5) == fit_file(band, 20.0, 10.5) != fit_file(plain, 20.0, 10.5)
+    assert "band_min_elevation_deg" not in band.to_dict() and part.to_dict()["band_min_elevation_deg"] == 10.5
+    with pytest.raises(ValueError, match="band_min_elevation_deg"):
+        replace(plain, band_min_elevation_deg=10.5)
+    with pytest.raises(ValueError, match="band_min_elevation_deg"):
+        replace(band, band_min_elevation_deg=95.0)
 
 
 @needs_data

@@ -69,7 +69,8 @@ class BuildConfig:
     inside [lo, hi], :func:`config_knots`, and the fit samples that fill the new cells, :func:`fill_grid`; None:
     neither, the builds before it), band_max_gamma_deg (optional [deg]: the fit also takes the elevation-interpolation
     band, :func:`band_samples`, out to this angle from the sun, with weight ``band_weight`` [1] relative to the
-    smallest real sample's; None: not, the builds before it), rank,
+    smallest real sample's; None: not, the builds before it), band_min_elevation_deg (optional [deg]: the band only
+    for grid elevations at or above it, :func:`has_band`; None: every grid elevation), rank,
     smoothing [1], sun_penalty_order, iterations, refine, relative_power, relative_floor, sobolev (see
     :func:`skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments);
     atmosphere (AtmosphereSpec fields);
@@ -107,6 +108,7 @@ class BuildConfig:
     sun_knot_midpoints_deg: tuple | None = None
     band_max_gamma_deg: float | None = None
     band_weight: float = 1.0
+    band_min_elevation_deg: float | None = None
     rank: int = 6
     smoothing: float = 1e-6
     sun_penalty_order: int = 1
@@ -154,6 +156,10 @@ class BuildConfig:
             raise ValueError(f"band_max_gamma_deg={g!r}: expected a value in (0, 90] deg, or null")
         if not 0.0 < float(self.band_weight) <= 1e4:
             raise ValueError(f"band_weight={self.band_weight!r}: expected a value in (0, 10000]")
+        b0 = self.band_min_elevation_deg
+        if b0 is not None and (g is None or not -10.0 <= float(b0) <= 90.0):
+            raise ValueError(f"band_min_elevation_deg={b0!r}: expected a value in [-10, 90] deg with "
+                             f"band_max_gamma_deg set (got {g!r}), or null")
         if not 0.0 <= float(self.sobolev) <= 1e3:
             raise ValueError(f"sobolev={self.sobolev!r}: expected a value in [0, 1000]")
         ele = np.asarray(self.elevations_deg, float)
@@ -210,6 +216,8 @@ class BuildConfig:
         if self.band_max_gamma_deg is None:  # likewise
             d.pop("band_max_gamma_deg")
             d.pop("band_weight")
+        if self.band_min_elevation_deg is None:  # likewise
+            d.pop("band_min_elevation_deg")
         return d
 
 
@@ -314,6 +322,16 @@ def band_deltas(config: BuildConfig, elevation_deg: float):
     e = np.asarray(config.elevations_deg, float)
     k = int(np.argmin(np.abs(e - float(elevation_deg))))
     return (float(e[k + 1] - e[k]) if k + 1 < len(e) else 0.0, float(e[k] - e[k - 1]) if k > 0 else 0.0)
+
+
+def has_band(config: BuildConfig, elevation_deg: float) -> bool:
+    """Whether the fit of grid elevation ``elevation_deg`` [deg] takes the elevation-interpolation band
+    (:func:`band_samples`): ``band_max_gamma_deg`` set and the elevation at or above ``band_min_elevation_deg``
+    (where set)."""
+    if config.band_max_gamma_deg is None:
+        return False
+    lo = config.band_min_elevation_deg
+    return lo is None or float(elevation_deg) >= float(lo) - 1e-9
 
 
 def band_samples(zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float, deltas_deg, max_gamma_deg: float):
@@ -845,8 +863,8 @@ def fit_state(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_elev
     t2, p2, rad = fit_samples(config, zenith_deg, azimuth_deg, radiance, solar_elevation_deg)
     br = config_knots(config) if breaks is None else breaks
     band = None
-    if config.band_max_gamma_deg is not None:
-        e = solar_elevation_deg if grid_elevation_deg is None else grid_elevation_deg
+    e = solar_elevation_deg if grid_elevation_deg is None else grid_elevation_deg
+    if has_band(config, e):
         band = band_samples(zenith_deg, azimuth_deg, radiance, solar_elevation_deg, band_deltas(config, e),
                             float(config.band_max_gamma_deg))
     return fit_sky(rad, direction_samples(t2, p2, solar_elevation_deg), br, config.rank, config.smoothing,
@@ -875,7 +893,7 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         d["sun_penalty_order"] = config.sun_penalty_order
     if config.sun_knot_midpoints_deg is not None:  # likewise
         d["sun_knot_midpoints_deg"] = [float(x) for x in config.sun_knot_midpoints_deg]
-    if config.band_max_gamma_deg is not None:  # likewise
+    if has_band(config, elevation_deg):  # likewise (and a state without the band keeps its band-free name)
         d["band"] = [float(config.band_max_gamma_deg), float(config.band_weight), BAND_GAMMAS_DEG.tolist(),
                      list(config.elevations_deg)]
     d.update(fit_options(config))  # likewise: only the options a configuration sets
