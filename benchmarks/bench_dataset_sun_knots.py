@@ -15,6 +15,10 @@ channel's sky-diffuse irradiance are not checked. Prints the failures per state 
 Run:  python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset.json --extra 6 [--between 2 12]
       python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset.json --extra 0 [--no-midpoints]
       (about 10 min for the 18 default states on one core)
+      python benchmarks/bench_dataset_sun_knots.py CONFIG --extra 0 --states "20,1,1;24.2,3,0" [--zenith-midpoints 80 89.7]
+      (named states, each at its own albedo; ``--zenith-midpoints LO HI``: the build option
+      ``zenith_knot_midpoints_deg``, every zenith-knot interval inside LO-HI degrees of view zenith halved;
+      ``--no-zenith-midpoints``: the configuration without it)
 """
 
 from __future__ import annotations
@@ -86,6 +90,12 @@ def main(argv=None):
                     help="ground albedo of the refitted states [1] (a grid albedo)")
     ap.add_argument("--visibilities", type=float, nargs="+", default=[20.0, 51.3, 131.8])
     ap.add_argument("--elevations", type=float, nargs="+", default=[1.0, 2.0, 3.0, 4.5, 6.0, 8.0])
+    ap.add_argument("--states", default=None,
+                    help="instead of --visibilities x --elevations at --albedo: 'v,e,a;v,e,a' [km, deg, 1]")
+    ap.add_argument("--zenith-midpoints", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                    help="halve every zenith-knot interval inside LO-HI [deg of view zenith]")
+    ap.add_argument("--no-zenith-midpoints", action="store_true",
+                    help="the configuration's knots without its zenith_knot_midpoints_deg")
     a = ap.parse_args(argv)
     if a.midpoints is not None and a.extra:
         sys.exit("--midpoints replaces --extra: give one of them")
@@ -99,28 +109,44 @@ def main(argv=None):
         cfg = load_config(a.config)
     except (OSError, ValueError) as exc:
         sys.exit(f"{a.config}: {exc}")
-    if a.albedo not in [float(x) for x in cfg.albedos]:
-        sys.exit(f"--albedo {a.albedo}: not one of the configuration's albedos {list(cfg.albedos)}")
+    if a.states is None:
+        states = [(v, e, a.albedo) for v in a.visibilities for e in a.elevations]
+    else:
+        try:
+            states = [tuple(float(x) for x in st.split(",")) for st in a.states.split(";") if st.strip()]
+        except ValueError:
+            states = [()]
+        if not states or any(len(st) != 3 for st in states):
+            sys.exit(f"--states {a.states!r}: expected 'visibility,elevation,albedo' triples separated by ';'")
+    bad = sorted({st[2] for st in states} - {float(x) for x in cfg.albedos})
+    if bad:
+        sys.exit(f"albedo {bad[0]}: not one of the configuration's albedos {list(cfg.albedos)}")
+    if a.zenith_midpoints is not None and a.no_zenith_midpoints:
+        sys.exit("--zenith-midpoints and --no-zenith-midpoints exclude each other: give one of them")
+    if a.zenith_midpoints is not None and not 0.0 <= a.zenith_midpoints[0] < a.zenith_midpoints[1] <= 90.0:
+        sys.exit("--zenith-midpoints LO HI must lie within 0-90 deg with LO < HI")
     from dataclasses import replace
 
     from skymodel.generator.dataset_build import config_knots
     if a.no_midpoints or a.extra or a.midpoints is not None:
         cfg = replace(cfg, sun_knot_midpoints_deg=None if a.midpoints is None else tuple(a.midpoints))
+    if a.zenith_midpoints is not None or a.no_zenith_midpoints:
+        cfg = replace(cfg, zenith_knot_midpoints_deg=None if a.zenith_midpoints is None else tuple(a.zenith_midpoints))
     br = sun_knots(cfg, a.extra, *a.between) if a.extra else config_knots(cfg)[0]
-    print(f"{len(br)} sun knots; below 16 deg: {np.degrees(br[np.degrees(br) < 16]).round(2).tolist()}", flush=True)
+    print(f"{len(br)} sun knots; below 16 deg: {np.degrees(br[np.degrees(br) < 16]).round(2).tolist()}; "
+          f"{len(config_knots(cfg)[1])} zenith knots", flush=True)
     total = {"almucantar": 0, "vertical": 0, "aureole": 0, "zenith": 0}
     nm, t0 = [], time.perf_counter()
-    for v in a.visibilities:
-        for e in a.elevations:
-            try:
-                f, n = fit_failures(cfg, v, e, br, a.albedo)
-            except FileNotFoundError as exc:
-                sys.exit(f"state {v} km / {e} deg is not in the build cache ({exc}); run widesky dataset build first")
-            for k in total:
-                total[k] += int(f[k].sum())
-            nm.append(n)
-            print(f"  {v:6.1f} km {e:4.1f} deg: " + " ".join(f"{k} {int(f[k].sum())}" for k in total)
-                  + f"; NMAE {n.mean() * 100:.3f} %", flush=True)
+    for v, e, alb in states:
+        try:
+            f, n = fit_failures(cfg, v, e, br, alb)
+        except FileNotFoundError as exc:
+            sys.exit(f"state {v} km / {e} deg is not in the build cache ({exc}); run widesky dataset build first")
+        for k in total:
+            total[k] += int(f[k].sum())
+        nm.append(n)
+        print(f"  {v:6.1f} km {e:4.1f} deg albedo {alb:g}: " + " ".join(f"{k} {int(f[k].sum())}" for k in total)
+              + f"; NMAE {n.mean() * 100:.3f} %", flush=True)
     nm = np.concatenate(nm)
     print(f"in all: {total} = {sum(total.values())} failing pairs; in-sample NMAE mean {nm.mean() * 100:.3f} %, "
           f"max {nm.max() * 100:.2f} % ({time.perf_counter() - t0:.0f} s)")

@@ -260,6 +260,35 @@ def test_sun_knot_midpoints_halve_the_intervals_inside_the_range_only():
     assert "sun_knot_midpoints_deg" not in cfg.to_dict() and mid.to_dict()["sun_knot_midpoints_deg"] == [0.5, 9.5]
 
 
+def test_zenith_knot_midpoints_halve_the_zenith_intervals_above_the_horizon_only():
+    """config_knots with ``zenith_knot_midpoints_deg`` (lo, hi) [deg] inserts the midpoint of every zenith-knot
+    interval inside [lo, hi] and leaves the sun and emphasis knots and the fit samples alone (reference: the
+    configuration's own knots, with_midpoints' analytic case above); the fit-cache name changes, a configuration
+    without the key keeps its name, and bad ranges are refused."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import BuildConfig, config_knots, fit_file, fit_samples
+
+    cfg = BuildConfig(knots=(36, 28, 2), knot_powers=(2.0, 2.5, 1.6), sun_knot_midpoints_deg=(0.5, 9.5))
+    mid = replace(cfg, zenith_knot_midpoints_deg=(80.0, 89.7))
+    (sb, zb, eb), (sb2, zb2, eb2) = config_knots(cfg), config_knots(mid)
+    new = np.degrees(zb2[~np.isin(zb2, zb)])
+    assert len(zb) == 28 and len(zb2) == 36 and np.all((new > 80.0) & (new < 89.7))  # 8 halved intervals
+    old = np.degrees(zb)
+    for x in new:                                     # each new knot halves an interval of the old knots
+        i = np.searchsorted(old, x)
+        assert abs(x - 0.5 * (old[i - 1] + old[i])) < 1e-9 and 80.0 <= old[i - 1] and old[i] <= 89.7
+    assert np.array_equal(sb, sb2) and np.array_equal(eb, eb2)
+    th, ph = np.array([0.0, 45.0, 89.95]), np.array([0.0, 90.0, 180.0])
+    assert all(np.array_equal(a, b) for a, b in zip(fit_samples(cfg, th, ph, None, 3.0)[:2],
+                                                    fit_samples(mid, th, ph, None, 3.0)[:2]))
+    assert fit_file(mid, 20.0, 3.0) != fit_file(cfg, 20.0, 3.0)
+    assert "zenith_knot_midpoints_deg" not in cfg.to_dict() and mid.to_dict()["zenith_knot_midpoints_deg"] == [80.0, 89.7]
+    for bad in [(89.7, 80.0), (80.0, 95.0), (-1.0, 10.0), (80.0,)]:
+        with pytest.raises(ValueError, match="zenith_knot_midpoints_deg="):
+            BuildConfig(zenith_knot_midpoints_deg=bad)
+
+
 def test_fit_samples_fill_the_halved_cells_and_keep_the_solved_values():
     """Without midpoints the fit takes the solved grid unchanged; with them fill_grid adds the fill azimuths and
     zenith offsets around the sun (inside the grid's range) and the radiance there is interpolated between the solved

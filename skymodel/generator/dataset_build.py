@@ -67,7 +67,9 @@ class BuildConfig:
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), knot_powers,
     sun_knot_midpoints_deg (optional (lo, hi) [deg]: a knot inserted at the midpoint of every sun-knot interval
     inside [lo, hi], :func:`config_knots`, and the fit samples that fill the new cells, :func:`fill_grid`; None:
-    neither, the builds before it), band_max_gamma_deg (optional [deg]: the fit also takes the elevation-interpolation
+    neither, the builds before it), zenith_knot_midpoints_deg (optional (lo, hi) [deg] of the altitude-corrected view
+    zenith: a knot inserted at the midpoint of every zenith-knot interval inside [lo, hi], :func:`config_knots`; None:
+    not, the builds before it), band_max_gamma_deg (optional [deg]: the fit also takes the elevation-interpolation
     band, :func:`band_samples`, out to this angle from the sun, with weight ``band_weight`` [1] relative to the
     smallest real sample's; None: not, the builds before it), band_min_elevation_deg (optional [deg]: the band only
     for grid elevations at or above it, :func:`has_band`; None: every grid elevation), rank,
@@ -106,6 +108,7 @@ class BuildConfig:
     knots: tuple = (48, 36, 24)
     knot_powers: tuple = (2.0, 1.6, 1.6)
     sun_knot_midpoints_deg: tuple | None = None
+    zenith_knot_midpoints_deg: tuple | None = None
     band_max_gamma_deg: float | None = None
     band_weight: float = 1.0
     band_min_elevation_deg: float | None = None
@@ -145,6 +148,9 @@ class BuildConfig:
         m = self.sun_knot_midpoints_deg
         if m is not None and not (len(tuple(m)) == 2 and 0.0 <= float(m[0]) < float(m[1]) <= 180.0):
             raise ValueError(f"sun_knot_midpoints_deg={m!r}: expected (lo, hi) [deg] with 0 <= lo < hi <= 180")
+        m = self.zenith_knot_midpoints_deg
+        if m is not None and not (len(tuple(m)) == 2 and 0.0 <= float(m[0]) < float(m[1]) <= 90.0):
+            raise ValueError(f"zenith_knot_midpoints_deg={m!r}: expected (lo, hi) [deg] with 0 <= lo < hi <= 90")
         if self.sun_penalty_order not in (1, 2):  # refused before any solve, not in the fit after them
             raise ValueError(f"sun_penalty_order={self.sun_penalty_order!r}: expected 1 or 2")
         if not 0.0 <= float(self.relative_power) <= 4.0:
@@ -213,6 +219,8 @@ class BuildConfig:
                 d.pop(k)
         if self.sun_knot_midpoints_deg is None:  # (absent, as in the builds before the key)
             d.pop("sun_knot_midpoints_deg")
+        if self.zenith_knot_midpoints_deg is None:  # likewise
+            d.pop("zenith_knot_midpoints_deg")
         if self.band_max_gamma_deg is None:  # likewise
             d.pop("band_max_gamma_deg")
             d.pop("band_weight")
@@ -748,13 +756,18 @@ def config_knots(config: BuildConfig):
     emphasis knots (altitude-corrected view zenith ``zero``) dense near the horizon, up to pi/2; with
     ``sun_knot_midpoints_deg`` (lo, hi) [deg] the sun-knot intervals inside it are halved (:func:`with_midpoints`:
     the aureole of a low sun, where the product form's piecewise-linear factors otherwise scallop along the rays from
-    the sun; docs/default-dataset.md, "Sun knots near a low sun")."""
+    the sun; docs/default-dataset.md, "Sun knots near a low sun"), and with ``zenith_knot_midpoints_deg`` (lo, hi)
+    [deg] likewise the zenith-knot intervals inside it (the last degrees above the horizon, where the low-sun sky's
+    aureole, horizon band and Earth's shadow share the zenith factors; "Zenith knots above the horizon")."""
     ns, nz, ne = (int(x) for x in config.knots)
     ps, pz, pe = (float(x) for x in config.knot_powers)
     sb = knots(ns, 0.0, np.pi, ps, "lo")
     if config.sun_knot_midpoints_deg is not None:
         sb = with_midpoints(sb, *np.radians(np.asarray(config.sun_knot_midpoints_deg, float)))
-    return (sb, knots(nz, 0.0, 0.5 * np.pi, pz, "hi"), knots(ne, 0.0, 0.5 * np.pi, pe, "hi"))
+    zb = knots(nz, 0.0, 0.5 * np.pi, pz, "hi")
+    if config.zenith_knot_midpoints_deg is not None:
+        zb = with_midpoints(zb, *np.radians(np.asarray(config.zenith_knot_midpoints_deg, float)))
+    return (sb, zb, knots(ne, 0.0, 0.5 * np.pi, pe, "hi"))
 
 
 def direction_samples(zenith_deg, azimuth_deg, solar_elevation_deg):
@@ -893,6 +906,8 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         d["sun_penalty_order"] = config.sun_penalty_order
     if config.sun_knot_midpoints_deg is not None:  # likewise
         d["sun_knot_midpoints_deg"] = [float(x) for x in config.sun_knot_midpoints_deg]
+    if config.zenith_knot_midpoints_deg is not None:  # likewise
+        d["zenith_knot_midpoints_deg"] = [float(x) for x in config.zenith_knot_midpoints_deg]
     if has_band(config, elevation_deg):  # likewise (and a state without the band keeps its band-free name)
         d["band"] = [float(config.band_max_gamma_deg), float(config.band_weight), BAND_GAMMAS_DEG.tolist(),
                      list(config.elevations_deg)]
