@@ -41,12 +41,18 @@ def solver_ray(config, visibility_km: float, elevation_deg: float, albedo: float
 
 def file_ray(path, visibility_km, elevation_deg, albedo, channel, gamma_deg):
     """A dataset file's radiance [W m-2 sr-1 nm-1] of one channel along the same ray."""
+    zen = 90.0 - float(elevation_deg) - np.asarray(gamma_deg, float)
+    return file_radiance(path, visibility_km, elevation_deg, albedo, channel, zen, np.full(len(zen), 180.0))
+
+
+def file_radiance(path, visibility_km, elevation_deg, albedo, channel, zenith_deg, azimuth_deg):
+    """A dataset file's radiance [W m-2 sr-1 nm-1] of one channel at view zeniths and azimuths [deg] (sun at azimuth
+    180 deg, the evaluator's clamping warnings silenced)."""
     from skymodel import load_dataset
     from skymodel.evaluate import directions_from_angles, sky_radiance
 
     model = load_dataset(path)
-    zen = 90.0 - float(elevation_deg) - np.asarray(gamma_deg, float)
-    d = directions_from_angles(zen, np.full(len(zen), 180.0))
+    d = directions_from_angles(np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         L = sky_radiance(model, d, np.array([elevation_deg]), np.array([180.0]), np.array([visibility_km]),

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -30,16 +29,10 @@ AZIMUTH_DEG = 180.0
 
 def file_vertical(path, visibility_km, elevation_deg, albedo, channel, zenith_deg):
     """A dataset file's radiance [W m-2 sr-1 nm-1] of one channel along the vertical at view zeniths [deg]."""
-    from skymodel import load_dataset
-    from skymodel.evaluate import directions_from_angles, sky_radiance
+    from bench_dataset_aureole_ray import file_radiance
 
-    model = load_dataset(path)
-    d = directions_from_angles(np.asarray(zenith_deg, float), np.full(len(zenith_deg), 180.0 + AZIMUTH_DEG))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        L = sky_radiance(model, d, np.array([elevation_deg]), np.array([180.0]), np.array([visibility_km]),
-                         np.array([albedo]))
-    return np.asarray(L)[0, :, channel]
+    z = np.asarray(zenith_deg, float)
+    return file_radiance(path, visibility_km, elevation_deg, albedo, channel, z, np.full(len(z), 180.0 + AZIMUTH_DEG))
 
 
 def main(argv=None):

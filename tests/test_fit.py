@@ -260,14 +260,15 @@ def test_sun_knot_midpoints_halve_the_intervals_inside_the_range_only():
     assert "sun_knot_midpoints_deg" not in cfg.to_dict() and mid.to_dict()["sun_knot_midpoints_deg"] == [0.5, 9.5]
 
 
-def test_zenith_knot_midpoints_halve_the_zenith_intervals_above_the_horizon_only():
+def test_zenith_knot_midpoints_halve_the_zenith_intervals_above_the_horizon_and_fill_them():
     """config_knots with ``zenith_knot_midpoints_deg`` (lo, hi) [deg] inserts the midpoint of every zenith-knot
     interval inside [lo, hi] and leaves the sun and emphasis knots and the fit samples alone (reference: the
-    configuration's own knots, with_midpoints' analytic case above); the fit-cache name changes, a configuration
-    without the key keeps its name, and bad ranges are refused."""
+    configuration's own knots, with_midpoints' analytic case above), and the fit samples take a row in each new
+    cell (zenith_fill); the fit-cache name changes, a configuration without the key keeps its name, and bad ranges
+    are refused."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import BuildConfig, config_knots, fit_file, fit_samples
+    from skymodel.generator.dataset_build import BuildConfig, config_knots, fit_file, fit_samples, zenith_fill
 
     cfg = BuildConfig(knots=(36, 28, 2), knot_powers=(2.0, 2.5, 1.6), sun_knot_midpoints_deg=(0.5, 9.5))
     mid = replace(cfg, zenith_knot_midpoints_deg=(80.0, 89.7))
@@ -279,9 +280,19 @@ def test_zenith_knot_midpoints_halve_the_zenith_intervals_above_the_horizon_only
         i = np.searchsorted(old, x)
         assert abs(x - 0.5 * (old[i - 1] + old[i])) < 1e-9 and 80.0 <= old[i - 1] and old[i] <= 89.7
     assert np.array_equal(sb, sb2) and np.array_equal(eb, eb2)
-    th, ph = np.array([0.0, 45.0, 89.95]), np.array([0.0, 90.0, 180.0])
-    assert all(np.array_equal(a, b) for a, b in zip(fit_samples(cfg, th, ph, None, 3.0)[:2],
-                                                    fit_samples(mid, th, ph, None, 3.0)[:2]))
+    # the fit samples gain one view-zenith row at the centre of each zenith-knot cell inside the range (zenith_fill),
+    # interpolated between the solved rows (reference: a field linear in zenith, reproduced to rounding), and the
+    # azimuths stay those of the configuration without the key
+    th, ph = np.array([0.0, 40.0, 80.0, 86.0, 89.95]), np.array([0.0, 90.0, 180.0])
+    rad = (1.0 + 0.01 * th)[:, None, None] * np.ones((1, 3, 2))
+    t1, p1, _ = fit_samples(cfg, th, ph, rad, 30.0)
+    t2, p2, r2 = fit_samples(mid, th, ph, rad, 30.0)
+    fill = zenith_fill(mid)
+    cells = np.degrees(zb2)
+    assert len(fill) == np.sum((cells[:-1] >= 80.0) & (cells[1:] <= 89.7)) and len(zenith_fill(cfg)) == 0
+    assert np.array_equal(p1, p2) and np.all(np.isin(np.round(fill, 6), t2)) and np.all(np.isin(t1, t2))
+    assert np.all((fill > 80.0) & (fill < 89.7)) and len(t2) == len(t1) + len(fill)
+    np.testing.assert_allclose(r2[..., 0], (1.0 + 0.01 * t2)[:, None] * np.ones((1, len(p2))), rtol=1e-12)
     assert fit_file(mid, 20.0, 3.0) != fit_file(cfg, 20.0, 3.0)
     assert "zenith_knot_midpoints_deg" not in cfg.to_dict() and mid.to_dict()["zenith_knot_midpoints_deg"] == [80.0, 89.7]
     for bad in [(89.7, 80.0), (80.0, 95.0), (-1.0, 10.0), (80.0,)]:

@@ -305,16 +305,37 @@ def fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg: float):
     return t2, p2
 
 
+def zenith_fill(config: BuildConfig) -> np.ndarray:
+    """View zeniths [deg] of the fill rows of a configuration with ``zenith_knot_midpoints_deg`` (lo, hi): the centre of
+    every zenith-knot cell inside [lo, hi] (:func:`config_knots`; at ground level the zenith factor's angle is the view
+    zenith). Halved cells about 0.3-1 deg wide would otherwise hold no solved row at some elevations (rows every 2 deg
+    and at 85.5, 87, 88, 89 deg, plus those around the sun) and the fit sags there, as it did along the sun's
+    almucantar before :func:`fill_grid`; empty when the key is not set."""
+    if config.zenith_knot_midpoints_deg is None:
+        return np.zeros(0)
+    lo, hi = (float(x) for x in config.zenith_knot_midpoints_deg)
+    zb = np.degrees(config_knots(config)[1])
+    inside = (zb[:-1] >= lo - 1e-9) & (zb[1:] <= hi + 1e-9)
+    return 0.5 * (zb[:-1] + zb[1:])[inside]
+
+
 def fit_samples(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float):
     """The fit's samples of one state solved on the product grid ``zenith_deg`` (T,) x ``azimuth_deg`` (P,) [deg]:
     (zenith (T2,), azimuth (P2,), radiance (T2, P2, ...)): the solved grid itself, or with ``sun_knot_midpoints_deg``
     set, :func:`fill_grid` with ``radiance`` [W m-2 sr-1 nm-1] interpolated onto it shape-preservingly
-    (``radiance`` None: the grid only)."""
-    if config.sun_knot_midpoints_deg is None:
+    (``radiance`` None: the grid only); with ``zenith_knot_midpoints_deg`` set also a view-zenith row at the centre of
+    every zenith-knot cell inside that range (:func:`zenith_fill`), likewise interpolated."""
+    zm = config.zenith_knot_midpoints_deg
+    if config.sun_knot_midpoints_deg is None and zm is None:
         return np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float), radiance
     from .dataset_mc import resample_radiance
 
-    t2, p2 = fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg)
+    if config.sun_knot_midpoints_deg is not None:
+        t2, p2 = fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg)
+    else:
+        t2, p2 = np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float)
+    if zm is not None:
+        t2 = np.unique(np.round(np.clip(np.concatenate([t2, zenith_fill(config)]), t2[0], t2[-1]), 6))
     return t2, p2, None if radiance is None else resample_radiance(zenith_deg, azimuth_deg, radiance, t2, p2)
 
 
@@ -908,6 +929,7 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         d["sun_knot_midpoints_deg"] = [float(x) for x in config.sun_knot_midpoints_deg]
     if config.zenith_knot_midpoints_deg is not None:  # likewise
         d["zenith_knot_midpoints_deg"] = [float(x) for x in config.zenith_knot_midpoints_deg]
+        d["zenith_fill"] = 1  # the fit samples of zenith_fill (a trial without them is not this fit)
     if has_band(config, elevation_deg):  # likewise (and a state without the band keeps its band-free name)
         d["band"] = [float(config.band_max_gamma_deg), float(config.band_weight), BAND_GAMMAS_DEG.tolist(),
                      list(config.elevations_deg)]
