@@ -1356,13 +1356,16 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
         from .dataset_errors import evaluate_errors, summarise
         errs = evaluate_errors(config, output)
         meta["errors"] = summarise(errs)
+    from .smoothness import REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL
+
     rows = solver_reference(config, progress)
     meta["smoothness_reference"] = {
         "description": "profiles of the smoothness check where the solver's own sky (interpolated from its grid) has "
                        "more turning points than the limit: [visibility km, elevation deg, albedo, channel index, "
                        "profile kind, profile index, turning points]; the check allows these counts there; grid states "
                        "that hold a sky solved at another elevation (0 deg) have none (docs/default-dataset.md, "
-                       "'Smoothness')", "rows": rows}
+                       "'Smoothness'); counted with the guard band's hysteresis 'rel_tol' and floor 'floor_fraction'",
+        "rel_tol": REFERENCE_REL_TOL, "floor_fraction": REFERENCE_FLOOR_FRACTION, "rows": rows}
     from ..dataset import load_dataset
     from .smoothness import reference_from_entries
     from .smoothness_between import between_reference

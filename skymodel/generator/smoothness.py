@@ -18,7 +18,9 @@ channel whose sky carries measurable energy, at every grid state and at states b
 
 Where the solver's own sky has more turning points along a profile than the limit (a minimum between the aureole and
 the bright band a few degrees above the horizon on a ray rising from a low sun, structure of the water bands along the
-antisolar vertical), the check can compare with it: :func:`solver_turning_points` counts the solver's, the build keeps
+antisolar vertical), the check can compare with it: :func:`solver_turning_points` counts the solver's (with half the
+hysteresis, :data:`REFERENCE_REL_TOL`: a guard band, so that a real feature just under the threshold in the solver
+and just over it in the fit is not called spurious), the build keeps
 the profiles above the limit (:func:`reference_entries`, the sidecar's ``smoothness_reference``), and a profile then
 fails only with more turning points than both the limit and the solver's there (between grid states: the most of the
 bracketing grid states'). A between-grid pair that fails by that rule is solved at its own state by the build
@@ -35,10 +37,11 @@ import warnings
 import numpy as np
 
 __all__ = ["ALMUCANTAR_ZENITHS_DEG", "VERTICAL_AZIMUTHS_DEG", "REL_TOL", "ZENITH_SPOT_TOL", "MAX_ALMUCANTAR_TP",
-           "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "turning_points",
+           "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "REFERENCE_REL_TOL", "REFERENCE_FLOOR_FRACTION", "turning_points",
            "monotone_violations", "profile_directions", "profile_turning_points", "profile_metrics", "LIMITS",
-           "check_states", "solver_turning_points", "reference_entries", "reference_from_entries",
-           "allowed_turning_points", "grid_states", "between_grid_states", "check_dataset", "summarise"]
+           "check_states", "solver_profiles", "turning_point_indices", "solver_turning_points", "reference_entries",
+           "reference_from_entries", "allowed_turning_points", "grid_states", "between_grid_states", "check_dataset",
+           "summarise"]
 
 ALMUCANTAR_ZENITHS_DEG = (20.0, 40.0, 60.0, 70.0, 75.0, 80.0, 84.0, 87.0, 89.0)
 """View zeniths of the checked almucantars [deg]."""
@@ -70,6 +73,14 @@ MIN_ENERGY_FRACTION = 0.01
 checked [1] (saturated absorption bands: their dim skies are set by the half-float floor, not by the fit)."""
 FLOOR_FRACTION = 1e-3
 """Absolute floor of the hysteresis as a fraction of each profile's maximum [1] (near-zero values)."""
+REFERENCE_REL_TOL = 0.0025
+"""Hysteresis of the solver's own turning-point count [1], half the check's :data:`REL_TOL`: a guard band. A reversal of
+the dataset's profile by more than ``REL_TOL`` is the sky's own where the solver's sky reverses on that profile by more
+than this; where it reverses by less, the dataset's is spurious. Counting both at the same hysteresis turns a real
+feature at the threshold into a coin toss decided by the fit's error (a 0.4 % reversal of the solver that the file
+shows at 0.6 %: docs/default-dataset.md, "The guard band")."""
+REFERENCE_FLOOR_FRACTION = 5e-4
+"""Absolute floor of the solver's own count [1], half the check's :data:`FLOOR_FRACTION` (the same guard band)."""
 
 
 def turning_points(y, rel_tol: float = REL_TOL, floor_fraction: float = FLOOR_FRACTION) -> np.ndarray:
@@ -170,9 +181,11 @@ def _last(a, n):
     return np.moveaxis(a, list(range(n)), list(range(a.ndim - n, a.ndim)))
 
 
-def profile_turning_points(radiance: dict, aureole_valid, rel_tol: float = REL_TOL) -> dict:
-    """Turning points of every single profile (radiance as for :func:`profile_metrics`): dict of int arrays
-    ``almucantar`` (..., C, nZ), ``vertical`` (..., C, nV), ``aureole`` (..., C, 8) (the ray's checked part only)."""
+def profile_turning_points(radiance: dict, aureole_valid, rel_tol: float = REL_TOL,
+                           floor_fraction: float = FLOOR_FRACTION) -> dict:
+    """Turning points of every single profile (radiance as for :func:`profile_metrics`; hysteresis ``rel_tol`` [1] with
+    the absolute floor ``floor_fraction`` [1], as :func:`turning_points`): dict of int arrays ``almucantar``
+    (..., C, nZ), ``vertical`` (..., C, nV), ``aureole`` (..., C, 8) (the ray's checked part only)."""
     aur = _last(radiance["aureole"], 2)                                          # (..., C, 8, nG)
     valid = np.broadcast_to(_last(np.asarray(aureole_valid), 2), aur.shape)
     # the valid part of a ray is contiguous: a prefix where the ray runs toward the horizon, a suffix where it rises
@@ -183,9 +196,9 @@ def profile_turning_points(radiance: dict, aureole_valid, rel_tol: float = REL_T
     first = np.argmax(valid, axis=-1)[..., None]
     idx = np.where(idx < 0, first, idx)
     held = np.take_along_axis(np.where(valid, aur, 0.0), idx, axis=-1)
-    return {"almucantar": turning_points(_last(radiance["almucantar"], 2), rel_tol),
-            "vertical": turning_points(_last(radiance["vertical"], 2), rel_tol),
-            "aureole": turning_points(held, rel_tol)}
+    return {"almucantar": turning_points(_last(radiance["almucantar"], 2), rel_tol, floor_fraction),
+            "vertical": turning_points(_last(radiance["vertical"], 2), rel_tol, floor_fraction),
+            "aureole": turning_points(held, rel_tol, floor_fraction)}
 
 
 def profile_metrics(radiance: dict, aureole_valid, sun_elevation_deg: float, rel_tol: float = REL_TOL) -> dict:
@@ -294,11 +307,11 @@ def check_states(model, states, rel_tol: float = REL_TOL, reference=None) -> lis
     return out
 
 
-def solver_turning_points(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: float, rel_tol: float = REL_TOL):
-    """Turning points of the solver's own radiance along every profile: ``radiance`` (T, P, C) [W m-2 sr-1 nm-1] on a
-    product grid of view zeniths ``zenith_deg`` (T,) and relative azimuths ``azimuth_deg`` (P,, 0 = toward the sun
-    ... 180) [deg] with the sun at ``sun_elevation_deg`` [deg], interpolated bilinearly in log radiance onto the
-    profiles of :func:`profile_directions`. Returns :func:`profile_turning_points`' dict of (C, n) int arrays."""
+def solver_profiles(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: float) -> dict:
+    """The solver's radiance ``radiance`` (T, P, C) [W m-2 sr-1 nm-1] on a product grid of view zeniths ``zenith_deg``
+    (T,) and relative azimuths ``azimuth_deg`` (P,, 0 = toward the sun ... 180) [deg], with the sun at
+    ``sun_elevation_deg`` [deg], interpolated bilinearly in log radiance onto the profiles of
+    :func:`profile_directions`: dict ``almucantar``, ``vertical``, ``aureole``, each the profile's shape + (C,)."""
     from scipy.interpolate import RegularGridInterpolator
 
     d = profile_directions(sun_elevation_deg)
@@ -313,7 +326,53 @@ def solver_turning_points(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: 
         a = np.degrees(np.arctan2(v[..., 0], v[..., 1]))
         rel = np.clip(np.abs((a - 180.0 + 180.0) % 360.0 - 180.0), az[0], az[-1])
         rad[k] = np.exp(f(np.stack([z.ravel(), rel.ravel()], -1))).reshape(v.shape[:-1] + (logr.shape[-1],))
-    return profile_turning_points(rad, d["aureole_valid"][..., None], rel_tol)
+    return rad
+
+
+def turning_point_indices(y, rel_tol: float = REL_TOL, floor_fraction: float = FLOOR_FRACTION) -> list:
+    """Sample indices of the extrema that :func:`turning_points` counts along one profile ``y`` (n,) (any unit): the
+    extreme before each counted reversal, in order; ``len`` equals :func:`turning_points` (for diagnostics: where a
+    file's turning points lie against the solver's)."""
+    y = np.asarray(y, float)
+    floor = floor_fraction * np.max(np.abs(y))
+    hi = lo = ext = y[0]
+    i_hi = i_lo = i_ext = 0
+    trend, out = 0, []
+    for k in range(1, len(y)):
+        v = y[k]
+        if trend == 0:
+            if v > hi:
+                hi, i_hi = v, k
+            if v < lo:
+                lo, i_lo = v, k
+            if v - lo > max(rel_tol * abs(lo), floor):
+                trend, ext, i_ext = 1, v, k
+            elif hi - v > max(rel_tol * abs(hi), floor):
+                trend, ext, i_ext = -1, v, k
+            continue
+        tol = max(rel_tol * abs(ext), floor)
+        if trend == 1 and ext - v > tol:
+            out.append(i_ext)
+            trend, ext, i_ext = -1, v, k
+        elif trend == -1 and v - ext > tol:
+            out.append(i_ext)
+            trend, ext, i_ext = 1, v, k
+        elif (trend == 1 and v > ext) or (trend == -1 and v < ext):
+            ext, i_ext = v, k
+    return out
+
+
+def solver_turning_points(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: float,
+                          rel_tol: float = REFERENCE_REL_TOL, floor_fraction: float = REFERENCE_FLOOR_FRACTION):
+    """Turning points of the solver's own radiance along every profile: ``radiance`` (T, P, C) [W m-2 sr-1 nm-1] on a
+    product grid of view zeniths ``zenith_deg`` (T,) and relative azimuths ``azimuth_deg`` (P,, 0 = toward the sun
+    ... 180) [deg] with the sun at ``sun_elevation_deg`` [deg], interpolated bilinearly in log radiance onto the
+    profiles of :func:`profile_directions`, counted with the guard band's hysteresis (:data:`REFERENCE_REL_TOL`,
+    :data:`REFERENCE_FLOOR_FRACTION`; pass :data:`REL_TOL`, :data:`FLOOR_FRACTION` for the check's own). Returns
+    :func:`profile_turning_points`' dict of (C, n) int arrays."""
+    rad = solver_profiles(zenith_deg, azimuth_deg, radiance, sun_elevation_deg)
+    valid = profile_directions(sun_elevation_deg)["aureole_valid"]
+    return profile_turning_points(rad, valid[..., None], rel_tol, floor_fraction)
 
 
 def reference_entries(reference: dict) -> list:
@@ -416,7 +475,8 @@ def check_dataset(model, rel_tol: float = REL_TOL, between: bool = True, referen
 def summarise(result: dict, wavelengths_nm=None) -> dict:
     """JSON-ready summary of :func:`check_dataset`: per group, the number of states and of checked (state, channel)
     pairs, the failing pairs per metric, the channels and states that fail, and the worst values."""
-    out = {"rel_tol": REL_TOL, "zenith_spot_tol": ZENITH_SPOT_TOL, "max_turning_points": {
+    out = {"rel_tol": REL_TOL, "zenith_spot_tol": ZENITH_SPOT_TOL, "reference_rel_tol": REFERENCE_REL_TOL,
+           "reference_floor_fraction": REFERENCE_FLOOR_FRACTION, "max_turning_points": {
                "almucantar": MAX_ALMUCANTAR_TP, "vertical": MAX_VERTICAL_TP, "aureole_ray": MAX_AUREOLE_TP},
            "almucantar_zeniths_deg": list(ALMUCANTAR_ZENITHS_DEG), "vertical_azimuths_deg": list(VERTICAL_AZIMUTHS_DEG)}
     for group, rows in result.items():
