@@ -34,7 +34,8 @@ TINY_POL = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 0.8], "elevations
 def test_default_config_keeps_its_cache_keys():
     """The plane-parallel configuration (the third rebuild's): the same solver key (the folder of the solved states)
     and fit-cache names as before the Monte Carlo path existed, and no Monte Carlo keys in its sidecar. The default
-    configuration (low sun in spherical shells, the sun-knot intervals near the sun halved) shares its folder."""
+    configuration (low sun in spherical shells, the sun-knot intervals near the sun and the zenith-knot intervals above
+    the horizon halved) shares its folder."""
     from skymodel.generator.dataset_build import fit_file, load_config
 
     from dataclasses import replace
@@ -42,7 +43,8 @@ def test_default_config_keeps_its_cache_keys():
     default = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
     cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset-plane-parallel.json")
     assert default.solver_key() == cfg.solver_key()
-    assert fit_file(replace(default, sun_knot_midpoints_deg=None), 20.0, 10.5) == fit_file(cfg, 20.0, 10.5)
+    assert fit_file(replace(default, sun_knot_midpoints_deg=None, zenith_knot_midpoints_deg=None), 20.0, 10.5) == \
+        fit_file(cfg, 20.0, 10.5)
     assert fit_file(default, 20.0, 10.5) != fit_file(cfg, 20.0, 10.5)   # other knots
     assert fit_file(default, 20.0, 8.0) != fit_file(cfg, 20.0, 8.0)
     assert default.mc_single_scatter_exact and default.mc_below_elevation_deg == 9.0

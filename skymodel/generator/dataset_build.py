@@ -1298,14 +1298,17 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
     return d
 
 
-def solver_reference(config: BuildConfig, progress: bool = False) -> list:
+def solver_reference(config: BuildConfig, progress: bool = False, rel_tol: float | None = None,
+                     floor_fraction: float | None = None) -> list:
     """The solver's own turning points along the smoothness check's profiles at every grid state, where they exceed
     the check's limits (:func:`skymodel.generator.smoothness.reference_entries` rows; from the cached solves). Only
     grid states that hold the sky solved at their own elevation count: the 0 deg states of a DISORT build (a sky
     solved at ``min_solve_elevation_deg``), those above ``max_fit_elevation_deg`` (the highest fit) and those whose
     radiance comes from the Monte Carlo solution (its noise is not the sky's shape) get no allowance, except the split
     Monte Carlo states (:func:`skymodel.generator.dataset_mc.split_radiance`: their structure is the exact single
-    scattering, the noise only in the smooth rest), which are solved at their own elevation."""
+    scattering, the noise only in the smooth rest), which are solved at their own elevation. The solver's turning
+    points are counted with the guard band (:data:`skymodel.generator.smoothness.REFERENCE_REL_TOL` and
+    ``REFERENCE_FLOOR_FRACTION``) unless ``rel_tol`` / ``floor_fraction`` [1] say otherwise."""
     from .dataset_mc import radiance_by_mc, split_state
     from tqdm import tqdm
 
@@ -1321,7 +1324,8 @@ def solver_reference(config: BuildConfig, progress: bool = False) -> list:
             continue
         for a in config.albedos:
             zen, az, rad, solved = state_radiance(config, v, e, float(a))
-            ref[(v, e, float(a))] = solver_turning_points(zen, az, rad, solved)
+            kw = {k: x for k, x in (("rel_tol", rel_tol), ("floor_fraction", floor_fraction)) if x is not None}
+            ref[(v, e, float(a))] = solver_turning_points(zen, az, rad, solved, **kw)
     return reference_entries(ref)
 
 
