@@ -39,7 +39,7 @@ import numpy as np
 __all__ = ["ALMUCANTAR_ZENITHS_DEG", "VERTICAL_AZIMUTHS_DEG", "REL_TOL", "ZENITH_SPOT_TOL", "MAX_ALMUCANTAR_TP",
            "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "REFERENCE_REL_TOL", "REFERENCE_FLOOR_FRACTION", "turning_points",
            "monotone_violations", "profile_directions", "profile_turning_points", "profile_metrics", "LIMITS",
-           "check_states", "solver_profiles", "turning_point_indices", "solver_turning_points", "reference_entries",
+           "check_states", "held_valid", "solver_profiles", "turning_point_indices", "solver_turning_points", "reference_entries",
            "reference_from_entries", "allowed_turning_points", "grid_states", "between_grid_states", "check_dataset",
            "summarise"]
 
@@ -181,21 +181,25 @@ def _last(a, n):
     return np.moveaxis(a, list(range(n)), list(range(a.ndim - n, a.ndim)))
 
 
+def held_valid(rays, valid):
+    """Aureole rays ``rays`` (..., nG) with the points outside ``valid`` (same shape, bool) held at the nearest valid
+    value: the valid part of a ray is contiguous (a prefix where the ray runs toward the horizon, a suffix where it
+    rises from a sun below :data:`AUREOLE_MAX_ZENITH_DEG`), so holding the last valid value after it and the first one
+    before it adds no turning point."""
+    n = rays.shape[-1]
+    idx = np.maximum.accumulate(np.where(valid, np.arange(n), -1), axis=-1)
+    first = np.argmax(valid, axis=-1)[..., None]
+    idx = np.where(idx < 0, first, idx)
+    return np.take_along_axis(np.where(valid, rays, 0.0), idx, axis=-1)
+
+
 def profile_turning_points(radiance: dict, aureole_valid, rel_tol: float = REL_TOL,
                            floor_fraction: float = FLOOR_FRACTION) -> dict:
     """Turning points of every single profile (radiance as for :func:`profile_metrics`; hysteresis ``rel_tol`` [1] with
     the absolute floor ``floor_fraction`` [1], as :func:`turning_points`): dict of int arrays ``almucantar``
     (..., C, nZ), ``vertical`` (..., C, nV), ``aureole`` (..., C, 8) (the ray's checked part only)."""
     aur = _last(radiance["aureole"], 2)                                          # (..., C, 8, nG)
-    valid = np.broadcast_to(_last(np.asarray(aureole_valid), 2), aur.shape)
-    # the valid part of a ray is contiguous: a prefix where the ray runs toward the horizon, a suffix where it rises
-    # from a sun below AUREOLE_MAX_ZENITH_DEG. Hold the nearest valid value over the rest (the last one after it, the
-    # first one before it), which adds no turning point
-    n = aur.shape[-1]
-    idx = np.maximum.accumulate(np.where(valid, np.arange(n), -1), axis=-1)
-    first = np.argmax(valid, axis=-1)[..., None]
-    idx = np.where(idx < 0, first, idx)
-    held = np.take_along_axis(np.where(valid, aur, 0.0), idx, axis=-1)
+    held = held_valid(aur, np.broadcast_to(_last(np.asarray(aureole_valid), 2), aur.shape))
     return {"almucantar": turning_points(_last(radiance["almucantar"], 2), rel_tol, floor_fraction),
             "vertical": turning_points(_last(radiance["vertical"], 2), rel_tol, floor_fraction),
             "aureole": turning_points(held, rel_tol, floor_fraction)}
