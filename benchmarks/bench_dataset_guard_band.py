@@ -49,7 +49,7 @@ def reversal_size(y, limit: int, floor_fraction: float) -> float:
     return lo
 
 
-def profile_axis(kind: str, index: int, d: dict) -> np.ndarray:
+def profile_axis(kind: str) -> np.ndarray:
     """The coordinate along a profile [deg]: relative azimuth (almucantar), view zenith (vertical), angle from the
     sun (aureole ray)."""
     from skymodel.generator import smoothness as S
@@ -130,20 +130,22 @@ def main(argv=None):
                     fp = file_profiles(model, st)
                 yf = np.moveaxis(fp[k], -1, 0)[c][j]
                 ys = np.moveaxis(sol[k], -1, 0)[c][j]
-                x = profile_axis(k, j, d)
+                x = profile_axis(k)
                 if k == "aureole":
                     yf, ys = S.held_valid(yf, valid[j]), S.held_valid(ys, valid[j])
                 i_f = S.turning_point_indices(yf, S.REL_TOL, S.FLOOR_FRACTION)
                 i_s = S.turning_point_indices(ys, S.REFERENCE_REL_TOL, S.REFERENCE_FLOOR_FRACTION)
                 dist = max((min(abs(x[i] - x[q]) for q in i_s) for i in i_f), default=0.0) if i_s else float("inf")
-                cases.append({"state": list(st), "channel_nm": float(model.wavelengths[c]), "kind": k, "profile": int(j),
+                cases.append({"state": list(st), "channel_nm": float(model.wavelengths[c]), "kind": k,
+                              "profile": int(j),
                               "file_tp": int(f_tp[c, j]), "solver_tp_strict": int(tp_strict[k][c, j]),
                               "solver_tp_guard": int(tp_guard[k][c, j]), "limit": lim,
                               "file_reversal": round(reversal_size(yf, int(max(lim, tp_strict[k][c, j])),
                                                                    S.FLOOR_FRACTION), 5),
                               "solver_reversal": round(reversal_size(ys, int(max(lim, tp_strict[k][c, j])),
                                                                      S.REFERENCE_FLOOR_FRACTION), 5),
-                              "file_tp_at_deg": [float(x[i]) for i in i_f], "solver_tp_at_deg": [float(x[i]) for i in i_s],
+                              "file_tp_at_deg": [float(x[i]) for i in i_f],
+                              "solver_tp_at_deg": [float(x[i]) for i in i_s],
                               "largest_distance_deg": float(dist), "_x": x, "_yf": yf, "_ys": ys})
     secs = time.perf_counter() - t0
     pairs = {(tuple(c["state"]), c["channel_nm"]) for c in cases}
@@ -194,8 +196,8 @@ def main(argv=None):
             for q in c["file_tp_at_deg"]:
                 ax.axvline(q, color="C3", lw=0.5, alpha=0.4, ls=":")
             v, e, al = c["state"]
-            ax.set_title(f"{c['kind']} {c['profile']}, {c['channel_nm']:.0f} nm\n{v:g} km, sun {e:g} deg, albedo {al:g}",
-                         fontsize=8)
+            ax.set_title(f"{c['kind']} {c['profile']}, {c['channel_nm']:.0f} nm\n"
+                         f"{v:g} km, sun {e:g} deg, albedo {al:g}", fontsize=8)
             ax.set_xlabel({"almucantar": "relative azimuth [deg]", "vertical": "view zenith [deg]",
                            "aureole": "angle from the sun [deg]"}[c["kind"]], fontsize=8)
             ax.tick_params(labelsize=7)

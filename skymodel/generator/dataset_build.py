@@ -1312,8 +1312,10 @@ def solver_reference(config: BuildConfig, progress: bool = False, rel_tol: float
     from .dataset_mc import radiance_by_mc, split_state
     from tqdm import tqdm
 
-    from .smoothness import reference_entries, solver_turning_points
+    from .smoothness import REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL, reference_entries, solver_turning_points
 
+    tol = REFERENCE_REL_TOL if rel_tol is None else rel_tol
+    floor = REFERENCE_FLOOR_FRACTION if floor_fraction is None else floor_fraction
     fitted = _fitted_elevations(config)
     ref = {}
     jobs = [(float(v), float(e)) for v in config.visibilities_km for e in config.elevations_deg]
@@ -1324,8 +1326,7 @@ def solver_reference(config: BuildConfig, progress: bool = False, rel_tol: float
             continue
         for a in config.albedos:
             zen, az, rad, solved = state_radiance(config, v, e, float(a))
-            kw = {k: x for k, x in (("rel_tol", rel_tol), ("floor_fraction", floor_fraction)) if x is not None}
-            ref[(v, e, float(a))] = solver_turning_points(zen, az, rad, solved, **kw)
+            ref[(v, e, float(a))] = solver_turning_points(zen, az, rad, solved, tol, floor)
     return reference_entries(ref)
 
 

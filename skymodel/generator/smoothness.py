@@ -39,9 +39,9 @@ import numpy as np
 __all__ = ["ALMUCANTAR_ZENITHS_DEG", "VERTICAL_AZIMUTHS_DEG", "REL_TOL", "ZENITH_SPOT_TOL", "MAX_ALMUCANTAR_TP",
            "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "REFERENCE_REL_TOL", "REFERENCE_FLOOR_FRACTION", "turning_points",
            "monotone_violations", "profile_directions", "profile_turning_points", "profile_metrics", "LIMITS",
-           "check_states", "held_valid", "solver_profiles", "turning_point_indices", "solver_turning_points", "reference_entries",
-           "reference_from_entries", "allowed_turning_points", "grid_states", "between_grid_states", "check_dataset",
-           "summarise"]
+           "check_states", "held_valid", "solver_profiles", "turning_point_indices", "solver_turning_points",
+           "reference_entries", "reference_from_entries", "allowed_turning_points", "grid_states",
+           "between_grid_states", "check_dataset", "summarise"]
 
 ALMUCANTAR_ZENITHS_DEG = (20.0, 40.0, 60.0, 70.0, 75.0, 80.0, 84.0, 87.0, 89.0)
 """View zeniths of the checked almucantars [deg]."""
@@ -78,7 +78,7 @@ REFERENCE_REL_TOL = 0.0025
 the dataset's profile by more than ``REL_TOL`` is the sky's own where the solver's sky reverses on that profile by more
 than this; where it reverses by less, the dataset's is spurious. Counting both at the same hysteresis turns a real
 feature at the threshold into a coin toss decided by the fit's error (a 0.4 % reversal of the solver that the file
-shows at 0.6 %: docs/default-dataset.md, "The guard band")."""
+shows at 0.6 %: docs/default-dataset.md, "The check", the guard band)."""
 REFERENCE_FLOOR_FRACTION = 5e-4
 """Absolute floor of the solver's own count [1], half the check's :data:`FLOOR_FRACTION` (the same guard band)."""
 
@@ -340,15 +340,12 @@ def turning_point_indices(y, rel_tol: float = REL_TOL, floor_fraction: float = F
     y = np.asarray(y, float)
     floor = floor_fraction * np.max(np.abs(y))
     hi = lo = ext = y[0]
-    i_hi = i_lo = i_ext = 0
+    i_ext = 0
     trend, out = 0, []
     for k in range(1, len(y)):
         v = y[k]
-        if trend == 0:
-            if v > hi:
-                hi, i_hi = v, k
-            if v < lo:
-                lo, i_lo = v, k
+        if trend == 0:  # as turning_points: a trend starts once the profile leaves its range; that start is no extremum
+            hi, lo = max(hi, v), min(lo, v)
             if v - lo > max(rel_tol * abs(lo), floor):
                 trend, ext, i_ext = 1, v, k
             elif hi - v > max(rel_tol * abs(hi), floor):
