@@ -38,7 +38,8 @@ from irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
                                       g173_decomposition, generic_eqe, mismatch_by_airmass, mismatch_by_kc, model_at_g173,
                                       PVSPEC_TYPES, pvspec_annual, spctrl2_airmass_trend, pvspec_fit, pvspec_published, sedes2_global_horizontal,
                                       spectral_response)
-from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa, vegetation_albedo_shape
+from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
+from irradiance.ground import vegetated_steps, vegetation_albedo_shape
 
 DATA = Path(os.environ.get("WIDESKY_DATA_DIR") or Path(__file__).resolve().parents[1].parent / "shared" / "data")
 
@@ -71,20 +72,23 @@ def load_site(path, sky, prefer="visibility", stride=1):
     return wd, states, data, raw_vis, kt, st
 
 
+G = {"ground": "grey"}
 VARIANTS = (
     ("plain (today)", CLEAR_SHAPE),
     ("+ cloud spectrum (Ernst)", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
                                                partition="ernst", haze="clamp", angular="clear",
-                                               circumsolar="none")),
+                                               circumsolar="none", **G)),
     ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
-                                             partition="ernst", haze="clamp", circumsolar="none")),
+                                             partition="ernst", haze="clamp", circumsolar="none", **G)),
     ("+ cloud droplets (Mie)", AllSkyOptions(cloud_vapour=False, cloud_rayleigh=False, partition="ernst",
-                                           haze="clamp", circumsolar="none")),
-    ("+ cloud water vapour", AllSkyOptions(cloud_rayleigh=False, partition="ernst", haze="clamp", circumsolar="none")),
-    ("+ cloud-top Rayleigh", AllSkyOptions(partition="ernst", haze="clamp", circumsolar="none")),
-    ("+ sky-fraction partition", AllSkyOptions(haze="clamp", circumsolar="none")),
-    ("+ haze extension", AllSkyOptions(circumsolar="none")),
-    ("+ cloud circumsolar (Perez F1) = all-sky", AllSkyOptions()),
+                                           haze="clamp", circumsolar="none", **G)),
+    ("+ cloud water vapour", AllSkyOptions(cloud_rayleigh=False, partition="ernst", haze="clamp", circumsolar="none",
+                                           **G)),
+    ("+ cloud-top Rayleigh", AllSkyOptions(partition="ernst", haze="clamp", circumsolar="none", **G)),
+    ("+ sky-fraction partition", AllSkyOptions(haze="clamp", circumsolar="none", **G)),
+    ("+ haze extension", AllSkyOptions(circumsolar="none", **G)),
+    ("+ cloud circumsolar (Perez F1)", AllSkyOptions(**G)),
+    ("+ vegetated ground = all-sky", AllSkyOptions()),
 )
 
 
@@ -111,34 +115,33 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
     tdew = data["temp_dew"].to_numpy() if "temp_dew" in data else None
     vmin = float(np.min(sky.model.visibility_range))
     ref = {k: (s * g173 * w).sum() / (g173 * w).sum() for k, s in sr.items()}
-    ref_model = {k: (s * g173_model * w).sum() / (g173_model * w).sum() for k, s in sr.items()}
+    # (*) the model's own G173 state, with the ground of each variant (grey, or vegetated as the default)
+    ref_model = {g: {k: (s * m * w).sum() / (m * w).sum() for k, s in sr.items()} for g, m in g173_model.items()}
     rows, times, spectra = [], {}, {}
+    shape = vegetation_albedo_shape(wl)
+    snow = data["snow_depth"].to_numpy() if "snow_depth" in data else None
     for label, opt in VARIANTS:
         t1 = time.perf_counter()
         f = allsky_factors(edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, ghi=ghi,
                            visibility=vis, temp_dew=tdew, min_visibility=vmin, options=opt,
                            albedo=states.albedo, earth_sun_distance=states.earth_sun_distance)
         times[label] = time.perf_counter() - t1
+        ground = {} if opt.ground == "grey" else {"albedo_shape": shape, "channel_edges": edges,
+                                                  "vegetated": vegetated_steps(states.albedo, snow)}
         poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
-                        circumsolar_dhi=f.circumsolar_dhi)
+                        circumsolar_dhi=f.circumsolar_dhi, **ground)
         E = poa["poa_global"]
         tot = (E * w).sum()
         se = {k: ((E * s * w).sum() / tot) / ref[k] - 1.0 for k, s in sr.items()}
-        se.update({k + "*": ((E * s * w).sum() / tot) / ref_model[k] - 1.0 for k, s in sr.items()})
+        se.update({k + "*": ((E * s * w).sum() / tot) / ref_model[opt.ground][k] - 1.0 for k, s in sr.items()})
         a = ape(E, wl, w)
         over = kt < 0.3
         rows.append((label, se, float(np.nanmedian(a)), float(ape(E[over].sum(0), wl, w)),
                      float(ape(E.sum(0), wl, w)), float((E @ w).sum() / 1000.0), f))
         spectra[label] = (E, a, poa["ghi"])
-    # sensitivity: the default all-sky hours over a vegetated ground (the weather's broadband albedo kept)
-    shape = vegetation_albedo_shape(wl)
-    poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
-                    circumsolar_dhi=f.circumsolar_dhi, albedo_shape=shape, channel_edges=edges)
-    E = poa["poa_global"]
-    tot = (E * w).sum()
-    ground_rows = [("all-sky, grey ground (default)", rows[-1][1]),
-                   ("all-sky, vegetated ground (shape)", {k: ((E * s * w).sum() / tot) / ref[k] - 1.0
-                                                          for k, s in sr.items()})]
+    # the ground: grey (AllSkyOptions(ground="grey")) against the default vegetated ground
+    ground_rows = [("all-sky, grey ground", rows[-2][1]), ("all-sky, vegetated ground (default)", rows[-1][1]),
+                   ("vegetated hours", float(np.mean(vegetated_steps(states.albedo, snow))))]
     sin_el = np.sin(np.radians(states.sun_elevation))
     g_clear = ((clear.dni * sin_el[:, None] + clear.dhi) * w).sum(1)
     kc_model = ghi / g_clear
@@ -214,8 +217,8 @@ def report(res):
     for label, se, a_med, a_ovc, a_ann, H, _ in res["rows"]:
         print(f"{label:34s} " + " ".join(f"{100 * se[t]:+6.2f}" for t in techs)
               + f"  {100 * (se['a-Si'] - se['CIGS']):6.2f}  {a_med:7.3f}  {a_ovc:7.3f}  {a_ann:7.3f}  {H:8.1f}")
-    print("ground sensitivity (irradiance.allsky_plane.vegetation_albedo_shape, the weather's broadband albedo kept):")
-    for label, se in res["ground_rows"]:
+    print(f"ground (irradiance.ground; the weather's broadband albedo kept; vegetated hours {res['ground_rows'][2][1]:.1%}):")
+    for label, se in res["ground_rows"][:2]:
         print(f"{label:34s} " + " ".join(f"{100 * se[t]:+6.2f}" for t in techs) + f"  {100 * (se['a-Si'] - se['CIGS']):6.2f}")
     print("relative to the sky model's own spectrum at the G173 state (*):")
     for label, se, *_ in res["rows"]:
@@ -322,8 +325,8 @@ def figure(results, path, diffuse=None):
     ax = axes[0]
     x = np.arange(len(techs))
     rows = ams["rows"]
-    bars = [("all-sky, vs G173", {t: 100 * rows[-1][1][t] for t in techs}, "C1"),
-            ("all-sky, vegetated ground, vs G173", {t: 100 * ams["ground_rows"][1][1][t] for t in techs}, "C2"),
+    bars = [("all-sky (vegetated ground), vs G173", {t: 100 * rows[-1][1][t] for t in techs}, "C1"),
+            ("all-sky, grey ground, vs G173", {t: 100 * ams["ground_rows"][0][1][t] for t in techs}, "C2"),
             ("all-sky, vs the model at the G173 state", {t: 100 * rows[-1][1][t + "*"] for t in techs}, "C4")]
     pv = None if ams["kc_linke"] is None else pvspec_annual(
         ams["kc_linke"], ams["am"] * ams["pressure_ratio"], (ams["spectra"][VARIANTS[-1][0]][0] * ams["w"]).sum(1))
@@ -426,11 +429,12 @@ def main(argv=None):
     sky = ir.PragueSky()
     g173 = g173_channels(np.asarray(sky.channel_edges))
     sr = spectral_response(generic_eqe(sky.wavelengths), sky.wavelengths)
-    g173_model = model_at_g173(sky)
+    g173_model = {g: model_at_g173(sky, ground=g) for g in ("grey", "vegetation")}
     w = np.diff(sky.channel_edges)
-    print("the sky model at the G173 state against G173 (spectral effect of the model's reference "
-          "spectrum, %): " + ", ".join(f"{k} {100 * (((g173_model * s * w).sum() / (g173_model * w).sum()) / ((g173 * s * w).sum() / (g173 * w).sum()) - 1):+.2f}"
-                                      for k, s in sr.items()) + f"; APE {ape(g173_model, sky.wavelengths, w):.3f} eV")
+    for g, m in g173_model.items():
+        print(f"the sky model at the G173 state ({g} ground) against G173 (spectral effect of the model's "
+              "reference spectrum, %): " + ", ".join(f"{k} {100 * (((m * s * w).sum() / (m * w).sum()) / ((g173 * s * w).sum() / (g173 * w).sum()) - 1):+.2f}"
+                                              for k, s in sr.items()) + f"; APE {ape(m, sky.wavelengths, w):.3f} eV")
     decomposition, diffuse = g173_decomposition(sky, sr)
     print("where the difference sits (spectral effects against G173 unless named, %):")
     for label, v in decomposition.items():

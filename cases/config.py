@@ -88,6 +88,10 @@ SCHEMA = {
                                      "data directory for the cloud-water optics), 'clear' (clear-sky spectra scaled "
                                      "to the measured DNI/DHI), or 'auto': allsky where the data directory is "
                                      "available, else clear"),
+        "ground_spectrum": Field("str", "vegetation", choices=("vegetation", "grey"),
+                                 help="with the allsky spectral model: the spectrum the ground reflects, green "
+                                      "vegetation where the albedo is at most 0.3 and no snow is reported (the "
+                                      "weather's broadband albedo kept), or grey (docs/all-sky.md)"),
     },
     "scene": {
         "geometry": Field("path", REQUIRED, help="Python file with build(parameters) -> dict of meshes, or a mesh file"),

@@ -249,8 +249,10 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     t1 = time.perf_counter()
     from irradiance.allsky_sky import AllSkyWeather
     spectral_model = "allsky" if isinstance(measured, AllSkyWeather) else "clear"
+    allsky_options = ir.AllSkyOptions(ground=cfg["sky"]["ground_spectrum"])
     res = ir.poa_irradiance(scene, sky, states, responses=responses, settings=settings, times=times,
-                            measured=measured, spectral_model=spectral_model, n_jobs=n_jobs, progress=progress)
+                            measured=measured, spectral_model=spectral_model, allsky_options=allsky_options,
+                            n_jobs=n_jobs, progress=progress)
     timings["integrator"] = time.perf_counter() - t1
     T = len(times)
     step_h = (times[1] - times[0]).total_seconds() / 3600.0 if len(times) > 1 else 1.0
@@ -283,7 +285,8 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     else:
         hour_measured = tuple(np.asarray(m)[hi:hi + 1] for m in measured)
     hour = ir.poa_irradiance(scene, sky, states.take(slice(hi, hi + 1)), settings=settings, times=times[hi:hi + 1],
-                             measured=hour_measured, spectral_model=spectral_model, spectral=True, n_jobs=n_jobs,
+                             measured=hour_measured, spectral_model=spectral_model, allsky_options=allsky_options,
+                             spectral=True, n_jobs=n_jobs,
                              progress=False)
     timings["spectral_hour"] = time.perf_counter() - t2
     rename = None

@@ -110,6 +110,12 @@ class AllSkyOptions:
         sun as ``circumsolar_dhi``, the rest is CIE overcast; ``"none"``: all of it CIE overcast. Below 5 deg
         of sun elevation the share tapers with ``sin(elevation) / sin(5 deg)`` (the light stays in the sky); ``F1`` is
         capped at 1 (at low sun and large sky brightness the published fit exceeds 1).
+    ground : {"vegetation", "grey"}
+        The spectrum of light reflected by the ground (:mod:`irradiance.ground`): ``"vegetation"``
+        reflects steps of broadband albedo up to 0.3 with no snow reported with a green-vegetation
+        spectrum scaled to the weather's broadband albedo (the reflected broadband irradiance unchanged),
+        the rest grey; ``"grey"``: the broadband albedo at every wavelength. Applies where the scene has
+        no ``ground_albedo`` of its own.
     droplet_radius : float
         Effective droplet radius [um].
     asymmetry : float
@@ -134,6 +140,7 @@ class AllSkyOptions:
     haze: str = "extrapolate"
     angular: str = "cie_overcast"
     circumsolar: str = "perez"
+    ground: str = "vegetation"
     droplet_radius: float = DEFAULT_DROPLET_RADIUS
     asymmetry: float = DEFAULT_ASYMMETRY
     fog_visibility: float = 1.0
@@ -151,6 +158,8 @@ class AllSkyOptions:
             raise ValueError(f"droplet_optics={self.droplet_optics!r} is not one of ('mie', 'adt')")
         if self.vapour_path not in ("two_stream", "diffusion"):
             raise ValueError(f"vapour_path={self.vapour_path!r} is not one of ('two_stream', 'diffusion')")
+        if self.ground not in ("vegetation", "grey"):
+            raise ValueError(f"ground={self.ground!r} is not one of ('vegetation', 'grey')")
         if self.partition not in ("sky_fraction", "ernst"):
             raise ValueError(f"partition={self.partition!r} is not one of ('sky_fraction', 'ernst')")
         if not 0.0 < self.cloud_top_pressure <= 1.0:
@@ -158,7 +167,7 @@ class AllSkyOptions:
 
 
 CLEAR_SHAPE = AllSkyOptions(cloud_spectrum=False, cloud_absorption=False, cloud_vapour=False,
-                            cloud_rayleigh=False, haze="clamp", angular="clear")
+                            cloud_rayleigh=False, haze="clamp", angular="clear", ground="grey")
 """Every part off: the clear-sky shape scaled to the measured DNI and DHI (the plain measured path)."""
 
 

@@ -74,18 +74,25 @@ def g173_channels(edges, data_dir=None):
     return band_average(a[:, 0], a[:, 2], np.asarray(edges, dtype=float))
 
 
-def model_at_g173(sky, components=False):
+def model_at_g173(sky, components=False, ground="grey"):
     """The sky model's own global tilted spectrum at the G173 conditions (solar zenith 48.236 deg, plane
     tilted 37 deg toward the sun, AOD 0.084 at 500 nm as visibility through Koschmieder with Angstrom
     1.3, albedo 0.2) [W m-2 nm-1] (C,): the reference that separates the weather's spectral effect from
-    the dataset's own difference to G173 at the reference state (``components``: all of plane_poa's parts)."""
+    the dataset's own difference to G173 at the reference state (``components``: all of plane_poa's parts;
+    ``ground``: "grey" or "vegetation", the all-sky model's ground of :mod:`irradiance.ground`)."""
     from skymodel.visibility import aod_at_wavelength, visibility_from_aod550
     vis = float(visibility_from_aod550(aod_at_wavelength(0.084, 500.0, 550.0, 1.3)))
     from .allsky_plane import clear_plane_spectra, plane_poa
     from .skies import SkyStates
     st = SkyStates.create([90.0 - 48.236], [180.0], vis, 0.2)
     c = clear_plane_spectra(sky, st, 37.0, 180.0)
-    p = plane_poa(c, np.ones(1), np.ones(1), 0.2)
+    if ground not in ("grey", "vegetation"):
+        raise ValueError(f"ground={ground!r} is not one of ('grey', 'vegetation')")
+    kw = {}
+    if ground == "vegetation":
+        from .ground import vegetation_albedo_shape
+        kw = {"albedo_shape": vegetation_albedo_shape(sky.wavelengths), "channel_edges": sky.channel_edges}
+    p = plane_poa(c, np.ones(1), np.ones(1), 0.2, **kw)
     return {k: v[0] for k, v in p.items()} if components else p["poa_global"][0]
 
 
@@ -125,6 +132,7 @@ def g173_decomposition(sky, sr, data_dir=None):
     g_diff = g173 - g173_dir * cos_aoi
     m_diff = model["poa_global"] - model["poa_direct"]
     out = {"the model at the G173 state": se(model["poa_global"], g173),
+           "the model, vegetated ground": se(model_at_g173(sky, ground="vegetation"), g173),
            "SPCTRL2 at the G173 state": se(spl_g, g173),
            "the model, against SPCTRL2": se(model["poa_global"], spl_g),
            "model direct + G173 diffuse": se(model["poa_direct"] + g_diff, g173),

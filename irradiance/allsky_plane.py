@@ -16,11 +16,12 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .ground import ground_scales, step_spectral_albedo
 from .integrator import IntegratorSettings, patch_radiance
 from .overcast_sky import overcast_poa_ratio
 from .patches import cosine_weights, direction_from_angles, reinhart
 
-__all__ = ["ClearPlaneSpectra", "clear_plane_spectra", "plane_poa", "vegetation_albedo_shape"]
+__all__ = ["ClearPlaneSpectra", "clear_plane_spectra", "plane_poa"]
 
 
 class ClearPlaneSpectra(NamedTuple):
@@ -100,7 +101,7 @@ def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=Non
 
 
 def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overcast_dhi=None,
-              circumsolar_dhi=None, albedo_shape=None, channel_edges=None):
+              circumsolar_dhi=None, albedo_shape=None, channel_edges=None, vegetated=None):
     """Spectral plane-of-array components under per-step (and per-channel) factors.
 
     Parameters
@@ -118,14 +119,18 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
         (``AllSkyFactors.circumsolar_dhi``): on the plane ``circumsolar_dhi cos(aoi) / sin(elevation)``,
         in ``poa_direct`` as the clear circumsolar light.
     albedo_shape : array_like, optional
-        (C,) relative spectral shape [1] of the ground's reflectance (e.g. :func:`vegetation_albedo_shape`).
+        (C,) relative spectral shape [1] of the ground's reflectance (e.g. :func:`irradiance.ground.vegetation_albedo_shape`).
         The broadband ``albedo`` is kept (what a weather file's albedometer measures): each step's spectral
         albedo is ``albedo shape / (sum shape GHI w / sum GHI w)``, so the reflected broadband irradiance is
-        unchanged and only its spectrum follows the shape (capped at 1 per channel). None: grey ground.
-        The sky radiance keeps the grey albedo it was evaluated with (the sky's own dependence on the
-        ground is a second-order term; the integrator's ``scene.ground_albedo`` is the per-channel path).
+        unchanged and only its spectrum follows the shape (:func:`irradiance.ground.ground_scales`: a step
+        whose scaled shape would exceed 1 stays grey). None: grey ground. The sky radiance keeps the grey
+        albedo it was evaluated with (the sky's own dependence on the ground is a second-order term), as
+        in the integrator's all-sky path (``AllSkyOptions.ground``).
     channel_edges : array_like, optional
         (C+1,) channel edges [nm], needed with ``albedo_shape`` (the broadband weighting).
+    vegetated : array_like, optional
+        (T,) bool: the steps whose ground follows ``albedo_shape`` (the rest grey; default all;
+        :func:`irradiance.ground.vegetated_steps` gives the all-sky model's rule).
 
     Returns
     -------
@@ -168,43 +173,11 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
             raise ValueError(f"albedo_shape must be ({C},) finite, >= 0 and not all zero, got shape {shape.shape}")
         if channel_edges is None or np.shape(channel_edges) != (C + 1,):
             raise ValueError(f"albedo_shape needs channel_edges of shape ({C + 1},)")
-        w = np.diff(np.asarray(channel_edges, dtype=float))
-        g = ghi * w
-        with np.errstate(invalid="ignore", divide="ignore"):
-            norm = np.where(g.sum(1) > 0, (g * shape).sum(1) / g.sum(1), 1.0)
-        alb = np.clip(alb * shape[None, :] / np.where(norm > 0, norm, 1.0)[:, None], 0.0, 1.0)
+        veg = np.ones(T, bool) if vegetated is None else np.broadcast_to(np.asarray(vegetated, bool), (T,))
+        a_shape, a_grey = ground_scales(shape, ghi, np.diff(np.asarray(channel_edges, dtype=float)),
+                                        np.broadcast_to(alb[:, 0] if np.ndim(alb) else alb, (T,)), veg)
+        alb = step_spectral_albedo(shape, a_shape, a_grey)
     ground = alb * ghi * clear.view_ground
     direct = (dni + fd * clear.circumsolar + circ) * clear.cos_aoi[:, None]
     return {"poa_direct": direct, "poa_sky_diffuse": sky, "poa_ground_diffuse": ground,
             "poa_global": direct + sky + ground, "ghi": ghi, "dhi": dhi, "dni": dni}
-
-
-def vegetation_albedo_shape(wavelength_nm, visible=0.05, near_infrared=0.45, swir=0.25, red_edge_nm=715.0,
-                            edge_width_nm=15.0, water_edge_nm=1350.0):
-    """Schematic spectral reflectance [1] of green vegetation (grass), for sensitivity studies.
-
-    Low in the visible (chlorophyll absorption: 0.03-0.08, a small green peak left out), a steep rise at
-    the red edge near 700-730 nm to a near-infrared plateau of 0.4-0.5 (leaf mesophyll scattering), and
-    lower again beyond about 1300 nm where leaf water absorbs (Knipling 1970, Remote Sens. Environ. 1,
-    155; Jacquemoud & Baret 1990, Remote Sens. Environ. 34, 75): two logistic steps between the three
-    levels. Use as ``albedo_shape`` of :func:`plane_poa` (only the shape matters there) or, scaled, as a
-    scene's per-channel ``ground_albedo``.
-
-    Parameters
-    ----------
-    wavelength_nm : array_like
-        Wavelengths [nm].
-    visible, near_infrared, swir : float
-        Reflectance levels [1] below the red edge, on the NIR plateau and beyond ``water_edge_nm``.
-    red_edge_nm, edge_width_nm, water_edge_nm : float
-        Centre of the red edge, width of both steps, centre of the water step [nm].
-    """
-    lam = np.asarray(wavelength_nm, dtype=float)
-    for name, v in (("visible", visible), ("near_infrared", near_infrared), ("swir", swir)):
-        if not 0.0 <= v <= 1.0:
-            raise ValueError(f"{name}={v} must be within [0, 1]")
-    if edge_width_nm <= 0:
-        raise ValueError(f"edge_width_nm={edge_width_nm} must be > 0")
-    rise = 1.0 / (1.0 + np.exp(-(lam - red_edge_nm) / edge_width_nm))
-    fall = 1.0 / (1.0 + np.exp(-(lam - water_edge_nm) / (2.0 * edge_width_nm)))
-    return visible + (near_infrared - visible) * rise + (swir - near_infrared) * fall

@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .allsky import AllSkyOptions, allsky_factors
+from .ground import ground_scales, vegetated_steps
 from .integrator import patch_radiance
 from .overcast_sky import cie_overcast_relative
 
@@ -29,6 +30,7 @@ class AllSkyWeather(NamedTuple):
     dni, dhi, ghi : [W m-2] (``ghi`` default ``dni sin(elevation) + dhi``).
     visibility : [km] station visibility (the haze extension below the dataset's range).
     temp_dew : [degC] dew point (water vapour in the cloud).
+    snow_depth : [cm] snow depth (a snow-covered ground is not vegetated, :mod:`irradiance.ground`).
     """
 
     dni: np.ndarray
@@ -36,6 +38,7 @@ class AllSkyWeather(NamedTuple):
     ghi: object = None
     visibility: object = None
     temp_dew: object = None
+    snow_depth: object = None
 
     def take(self, idx):
         """The steps ``idx``."""
@@ -49,7 +52,7 @@ def weather_measurements(data, spectral_model="clear", aerosol="visibility", cle
     ----------
     data : pandas.DataFrame
         The weather rows of the steps (columns ``dni``, ``dhi`` [W m-2]; ``ghi`` [W m-2], ``visibility``
-        [km], ``temp_dew`` [degC] where present).
+        [km], ``temp_dew`` [degC], ``snow_depth`` [cm] where present).
     spectral_model : {"clear", "allsky"}
         Clear-sky spectra scaled to the measured DNI/DHI, or the all-sky spectra (docs/all-sky.md).
     aerosol : {"visibility", "aod"}
@@ -68,7 +71,8 @@ def weather_measurements(data, spectral_model="clear", aerosol="visibility", cle
         return None, "clear sky"
     measured = (data["dni"].to_numpy(), data["dhi"].to_numpy())
     if spectral_model == "allsky":
-        col = {c: data[c].to_numpy() if c in data else None for c in ("ghi", "visibility", "temp_dew")}
+        col = {c: data[c].to_numpy() if c in data else None
+               for c in ("ghi", "visibility", "temp_dew", "snow_depth")}
         if aerosol == "aod":
             col["visibility"] = None
         return AllSkyWeather(*measured, **col), "all-sky spectra scaled to measured DNI/DHI"
@@ -78,7 +82,7 @@ def weather_measurements(data, spectral_model="clear", aerosol="visibility", cle
 
 
 def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllSkyWeather,
-                          options=AllSkyOptions(), min_visibility=20.0):
+                          options=AllSkyOptions(), min_visibility=20.0, ground_shape=None):
     """All-sky patch radiance and beam of one chunk of steps, contracted with ``weights``.
 
     Parameters
@@ -92,6 +96,9 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     options : AllSkyOptions
     min_visibility : float
         The dataset's lowest visibility [km].
+    ground_shape : array_like, optional
+        (C,) relative spectral reflectance [1] of a vegetated ground (:mod:`irradiance.ground`): with it
+        the per-step factors of the shape and of a grey ground are returned (``ground``).
 
     Returns
     -------
@@ -103,6 +110,10 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     factors : AllSkyFactors
     model : tuple
         (model_dni, model_dhi) (T,) [W m-2], the clear model's broadband values.
+    ground : tuple or None
+        With ``ground_shape``: (a_shape, a_grey) (T,) [1] of :func:`irradiance.ground.ground_scales`
+        from the step's all-sky global horizontal spectrum (vegetated steps by
+        :func:`irradiance.ground.vegetated_steps` from the states' albedo and ``weather.snow_depth``).
     """
     W = np.asarray(weights, dtype=float)
     C = sky.n_channels
@@ -118,12 +129,19 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
                        temp_dew=weather.temp_dew, min_visibility=min_visibility, options=options,
                        albedo=states.albedo, earth_sun_distance=states.earth_sun_distance)
     L = np.einsum("tpc,tc,cr->tpr", Lp, f.diffuse_scale, W, optimize=True)
-    dni = (dn * f.dni_scale + cs * f.diffuse_scale) @ W
+    dni_c = dn * f.dni_scale + cs * f.diffuse_scale                # (T, C) beam + circumsolar
     if np.any(f.circumsolar_dhi > 0):                              # cloud light traced with the sun
         up = sin_el > 0
-        dni[up] += (f.circumsolar_dhi[up] / sin_el[up, None]) @ W
+        dni_c[up] += f.circumsolar_dhi[up] / sin_el[up, None]
+    dni = dni_c @ W
     if np.any(f.overcast_dhi > 0):
         shape = cie_overcast_relative(patches.directions[:, 2])
         shape = shape / (shape * w_h).sum()                      # unit horizontal irradiance [sr-1]
         L += shape[None, :, None] * (f.overcast_dhi @ W)[:, None, :]
-    return L, dni, f, (dn @ widths, dhi_clear @ widths)
+    ground = None
+    if ground_shape is not None:                                   # the all-sky GHI spectrum of each step
+        ghi_c = (np.einsum("p,tpc,tc->tc", w_h, Lp, f.diffuse_scale) + f.overcast_dhi
+                 + dni_c * sin_el[:, None])
+        veg = vegetated_steps(states.albedo, weather.snow_depth)
+        ground = ground_scales(ground_shape, ghi_c, widths, states.albedo, veg)
+    return L, dni, f, (dn @ widths, dhi_clear @ widths), ground

@@ -40,6 +40,10 @@ def add_site_options(p, spectral_model="clear", aerosol="visibility"):
                    help=f"with --weather (default {spectral_model or 'allsky where the input data directory is available (WIDESKY_DATA_DIR), else clear'}): 'clear' keeps the clear sky's spectral and "
                         "angular shape, 'allsky' the all-sky model (cloud spectra, CIE overcast light, haze "
                         "below the dataset's visibility; docs/all-sky.md); the same measured DNI/DHI")
+    p.add_argument("--ground-spectrum", default="vegetation", choices=("vegetation", "grey"),
+                   help="with --spectral-model allsky (default vegetation): the spectrum of light the ground "
+                        "reflects, green vegetation where the albedo is at most 0.3 and no snow is reported "
+                        "(the weather's broadband albedo kept), or grey (docs/all-sky.md)")
     p.add_argument("--aerosol", default=aerosol, choices=("visibility", "aod"),
                    help=f"with --weather (default {aerosol}): the aerosol of each step from the file's station "
                         "visibility or its aerosol optical depth column where valid (recommended with "
@@ -234,6 +238,7 @@ def _write_csv(res, path, group=None):
 def _run(args) -> int:
     import warnings
 
+    from .allsky import AllSkyOptions
     from .integrator import IntegratorSettings
     from .poa import poa_irradiance
     from .scene import make_scene
@@ -259,6 +264,7 @@ def _run(args) -> int:
                          settings=IntegratorSettings.for_tolerance(args.tolerance),
                          measured=measured, n_jobs=args.jobs, progress=sys.stderr.isatty(),
                          spectral_model=args.spectral_model if measured is not None else "clear",
+                         allsky_options=AllSkyOptions(ground=args.ground_spectrum),
                          output=args.output if kind == "h5" else None,
                          provenance={"command": "widesky poa " + " ".join(sys.argv[2:])})
     if kind == "csv":

@@ -370,6 +370,14 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         measured_scale_factors(np.ones(T), np.ones(T), m_dni, m_dhi)     # validates the inputs
         model_dni, model_dhi = np.zeros(T), np.zeros(T)
     allsky_in = _allsky_setup(spectral_model, measured, T, sky, allsky_options)
+    ground_shape, ground_steps = None, None
+    if allsky_in is not None and allsky_in[1].ground == "vegetation" and ga is None:
+        # the all-sky ground: a vegetation shape (albedo-weighted columns) and a grey part, per step
+        from .ground import vegetation_albedo_shape
+        ground_shape = vegetation_albedo_shape(sky.wavelengths)
+        ground_steps = (np.zeros(T), np.asarray(states.albedo, dtype=float).copy())
+        spectral_ground = True
+        Wall = np.concatenate([Wall, ground_shape[:, None] * Wall], axis=1)
     for name, v in (("dni_scale", dni_scale), ("diffuse_scale", diffuse_scale)):
         if v is not None:
             a = np.asarray(v, dtype=float)
@@ -439,8 +447,11 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         st = states.take(idx)
         if allsky_in is not None:                  # all-sky model: factors per step and channel
             from .allsky_sky import allsky_patch_radiance
-            Lp, dni, f, (model_dni[idx], model_dhi[idx]) = allsky_patch_radiance(
-                sky, patches, st, Wall, settings, allsky_in[0].take(idx), allsky_in[1], allsky_in[2])
+            Lp, dni, f, (model_dni[idx], model_dhi[idx]), g = allsky_patch_radiance(
+                sky, patches, st, Wall, settings, allsky_in[0].take(idx), allsky_in[1], allsky_in[2],
+                ground_shape=ground_shape)
+            if g is not None:
+                ground_steps[0][idx], ground_steps[1][idx] = g
             scale_d[idx], scale_s[idx] = f.scaling.sun_scale, f.scaling.sky_scale
             t_sky += time.perf_counter() - t0
             return Lp, dni
@@ -487,7 +498,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         t_rays = time.perf_counter()
         ctx = _ProductContext(scene, cf, states, lit, J, J_all, col_mat, spectral,
                               spectral_ground, settings.time_chunk,
-                              fast_columns(resp, col_of, plan, stored))
+                              fast_columns(resp, col_of, plan, stored), ground_steps)
         sink = _Sink(keys, T, F, C, None if output is None else os.fspath(output), kept_names,
                      {n: units[n] for n in kept_names}, faces_tab, spectral, compression,
                      stored={n: st for n, st in zip(names, stored) if st})
@@ -621,12 +632,15 @@ class _ProductContext:
     """The coefficient matrices in the layout of the products, and reusable work buffers."""
 
     def __init__(self, scene, cf, states, lit, J, J_all, col_mat, spectral, spectral_ground,
-                 tmax, fast=()):
+                 tmax, fast=(), ground_steps=None):
         N, P = cf.sky.shape
         self.N, self.P, self.F, self.k = N, P, scene.n_faces, scene.samples_per_face
         self.J, self.J_all, self.C = J, J_all, J_all - J
         self.spectral, self.spectral_ground = spectral, spectral_ground
         self.ga = scene.ground_albedo
+        # (a_shape, a_grey) (T,): per-step spectral ground = a_shape x the albedo-weighted columns'
+        # shape + a_grey (the all-sky vegetated ground); None: the scene's or the states' albedo
+        self.ground_steps = ground_steps
         self.col_mat = np.concatenate([col_mat, -np.ones(J_all - J, dtype=int)])
         self.cf = cf
         self.D_T = {-1: np.ascontiguousarray(cf.sky.T, dtype=np.float32)}            # (P, N)
@@ -637,7 +651,9 @@ class _ProductContext:
         self.albedo = states.albedo
         alb = states.albedo[lit]
         ga = self.ga
-        if ga is not None and np.ndim(ga) == 0:
+        if ground_steps is not None:
+            fold = None
+        elif ga is not None and np.ndim(ga) == 0:
             fold = float(ga)
         elif ga is None and (alb.size == 0 or np.all(alb == alb[0])):
             fold = float(alb[0]) if alb.size else 0.0
@@ -737,6 +753,11 @@ def chunk_products(ctx: _ProductContext, idx, Lp, dni, up, sun_rank, band=None):
     if ctx.spectral_ground:                        # the last columns are albedo-weighted
         g_sky, g_sun = Hs[:, R:] / np.pi, Hd[:, R:] / np.pi
         Lp_alb = Lp[..., R:]
+        if ctx.ground_steps is not None:           # per step: shape x a_shape + grey a_grey
+            a1, a0 = (g[idx][:, None] for g in ctx.ground_steps)
+            g_sky = a1 * g_sky + a0 * Hs[:, :R] / np.pi
+            g_sun = a1 * g_sun + a0 * Hd[:, :R] / np.pi
+            Lp_alb = a1[:, :, None] * Lp_alb + a0[:, :, None] * Lp[..., :R]
         Lp, dni = Lp[..., :R], dni[:, :R]
     else:
         alb = (alb_steps if ctx.ga is None else np.full(Tc, float(ctx.ga)))[:, None]

@@ -202,9 +202,10 @@ def _setup(args):
     scene = make_scene(args.mesh, args.context, groups=groups, ground_z=args.ground_z, two_sided=args.two_sided)
     ta, ws = _weather_series(args, times)
     from irradiance.allsky_sky import AllSkyWeather
+    from irradiance.allsky import AllSkyOptions
     spectral_model = "allsky" if isinstance(measured, AllSkyWeather) else "clear"
     return dict(scene=scene, sky=sky, states=states, measured=measured, times=times, note=note,
-                spectral_model=spectral_model,
+                spectral_model=spectral_model, allsky_options=AllSkyOptions(ground=args.ground_spectrum),
                 cover=cover, system=system, settings=IntegratorSettings.for_tolerance(args.tolerance),
                 temp_air=ta, wind_speed=ws)
 
@@ -214,7 +215,8 @@ def _run_yield(args, techs):
     c = _setup(args)
     res, y = simulate(c["scene"], c["sky"], c["states"], techs, c["temp_air"], c["wind_speed"],
                       cover=c["cover"], system=c["system"], measured=c["measured"], times=c["times"],
-                      spectral_model=c["spectral_model"], settings=c["settings"], n_jobs=args.jobs, progress=sys.stderr.isatty(),
+                      spectral_model=c["spectral_model"], allsky_options=c["allsky_options"],
+                      settings=c["settings"], n_jobs=args.jobs, progress=sys.stderr.isatty(),
                       reference=None if args.reference == "g173" else "widesky", reference_path=args.g173,
                       keep_currents=False)
     return res, y, c["note"] + ("" if args.reference == "g173" else ", reference: widesky AM1.5G")
@@ -263,7 +265,7 @@ def _sweep(args) -> int:
     df = bandgap_sweep(c["scene"], c["sky"], c["states"], gaps, args.terminals, args.group, cover=c["cover"],
                        settings=c["settings"], measured=c["measured"], times=c["times"],
                        temp_air=c["temp_air"], wind_speed=c["wind_speed"], n_jobs=args.jobs,
-                       spectral_model=c["spectral_model"],
+                       spectral_model=c["spectral_model"], allsky_options=c["allsky_options"],
                        progress=sys.stderr.isatty())
     _write_text(args.output, df.to_csv(float_format="%.6g"))
     best = df["dc_kwh_per_m2"].idxmax()

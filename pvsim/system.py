@@ -542,7 +542,8 @@ class _GroupAccumulator:
 
 def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *, cover=None, system=None,
              measured=None, times=None, settings=None, output=None, n_jobs=None, progress=False,
-             reference=None, reference_path=None, spectral_model="clear", keep_currents=True):
+             reference=None, reference_path=None, spectral_model="clear", keep_currents=True,
+             allsky_options=None):
     """One integrator run for all ``technologies`` (shared geometry and sky) with the yield model
     fused into its output stream (:class:`pvsim.stream.YieldStream`: no current is read back).
 
@@ -559,6 +560,8 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     spectral_model : {"clear", "allsky"}
         Spectral shape under measured weather (``irradiance.poa_irradiance``; docs/all-sky.md). The
         ``widesky pv`` commands use "allsky" whenever a weather file gives DNI and DHI.
+    allsky_options : irradiance.AllSkyOptions, optional
+        The all-sky model's parts (default all on: cloud spectra, CIE overcast light, vegetated ground).
     output : str, optional
         HDF5 file for the POA result (streams; bounded memory).
     reference : None, "widesky" or array_like (C,)
@@ -592,5 +595,6 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
         parts = {**{k: () for k in parts}, COVER_RESPONSE: "global"}
     res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
                          times=times, output=output, n_jobs=n_jobs, progress=progress,
-                         spectral_model=spectral_model, parts=parts, consumer=stream)
+                         spectral_model=spectral_model, allsky_options=allsky_options, parts=parts,
+                         consumer=stream)
     return res, stream.result(times if times is not None else res.times)

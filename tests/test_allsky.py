@@ -20,7 +20,8 @@ import pytest
 import trimesh
 
 from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors, cloud_index
-from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa, vegetation_albedo_shape
+from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
+from irradiance.ground import vegetated_steps, vegetation_albedo_shape
 from irradiance.integrator import IntegratorSettings, poa_irradiance
 from irradiance.measured import measured_scale_factors
 from irradiance.scene import make_scene
@@ -182,8 +183,10 @@ def test_integrator_allsky_matches_the_plane_path(angular):
     dni, dhi = (clear.dni @ w) * np.array([0.0, 0.5, 0.9]), (clear.dhi @ w) * np.array([3.0, 1.6, 1.0])
     opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular=angular)
     f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt)
+    # the default all-sky ground is vegetated (albedo 0.2, no snow): the same rule on both paths
     ref = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
-                    circumsolar_dhi=f.circumsolar_dhi)
+                    circumsolar_dhi=f.circumsolar_dhi, albedo_shape=vegetation_albedo_shape(sky.wavelengths),
+                    channel_edges=sky.channel_edges, vegetated=vegetated_steps(states.albedo))
     assert (angular == "clear") == np.all(f.circumsolar_dhi == 0)
     scene = make_scene([_panel(40.0), _panel(0.0, z=150.0)], ground_z=0.0, analysis_reflectance=0.0)
     res = poa_irradiance(scene, sky, states, measured=AllSkyWeather(dni, dhi), settings=settings,
@@ -200,6 +203,8 @@ def test_integrator_allsky_matches_the_plane_path(angular):
     g = res.spectral["global"][:, 0, :]
     np.testing.assert_allclose(g / (g @ w)[:, None], ref["poa_global"] / (ref["poa_global"] @ w)[:, None],
                                rtol=0.03, atol=1e-6)
+    gr = res.spectral["ground_diffuse"][:, 0, :]             # the vegetated ground's reflected spectrum
+    np.testing.assert_allclose(gr, ref["poa_ground_diffuse"], rtol=0.03, atol=1e-6)
     with pytest.raises(ValueError, match="spectral_model"):
         poa_irradiance(scene, sky, states, spectral_model="cloudy")
     with pytest.raises(ValueError, match="needs measured"):
@@ -319,3 +324,60 @@ def test_spectral_ground_keeps_the_broadband_albedo():
         plane_poa(clear, np.ones(T), np.ones(T), albedo, albedo_shape=shape)
     with pytest.raises(ValueError, match="albedo_shape"):
         plane_poa(clear, np.ones(T), np.ones(T), albedo, albedo_shape=shape[:10], channel_edges=edges)
+
+
+def test_ground_scales_keep_the_broadband_albedo_and_fall_back_to_grey():
+    """irradiance.ground: vegetated steps (albedo <= 0.3, no snow reported) reflect the vegetation shape
+    scaled so that the reflected broadband irradiance is albedo x GHI, as for a grey ground; snow, a bright
+    ground and a spectrum the scaled shape could not reflect (albedo > 1 in a channel) stay grey."""
+    from irradiance.ground import VEGETATION_MAX_ALBEDO, ground_scales, step_spectral_albedo
+    edges = np.arange(280.0, 2481.0, 40.0)
+    wl, w = 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+    shape = vegetation_albedo_shape(wl)
+    rng = np.random.default_rng(7)
+    G = rng.uniform(0.1, 1.5, (6, wl.size))
+    G[4] = np.where((wl > 400) & (wl < 650), 1.0, 0.0)       # visible light only: n = 0.05
+    G[5] = 0.0                                               # no light
+    albedo = np.array([0.2, 0.25, 0.6, 0.2, 0.3, 0.2])
+    snow = np.array([np.nan, 0.0, np.nan, 5.0, np.nan, np.nan])
+    veg = vegetated_steps(albedo, snow)
+    np.testing.assert_array_equal(veg, [True, True, False, False, True, True])
+    assert VEGETATION_MAX_ALBEDO == 0.30
+    a1, a0 = ground_scales(shape, G, w, albedo, veg)
+    np.testing.assert_array_equal(a1 > 0, [True, True, False, False, False, False])
+    np.testing.assert_array_equal(a0, np.where(a1 > 0, 0.0, albedo))
+    alb = step_spectral_albedo(shape, a1, a0)
+    assert alb.max() <= 1.0 and alb.min() >= 0.0
+    np.testing.assert_allclose((alb * G * w).sum(1), albedo * (G * w).sum(1), rtol=1e-12)
+    assert np.all(alb[:2, (wl > 420) & (wl < 680)] < 0.06) and np.all(alb[:2, (wl > 780) & (wl < 1250)] > 0.3)
+    np.testing.assert_array_equal(vegetated_steps([0.2, np.nan, 0.31]), [True, False, False])
+
+
+def test_integrator_vegetated_ground_conserves_the_reflected_broadband():
+    """AllSkyOptions(ground=...): the vegetated ground changes the reflected spectrum, not the reflected
+    broadband irradiance of each step (nor the sky or the beam); on a step with snow it is grey."""
+    from irradiance.allsky_sky import AllSkyWeather
+    sky = RedSunSky()
+    states = SkyStates.create([12.0, 30.0, 55.0], [120.0, 180.0, 230.0], 30.0, 0.2)
+    settings = IntegratorSettings(rays_per_patch=4)
+    scene = make_scene(_panel(40.0), ground_z=0.0, analysis_reflectance=0.0)
+    dni, dhi = np.array([0.0, 300.0, 700.0]), np.array([250.0, 200.0, 110.0])
+    runs = {}
+    for ground in ("vegetation", "grey"):
+        opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, ground=ground)
+        runs[ground] = poa_irradiance(scene, sky, states, settings=settings, n_jobs=1, spectral_model="allsky",
+                                      measured=AllSkyWeather(dni, dhi, snow_depth=np.array([np.nan, 0.0, 3.0])),
+                                      allsky_options=opt, spectral=True)
+    veg, grey = runs["vegetation"], runs["grey"]
+    # exact for the unshaded ground's light; the panel's own shadow on the ground removes more beam (redder
+    # than the sky light, so reflected more by vegetation) than sky light: 4e-4 here
+    np.testing.assert_allclose(veg.poa_ground_diffuse, grey.poa_ground_diffuse, rtol=2e-3)
+    np.testing.assert_allclose(veg.poa_sky_diffuse, grey.poa_sky_diffuse, rtol=1e-6)
+    np.testing.assert_allclose(veg.poa_direct, grey.poa_direct, rtol=1e-6)
+    wl = sky.wavelengths
+    ratio = veg.spectral["ground_diffuse"][:, 0, :] / grey.spectral["ground_diffuse"][:, 0, :]
+    vis, nir = (wl > 420) & (wl < 680), (wl > 780) & (wl < 1250)
+    assert np.all(ratio[:2][:, vis] < 0.35) and np.all(ratio[:2][:, nir] > 1.5)
+    np.testing.assert_allclose(ratio[2], 1.0, rtol=1e-5)                  # snow: grey
+    with pytest.raises(ValueError, match="ground"):
+        AllSkyOptions(ground="sand")

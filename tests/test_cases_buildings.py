@@ -200,7 +200,8 @@ def test_weather_file_scales_the_gains(tmp_path, facade_run):
         folder = tmp_path / f"w{factor}"
         folder.mkdir()
         _epw(folder / "w.epw", facade_run, factor, 30.0)
-        _case(folder, "facade", FACADE.format(tz="1", weather='weather = "w.epw"'))
+        # a grey ground as in the clear-sky run (the all-sky default reflects a vegetated ground's spectrum)
+        _case(folder, "facade", FACADE.format(tz="1", weather='weather = "w.epw"\nground_spectrum = "grey"'))
         runs[factor] = compute(folder, n_jobs=1, progress=False)
     a, b = (runs[f].thermal for f in (1.0, 0.5))
     assert "weather file w.epw" in runs[1.0].weather
