@@ -373,8 +373,9 @@ def figure(results, path, diffuse=None):
     ax.legend(fontsize=8)
     ax = axes[3]
     if diffuse is not None:
-        for k, style in (("G173", "k:"), ("SPCTRL2", "C2-"), ("model", "C0-")):
-            ax.plot(diffuse["wl"], diffuse[k], style, label={"model": "sky model (dataset)"}.get(k, k))
+        for k, style in (("G173", "k:"), ("SPCTRL2", "C2-"), ("model", "C0-"), ("model, vegetated ground", "C1--")):
+            ax.plot(diffuse["wl"], diffuse[k], style,
+                    label={"model": "sky model (dataset), grey ground"}.get(k, "sky model, " + k[7:] if k.startswith("model, ") else k))
         ax.set_xlim(280, 1400)
         ax.set_xlabel("wavelength [nm]")
         ax.set_ylabel("diffuse on the plane [W m-2 nm-1]")

@@ -112,7 +112,8 @@ def g173_decomposition(sky, sr, data_dir=None):
     1986, pvlib, the same state: AM1.5, 37 deg tilt, AOD500 0.084, water 1.42 cm, ozone 0.34 atm-cm,
     albedo 0.2, an equinox day so the sun-earth distance is 1), and of hybrids that swap the direct or
     the diffuse part between the model and G173 (G173's diffuse = global tilt - direct+circumsolar x
-    cos 11.236 deg). Returns a dict of label -> {technology: %} and the (C,) diffuse spectra."""
+    cos 11.236 deg), and the model with the all-sky model's vegetated ground. Returns a dict of label ->
+    {technology: %} and the (C,) diffuse spectra."""
     import pvlib
     edges = np.asarray(sky.channel_edges)
     wl, w = np.asarray(sky.wavelengths), np.diff(edges)
@@ -131,14 +132,16 @@ def g173_decomposition(sky, sr, data_dir=None):
         return {k: float(v) for k, v in spectral_effects(e, ref, sr, w).items()}
     g_diff = g173 - g173_dir * cos_aoi
     m_diff = model["poa_global"] - model["poa_direct"]
+    veg = model_at_g173(sky, components=True, ground="vegetation")
     out = {"the model at the G173 state": se(model["poa_global"], g173),
-           "the model, vegetated ground": se(model_at_g173(sky, ground="vegetation"), g173),
+           "the model, vegetated ground": se(veg["poa_global"], g173),
            "SPCTRL2 at the G173 state": se(spl_g, g173),
            "the model, against SPCTRL2": se(model["poa_global"], spl_g),
            "model direct + G173 diffuse": se(model["poa_direct"] + g_diff, g173),
            "G173 direct + model diffuse": se(g173_dir * cos_aoi + m_diff, g173),
            "G173 direct + SPCTRL2 diffuse": se(g173_dir * cos_aoi + spl_d, g173)}
-    return out, {"wl": wl, "G173": g_diff, "model": m_diff, "SPCTRL2": spl_d}
+    return out, {"wl": wl, "G173": g_diff, "model": m_diff, "SPCTRL2": spl_d,
+                 "model, vegetated ground": veg["poa_global"] - veg["poa_direct"]}
 
 
 def sedes2_global_horizontal(coefficients, channel_edges, dni_clear, dhi_clear, sin_el, ghi):

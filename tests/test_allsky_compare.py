@@ -13,6 +13,12 @@ References and tolerances:
   and 0.6-0.8, relative to the 0.9-1.1 bin, is within 0.04 of PVSPEC's kc^a2 at the bin centre for
   a-Si, CdTe, c-Si and CIGS (Amsterdam IWEC, every 10th daylight hour); the plain measured path misses
   a-Si by more than 0.1 (the test can fail).
+* Freiburg (Dirnberger et al. 2015, Sol. Energy Mater. Sol. Cells 132, 431; measured annual spectral effects
+  against AM1.5G: a-Si +3.4, CdTe +2.4, c-Si +1.4, CIGS +0.6 %): the all-sky default on the Amsterdam IWEC year
+  (every daylight hour, a south plane tilted at the latitude, the AOD column, generic EQEs) is within 1.5
+  percentage points for each technology, in the measured order, and its a-Si minus CIGS spread within 1.5
+  points of 2.8 (the issue's criterion); the grey ground misses a-Si by more than 1.5 points and the vegetated
+  ground changes no annual total (docs/all-sky.md, section 4b).
 * SEDES2 (Nann & Riordan 1991; cloud cover modifiers as tabulated by Whitaker & Newmiller 1998,
   NREL/SR-520-23942): median hourly APE of global horizontal spectra within 0.02 eV of SEDES2 applied to
   the same clear spectra and GHI, in the clear-sky-index bins 0.4-0.6 and 0.6-0.8 (SEDES2 is bluer below
@@ -79,7 +85,13 @@ def _allsky(sky, states, d, clear, options):
     f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, d["dni"].to_numpy(),
                        d["dhi"].to_numpy(), ghi=d["ghi"].to_numpy(), temp_dew=d["temp_dew"].to_numpy(),
                        options=options, albedo=states.albedo)
-    return plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi)
+    ground = {}
+    if options.ground == "vegetation":             # the default all-sky ground (irradiance.ground)
+        from irradiance.ground import vegetated_steps, vegetation_albedo_shape
+        ground = {"albedo_shape": vegetation_albedo_shape(sky.wavelengths), "channel_edges": sky.channel_edges,
+                  "vegetated": vegetated_steps(states.albedo)}
+    return plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
+                     circumsolar_dhi=f.circumsolar_dhi, **ground)
 
 
 @pytest.fixture(scope="module")
@@ -162,3 +174,47 @@ def test_clear_sky_airmass_trend_of_an_independent_code(sky):
     cigs = [d["CIGS"] for _, _, d in trend]
     assert np.all(np.diff(asi) < 0) and np.all(np.diff(cigs) > 0)
     assert trend[3][1] == pytest.approx(2.9, abs=0.05) and asi[3] < -3.0
+
+
+@pytest.mark.reference
+@pytest.mark.slow
+@needs_data
+def test_amsterdam_year_against_freiburg(sky):
+    import irradiance as ir
+    from irradiance.allsky import AllSkyOptions, allsky_factors
+    from irradiance.allsky_compare import g173_channels, spectral_effects
+    from irradiance.allsky_plane import clear_plane_spectra, plane_poa
+    from irradiance.ground import vegetated_steps, vegetation_albedo_shape
+    from skymodel.generator.paths import data_file
+    wd = ir.read_weather(data_file("weather/NLD_Amsterdam062400_IWEC.epw"))
+    d = wd.data
+    sp = wd.site.solar_position(d.index, wd.label, wd.step)
+    st = ir.sky_states(sp, d, model=sky.model, prefer="aod")
+    keep = (st["solar_elevation"].to_numpy() > sky.min_sun_elevation) & (d["ghi"].to_numpy() > 0)
+    keep &= np.isfinite(d["dni"].to_numpy()) & np.isfinite(d["dhi"].to_numpy())
+    st, d = st[keep], d[keep]
+    states = ir.SkyStates.create(st["solar_elevation"].to_numpy(), st["azimuth"].to_numpy(),
+                                 st["visibility"].to_numpy(), st["albedo"].to_numpy())
+    clear = clear_plane_spectra(sky, states, abs(wd.site.latitude), 180.0)
+    edges, wl = np.asarray(sky.channel_edges), np.asarray(sky.wavelengths)
+    w = np.diff(edges)
+    sr = spectral_response(generic_eqe(wl), wl)
+    g173 = g173_channels(edges)
+    f = allsky_factors(edges, clear.dni, clear.dhi, states.sun_elevation, d["dni"].to_numpy(), d["dhi"].to_numpy(),
+                       ghi=d["ghi"].to_numpy(), visibility=st["visibility"].to_numpy(),
+                       temp_dew=d["temp_dew"].to_numpy(), min_visibility=float(np.min(sky.model.visibility_range)),
+                       options=AllSkyOptions(), albedo=states.albedo, earth_sun_distance=states.earth_sun_distance)
+    common = dict(overcast_dhi=f.overcast_dhi, circumsolar_dhi=f.circumsolar_dhi)
+    veg = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, albedo_shape=vegetation_albedo_shape(wl),
+                    channel_edges=edges, vegetated=vegetated_steps(states.albedo, d["snow_depth"].to_numpy()),
+                    **common)["poa_global"]
+    grey = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, **common)["poa_global"]
+    freiburg = {"a-Si": 3.4, "CdTe": 2.4, "c-Si": 1.4, "CIGS": 0.6}
+    se = spectral_effects(veg.sum(0), g173, sr, w)
+    se_grey = spectral_effects(grey.sum(0), g173, sr, w)
+    for tech, measured in freiburg.items():
+        assert abs(se[tech] - measured) <= 1.5, (tech, se[tech])
+    assert se["a-Si"] > se["CdTe"] > se["c-Si"] > se["CIGS"]
+    assert abs((se["a-Si"] - se["CIGS"]) - 2.8) <= 1.5
+    assert se_grey["a-Si"] - freiburg["a-Si"] > 1.5                 # the grey ground: a-Si 1.9 points high
+    assert (veg @ w).sum() == pytest.approx((grey @ w).sum(), rel=1e-9)
