@@ -16,7 +16,8 @@ Run:  python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset
       python benchmarks/bench_dataset_sun_knots.py skymodel/data/default-dataset.json --extra 0 [--no-midpoints]
       (about 10 min for the 18 default states on one core)
       python benchmarks/bench_dataset_sun_knots.py CONFIG --extra 0 --states "20,1,1;24.2,3,0" [--zenith-midpoints 80 89.7]
-      (named states, each at its own albedo; ``--zenith-midpoints LO HI``: the build option
+      (named states, each at its own albedo; ``--refine LO HI``: the build option ``sun_knot_refine_deg``, the
+      sun-knot intervals inside LO-HI halved once more, with fill samples; ``--zenith-midpoints LO HI``: the build option
       ``zenith_knot_midpoints_deg``, every zenith-knot interval inside LO-HI degrees of view zenith halved;
       ``--no-zenith-midpoints``: the configuration without it)
 """
@@ -92,6 +93,8 @@ def main(argv=None):
     ap.add_argument("--elevations", type=float, nargs="+", default=[1.0, 2.0, 3.0, 4.5, 6.0, 8.0])
     ap.add_argument("--states", default=None,
                     help="instead of --visibilities x --elevations at --albedo: 'v,e,a;v,e,a' [km, deg, 1]")
+    ap.add_argument("--refine", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                    help="the build option sun_knot_refine_deg: the sun-knot intervals inside LO-HI deg halved once more")
     ap.add_argument("--zenith-midpoints", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                     help="halve every zenith-knot interval inside LO-HI [deg of view zenith]")
     ap.add_argument("--no-zenith-midpoints", action="store_true",
@@ -132,6 +135,11 @@ def main(argv=None):
         cfg = replace(cfg, sun_knot_midpoints_deg=None if a.midpoints is None else tuple(a.midpoints))
     if a.zenith_midpoints is not None or a.no_zenith_midpoints:
         cfg = replace(cfg, zenith_knot_midpoints_deg=None if a.zenith_midpoints is None else tuple(a.zenith_midpoints))
+    if a.refine is not None:
+        try:
+            cfg = replace(cfg, sun_knot_refine_deg=tuple(a.refine))
+        except ValueError as exc:
+            sys.exit(f"--refine: {exc}")
     br = sun_knots(cfg, a.extra, *a.between) if a.extra else config_knots(cfg)[0]
     print(f"{len(br)} sun knots; below 16 deg: {np.degrees(br[np.degrees(br) < 16]).round(2).tolist()}; "
           f"{len(config_knots(cfg)[1])} zenith knots", flush=True)

@@ -260,6 +260,41 @@ def test_sun_knot_midpoints_halve_the_intervals_inside_the_range_only():
     assert "sun_knot_midpoints_deg" not in cfg.to_dict() and mid.to_dict()["sun_knot_midpoints_deg"] == [0.5, 9.5]
 
 
+def test_sun_knot_refine_halves_the_intervals_again_and_fills_every_new_cell():
+    """``sun_knot_refine_deg`` (lo, hi) [deg] inside ``sun_knot_midpoints_deg`` halves the sun-knot intervals inside it
+    once more (reference: with_midpoints applied twice), the fit samples take an azimuth and a zenith offset in every
+    new cell (refine_fill_deg: the cell centres), the zenith knots stay, the fit-cache name and the sidecar keys change
+    only with the key, and a range outside the first halving is refused."""
+    from dataclasses import replace
+
+    from skymodel.generator.dataset_build import (BuildConfig, config_knots, fill_grid, fit_file, refine_fill_deg,
+                                                  with_midpoints)
+
+    mid = BuildConfig(knots=(36, 28, 2), knot_powers=(2.0, 2.5, 1.6), sun_knot_midpoints_deg=(0.5, 9.5))
+    ref = replace(mid, sun_knot_refine_deg=(3.5, 8.5))
+    sb, sb2 = config_knots(mid)[0], config_knots(ref)[0]
+    np.testing.assert_allclose(sb2, with_midpoints(sb, *np.radians([3.5, 8.5])))
+    new = np.degrees(sb2[~np.isin(sb2, sb)])
+    assert len(sb2) == 47 and np.all((new > 3.5) & (new < 8.5))
+    assert np.array_equal(config_knots(ref)[1], config_knots(mid)[1])
+    fill = refine_fill_deg(ref)
+    d2 = np.degrees(sb2)
+    cells = [(a, b) for a, b in zip(d2[:-1], d2[1:]) if a >= 3.5 - 1e-9 and b <= 8.5 + 1e-9]
+    assert len(fill) == len(cells) == 10 and all(a < f < b for f, (a, b) in zip(fill, cells))
+    assert refine_fill_deg(mid).size == 0
+    th, ph = np.arange(0.0, 90.1, 2.0), np.array([0.0, 2.5, 4.0, 6.0, 9.0, 12.5, 90.0, 180.0])
+    t2, p2 = fill_grid(th, ph, 3.0, fill)
+    for a, b in cells:                                     # every new cell holds a sample both ways
+        assert np.any((p2 > a) & (p2 < b)) and np.any((np.abs(t2 - 87.0) > a) & (np.abs(t2 - 87.0) < b))
+    assert fit_file(ref, 20.0, 3.0) != fit_file(mid, 20.0, 3.0)
+    assert "sun_knot_refine_deg" not in mid.to_dict() and ref.to_dict()["sun_knot_refine_deg"] == [3.5, 8.5]
+    for bad in ((2.0, 10.0), (8.0, 4.0)):
+        with pytest.raises(ValueError, match="sun_knot_refine_deg"):
+            replace(mid, sun_knot_refine_deg=bad)
+    with pytest.raises(ValueError, match="sun_knot_refine_deg"):
+        BuildConfig(sun_knot_refine_deg=(3.5, 8.5))          # needs the first halving
+
+
 def test_zenith_knot_midpoints_halve_the_zenith_intervals_above_the_horizon_and_fill_them():
     """config_knots with ``zenith_knot_midpoints_deg`` (lo, hi) [deg] inserts the midpoint of every zenith-knot
     interval inside [lo, hi] and leaves the sun and emphasis knots and the fit samples alone (reference: the

@@ -165,6 +165,35 @@ def test_the_guard_band_allows_a_real_feature_at_the_threshold_and_no_spurious_o
     assert (tp_fit > allowed(0.0005)).all()                              # no such feature in the solver: spurious
 
 
+def test_the_solver_reference_reads_the_verticals_on_to_the_horizon():
+    """A minimum of the solver's sky just inside the checked verticals (89 deg) whose rise only completes past their
+    end at 89.5 deg is the solver's own (VERTICAL_REFERENCE_HORIZON_DEG). Reference: a 'solver' antisolar vertical
+    falling to 89 deg, then rising 0.17 % by 89.5 deg (below the guard band) and 1.3 % by 90 deg, as the solve at
+    20 km, sun 0 deg, albedo 1, 980 nm does: counted, one more turning point than on the checked part alone; the same
+    sky falling on to the horizon gets none; a minimum past 89.5 deg is not counted."""
+    zen = np.array([0.0, 20.0, 40.0, 60.0, 80.0, 84.0, 86.0, 88.0, 88.5, 89.0, 89.5, 89.75, 89.95])
+    az = np.array([0.0, 90.0, 180.0])
+    base = np.interp(zen, [0.0, 80.0, 89.0], [1.0, 2.0, 1.0])
+
+    def sky(tail):
+        col = base.copy()
+        col[zen > 89.0] = np.interp(zen[zen > 89.0], [89.0, 89.5, 89.95], tail)
+        return np.repeat(col[:, None], az.size, 1)[..., None]
+
+    rising = S.solver_turning_points(zen, az, sky([1.0, 1.0017, 1.013]), 0.0)["vertical"]
+    falling = S.solver_turning_points(zen, az, sky([1.0, 0.999, 0.98]), 0.0)["vertical"]
+    window = S.profile_turning_points(S.solver_profiles(zen, az, sky([1.0, 1.0017, 1.013]), 0.0),
+                                      S.profile_directions(0.0)["aureole_valid"][..., None],
+                                      S.REFERENCE_REL_TOL, S.REFERENCE_FLOOR_FRACTION)["vertical"]
+    assert (window == 1).all() and (falling == 1).all()      # the maximum at 80 deg only
+    assert (rising == 2).all()                               # + the minimum at 89 deg
+    bump = S.solver_turning_points(zen, az, sky([1.0, 0.99, 1.01]), 0.0)["vertical"]   # min at 89.5, inside
+    assert (bump == 2).all()
+    late = np.interp(zen, [0.0, 80.0, 89.5, 89.75, 89.95], [1.0, 2.0, 1.5, 1.4, 1.5])   # min at 89.75: outside
+    late_tp = S.solver_turning_points(zen, az, np.repeat(late[:, None], 3, 1)[..., None], 0.0)["vertical"]
+    assert (late_tp == 1).all()
+
+
 needs_data = pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
 
 

@@ -43,7 +43,7 @@ from .cache import cache_root, ground_file, load_state, save_state, state_file, 
 
 __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", "solve_state", "solve_ground",
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
-           "knots", "with_midpoints", "fill_grid", "fit_samples",
+           "knots", "with_midpoints", "refine_fill_deg", "fill_grid", "fit_samples",
            "fit_state", "config_knots", "direction_samples", "fit_sky", "fit_all", "segment_path_factors",
            "transmittance_grid", "transmittance_samples", "fit_transmittance_bounded", "assemble", "build_dataset",
            "solver_reference", "smoothness_report", "cache_root"]
@@ -67,7 +67,9 @@ class BuildConfig:
     below it, see docs/default-dataset.md), knots (sun, zenith, emphasis counts), knot_powers,
     sun_knot_midpoints_deg (optional (lo, hi) [deg]: a knot inserted at the midpoint of every sun-knot interval
     inside [lo, hi], :func:`config_knots`, and the fit samples that fill the new cells, :func:`fill_grid`; None:
-    neither, the builds before it), zenith_knot_midpoints_deg (optional (lo, hi) [deg] of the altitude-corrected view
+    neither, the builds before it), sun_knot_refine_deg (optional (lo, hi) [deg] inside sun_knot_midpoints_deg: the
+    intervals inside it halved once more, with fit samples at the centres of the new cells, :func:`refine_fill_deg`;
+    None: not, the builds before it), zenith_knot_midpoints_deg (optional (lo, hi) [deg] of the altitude-corrected view
     zenith: a knot inserted at the midpoint of every zenith-knot interval inside [lo, hi], :func:`config_knots`; None:
     not, the builds before it), band_max_gamma_deg (optional [deg]: the fit also takes the elevation-interpolation
     band, :func:`band_samples`, out to this angle from the sun, with weight ``band_weight`` [1] relative to the
@@ -108,6 +110,7 @@ class BuildConfig:
     knots: tuple = (48, 36, 24)
     knot_powers: tuple = (2.0, 1.6, 1.6)
     sun_knot_midpoints_deg: tuple | None = None
+    sun_knot_refine_deg: tuple | None = None
     zenith_knot_midpoints_deg: tuple | None = None
     band_max_gamma_deg: float | None = None
     band_weight: float = 1.0
@@ -148,6 +151,10 @@ class BuildConfig:
         m = self.sun_knot_midpoints_deg
         if m is not None and not (len(tuple(m)) == 2 and 0.0 <= float(m[0]) < float(m[1]) <= 180.0):
             raise ValueError(f"sun_knot_midpoints_deg={m!r}: expected (lo, hi) [deg] with 0 <= lo < hi <= 180")
+        r = self.sun_knot_refine_deg
+        if r is not None and (m is None or not (len(tuple(r)) == 2 and float(m[0]) <= float(r[0]) < float(r[1])
+                                                <= float(m[1]))):
+            raise ValueError(f"sun_knot_refine_deg={r!r}: expected (lo, hi) [deg] inside sun_knot_midpoints_deg={m!r}")
         m = self.zenith_knot_midpoints_deg
         if m is not None and not (len(tuple(m)) == 2 and 0.0 <= float(m[0]) < float(m[1]) <= 90.0):
             raise ValueError(f"zenith_knot_midpoints_deg={m!r}: expected (lo, hi) [deg] with 0 <= lo < hi <= 90")
@@ -219,6 +226,8 @@ class BuildConfig:
                 d.pop(k)
         if self.sun_knot_midpoints_deg is None:  # (absent, as in the builds before the key)
             d.pop("sun_knot_midpoints_deg")
+        if self.sun_knot_refine_deg is None:  # likewise
+            d.pop("sun_knot_refine_deg")
         if self.zenith_knot_midpoints_deg is None:  # likewise
             d.pop("zenith_knot_midpoints_deg")
         if self.band_max_gamma_deg is None:  # likewise
@@ -290,18 +299,34 @@ FILL_SUN_OFFSETS_DEG = np.array([2.0, 3.25, 5.0])
 """Offsets of view zeniths around the solar zenith [deg] added likewise (the cells along the sun's vertical)."""
 
 
-def fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg: float):
+def refine_fill_deg(config: BuildConfig) -> np.ndarray:
+    """Angles from the sun [deg] of the fit samples a configuration with ``sun_knot_refine_deg`` adds along the sun's
+    almucantar (as relative azimuths) and vertical (as offsets from the solar zenith): the centre of every sun-knot
+    cell inside that range (:func:`config_knots`), so each cell of the second halving holds samples (about 0.4-0.5 deg
+    wide at 3.5-8.5 deg, where the solved grid has azimuths 4, 6, 9 and the fill 5, 7.5); empty when not set."""
+    if config.sun_knot_refine_deg is None:
+        return np.zeros(0)
+    lo, hi = (float(x) for x in config.sun_knot_refine_deg)
+    sb = np.degrees(config_knots(config)[0])
+    inside = (sb[:-1] >= lo - 1e-9) & (sb[1:] <= hi + 1e-9)
+    return 0.5 * (sb[:-1] + sb[1:])[inside]
+
+
+def fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg: float, extra_deg=()):
     """The product grid ``zenith_deg`` (T,) x ``azimuth_deg`` (P,) [deg] with :data:`FILL_SUN_OFFSETS_DEG` around the
     solar zenith and :data:`FILL_AZIMUTHS_DEG` added, clipped to the grid's own range: (zenith (T2,), azimuth (P2,))
     [deg]. With the sun-knot intervals near the sun halved, some knot cells hold no sample of the build's grid and the
     fit sags there (the piecewise-linear factors follow the regulariser between samples); the fit then takes these
     directions too, the solved radiance interpolated shape-preservingly onto them
-    (:func:`skymodel.generator.dataset_mc.resample_radiance`), which adds no extremum between the solved samples."""
+    (:func:`skymodel.generator.dataset_mc.resample_radiance`), which adds no extremum between the solved samples.
+    ``extra_deg`` [deg]: more angles from the sun added both ways (:func:`refine_fill_deg`)."""
     th, ph = np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float)
     zs = 90.0 - float(solar_elevation_deg)
-    t2 = np.concatenate([th, zs + FILL_SUN_OFFSETS_DEG, zs - FILL_SUN_OFFSETS_DEG])
+    off = np.concatenate([FILL_SUN_OFFSETS_DEG, np.asarray(extra_deg, float)])
+    t2 = np.concatenate([th, zs + off, zs - off])
     t2 = np.unique(np.round(np.clip(t2, th[0], th[-1]), 6))
-    p2 = np.unique(np.round(np.clip(np.concatenate([ph, FILL_AZIMUTHS_DEG]), ph[0], ph[-1]), 6))
+    p2 = np.unique(np.round(np.clip(np.concatenate([ph, FILL_AZIMUTHS_DEG, np.asarray(extra_deg, float)]),
+                                    ph[0], ph[-1]), 6))
     return t2, p2
 
 
@@ -331,7 +356,7 @@ def fit_samples(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_el
     from .dataset_mc import resample_radiance
 
     if config.sun_knot_midpoints_deg is not None:
-        t2, p2 = fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg)
+        t2, p2 = fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg, refine_fill_deg(config))
     else:
         t2, p2 = np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float)
     if zm is not None:
@@ -785,6 +810,8 @@ def config_knots(config: BuildConfig):
     sb = knots(ns, 0.0, np.pi, ps, "lo")
     if config.sun_knot_midpoints_deg is not None:
         sb = with_midpoints(sb, *np.radians(np.asarray(config.sun_knot_midpoints_deg, float)))
+    if config.sun_knot_refine_deg is not None:  # a second halving inside the first
+        sb = with_midpoints(sb, *np.radians(np.asarray(config.sun_knot_refine_deg, float)))
     zb = knots(nz, 0.0, 0.5 * np.pi, pz, "hi")
     if config.zenith_knot_midpoints_deg is not None:
         zb = with_midpoints(zb, *np.radians(np.asarray(config.zenith_knot_midpoints_deg, float)))
@@ -927,6 +954,8 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         d["sun_penalty_order"] = config.sun_penalty_order
     if config.sun_knot_midpoints_deg is not None:  # likewise
         d["sun_knot_midpoints_deg"] = [float(x) for x in config.sun_knot_midpoints_deg]
+    if config.sun_knot_refine_deg is not None:  # likewise
+        d["sun_knot_refine_deg"] = [float(x) for x in config.sun_knot_refine_deg]
     if config.zenith_knot_midpoints_deg is not None:  # likewise
         d["zenith_knot_midpoints_deg"] = [float(x) for x in config.zenith_knot_midpoints_deg]
         d["zenith_fill"] = 1  # the fit samples of zenith_fill (a trial without them is not this fit)

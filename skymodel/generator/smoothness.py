@@ -363,17 +363,50 @@ def turning_point_indices(y, rel_tol: float = REL_TOL, floor_fraction: float = F
     return out
 
 
+VERTICAL_REFERENCE_HORIZON_DEG = (89.75, 90.0)
+"""View zeniths [deg] past the checked verticals' end (89.5 deg) at which the solver's verticals are also read
+(:func:`solver_turning_points`): an extremum of the solver's sky inside the checked part whose reversal only completes
+past 89.5 deg (the minimum at 89 deg over a white ground at sun 0 deg, whose rise to the horizon is 1.3 %) is the
+solver's own, and the file's turning point there is allowed."""
+
+
+def _vertical_horizon_counts(zenith_deg, azimuth_deg, radiance, rel_tol, floor_fraction):
+    """(C, nV) turning points of the solver's verticals read on to :data:`VERTICAL_REFERENCE_HORIZON_DEG`, counting
+    only the extrema that lie in the checked part (view zenith up to 89.5 deg)."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    zen = np.asarray(zenith_deg, float)
+    az = np.asarray(azimuth_deg, float)
+    th = np.arange(0.0, 89.5 + 1e-9, VERTICAL_STEP_DEG)
+    n_in = th.size
+    th = np.concatenate([th, VERTICAL_REFERENCE_HORIZON_DEG])
+    logr = np.log(np.maximum(np.asarray(radiance, float), 1e-300))
+    f = RegularGridInterpolator((zen, az), logr, bounds_error=False, fill_value=None)
+    C = logr.shape[-1]
+    out = np.zeros((C, len(VERTICAL_AZIMUTHS_DEG)), np.int64)
+    for j, a in enumerate(VERTICAL_AZIMUTHS_DEG):
+        pts = np.stack([np.clip(th, zen[0], zen[-1]), np.full_like(th, np.clip(a, az[0], az[-1]))], -1)
+        y = np.exp(f(pts))                                                       # (n, C)
+        for c in range(C):
+            out[c, j] = sum(1 for i in turning_point_indices(y[:, c], rel_tol, floor_fraction) if i < n_in)
+    return out
+
+
 def solver_turning_points(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: float,
                           rel_tol: float = REFERENCE_REL_TOL, floor_fraction: float = REFERENCE_FLOOR_FRACTION):
     """Turning points of the solver's own radiance along every profile: ``radiance`` (T, P, C) [W m-2 sr-1 nm-1] on a
     product grid of view zeniths ``zenith_deg`` (T,) and relative azimuths ``azimuth_deg`` (P,, 0 = toward the sun
     ... 180) [deg] with the sun at ``sun_elevation_deg`` [deg], interpolated bilinearly in log radiance onto the
     profiles of :func:`profile_directions`, counted with the guard band's hysteresis (:data:`REFERENCE_REL_TOL`,
-    :data:`REFERENCE_FLOOR_FRACTION`; pass :data:`REL_TOL`, :data:`FLOOR_FRACTION` for the check's own). Returns
-    :func:`profile_turning_points`' dict of (C, n) int arrays."""
+    :data:`REFERENCE_FLOOR_FRACTION`; pass :data:`REL_TOL`, :data:`FLOOR_FRACTION` for the check's own); a vertical
+    also counts the extrema in its checked part whose reversal completes past it, toward the horizon
+    (:data:`VERTICAL_REFERENCE_HORIZON_DEG`). Returns :func:`profile_turning_points`' dict of (C, n) int arrays."""
     rad = solver_profiles(zenith_deg, azimuth_deg, radiance, sun_elevation_deg)
     valid = profile_directions(sun_elevation_deg)["aureole_valid"]
-    return profile_turning_points(rad, valid[..., None], rel_tol, floor_fraction)
+    tp = profile_turning_points(rad, valid[..., None], rel_tol, floor_fraction)
+    tp["vertical"] = np.maximum(tp["vertical"], _vertical_horizon_counts(zenith_deg, azimuth_deg, radiance, rel_tol,
+                                                                         floor_fraction))
+    return tp
 
 
 def reference_entries(reference: dict) -> list:
