@@ -329,11 +329,11 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="the sixth rebuild of default.dat (2026-12-04, zenith-knot intervals at "
-                   "80-89.7 deg halved) still fails the check in 5 of 16,946 grid (state, channel) pairs, by reversals "
-                   "of 0.5-0.7 % where the solver's sky turns by less than 0.25 %: the rise from a low sun at "
-                   "340-500 nm and the last degree above the horizon at sun 0 deg over a white ground, 980 and 1140 nm "
-                   "(docs/default-dataset.md, 'What the check still flags in the sixth rebuild'); none between grid "
-                   "points; remove this mark when a file passes")
+                   "80-89.7 deg halved) still fails the check in 3 of 16,946 grid (state, channel) pairs, by reversals "
+                   "of 0.5-0.7 % on rays rising from a low sun at 340-500 nm where the solver's sky turns by less than "
+                   "0.25 % (docs/default-dataset.md, 'What the check still flags in the sixth rebuild'; the build "
+                   "option sun_knot_refine_deg [3.5, 8.5] removes them in single-state refits, 'The seventh rebuild'); "
+                   "none between grid points; remove this mark when a file passes")
 def test_default_dataset_passes_the_smoothness_check():
     """The whole check (every grid state and every state between grid points, all channels with measurable energy:
     about 15 s) against the solver's own turning points and the between-grid solves that the build wrote into the
