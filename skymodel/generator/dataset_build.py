@@ -43,7 +43,7 @@ from .cache import cache_root, ground_file, load_state, save_state, state_file, 
 
 __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", "solve_state", "solve_ground",
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
-           "knots", "with_midpoints", "refine_fill_deg", "fill_grid", "fit_samples",
+           "knots", "with_midpoints", "refine_fill_deg", "cell_centres", "fill_grid", "fit_samples",
            "fit_state", "config_knots", "direction_samples", "fit_sky", "fit_all", "segment_path_factors",
            "transmittance_grid", "transmittance_samples", "fit_transmittance_bounded", "assemble", "build_dataset",
            "solver_reference", "smoothness_report", "cache_root"]
@@ -306,10 +306,15 @@ def refine_fill_deg(config: BuildConfig) -> np.ndarray:
     wide at 3.5-8.5 deg, where the solved grid has azimuths 4, 6, 9 and the fill 5, 7.5); empty when not set."""
     if config.sun_knot_refine_deg is None:
         return np.zeros(0)
-    lo, hi = (float(x) for x in config.sun_knot_refine_deg)
-    sb = np.degrees(config_knots(config)[0])
-    inside = (sb[:-1] >= lo - 1e-9) & (sb[1:] <= hi + 1e-9)
-    return 0.5 * (sb[:-1] + sb[1:])[inside]
+    return cell_centres(np.degrees(config_knots(config)[0]), *config.sun_knot_refine_deg)
+
+
+def cell_centres(breaks_deg, lo: float, hi: float) -> np.ndarray:
+    """Centres [deg] of the cells of ascending knots ``breaks_deg`` [deg] that lie inside [``lo``, ``hi``] [deg].
+    Pure array function."""
+    b = np.asarray(breaks_deg, float)
+    inside = (b[:-1] >= float(lo) - 1e-9) & (b[1:] <= float(hi) + 1e-9)
+    return 0.5 * (b[:-1] + b[1:])[inside]
 
 
 def fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg: float, extra_deg=()):
@@ -338,10 +343,7 @@ def zenith_fill(config: BuildConfig) -> np.ndarray:
     almucantar before :func:`fill_grid`; empty when the key is not set."""
     if config.zenith_knot_midpoints_deg is None:
         return np.zeros(0)
-    lo, hi = (float(x) for x in config.zenith_knot_midpoints_deg)
-    zb = np.degrees(config_knots(config)[1])
-    inside = (zb[:-1] >= lo - 1e-9) & (zb[1:] <= hi + 1e-9)
-    return 0.5 * (zb[:-1] + zb[1:])[inside]
+    return cell_centres(np.degrees(config_knots(config)[1]), *config.zenith_knot_midpoints_deg)
 
 
 def fit_samples(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float):

@@ -37,7 +37,7 @@ import warnings
 import numpy as np
 
 __all__ = ["ALMUCANTAR_ZENITHS_DEG", "VERTICAL_AZIMUTHS_DEG", "REL_TOL", "ZENITH_SPOT_TOL", "MAX_ALMUCANTAR_TP",
-           "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "REFERENCE_REL_TOL", "REFERENCE_FLOOR_FRACTION", "turning_points",
+           "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "REFERENCE_REL_TOL", "REFERENCE_FLOOR_FRACTION", "VERTICAL_REFERENCE_HORIZON_DEG", "turning_points",
            "monotone_violations", "profile_directions", "profile_turning_points", "profile_metrics", "LIMITS",
            "check_states", "held_valid", "solver_profiles", "turning_point_indices", "solver_turning_points",
            "reference_entries", "reference_from_entries", "allowed_turning_points", "grid_states",
