@@ -332,7 +332,7 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
                    "80-89.7 deg halved) still fails the check in 3 of 16,946 grid (state, channel) pairs, by reversals "
                    "of 0.5-0.7 % on rays rising from a low sun at 340-500 nm where the solver's sky turns by less than "
                    "0.25 % (docs/default-dataset.md, 'What the check still flags in the sixth rebuild'; the build "
-                   "option sun_knot_refine_deg [3.5, 8.5] removes them in single-state refits, 'The seventh rebuild'); "
+                   "option sun_knot_refine_deg [3.5, 8.5] removes the two that single-state refits reproduce, 'The seventh rebuild'); "
                    "none between grid points; remove this mark when a file passes")
 def test_default_dataset_passes_the_smoothness_check():
     """The whole check (every grid state and every state between grid points, all channels with measurable energy:
