@@ -97,6 +97,8 @@ def main(argv=None):
                     help="the build option sun_knot_refine_deg: the sun-knot intervals inside LO-HI deg halved once more")
     ap.add_argument("--zenith-midpoints", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                     help="halve every zenith-knot interval inside LO-HI [deg of view zenith]")
+    ap.add_argument("--no-refine", action="store_true",
+                    help="the configuration's knots without its sun_knot_refine_deg (the sixth rebuild's sun knots)")
     ap.add_argument("--no-zenith-midpoints", action="store_true",
                     help="the configuration's knots without its zenith_knot_midpoints_deg")
     a = ap.parse_args(argv)
@@ -124,6 +126,8 @@ def main(argv=None):
     bad = sorted({st[2] for st in states} - {float(x) for x in cfg.albedos})
     if bad:
         sys.exit(f"albedo {bad[0]}: not one of the configuration's albedos {list(cfg.albedos)}")
+    if a.refine is not None and a.no_refine:
+        sys.exit("--refine and --no-refine exclude each other: give one of them")
     if a.zenith_midpoints is not None and a.no_zenith_midpoints:
         sys.exit("--zenith-midpoints and --no-zenith-midpoints exclude each other: give one of them")
     if a.zenith_midpoints is not None and not 0.0 <= a.zenith_midpoints[0] < a.zenith_midpoints[1] <= 90.0:
@@ -132,9 +136,13 @@ def main(argv=None):
 
     from skymodel.generator.dataset_build import config_knots
     if a.no_midpoints or a.extra or a.midpoints is not None:
-        cfg = replace(cfg, sun_knot_midpoints_deg=None if a.midpoints is None else tuple(a.midpoints))
+        # (the second halving lies inside the first: it goes with it, and --refine gives it again)
+        cfg = replace(cfg, sun_knot_midpoints_deg=None if a.midpoints is None else tuple(a.midpoints),
+                      sun_knot_refine_deg=None)
     if a.zenith_midpoints is not None or a.no_zenith_midpoints:
         cfg = replace(cfg, zenith_knot_midpoints_deg=None if a.zenith_midpoints is None else tuple(a.zenith_midpoints))
+    if a.no_refine:
+        cfg = replace(cfg, sun_knot_refine_deg=None)
     if a.refine is not None:
         try:
             cfg = replace(cfg, sun_knot_refine_deg=tuple(a.refine))

@@ -43,7 +43,8 @@ def test_default_config_keeps_its_cache_keys():
     default = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
     cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset-plane-parallel.json")
     assert default.solver_key() == cfg.solver_key()
-    assert fit_file(replace(default, sun_knot_midpoints_deg=None, zenith_knot_midpoints_deg=None), 20.0, 10.5) == \
+    assert fit_file(replace(default, sun_knot_midpoints_deg=None, sun_knot_refine_deg=None,
+                            zenith_knot_midpoints_deg=None), 20.0, 10.5) == \
         fit_file(cfg, 20.0, 10.5)
     assert fit_file(default, 20.0, 10.5) != fit_file(cfg, 20.0, 10.5)   # other knots
     assert fit_file(default, 20.0, 8.0) != fit_file(cfg, 20.0, 8.0)

@@ -26,9 +26,11 @@ References and tolerances:
   (analytic aureole); with it the blend of the 17 and 21 deg fits turns on a ray from a 19 deg sun no more than DISORT
   solved at 19 deg (without it 3 times against once, 1620 nm); ``band_min_elevation_deg`` keeps it off below a
   grid elevation, with the fit-cache names of the builds without and with the band (names set in the test);
+- the solver's verticals and aureole rays are read on past the checked part's end (an extremum inside it whose
+  reversal completes past the end is the sky's own), with analytic skies for both;
 - the check flags the first default.dat (from the repository's history) at the states issue 11 names, in most
-  channels; the shipped default.dat (the sixth rebuild) still fails it in 5 grid pairs: strict xfail until a file
-  passes.
+  channels, and the shipped default.dat (the seventh rebuild) passes it everywhere: every grid state and every state
+  between grid points.
 """
 
 import numpy as np
@@ -194,6 +196,37 @@ def test_the_solver_reference_reads_the_verticals_on_to_the_horizon():
     assert (late_tp == 1).all()
 
 
+def test_the_solver_reference_reads_the_aureole_rays_on_past_their_end():
+    """A maximum of the solver's sky inside the checked aureole rays (10 deg from the sun) whose fall only completes
+    past their end at 12 deg is the solver's own (AUREOLE_REFERENCE_READ_ON_DEG). Reference: a 'solver' sky that is a
+    function of the angle from the sun alone, falling from the sun to a minimum at 5 deg, rising 2 % to a maximum at
+    10 deg and falling 0.18 % by 12 deg (below the guard band) and 2 % by 15 deg, as the solve at 68.1 km, sun 5.25 deg,
+    albedo 0.25, 380 nm does on its rays at +-45 deg: one more turning point than on the checked part alone; the same
+    sky rising on past 12 deg gets none; a maximum past 12 deg is not counted."""
+    sun = 20.0
+    zen = np.arange(0.0, 90.0 + 1e-9, 0.1)
+    az = np.arange(0.0, 180.0 + 1e-9, 0.1)
+    Z, A = np.meshgrid(np.radians(zen), np.radians(az), indexing="ij")
+    s_z = np.radians(90.0 - sun)
+    gamma = np.degrees(np.arccos(np.clip(np.cos(Z) * np.cos(s_z) + np.sin(Z) * np.sin(s_z) * np.cos(A), -1, 1)))
+
+    def count(knots, values, **kw):
+        sky = np.interp(gamma, knots, values)[..., None]
+        return S.solver_turning_points(zen, az, sky, sun, **kw)["aureole"][0]
+
+    g = [0.0, 5.0, 10.0, 12.0, 15.0, 40.0]
+    falling_late = [2.0, 1.0, 1.02, 1.02 * (1 - 0.0018), 1.02 * 0.98, 0.9]
+    window = S.profile_turning_points(
+        S.solver_profiles(zen, az, np.interp(gamma, g, falling_late)[..., None], sun),
+        S.profile_directions(sun)["aureole_valid"][..., None], S.REFERENCE_REL_TOL, S.REFERENCE_FLOOR_FRACTION)
+    assert (window["aureole"][0] == 1).all(), window["aureole"]       # the minimum at 5 deg only
+    assert (count(g, falling_late) == 2).all()                         # + the maximum at 10 deg
+    rising = [2.0, 1.0, 1.02, 1.03, 1.04, 1.1]
+    assert (count(g, rising) == 1).all()
+    late = count([0.0, 5.0, 13.0, 15.0, 40.0], [2.0, 1.0, 1.03, 1.0, 0.9])   # maximum at 13 deg: outside
+    assert (late == 1).all()
+
+
 needs_data = pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
 
 
@@ -304,7 +337,7 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
     from skymodel.generator.fit import RadianceFit
 
     cfg = load_config("skymodel/data/default-dataset.json")
-    cfg = replace(cfg, sun_knot_midpoints_deg=None)   # the knots before the midpoints
+    cfg = replace(cfg, sun_knot_midpoints_deg=None, sun_knot_refine_deg=None)   # the knots before the midpoints
     mid = replace(cfg, sun_knot_midpoints_deg=(0.5, 9.5))
     ele, ch = 3.0, [5, 6]
     th, ph = fit_directions(ele)
@@ -328,12 +361,6 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the sixth rebuild of default.dat (2026-12-04, zenith-knot intervals at "
-                   "80-89.7 deg halved) still fails the check in 3 of 16,946 grid (state, channel) pairs, by reversals "
-                   "of 0.5-0.7 % on rays rising from a low sun at 340-500 nm where the solver's sky turns by less than "
-                   "0.25 % (docs/default-dataset.md, 'What the check still flags in the sixth rebuild'; the build "
-                   "option sun_knot_refine_deg [3.5, 8.5] removes the two that single-state refits reproduce, 'The seventh rebuild'); "
-                   "none between grid points; remove this mark when a file passes")
 def test_default_dataset_passes_the_smoothness_check():
     """The whole check (every grid state and every state between grid points, all channels with measurable energy:
     about 15 s) against the solver's own turning points and the between-grid solves that the build wrote into the
@@ -345,7 +372,10 @@ def test_default_dataset_passes_the_smoothness_check():
 
     model = skymodel.load_dataset()
     meta = json.loads(default_dataset_path().with_name("default.dat.json").read_text())
-    assert meta["smoothness_reference"]["rel_tol"] == S.REFERENCE_REL_TOL   # rows counted with the guard band
+    sref = meta["smoothness_reference"]
+    assert sref["rel_tol"] == S.REFERENCE_REL_TOL   # rows counted with the guard band and today's read-on rule
+    assert sref["aureole_read_on_deg"] == S.AUREOLE_REFERENCE_READ_ON_DEG
+    assert tuple(sref["vertical_read_on_deg"]) == S.VERTICAL_REFERENCE_HORIZON_DEG
     ref = S.reference_from_entries(meta["smoothness_reference"]["rows"],
                                    (model.visibilities, model.elevations, model.albedos),
                                    meta.get("smoothness_between_reference"))
@@ -411,8 +441,8 @@ def test_the_interpolation_band_removes_the_extra_turning_points_between_17_and_
     fit directions. The ray from a sun at 19 deg toward the horizon (position angle 180 deg) in the blend of the 17
     and 21 deg fits turns 3 times without the band (measured, with the fifth rebuild's knots) where the sky solved at
     19 deg turns once; with the band (out to 15 deg from the sun, weight 0.03) the blend turns no more than the solve,
-    and so it does without the band with the shipped knots (the sixth rebuild's zenith-knot intervals at 80-89.7 deg
-    halved: measured once)."""
+    and so it does without the band with the shipped knots (the zenith-knot intervals at 80-89.7 deg halved, and
+    since the seventh rebuild the sun-knot intervals at 3.5-8.5 deg halved again: measured once each)."""
     from dataclasses import replace
 
     from skymodel.evaluate import reference_angles
@@ -420,7 +450,7 @@ def test_the_interpolation_band_removes_the_extra_turning_points_between_17_and_
     from skymodel.generator.fit import RadianceFit
 
     shipped = load_config("skymodel/data/default-dataset.json")
-    cfg = replace(shipped, zenith_knot_midpoints_deg=None)   # the fifth rebuild's knots
+    cfg = replace(shipped, zenith_knot_midpoints_deg=None, sun_knot_refine_deg=None)   # the fifth rebuild's knots
     ch = [33]   # 1620 nm
     solved = {e: solve_state(20.0, e, cfg, channels=ch) for e in (17.0, 19.0, 21.0)}
     d = S.profile_directions(19.0)

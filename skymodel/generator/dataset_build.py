@@ -1392,7 +1392,8 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
         from .dataset_errors import evaluate_errors, summarise
         errs = evaluate_errors(config, output)
         meta["errors"] = summarise(errs)
-    from .smoothness import REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL
+    from .smoothness import (AUREOLE_REFERENCE_READ_ON_DEG, REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL,
+                             VERTICAL_REFERENCE_HORIZON_DEG)
 
     rows = solver_reference(config, progress)
     meta["smoothness_reference"] = {
@@ -1400,8 +1401,13 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
                        "more turning points than the limit: [visibility km, elevation deg, albedo, channel index, "
                        "profile kind, profile index, turning points]; the check allows these counts there; grid states "
                        "that hold a sky solved at another elevation (0 deg) have none (docs/default-dataset.md, "
-                       "'Smoothness'); counted with the guard band's hysteresis 'rel_tol' and floor 'floor_fraction'",
-        "rel_tol": REFERENCE_REL_TOL, "floor_fraction": REFERENCE_FLOOR_FRACTION, "rows": rows}
+                       "'Smoothness'); counted with the guard band's hysteresis 'rel_tol' and floor 'floor_fraction', "
+                       "the verticals read on to the view zeniths 'vertical_read_on_deg' and the aureole rays to "
+                       "'aureole_read_on_deg' from the sun (an extremum in the checked part whose reversal completes "
+                       "past it counts)",
+        "rel_tol": REFERENCE_REL_TOL, "floor_fraction": REFERENCE_FLOOR_FRACTION,
+        "vertical_read_on_deg": list(VERTICAL_REFERENCE_HORIZON_DEG), "aureole_read_on_deg": AUREOLE_REFERENCE_READ_ON_DEG,
+        "rows": rows}
     from ..dataset import load_dataset
     from .smoothness import reference_from_entries
     from .smoothness_between import between_reference

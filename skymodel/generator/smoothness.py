@@ -37,7 +37,8 @@ import warnings
 import numpy as np
 
 __all__ = ["ALMUCANTAR_ZENITHS_DEG", "VERTICAL_AZIMUTHS_DEG", "REL_TOL", "ZENITH_SPOT_TOL", "MAX_ALMUCANTAR_TP",
-           "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "REFERENCE_REL_TOL", "REFERENCE_FLOOR_FRACTION", "VERTICAL_REFERENCE_HORIZON_DEG", "turning_points",
+           "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "REFERENCE_REL_TOL", "REFERENCE_FLOOR_FRACTION", "VERTICAL_REFERENCE_HORIZON_DEG",
+           "AUREOLE_REFERENCE_READ_ON_DEG", "AUREOLE_GAMMAS_DEG", "aureole_rays", "turning_points",
            "monotone_violations", "profile_directions", "profile_turning_points", "profile_metrics", "LIMITS",
            "check_states", "held_valid", "solver_profiles", "turning_point_indices", "solver_turning_points",
            "reference_entries", "reference_from_entries", "allowed_turning_points", "grid_states",
@@ -161,19 +162,30 @@ def profile_directions(sun_elevation_deg: float):
     alm = np.stack([_enu(np.full_like(az, z), 180.0 + az) for z in ALMUCANTAR_ZENITHS_DEG])
     th = np.arange(0.0, 89.5 + 1e-9, VERTICAL_STEP_DEG)
     ver = np.stack([_enu(th, np.full_like(th, 180.0 + a)) for a in VERTICAL_AZIMUTHS_DEG])
-    # aureole rays: rotate the sun direction by gamma toward position angle psi
+    dirs, valid = aureole_rays(sun_elevation_deg, AUREOLE_GAMMAS_DEG)
+    ring = _enu(np.full(16, ZENITH_RING_DEG), np.arange(16) * 22.5)
+    zen = np.concatenate([[[0.0, 0.0, 1.0]], ring])
+    return {"almucantar": alm, "vertical": ver, "aureole": dirs, "aureole_valid": valid, "zenith": zen}
+
+
+AUREOLE_GAMMAS_DEG = np.arange(0.25, AUREOLE_MAX_DEG + 1e-9, 0.25)
+"""Angles from the sun [deg] of the samples along the checked aureole rays."""
+
+
+def aureole_rays(sun_elevation_deg: float, gammas_deg):
+    """Directions (east-north-up, sun at azimuth 180) along the 8 aureole rays (position angles 0, 45, ... 315 deg, 0
+    toward the zenith) at angles ``gammas_deg`` (n,) [deg] from a sun at ``sun_elevation_deg`` [deg]: (8, n, 3), with
+    (8, n) bool, True above view zenith :data:`AUREOLE_MAX_ZENITH_DEG`."""
     s = _enu(np.array(90.0 - sun_elevation_deg), np.array(180.0))
     up = np.array([0.0, 0.0, 1.0]) - s * s[2]
     up = up / np.linalg.norm(up) if np.linalg.norm(up) > 1e-9 else np.array([0.0, -1.0, 0.0])
     side = np.cross(s, up)
-    g = np.radians(np.arange(0.25, AUREOLE_MAX_DEG + 1e-9, 0.25))
+    g = np.radians(np.asarray(gammas_deg, float))
     psi = np.radians(np.arange(0.0, 360.0, 45.0))
     dirs = (np.cos(g)[None, :, None] * s + np.sin(g)[None, :, None] *
             (np.cos(psi)[:, None, None] * up + np.sin(psi)[:, None, None] * side))
     valid = np.degrees(np.arccos(np.clip(dirs[..., 2], -1, 1))) < AUREOLE_MAX_ZENITH_DEG
-    ring = _enu(np.full(16, ZENITH_RING_DEG), np.arange(16) * 22.5)
-    zen = np.concatenate([[[0.0, 0.0, 1.0]], ring])
-    return {"almucantar": alm, "vertical": ver, "aureole": dirs, "aureole_valid": valid, "zenith": zen}
+    return dirs, valid
 
 
 def _last(a, n):
@@ -392,6 +404,41 @@ def _vertical_horizon_counts(zenith_deg, azimuth_deg, radiance, rel_tol, floor_f
     return out
 
 
+AUREOLE_REFERENCE_READ_ON_DEG = 15.0
+"""Angle from the sun [deg] to which the solver's aureole rays are read on past the checked rays' end
+(:data:`AUREOLE_MAX_DEG`, 12 deg) in :func:`solver_turning_points`: an extremum of the solver's sky inside the checked
+part whose reversal only completes past 12 deg (the maximum 9.75 deg from a sun at 5.25 deg on the rays at position
+angle +-45 deg, 380 nm, whose fall is 0.18 % by 12 deg and 4.7 % by 20 deg) is the solver's own, and the file's turning
+point there is allowed."""
+
+
+def _aureole_read_on_counts(zenith_deg, azimuth_deg, radiance, sun_elevation_deg, rel_tol, floor_fraction):
+    """(C, 8) turning points of the solver's aureole rays read on to :data:`AUREOLE_REFERENCE_READ_ON_DEG`, counting
+    only the extrema that lie in the checked part (up to :data:`AUREOLE_MAX_DEG` from the sun, above view zenith
+    :data:`AUREOLE_MAX_ZENITH_DEG`; points below that zenith are held as on the checked rays)."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    n_in = AUREOLE_GAMMAS_DEG.size
+    step = AUREOLE_GAMMAS_DEG[1] - AUREOLE_GAMMAS_DEG[0]
+    g = np.concatenate([AUREOLE_GAMMAS_DEG, np.arange(AUREOLE_MAX_DEG + step, AUREOLE_REFERENCE_READ_ON_DEG + 1e-9,
+                                                      step)])
+    dirs, valid = aureole_rays(sun_elevation_deg, g)
+    zen = np.asarray(zenith_deg, float)
+    az = np.asarray(azimuth_deg, float)
+    logr = np.log(np.maximum(np.asarray(radiance, float), 1e-300))
+    f = RegularGridInterpolator((zen, az), logr, bounds_error=False, fill_value=None)
+    z = np.clip(np.degrees(np.arccos(np.clip(dirs[..., 2], -1, 1))), zen[0], zen[-1])
+    a = np.degrees(np.arctan2(dirs[..., 0], dirs[..., 1]))
+    rel = np.clip(np.abs(a % 360.0 - 180.0), az[0], az[-1])
+    y = np.exp(f(np.stack([z.ravel(), rel.ravel()], -1))).reshape(dirs.shape[:-1] + (logr.shape[-1],))  # (8, n, C)
+    y = held_valid(np.moveaxis(y, -1, 0), np.broadcast_to(valid, (logr.shape[-1],) + valid.shape))       # (C, 8, n)
+    out = np.zeros(y.shape[:2], np.int64)
+    for c in range(y.shape[0]):
+        for j in range(y.shape[1]):
+            out[c, j] = sum(1 for i in turning_point_indices(y[c, j], rel_tol, floor_fraction) if i < n_in)
+    return out
+
+
 def solver_turning_points(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: float,
                           rel_tol: float = REFERENCE_REL_TOL, floor_fraction: float = REFERENCE_FLOOR_FRACTION):
     """Turning points of the solver's own radiance along every profile: ``radiance`` (T, P, C) [W m-2 sr-1 nm-1] on a
@@ -400,12 +447,15 @@ def solver_turning_points(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: 
     profiles of :func:`profile_directions`, counted with the guard band's hysteresis (:data:`REFERENCE_REL_TOL`,
     :data:`REFERENCE_FLOOR_FRACTION`; pass :data:`REL_TOL`, :data:`FLOOR_FRACTION` for the check's own); a vertical
     also counts the extrema in its checked part whose reversal completes past it, toward the horizon
-    (:data:`VERTICAL_REFERENCE_HORIZON_DEG`). Returns :func:`profile_turning_points`' dict of (C, n) int arrays."""
+    (:data:`VERTICAL_REFERENCE_HORIZON_DEG`), and an aureole ray the extrema in its checked part whose reversal
+    completes past its end (:data:`AUREOLE_REFERENCE_READ_ON_DEG`). Returns :func:`profile_turning_points`' dict of (C, n) int arrays."""
     rad = solver_profiles(zenith_deg, azimuth_deg, radiance, sun_elevation_deg)
     valid = profile_directions(sun_elevation_deg)["aureole_valid"]
     tp = profile_turning_points(rad, valid[..., None], rel_tol, floor_fraction)
     tp["vertical"] = np.maximum(tp["vertical"], _vertical_horizon_counts(zenith_deg, azimuth_deg, radiance, rel_tol,
                                                                          floor_fraction))
+    tp["aureole"] = np.maximum(tp["aureole"], _aureole_read_on_counts(zenith_deg, azimuth_deg, radiance,
+                                                                      sun_elevation_deg, rel_tol, floor_fraction))
     return tp
 
 

@@ -96,15 +96,18 @@ def between_state_radiance(config, visibility_km: float, elevation_deg: float, a
 
 def _reference_file(config, visibility_km, elevation_deg, albedo, channels):
     """Cache file of one state's turning points [.npz], named by what the solve depends on beyond the solver's key:
-    the channels and the reference's hysteresis, and for the split Monte Carlo states their key, smoothing and the
+    the channels, the reference's hysteresis and how far its verticals and aureole rays are read on past the checked
+    part, and for the split Monte Carlo states their key, smoothing and the
     grid they are blended from."""
     import hashlib
 
     from .cache import cache_root
     from .dataset_mc import SPLIT_SMOOTHING, mc_key, split_state
-    from .smoothness import REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL
+    from .smoothness import (AUREOLE_REFERENCE_READ_ON_DEG, REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL,
+                             VERTICAL_REFERENCE_HORIZON_DEG)
 
-    parts = [[int(c) for c in channels], REFERENCE_REL_TOL, REFERENCE_FLOOR_FRACTION]
+    parts = [[int(c) for c in channels], REFERENCE_REL_TOL, REFERENCE_FLOOR_FRACTION,
+             ["read on", list(VERTICAL_REFERENCE_HORIZON_DEG), AUREOLE_REFERENCE_READ_ON_DEG]]
     if split_state(config, elevation_deg):
         parts += [mc_key(config), SPLIT_SMOOTHING, [float(v) for v in config.visibilities_km],
                   [float(e) for e in config.elevations_deg]]
