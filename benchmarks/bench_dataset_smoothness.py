@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 import warnings
 
@@ -149,13 +150,25 @@ def main(argv=None):
     ap.add_argument("--visibility", type=float, default=30.0, help="visibility of the sheet [km]")
     ap.add_argument("--albedo", type=float, default=0.3, help="ground albedo of the sheet [1]")
     a = ap.parse_args(argv)
-    model = load_dataset(a.dataset)
+    try:
+        model = load_dataset(a.dataset)
+    except (OSError, ValueError) as exc:   # DatasetError is a ValueError
+        sys.exit(str(exc))
     if not a.no_check:
         ref = None
         side = a.reference or a.dataset + ".json"
+        if a.reference and a.no_reference:
+            sys.exit("--reference and --no-reference exclude each other: give one of them")
+        if a.reference and not os.path.exists(a.reference):
+            sys.exit(f"--reference {a.reference}: no such file")
         if not a.no_reference and os.path.exists(side):
-            meta = json.load(open(side))
+            try:
+                meta = json.load(open(side))
+            except (OSError, ValueError) as exc:
+                sys.exit(f"{side}: not a readable sidecar JSON ({exc})")
             rows = meta.get("smoothness_reference", {}).get("rows")
+            if rows is None and a.reference:
+                sys.exit(f"--reference {a.reference}: holds no 'smoothness_reference' rows")
             between = meta.get("smoothness_between_reference")
             if rows is not None:
                 ref = reference_from_entries(rows, (model.visibilities, model.elevations, model.albedos), between)

@@ -323,26 +323,35 @@ def check_states(model, states, rel_tol: float = REL_TOL, reference=None) -> lis
     return out
 
 
+def _log_interpolator(zenith_deg, azimuth_deg, radiance):
+    """A function of view directions (..., 3) (east-north-up, sun at azimuth 180) giving the solver's radiance
+    ``radiance`` (T, P, C) [W m-2 sr-1 nm-1], on a product grid of view zeniths ``zenith_deg`` (T,) and relative
+    azimuths ``azimuth_deg`` (P,, 0 = toward the sun ... 180) [deg], interpolated bilinearly in log radiance (clamped
+    to the grid): (..., C)."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    zen = np.asarray(zenith_deg, float)
+    az = np.asarray(azimuth_deg, float)
+    logr = np.log(np.maximum(np.asarray(radiance, float), 1e-300))
+    f = RegularGridInterpolator((zen, az), logr, bounds_error=False, fill_value=None)
+
+    def at(v):
+        z = np.clip(np.degrees(np.arccos(np.clip(v[..., 2], -1, 1))), zen[0], zen[-1])
+        a = np.degrees(np.arctan2(v[..., 0], v[..., 1]))
+        rel = np.clip(np.abs(a % 360.0 - 180.0), az[0], az[-1])
+        return np.exp(f(np.stack([z.ravel(), rel.ravel()], -1))).reshape(v.shape[:-1] + (logr.shape[-1],))
+
+    return at
+
+
 def solver_profiles(zenith_deg, azimuth_deg, radiance, sun_elevation_deg: float) -> dict:
     """The solver's radiance ``radiance`` (T, P, C) [W m-2 sr-1 nm-1] on a product grid of view zeniths ``zenith_deg``
     (T,) and relative azimuths ``azimuth_deg`` (P,, 0 = toward the sun ... 180) [deg], with the sun at
     ``sun_elevation_deg`` [deg], interpolated bilinearly in log radiance onto the profiles of
     :func:`profile_directions`: dict ``almucantar``, ``vertical``, ``aureole``, each the profile's shape + (C,)."""
-    from scipy.interpolate import RegularGridInterpolator
-
     d = profile_directions(sun_elevation_deg)
-    zen = np.asarray(zenith_deg, float)
-    az = np.asarray(azimuth_deg, float)
-    logr = np.log(np.maximum(np.asarray(radiance, float), 1e-300))
-    f = RegularGridInterpolator((zen, az), logr, bounds_error=False, fill_value=None)
-    rad = {}
-    for k in ("almucantar", "vertical", "aureole"):
-        v = d[k]
-        z = np.clip(np.degrees(np.arccos(np.clip(v[..., 2], -1, 1))), zen[0], zen[-1])
-        a = np.degrees(np.arctan2(v[..., 0], v[..., 1]))
-        rel = np.clip(np.abs((a - 180.0 + 180.0) % 360.0 - 180.0), az[0], az[-1])
-        rad[k] = np.exp(f(np.stack([z.ravel(), rel.ravel()], -1))).reshape(v.shape[:-1] + (logr.shape[-1],))
-    return rad
+    at = _log_interpolator(zenith_deg, azimuth_deg, radiance)
+    return {k: at(d[k]) for k in ("almucantar", "vertical", "aureole")}
 
 
 def turning_point_indices(y, rel_tol: float = REL_TOL, floor_fraction: float = FLOOR_FRACTION) -> list:
@@ -416,22 +425,13 @@ def _aureole_read_on_counts(zenith_deg, azimuth_deg, radiance, sun_elevation_deg
     """(C, 8) turning points of the solver's aureole rays read on to :data:`AUREOLE_REFERENCE_READ_ON_DEG`, counting
     only the extrema that lie in the checked part (up to :data:`AUREOLE_MAX_DEG` from the sun, above view zenith
     :data:`AUREOLE_MAX_ZENITH_DEG`; points below that zenith are held as on the checked rays)."""
-    from scipy.interpolate import RegularGridInterpolator
-
     n_in = AUREOLE_GAMMAS_DEG.size
     step = AUREOLE_GAMMAS_DEG[1] - AUREOLE_GAMMAS_DEG[0]
     g = np.concatenate([AUREOLE_GAMMAS_DEG, np.arange(AUREOLE_MAX_DEG + step, AUREOLE_REFERENCE_READ_ON_DEG + 1e-9,
                                                       step)])
     dirs, valid = aureole_rays(sun_elevation_deg, g)
-    zen = np.asarray(zenith_deg, float)
-    az = np.asarray(azimuth_deg, float)
-    logr = np.log(np.maximum(np.asarray(radiance, float), 1e-300))
-    f = RegularGridInterpolator((zen, az), logr, bounds_error=False, fill_value=None)
-    z = np.clip(np.degrees(np.arccos(np.clip(dirs[..., 2], -1, 1))), zen[0], zen[-1])
-    a = np.degrees(np.arctan2(dirs[..., 0], dirs[..., 1]))
-    rel = np.clip(np.abs(a % 360.0 - 180.0), az[0], az[-1])
-    y = np.exp(f(np.stack([z.ravel(), rel.ravel()], -1))).reshape(dirs.shape[:-1] + (logr.shape[-1],))  # (8, n, C)
-    y = held_valid(np.moveaxis(y, -1, 0), np.broadcast_to(valid, (logr.shape[-1],) + valid.shape))       # (C, 8, n)
+    y = np.moveaxis(_log_interpolator(zenith_deg, azimuth_deg, radiance)(dirs), -1, 0)        # (C, 8, n)
+    y = held_valid(y, np.broadcast_to(valid, y.shape))
     out = np.zeros(y.shape[:2], np.int64)
     for c in range(y.shape[0]):
         for j in range(y.shape[1]):

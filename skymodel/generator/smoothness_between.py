@@ -97,8 +97,7 @@ def between_state_radiance(config, visibility_km: float, elevation_deg: float, a
 def _reference_file(config, visibility_km, elevation_deg, albedo, channels):
     """Cache file of one state's turning points [.npz], named by what the solve depends on beyond the solver's key:
     the channels, the reference's hysteresis and how far its verticals and aureole rays are read on past the checked
-    part, and for the split Monte Carlo states their key, smoothing and the
-    grid they are blended from."""
+    part, and for the split Monte Carlo states their key, smoothing and the grid they are blended from."""
     import hashlib
 
     from .cache import cache_root
