@@ -32,14 +32,14 @@ from pathlib import Path
 
 import numpy as np
 
-import irradiance as ir
-from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors
-from irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
+import widesky.irradiance as ir
+from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors
+from widesky.irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
                                       g173_decomposition, generic_eqe, mismatch_by_airmass, mismatch_by_kc, model_at_g173,
                                       PVSPEC_TYPES, pvspec_annual, spctrl2_airmass_trend, pvspec_fit, pvspec_published, sedes2_global_horizontal,
                                       spectral_response)
-from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
-from irradiance.ground import vegetated_steps, vegetation_albedo_shape
+from widesky.irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
+from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
 
 DATA = Path(os.environ.get("WIDESKY_DATA_DIR") or Path(__file__).resolve().parents[1].parent / "shared" / "data")
 
@@ -145,7 +145,7 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
     sin_el = np.sin(np.radians(states.sun_elevation))
     g_clear = ((clear.dni * sin_el[:, None] + clear.dhi) * w).sum(1)
     kc_model = ghi / g_clear
-    from irradiance.haze import relative_airmass
+    from widesky.irradiance.haze import relative_airmass
     am = relative_airmass(states.sun_elevation)
     pv_mask = (kc_model > 0.05) & (kc_model < 1.5) & (ghi > 20.0) & (states.sun_elevation > 5.0)
     ape_kc = {"plain": ape_by_kc(spectra["plain (today)"][2], kc_model, wl, w),

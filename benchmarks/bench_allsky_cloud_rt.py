@@ -1,6 +1,6 @@
 """The all-sky model's cloudy spectra against radiative transfer with a cloud layer (docs/all-sky.md, section 4e).
 
-For each solar elevation and cloud optical depth, ``irradiance.cloud_reference.cloudy_fluxes`` solves the
+For each solar elevation and cloud optical depth, ``widesky.irradiance.cloud_reference.cloudy_fluxes`` solves the
 dataset's clear atmosphere with a homogeneous stratiform water cloud (Mie droplets, saturated in-cloud vapour,
 DISORT fluxes). Its broadband direct and diffuse horizontal irradiance are then given to the all-sky model as the
 "measured" weather, with the same atmosphere's clear-sky spectra (the cloud-free solve) as the clear sky, and the
@@ -22,10 +22,10 @@ import time
 
 import numpy as np
 
-from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions
-from irradiance.allsky_compare import ape, generic_eqe, spectral_response
-from skymodel.generator.channels import CHANNEL_EDGES_NM
-from irradiance.cloud_reference import allsky_global_horizontal, cloudy_fluxes
+from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions
+from widesky.irradiance.allsky_compare import ape, generic_eqe, spectral_response
+from widesky.skymodel.channels import CHANNEL_EDGES_NM
+from widesky.irradiance.cloud_reference import allsky_global_horizontal, cloudy_fluxes
 
 TECHS = ("a-Si", "CdTe", "c-Si", "CIGS")
 BANDS = ((380, 500), (500, 700), (700, 900), (900, 1100), (1100, 1300))

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-import irradiance as ir
+import widesky.irradiance as ir
 
 
 def main(argv=None):

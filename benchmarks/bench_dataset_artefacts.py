@@ -38,8 +38,8 @@ OLD_AZIMUTHS_DEG = np.array([0.0, 0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0, 9.0, 12.5,
 
 def _solve(vis, ele, channels, th, ph, tabulated, cfg):
     """Radiance (T, P, nC) [W m-2 sr-1 nm-1] of the given channels [index] over a black ground."""
-    from skymodel.generator.dataset_build import _problems
-    from skymodel.generator.solver import SolverConfig, run_disort
+    from widesky.skymodel.generator.dataset_build import _problems
+    from widesky.skymodel.generator.solver import SolverConfig, run_disort
 
     probs, et, _ = _problems(vis, cfg)
     sc = SolverConfig(cfg.n_streams, cfg.n_moments, True, tabulated_phase=tabulated)
@@ -53,8 +53,8 @@ def _solve(vis, ele, channels, th, ph, tabulated, cfg):
 
 
 def _grid(ele, step, azimuths):
-    from skymodel.generator.dataset_build import SUN_OFFSETS_DEG
-    from skymodel.generator.solver import MAX_VIEW_ZENITH_DEG
+    from widesky.skymodel.generator.dataset_build import SUN_OFFSETS_DEG
+    from widesky.skymodel.generator.solver import MAX_VIEW_ZENITH_DEG
 
     zs = 90.0 - ele
     th = np.concatenate([np.arange(0.0, 89.0, step), [85.5, 87.0, 88.0, 89.0, MAX_VIEW_ZENITH_DEG],
@@ -64,10 +64,10 @@ def _grid(ele, step, azimuths):
 
 def _fit(rad, th, ph, ele, cfg, half=False):
     """Fitted factors of every channel of ``rad`` and an evaluator f(directions) -> (N, nC)."""
-    from skymodel.evaluate import reference_angles
-    from skymodel.generator.dataset_build import config_knots, fit_state
-    from skymodel.generator.fit import hat_weights
-    from skymodel.writer import encode_radiance_blocks
+    from widesky.skymodel.evaluate import reference_angles
+    from widesky.skymodel.generator.dataset_build import config_knots, fit_state
+    from widesky.skymodel.generator.fit import hat_weights
+    from widesky.skymodel.writer import encode_radiance_blocks
 
     br = config_knots(cfg)
     sun, zen, emph, _ = fit_state(cfg, th, ph, rad, ele, br)
@@ -105,7 +105,7 @@ def _solver_lookup(ref, th, ph):
 
 
 def _score(f, ele, ref_f):
-    from skymodel.generator import smoothness as S
+    from widesky.skymodel.generator import smoothness as S
 
     d = S.profile_directions(ele)
     rad = {k: f(d[k].reshape(-1, 3)).reshape(d[k].shape[:-1] + (-1,))
@@ -123,9 +123,9 @@ def _score(f, ele, ref_f):
 
 
 def run(old_path=None, plot=None):
-    from skymodel import load_dataset
-    from skymodel.evaluate import sky_radiance
-    from skymodel.generator.dataset_build import AZIMUTHS_DEG, load_config
+    from widesky.skymodel import load_dataset
+    from widesky.skymodel.evaluate import sky_radiance
+    from widesky.skymodel.generator.dataset_build import AZIMUTHS_DEG, load_config
 
     cfg = load_config("skymodel/data/default-dataset-plane-parallel.json")
     old_cfg = dataclasses.replace(cfg, iterations=4, smoothing=1e-6)
@@ -191,7 +191,7 @@ def _as_profile(solved, ele):
 
 
 def _tp(solved, ele):
-    from skymodel.generator.smoothness import turning_points
+    from widesky.skymodel.generator.smoothness import turning_points
     return turning_points(_as_profile(solved, ele))
 
 
@@ -199,9 +199,9 @@ def _plot(variants, direct, vis, ele, wls, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from skymodel.colour import srgb_encode
-    from skymodel.generator import smoothness as S
-    from skymodel.render import fisheye_directions
+    from widesky.skymodel.colour import srgb_encode
+    from widesky.skymodel.generator import smoothness as S
+    from widesky.skymodel.render import fisheye_directions
 
     view, vaz = ("side", 200.0) if ele < 20 else ("up", 180.0)
     dirs, mask = fisheye_directions(220, view, vaz)

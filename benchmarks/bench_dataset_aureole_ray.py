@@ -26,7 +26,7 @@ import numpy as np
 
 def solver_ray(config, visibility_km: float, elevation_deg: float, albedo: float, channel: int, gamma_deg):
     """Solver radiance [W m-2 sr-1 nm-1] of one channel along the upward ray at angles ``gamma_deg`` from the sun."""
-    from skymodel.generator.dataset_mc import rest_across_visibility, single_scatter
+    from widesky.skymodel.generator.dataset_mc import rest_across_visibility, single_scatter
 
     zen = 90.0 - float(elevation_deg) - np.asarray(gamma_deg, float)
     order = np.argsort(zen)
@@ -48,8 +48,8 @@ def file_ray(path, visibility_km, elevation_deg, albedo, channel, gamma_deg):
 def file_radiance(path, visibility_km, elevation_deg, albedo, channel, zenith_deg, azimuth_deg):
     """A dataset file's radiance [W m-2 sr-1 nm-1] of one channel at view zeniths and azimuths [deg] (sun at azimuth
     180 deg, the evaluator's clamping warnings silenced)."""
-    from skymodel import load_dataset
-    from skymodel.evaluate import directions_from_angles, sky_radiance
+    from widesky.skymodel import load_dataset
+    from widesky.skymodel.evaluate import directions_from_angles, sky_radiance
 
     model = load_dataset(path)
     d = directions_from_angles(np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float))
@@ -61,9 +61,9 @@ def file_radiance(path, visibility_km, elevation_deg, albedo, channel, zenith_de
 
 
 def main(argv=None):
-    from skymodel.generator.dataset_build import load_config
-    from skymodel.generator.dataset_mc import split_state
-    from skymodel.generator.smoothness import AUREOLE_MAX_ZENITH_DEG, turning_points
+    from widesky.skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_mc import split_state
+    from widesky.skymodel.generator.smoothness import AUREOLE_MAX_ZENITH_DEG, turning_points
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("config")

@@ -2,7 +2,7 @@
 
 Between grid elevations the evaluator blends the bracketing states' fits at the query's own angles (gamma to the sun,
 view zenith), so each state is asked for pairs that no direction of its own sky has (``band_samples`` in
-``skymodel.generator.dataset_build``). This solves DISORT (the build's solver and settings, one channel at a time) at
+``widesky.skymodel.generator.dataset_build``). This solves DISORT (the build's solver and settings, one channel at a time) at
 the two grid elevations and at the elevation between them, fits the grid states with the configuration's settings
 with and without the band, blends them with the evaluator's weights, and compares along the smoothness check's ray
 from the sun toward the horizon (position angle 180 deg) and the ray toward the zenith (0 deg), both on the solar
@@ -25,10 +25,10 @@ import numpy as np
 def main(argv=None):
     from dataclasses import replace
 
-    from skymodel.evaluate import reference_angles
-    from skymodel.generator import smoothness as S
-    from skymodel.generator.dataset_build import config_knots, fit_state, load_config, solve_state
-    from skymodel.generator.fit import RadianceFit
+    from widesky.skymodel.evaluate import reference_angles
+    from widesky.skymodel.generator import smoothness as S
+    from widesky.skymodel.generator.dataset_build import config_knots, fit_state, load_config, solve_state
+    from widesky.skymodel.generator.fit import RadianceFit
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("config")

@@ -18,8 +18,8 @@ QUANTILES = (1.0, 0.99, 0.5)
 
 
 def run(path, n_directions=300, seed=0):
-    from skymodel.compress import greedy_omission, radiance_samples
-    from skymodel.dataset import load_dataset
+    from widesky.skymodel.compress import greedy_omission, radiance_samples
+    from widesky.skymodel.dataset import load_dataset
 
     m = load_dataset(path)
     y = radiance_samples(m, n_directions, seed)

@@ -94,8 +94,8 @@ def plots(errors, summary, prefix="docs/figures/dataset_"):
 
 
 if __name__ == "__main__":
-    from skymodel.generator.dataset_build import load_config
-    from skymodel.generator.dataset_errors import evaluate_errors, summarise
+    from widesky.skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_errors import evaluate_errors, summarise
 
     ap = argparse.ArgumentParser()
     ap.add_argument("config")

@@ -40,7 +40,7 @@ ELEVATION_CANDIDATES = {
 
 
 def _solve(job):
-    from skymodel.generator.dataset_build import load_config, solve_state
+    from widesky.skymodel.generator.dataset_build import load_config, solve_state
 
     path, v, e = job
     s = solve_state(v, e, load_config(path), zenith_deg=[0.0], azimuth_deg=[0.0])
@@ -49,7 +49,7 @@ def _solve(job):
 
 def solve(config_path, processes=2):
     """Solver DHI [W m-2 nm-1] (55,) on the study's (visibility, elevation) points (see module docstring)."""
-    from skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_build import load_config
 
     cfg = load_config(config_path)
     vf = np.exp(np.linspace(np.log(20.0), np.log(131.8), 31))

@@ -34,8 +34,8 @@ import numpy as np
 
 def reversal_size(y, limit: int, floor_fraction: float) -> float:
     """Largest hysteresis [1] at which profile ``y`` still has more than ``limit`` turning points (0 if it never
-    has): bisection on :func:`skymodel.generator.smoothness.turning_points`."""
-    from skymodel.generator.smoothness import turning_points
+    has): bisection on :func:`widesky.skymodel.generator.smoothness.turning_points`."""
+    from widesky.skymodel.generator.smoothness import turning_points
 
     if turning_points(y, 0.0, floor_fraction) <= limit:
         return 0.0
@@ -52,7 +52,7 @@ def reversal_size(y, limit: int, floor_fraction: float) -> float:
 def profile_axis(kind: str) -> np.ndarray:
     """The coordinate along a profile [deg]: relative azimuth (almucantar), view zenith (vertical), angle from the
     sun (aureole ray)."""
-    from skymodel.generator import smoothness as S
+    from widesky.skymodel.generator import smoothness as S
 
     if kind == "almucantar":
         return np.arange(0.0, 180.0 + 1e-9, S.ALMUCANTAR_STEP_DEG)
@@ -63,9 +63,9 @@ def profile_axis(kind: str) -> np.ndarray:
 
 def file_profiles(model, state) -> dict:
     """The dataset's radiance along every profile at ``state`` (visibility, elevation, albedo): as
-    :func:`skymodel.generator.smoothness.solver_profiles`, the profile's shape + (C,)."""
-    from skymodel.evaluate import sky_radiance
-    from skymodel.generator.smoothness import profile_directions
+    :func:`widesky.skymodel.generator.smoothness.solver_profiles`, the profile's shape + (C,)."""
+    from widesky.skymodel.evaluate import sky_radiance
+    from widesky.skymodel.generator.smoothness import profile_directions
 
     d = profile_directions(state[1])
     out = {}
@@ -80,10 +80,10 @@ def file_profiles(model, state) -> dict:
 
 
 def main(argv=None):
-    from skymodel import load_dataset
-    from skymodel.generator import smoothness as S
-    from skymodel.generator.dataset_build import _fitted_elevations, load_config, state_radiance
-    from skymodel.generator.dataset_mc import radiance_by_mc, split_state
+    from widesky.skymodel import load_dataset
+    from widesky.skymodel.generator import smoothness as S
+    from widesky.skymodel.generator.dataset_build import _fitted_elevations, load_config, state_radiance
+    from widesky.skymodel.generator.dataset_mc import radiance_by_mc, split_state
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("config")

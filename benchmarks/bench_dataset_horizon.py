@@ -36,8 +36,8 @@ def file_vertical(path, visibility_km, elevation_deg, albedo, channel, zenith_de
 
 
 def main(argv=None):
-    from skymodel.generator.dataset_build import load_config, state_radiance
-    from skymodel.generator.smoothness import VERTICAL_STEP_DEG, turning_points
+    from widesky.skymodel.generator.dataset_build import load_config, state_radiance
+    from widesky.skymodel.generator.smoothness import VERTICAL_STEP_DEG, turning_points
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("config", help="the build configuration whose cache holds the state")

@@ -37,9 +37,9 @@ def block_bytes(ns, nz, ne, rank):
 def run(config_path, n_states=10, albedo=0.3, seed=0, settings=SETTINGS, max_elevation=90.0):
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import (load_state, config_knots, direction_samples, fit_weights, ground_file,
+    from widesky.skymodel.generator.dataset_build import (load_state, config_knots, direction_samples, fit_weights, ground_file,
                                         load_config, radiance_with_albedo, state_file)
-    from skymodel.generator.fit import fit_radiance
+    from widesky.skymodel.generator.fit import fit_radiance
 
     cfg = load_config(config_path)
     rng = np.random.default_rng(seed)

@@ -28,9 +28,9 @@ import numpy as np
 def noise(config) -> dict:
     """Median relative se of I (Monte Carlo radiance states) and median se of P (all states) per channel, albedo 0.5
     (or the grid's middle albedo)."""
-    from skymodel.generator.cache import load_state
-    from skymodel.generator.dataset_build import _fitted_elevations
-    from skymodel.generator.dataset_mc import mc_file, mc_stokes, radiance_by_mc, stored_polarisation
+    from widesky.skymodel.generator.cache import load_state
+    from widesky.skymodel.generator.dataset_build import _fitted_elevations
+    from widesky.skymodel.generator.dataset_mc import mc_file, mc_stokes, radiance_by_mc, stored_polarisation
 
     alb = float(np.median(config.albedos))
     rel_i, se_p = [], []
@@ -68,13 +68,13 @@ def repeat_noise(config, visibility_km, elevation_deg, keep=None) -> dict:
     (reused when there)."""
     from dataclasses import replace
 
-    from skymodel.generator.cache import load_state
-    from skymodel.generator.dataset_mc import mc_file, mc_stokes, solve_mc_state, stored_polarisation
+    from widesky.skymodel.generator.cache import load_state
+    from widesky.skymodel.generator.dataset_mc import mc_file, mc_stokes, solve_mc_state, stored_polarisation
 
     alb = float(np.median(config.albedos))
     a = load_state(mc_file(config, visibility_km, elevation_deg))
-    from skymodel.generator.cache import save_state
-    from skymodel.generator.smoothness import turning_points
+    from widesky.skymodel.generator.cache import save_state
+    from widesky.skymodel.generator.smoothness import turning_points
 
     kf = None if keep is None else Path(keep) / f"repeat_{config.mc_streams}_v{visibility_km:g}_e{elevation_deg:g}.npz"
     if kf is not None and kf.exists():
@@ -114,9 +114,9 @@ def smoothness_at_tolerances(config, dataset, tolerances) -> list:
     """The smoothness check of ``dataset`` on its grid states at the Monte Carlo radiance elevations, per turning-point
     tolerance [1]: failing (state, channel) pairs of the checked ones, and how many by almucantar / vertical /
     aureole turning points and zenith spots."""
-    from skymodel.dataset import load_dataset
-    from skymodel.generator.dataset_mc import radiance_by_mc
-    from skymodel.generator.smoothness import ZENITH_SPOT_TOL, check_states, grid_states
+    from widesky.skymodel.dataset import load_dataset
+    from widesky.skymodel.generator.dataset_mc import radiance_by_mc
+    from widesky.skymodel.generator.smoothness import ZENITH_SPOT_TOL, check_states, grid_states
 
     model = load_dataset(dataset)
     states = [s for s in grid_states(model) if radiance_by_mc(config, s[1])]
@@ -137,8 +137,8 @@ def smoothness_at_tolerances(config, dataset, tolerances) -> list:
 
 
 def main(argv=None):
-    from skymodel.generator.channels import CHANNEL_CENTERS_NM
-    from skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.channels import CHANNEL_CENTERS_NM
+    from widesky.skymodel.generator.dataset_build import load_config
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("config")

@@ -48,8 +48,8 @@ def issue_renders(models, labels, path, resolution=300):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from skymodel.colour import srgb_encode
-    from skymodel.render import render_sky
+    from widesky.skymodel.colour import srgb_encode
+    from widesky.skymodel.render import render_sky
 
     fig, axes = plt.subplots(len(models), len(ISSUE_RENDERS), figsize=(3.2 * len(ISSUE_RENDERS), 3.3 * len(models)),
                              squeeze=False)
@@ -81,8 +81,8 @@ def issue_renders(models, labels, path, resolution=300):
 
 
 def _image(model, elevation, row, visibility, albedo, resolution):
-    from skymodel.colour import srgb_encode
-    from skymodel.render import render_sky
+    from widesky.skymodel.colour import srgb_encode
+    from widesky.skymodel.render import render_sky
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # clamping at the grid's edge (sun at 0 deg) is what a user sees too
@@ -131,8 +131,8 @@ def contact_sheet(models, labels, path, visibility=30.0, albedo=0.3, resolution=
 
 
 def main(argv=None):
-    from skymodel import load_dataset
-    from skymodel.generator.smoothness import check_dataset, reference_from_entries, summarise
+    from widesky.skymodel import load_dataset
+    from widesky.skymodel.generator.smoothness import check_dataset, reference_from_entries, summarise
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dataset")
@@ -193,7 +193,7 @@ def main(argv=None):
                           f"{s['failing_pairs_by_bracketing_states']} failing")
         print(f"check: {summary['seconds']} s")
         if a.hysteresis_ladder:
-            from skymodel.generator.smoothness import between_grid_states, check_states, grid_states
+            from widesky.skymodel.generator.smoothness import between_grid_states, check_states, grid_states
             # how far back the failing profiles turn: the same check with a larger hysteresis, failing states only
             for g, states in (("grid", grid_states(model)), ("between", between_grid_states(model))):
                 rows0 = check_states(model, states, reference=ref)

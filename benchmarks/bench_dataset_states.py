@@ -33,7 +33,7 @@ BUDGET_PATHS, BUDGET_DIRECTIONS = 16384, 1000
 
 
 def _disort_job(args):
-    from skymodel.generator.dataset_build import load_config, solve_state
+    from widesky.skymodel.generator.dataset_build import load_config, solve_state
 
     vis, ele = args
     cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset-plane-parallel.json")
@@ -43,8 +43,8 @@ def _disort_job(args):
 
 
 def _mc_job(args):
-    from skymodel.generator.dataset_build import load_config
-    from skymodel.generator.dataset_mc import solve_mc_state
+    from widesky.skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_mc import solve_mc_state
 
     vis, ele = args
     cfg = load_config(ROOT / "skymodel" / "data" / "polarised-dataset.json")
@@ -55,9 +55,9 @@ def _mc_job(args):
 
 def _warm(_):
     """Mie tables and gas fits into the caches, so that neither path's timing includes them."""
-    from skymodel.generator.montecarlo_mie import mixture_matrix
-    from skymodel.generator.solver import AtmosphereSpec, SkyState, channel_problems
-    from skymodel.generator.channels import CHANNEL_CENTERS_NM
+    from widesky.skymodel.generator.montecarlo_mie import mixture_matrix
+    from widesky.skymodel.generator.solver import AtmosphereSpec, SkyState, channel_problems
+    from widesky.skymodel.channels import CHANNEL_CENTERS_NM
 
     channel_problems(SkyState(30.0, visibility_km=40.0), AtmosphereSpec())
     for w in CHANNEL_CENTERS_NM:

@@ -34,7 +34,7 @@ import numpy as np
 def sun_knots(config, extra: int, lo_deg: float, hi_deg: float) -> np.ndarray:
     """The configuration's sun knots [rad] with those strictly between ``lo_deg`` and ``hi_deg`` [deg] replaced by
     that many plus ``extra`` evenly spaced ones."""
-    from skymodel.generator.dataset_build import config_knots
+    from widesky.skymodel.generator.dataset_build import config_knots
 
     br = np.degrees(config_knots(config)[0])
     if not extra:
@@ -46,10 +46,10 @@ def sun_knots(config, extra: int, lo_deg: float, hi_deg: float) -> np.ndarray:
 
 def fit_failures(config, visibility_km: float, elevation_deg: float, sun_breaks, albedo: float = 0.5):
     """({kind: (C,) bool}, in-sample NMAE of the checked channels (n,) [1]) of one refitted state."""
-    import skymodel.generator.dataset_build as B
-    from skymodel.evaluate import reference_angles
-    from skymodel.generator import smoothness as S
-    from skymodel.generator.fit import RadianceFit
+    import widesky.skymodel.generator.dataset_build as B
+    from widesky.skymodel.evaluate import reference_angles
+    from widesky.skymodel.generator import smoothness as S
+    from widesky.skymodel.generator.fit import RadianceFit
 
     th, ph, rad, es = B.state_radiance(config, visibility_km, elevation_deg, albedo)
     smp = B.direction_samples(th, ph, es)
@@ -75,7 +75,7 @@ def fit_failures(config, visibility_km: float, elevation_deg: float, sun_breaks,
 
 
 def main(argv=None):
-    from skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_build import load_config
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("config")
@@ -134,7 +134,7 @@ def main(argv=None):
         sys.exit("--zenith-midpoints LO HI must lie within 0-90 deg with LO < HI")
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import config_knots
+    from widesky.skymodel.generator.dataset_build import config_knots
     if a.no_midpoints or a.extra or a.midpoints is not None:
         # (the second halving lies inside the first: it goes with it, and --refine gives it again)
         cfg = replace(cfg, sun_knot_midpoints_deg=None if a.midpoints is None else tuple(a.midpoints),

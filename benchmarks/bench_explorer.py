@@ -41,9 +41,9 @@ def main(argv=None):
 
     from PIL import Image
 
-    import skymodel
-    from skymodel.explorer import Explorer, make_server
-    from skymodel.render import _display, render_sky
+    from widesky import skymodel
+    from widesky.explorer import Explorer, make_server
+    from widesky.skymodel.render import _display, render_sky
 
     ex = Explorer(threads=args.threads)
     m = ex.model(0)

@@ -37,9 +37,9 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if not Path(a.config).is_file():
         ap.error(f"config {a.config!r}: no such file")
-    from skymodel.generator.cache import load_state, state_file
-    from skymodel.generator.dataset_build import (_solve_job, direction_samples, load_config, state_radiance)
-    from skymodel.generator.dataset_mc import mc_file, split_state
+    from widesky.skymodel.generator.cache import load_state, state_file
+    from widesky.skymodel.generator.dataset_build import (_solve_job, direction_samples, load_config, state_radiance)
+    from widesky.skymodel.generator.dataset_mc import mc_file, split_state
 
     cfg = load_config(a.config)
     low = [float(e) for e in cfg.elevations_deg if split_state(cfg, e)]
@@ -78,9 +78,9 @@ def main(argv=None):
 
 def slabs(cfg, elevations):
     """Monte Carlo in plane-parallel slabs against DISORT, and the spherical shells, at 51.3 km and 580 nm."""
-    from skymodel.generator.dataset_build import state_radiance
-    from skymodel.generator.montecarlo import MonteCarloConfig, solve_sky_mc
-    from skymodel.generator.solver import SkyState, solve_sky
+    from widesky.skymodel.generator.dataset_build import state_radiance
+    from widesky.skymodel.generator.montecarlo import MonteCarloConfig, solve_sky_mc
+    from widesky.skymodel.generator.solver import SkyState, solve_sky
 
     vz, az = np.array([60.0, 60.0, 87.0, 87.0]), np.array([0.0, 180.0, 0.0, 180.0])
     print("\n51.3 km, 580 nm, albedo 0.5, radiance [mW m-2 sr-1 nm-1] at (view zenith, azimuth) "

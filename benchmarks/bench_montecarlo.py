@@ -45,9 +45,9 @@ from pathlib import Path
 
 import numpy as np
 
-from skymodel.generator.montecarlo import (MonteCarloConfig, hemisphere_directions, rayleigh_slab, solve_sky_mc,
+from widesky.skymodel.generator.montecarlo import (MonteCarloConfig, hemisphere_directions, rayleigh_slab, solve_sky_mc,
                                            trace)
-from skymodel.generator.solver import SkyState, solve_sky
+from widesky.skymodel.generator.solver import SkyState, solve_sky
 
 FIG = Path(__file__).resolve().parents[1] / "docs" / "figures"
 STATE = dict(aod550=0.2, ground_albedo=0.2)

@@ -43,7 +43,7 @@ def status(key):
     for line in open("/proc/self/status"):
         if line.startswith(key + ":"):
             return int(line.split()[1]) * 1024
-import skymodel
+from widesky import skymodel
 path, mode = sys.argv[1], sys.argv[2]
 before = status("VmRSS")
 open("/proc/self/clear_refs", "w").write("5")  # reset VmHWM to the current RSS
@@ -54,7 +54,7 @@ if mode == "read":
     data = open(path, "rb").read()
     resident = len(data)
 elif mode == "refconv":  # read + as many halves converted on their own into float32 as the decode keeps
-    from skymodel import _core
+    from widesky.skymodel import _core
     data = open(path, "rb").read()
     raw = np.frombuffer(data, np.uint16, count=min(len(data) // 2, int(sys.argv[3])))
     out = np.empty(raw.size, np.float32)
@@ -83,9 +83,9 @@ def big_dataset(cache: Path) -> Path:
     path = cache / "bench_swir_sized.dat"
     if path.exists():
         return path
-    import skymodel
-    from skymodel.synthetic import synthetic_contents
-    from skymodel.writer import write_dataset
+    from widesky import skymodel
+    from widesky.skymodel.synthetic import synthetic_contents
+    from widesky.skymodel.writer import write_dataset
 
     nvis = 10
     vis = np.linspace(20, 131.8, nvis)

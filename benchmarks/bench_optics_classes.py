@@ -1,8 +1,8 @@
 """Benchmark: the classing error of angle x wavelength optics (issue 17).
 
-An angle x wavelength optic (:class:`irradiance.SpectralAngularTable`) goes through incidence-angle
+An angle x wavelength optic (:class:`widesky.irradiance.SpectralAngularTable`) goes through incidence-angle
 classes: the integrator takes the table's factor at the class nodes per channel and interpolates
-linearly in angle between them (:mod:`irradiance.optics`). Its exact per-ray answer treats every
+linearly in angle between them (:mod:`widesky.irradiance.optics`). Its exact per-ray answer treats every
 channel separately: one response per channel whose angle-only optic is that channel's column of the
 table (linear interpolation on the table's own 5-degree grid), applied per ray; their sum is the
 reference. Both run in the same integrator call on the same rays, so the difference is the classing
@@ -45,8 +45,8 @@ def main(argv=None):
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     import trimesh
     from bench_poa import glazing_table
-    import irradiance as ir
-    from irradiance.optics import DEFAULT_NODES
+    import widesky.irradiance as ir
+    from widesky.irradiance.optics import DEFAULT_NODES
 
     sky = ir.PragueSky()
     site = ir.Site(50.08, 14.42, 200.0, tz=1.0)

@@ -99,8 +99,8 @@ def benchmark_scene(n_faces=20000):
 
 def sky_source(path=None):
     """The PSM (a dataset file, the default dataset, else a synthetic dataset in a temporary file)."""
-    import skymodel
-    from irradiance.skies import PragueSky
+    from widesky import skymodel
+    from widesky.irradiance.skies import PragueSky
     if path:
         m = skymodel.load_dataset(path)
         return PragueSky(m), f"dataset {path}{' (synthetic)' if m.is_synthetic else ''}"
@@ -108,7 +108,7 @@ def sky_source(path=None):
         m = skymodel.load_dataset()
         return PragueSky(m), f"default dataset{' (synthetic)' if m.is_synthetic else ''}"
     except Exception:
-        from skymodel.synthetic import write_synthetic_dataset
+        from widesky.skymodel.synthetic import write_synthetic_dataset
         path = os.path.join(tempfile.mkdtemp(), "synthetic.dat")
         write_synthetic_dataset(path)
         return PragueSky(skymodel.load_dataset(path)), "synthetic dataset"
@@ -145,7 +145,7 @@ def glazing_table():
     """An angle x wavelength transmittance of 4 mm clear glass [1]: Fresnel at n = 1.52 with a
     wavelength-dependent absorption coefficient (an iron-oxide-like band near 1000 nm and the UV
     edge), 0-90 deg by 5 deg, 280-2480 nm by 20 nm (an illustrative table, not a product's)."""
-    from irradiance import SpectralAngularTable
+    from widesky.irradiance import SpectralAngularTable
     ang = np.arange(0.0, 90.1, 5.0)
     wl = np.arange(280.0, 2480.1, 20.0)
     K = 20.0 + 120.0 * np.exp(-0.5 * ((wl - 1000.0) / 250.0) ** 2) + 4000.0 * np.exp(-(wl - 280.0) / 25.0)
@@ -156,7 +156,7 @@ def glazing_table():
 def response_objects(wl, optics):
     """The two responses of :func:`responses` as Response objects; with ``optics`` a Fresnel cover
     on c-Si and the angle x wavelength glazing table."""
-    from irradiance import Response
+    from widesky.irradiance import Response
     r = responses(wl)
     return [Response("c-Si", wl, r["c-Si"], unit="sr", angular=fresnel_cover if optics else None),
             Response("glazing", wl, r["glazing"] if not optics else np.ones_like(wl),
@@ -164,8 +164,8 @@ def response_objects(wl, optics):
 
 
 def year_states(year=2023, lat=50.08, lon=14.42, visibility=40.0, albedo=0.2, states_type=None):
-    from irradiance.skies import SkyStates
-    from irradiance.solarposition import solar_position
+    from widesky.irradiance.skies import SkyStates
+    from widesky.irradiance.solarposition import solar_position
     SkyStates = states_type or SkyStates
     times = pd.date_range(f"{year}-01-01 00:30", f"{year}-12-31 23:30", freq="1h", tz="Etc/GMT-1")
     sp = solar_position(times, lat, lon)
@@ -190,7 +190,7 @@ def _worker(mode, faces, jobs, output):
     analysis, groups, context = benchmark_scene(faces)
     scene = make_scene(analysis, context, groups=groups, ground_z=0.0)
     times, states = year_states(states_type=skies.SkyStates)
-    import skymodel
+    from widesky import skymodel
     sky = skies.PragueSky(skymodel.load_dataset())
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     ru0 = resource.getrusage(resource.RUSAGE_SELF)
@@ -200,7 +200,7 @@ def _worker(mode, faces, jobs, output):
         res = poa_irradiance(scene, sky, states, responses=responses(sky.wavelengths),
                              times=times, n_jobs=jobs)
     else:
-        from irradiance import poa_irradiance
+        from widesky.irradiance import poa_irradiance
         res = poa_irradiance(scene, sky, states, responses=response_objects(
             sky.wavelengths, mode == "optics"), times=times, n_jobs=jobs, output=output)
     sec = time.perf_counter() - t0
@@ -313,8 +313,8 @@ def main(argv=None):
         return _worker(args.worker, args.faces, args.jobs, args.worker_output)
     if args.compare:
         return compare(args)
-    from irradiance.integrator import IntegratorSettings, poa_irradiance
-    from irradiance.scene import make_scene
+    from widesky.irradiance.integrator import IntegratorSettings, poa_irradiance
+    from widesky.irradiance.scene import make_scene
 
     t0 = time.perf_counter()
     analysis, groups, context = benchmark_scene(args.faces)

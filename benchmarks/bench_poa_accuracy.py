@@ -1,10 +1,10 @@
 """Accuracy against speed of the POA integrator (issue 6): annual error against the brute-force
 reference for sky patch counts and rays per patch, run time on the benchmark scene.
 
-Error: the two validation scenes of :func:`irradiance.reference.validation_scenes` (an unobstructed
+Error: the two validation scenes of :func:`widesky.irradiance.reference.validation_scenes` (an unobstructed
 tilted plane, an obstructed facade), hourly clear-sky year at Prague (as ``bench_poa.py``), the
 embedded default PSM dataset, broadband.
-Reference: :func:`irradiance.reference.reference_poa` with its default (converged) settings and exact
+Reference: :func:`widesky.irradiance.reference.reference_poa` with its default (converged) settings and exact
 sky states (``elevation_quantum=0``); the integrator runs as users run it (``PragueSky()``, elevation
 quantum 0.2 deg). Error of a point: annual poa_global / reference - 1; reported: the largest
 absolute error over the scene's points and the area-weighted total.
@@ -64,8 +64,8 @@ def dataset_digest(model):
 
 
 def reference(name, scene, states, cache, jobs, sky):
-    from irradiance.reference import reference_poa
-    from irradiance.skies import PragueSky
+    from widesky.irradiance.reference import reference_poa
+    from widesky.irradiance.skies import PragueSky
     key = hashlib.sha1(np.concatenate([states.sun_elevation, states.sun_azimuth, scene.points.ravel(),
                                        states.albedo]).tobytes()
                        + dataset_digest(sky.model).encode()).hexdigest()[:12]
@@ -88,8 +88,8 @@ def hourly(scenes, states, args):
     """Per-step errors of the default settings against the reference, steps where the reference's
     poa_global exceeds 50 W m-2: relative error of poa_global, and errors of the sky-diffuse and
     reflected components as fractions of that step's poa_global (percentiles over steps and points)."""
-    from irradiance.integrator import poa_irradiance
-    from irradiance.skies import PragueSky
+    from widesky.irradiance.integrator import poa_irradiance
+    from widesky.irradiance.skies import PragueSky
 
     sky = PragueSky()
     for name, scene in scenes.items():
@@ -128,9 +128,9 @@ def main(argv=None):
         plot([(kw, {k: tuple(v) for k, v in errs.items()}, secs, load)
               for kw, errs, secs, load in saved["rows"]], args)
         return 0
-    from irradiance.integrator import IntegratorSettings, poa_irradiance
-    from irradiance.reference import validation_scenes
-    from irradiance.skies import PragueSky
+    from widesky.irradiance.integrator import IntegratorSettings, poa_irradiance
+    from widesky.irradiance.reference import validation_scenes
+    from widesky.irradiance.skies import PragueSky
 
     times, states = study_states(args.days)
     scenes = validation_scenes()
@@ -152,7 +152,7 @@ def main(argv=None):
               f" disc edge correction {r['disc_correction'].sum() / tot:+.1e}")
     if not args.no_timing:
         from bench_poa import benchmark_scene, responses, year_states
-        from irradiance.scene import make_scene
+        from widesky.irradiance.scene import make_scene
         an, groups, ctx = benchmark_scene(args.timing_faces)
         tscene = make_scene(an, ctx, groups=groups, ground_z=0.0)
         ttimes, tstates = year_states()

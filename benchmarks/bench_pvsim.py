@@ -6,10 +6,10 @@ other, with the same settings:
 
 1. baseline: ``poa_irradiance`` with three responses (broadband, a c-Si-like SR and a glazing-like
    transmittance: bench_poa.responses, channel weights without optics);
-2. pvsim: ``pvsim.simulate`` with all library technologies -- one integrator run with every distinct
+2. pvsim: ``widesky.pvsim.simulate`` with all library technologies -- one integrator run with every distinct
    sub-cell EQE as a response with the Fresnel cover optic applied per incoming direction, plus the
    cover's unit weight -- with the yield model (cell temperature, DC, AC, waterfall) of every
-   technology on every module group fused into the integrator's stream (``pvsim.stream``): the
+   technology on every module group fused into the integrator's stream (``widesky.pvsim.stream``): the
    sub-cell currents exist chunk by chunk, the POA file holds the broadband parts and the cover's global
    (``--keep-currents`` writes the currents too; ``--unfused`` runs the earlier path: the POA file
    with the currents, then ``pv_yield`` reads it back).
@@ -48,8 +48,8 @@ def main(argv=None):
     ap.add_argument("--keep-currents", action="store_true",
                     help="fused: also write every sub-cell current (global) to the POA file")
     args = ap.parse_args(argv)
-    import pvsim
-    from irradiance import IntegratorSettings, make_scene, poa_irradiance
+    from widesky import pvsim
+    from widesky.irradiance import IntegratorSettings, make_scene, poa_irradiance
 
     analysis, groups, context = bench_poa.benchmark_scene(args.faces)
     scene = make_scene(analysis, context, groups=groups, ground_z=0.0)

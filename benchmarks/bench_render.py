@@ -42,8 +42,8 @@ EVAL_CHILD = r"""
 import json, sys, time
 t0 = time.perf_counter(); c0 = time.process_time()
 import numpy as np
-import skymodel
-from skymodel.render import fisheye_disc
+from widesky import skymodel
+from widesky.skymodel.render import fisheye_disc
 t1 = time.perf_counter()
 m = skymodel.load_dataset()
 d, _ = fisheye_disc(int(sys.argv[1]))
@@ -60,9 +60,9 @@ marks = [("start", time.perf_counter(), time.process_time())]
 def mark(name):
     marks.append((name, time.perf_counter(), time.process_time()))
 import numpy as np
-import skymodel
-from skymodel.outputs import atomic_outputs
-from skymodel.render import render_sky, write_exr, write_png
+from widesky import skymodel
+from widesky.skymodel.outputs import atomic_outputs
+from widesky.skymodel.render import render_sky, write_exr, write_png
 mark("imports")
 m = skymodel.load_dataset()
 mark("open")
@@ -108,8 +108,8 @@ def main(argv=None):
     ap.add_argument("--no-exr-table", action="store_true", help="skip timing write_exr for every pixel type and "
                                                                  "compression")
     args = ap.parse_args(argv)
-    import skymodel
-    from skymodel.render import fisheye_disc, render_sky, write_exr
+    from widesky import skymodel
+    from widesky.skymodel.render import fisheye_disc, render_sky, write_exr
 
     n = args.resolution
     m = skymodel.load_dataset().load()
@@ -137,7 +137,7 @@ def main(argv=None):
 
     with tempfile.TemporaryDirectory() as tmp:
         evals, cmds, fast, stages = [], [], [], []
-        base = [sys.executable, "-m", "skymodel.cli", "sky", "render", "--resolution", str(n)]
+        base = [sys.executable, "-m", "widesky.cli", "sky", "render", "--resolution", str(n)]
         for _ in range(max(3, args.repeat // 2)):
             w, c, out = child([sys.executable, "-c", EVAL_CHILD, str(n)])
             e = json.loads(out)
@@ -166,7 +166,7 @@ def main(argv=None):
         r = rs()
         # the default EXR (half, RLE), one thread: widesky's encoder against the OpenEXR library's writer
         # (channel planes transposed in C, then OpenEXR's RLE), interleaved; CPU time is the steady figure
-        from skymodel.render import _exr_channels, _write_exr_openexr
+        from widesky.skymodel.render import _exr_channels, _write_exr_openexr
         names, src = _exr_channels(r)
         enc = {"widesky": [], "openexr": []}
         for _ in range(args.repeat):

@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-import skymodel
-from skymodel import _core
-from skymodel.render import fisheye_directions
-from skymodel.synthetic import write_synthetic_dataset
+from widesky import skymodel
+from widesky.skymodel import _core
+from widesky.skymodel.render import fisheye_directions
+from widesky.skymodel.synthetic import write_synthetic_dataset
 
 STATE = dict(sun_elevation=33.3, sun_azimuth=150.0, visibility=47.0, albedo=0.37)  # between grid points
 TWILIGHT = dict(STATE, sun_elevation=-2.5)  # sun below the horizon: the shadow angle, the twilight table
@@ -116,7 +116,7 @@ def main(argv=None):
                 res[key + "_image_s"] = t
                 res[key + "_image_s_all_runs"] = times
     # twilight: the baseline and the twilight table path, wall and CPU time
-    from skymodel.evaluate import KERNEL_INFO
+    from widesky.skymodel.evaluate import KERNEL_INFO
 
     elt, azt = np.radians(TWILIGHT["sun_elevation"]), np.radians(90.0 - TWILIGHT["sun_azimuth"])
 

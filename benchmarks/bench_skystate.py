@@ -18,8 +18,8 @@ Two sky functions are used:
    type 13 (clear, polluted) at 20 km visibility, with a zenith radiance growing smoothly with solar
    elevation and a (1 + 0.3 albedo) ground-reflection factor. It is not the Prague Sky Model, only a
    function of the same state with realistic angular gradients;
-2. ``skymodel.sky_radiance`` — the real evaluator — on a *synthetic* PSM-format dataset
-   (``skymodel.synthetic``: right structure, not physical values), 55 channels; its errors show the
+2. ``widesky.skymodel.sky_radiance`` — the real evaluator — on a *synthetic* PSM-format dataset
+   (``widesky.skymodel.synthetic``: right structure, not physical values), 55 channels; its errors show the
    effect of grouping through the real interpolation, its times the real per-state cost.
 """
 
@@ -35,10 +35,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-import irradiance
-from irradiance.location import Site, daytime_steps
-from irradiance.skystate import GroupingSteps, group_sky_states, sky_states
-from irradiance.weather import read_epw
+from widesky import irradiance
+from widesky.irradiance.location import Site, daytime_steps
+from widesky.irradiance.skystate import GroupingSteps, group_sky_states, sky_states
+from widesky.irradiance.weather import read_epw
 
 SHARED = Path(os.environ.get("WIDESKY_SHARED_DATA",
                              Path(__file__).resolve().parents[1].parent / "shared" / "data"))
@@ -142,7 +142,7 @@ def run_case(name, states, dirs, om, real=None, real_steps=1000):
 
 
 def run_real(st, real, dirs, om):
-    import skymodel
+    from widesky import skymodel
 
     model = real
     el, az, vis, alb = (st[c].to_numpy() for c in ("elevation", "azimuth", "visibility", "albedo"))
@@ -161,7 +161,7 @@ def run_real(st, real, dirs, om):
         L_all = evaluate(el, az, vis, alb)
         t_all = time.perf_counter() - t0
         E_exact = plane_irradiance(L_all.astype(float), dirs, om).sum(-1)  # all channels
-        print(f"skymodel.sky_radiance on a synthetic dataset ({model.n_channels} channels, "
+        print(f"widesky.skymodel.sky_radiance on a synthetic dataset ({model.n_channels} channels, "
               f"{len(dirs)} directions, 2 threads), first {len(st)} steps with a sky:")
         for label, steps in SETTINGS.items():
             if steps.azimuth is None:
@@ -191,8 +191,8 @@ def main(argv=None):
     real = None
     if not args.no_real:
         try:
-            import skymodel
-            from skymodel.synthetic import write_synthetic_dataset
+            from widesky import skymodel
+            from widesky.skymodel.synthetic import write_synthetic_dataset
             tmp = tempfile.mkdtemp()
             real = skymodel.load_dataset(write_synthetic_dataset(Path(tmp) / "synthetic.dat"))
         except Exception as exc:  # the evaluator is optional here

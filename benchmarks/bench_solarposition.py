@@ -13,8 +13,8 @@ import time
 import numpy as np
 import pandas as pd
 
-from irradiance.location import Site
-from irradiance.solarposition import solar_position, spa
+from widesky.irradiance.location import Site
+from widesky.irradiance.solarposition import solar_position, spa
 
 
 def best_of(fn, repeat):

@@ -8,7 +8,7 @@ import argparse
 import os
 import time
 
-from skymodel.generator.solver import AtmosphereSpec, SkyState, solve_sky
+from widesky.skymodel.generator.solver import AtmosphereSpec, SkyState, solve_sky
 
 
 def main():

@@ -29,17 +29,17 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     import trimesh
-    from irradiance import PragueSky, dni_extra, poa_irradiance, read_epw
-    from skymodel.generator.paths import data_file
-    from thermal.building import ZoneSpec, box_building
-    from thermal.gains import (building_scene, glazing_response, irradiance_by_surface,
-                               sky_states_for_weather, window_gain_by_surface)
-    from thermal.loads import building_loads, zone_parameters
-    from thermal.study import _constructions, standard_units
-    from thermal.surface import sky_temperature, surface_irradiance
-    from thermal.zone import simulate_5r1c
+    from widesky.irradiance import Simulation, dni_extra, read_epw
+    from widesky.core.paths import runtime_file
+    from widesky.thermal.building import ZoneSpec, box_building
+    from widesky.thermal.gains import (building_scene, glazing_response, irradiance_by_surface,
+                                       window_gain_by_surface)
+    from widesky.thermal.loads import building_loads, zone_parameters
+    from widesky.thermal.study import _constructions, standard_units
+    from widesky.thermal.surface import sky_temperature, surface_irradiance
+    from widesky.thermal.zone import simulate_5r1c
 
-    w = read_epw(data_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"))
+    w = read_epw(runtime_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"))
     n = 24 * args.days
     import dataclasses
     w = dataclasses.replace(w, data=w.data.iloc[:n])
@@ -55,11 +55,9 @@ def main(argv=None):
     out = {"zones": len(b.zones), "surfaces": len(b.surfaces), "steps": n}
 
     t0 = time.perf_counter()
-    sky = PragueSky()
     scene, labels = building_scene(b, ctx)
-    states, measured = sky_states_for_weather(w, sky)
-    res = poa_irradiance(scene, sky, states, responses=[glazing_response(unit, "low-e:spectral")],
-                         measured=measured, n_jobs=args.jobs)
+    sim = Simulation(scene, weather=w, n_jobs=args.jobs)
+    res = sim.run([glazing_response(unit, "low-e:spectral")])
     irr = irradiance_by_surface(res, labels)
     wg = window_gain_by_surface(res, labels, b, cons, "spectral")
     t1 = time.perf_counter()
@@ -89,7 +87,7 @@ def main(argv=None):
     t5 = time.perf_counter()
     simulate_5r1c(p, te, 1125.0, sol, 20.0, 26.0)
     t6 = time.perf_counter()
-    from thermal.zone import ZoneParameters
+    from widesky.thermal.zone import ZoneParameters
     p1 = ZoneParameters(*(np.asarray(getattr(p, k))[0] for k in
                           ("floor_area", "h_tr_w", "h_tr_op", "h_ve", "heat_capacity", "mass_area")))
     simulate_5r1c(p1, te, 1125.0, sol[:, 0], 20.0, 26.0)

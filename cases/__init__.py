@@ -1,10 +1,10 @@
 """widesky cases: runnable example scenes and the runner that turns one into a report folder.
 
-Each case is a folder holding ``case.toml`` (validated against :data:`cases.config.SCHEMA`), its
+Each case is a folder holding ``case.toml`` (validated against :data:`widesky.cases.config.SCHEMA`), its
 geometry (``geometry.py`` with ``build(parameters)``, or a mesh file) and a ``README.md``.
-``widesky run cases/<name>`` (or ``cases.run_case(folder)``) runs it end to end and writes a report
+``widesky run cases/<name>`` (or ``widesky.cases.run_case(folder)``) runs it end to end and writes a report
 folder atomically: an offline HTML report, time series (CSV, Parquet), the integrator result
-(``poa.h5``, :meth:`irradiance.POAResult.load` reads it), a spectral EXR of one hour's sky, scene renders coloured by insolation and the coloured
+(``poa.h5``, :meth:`widesky.irradiance.POAResult.load` reads it), a spectral EXR of one hour's sky, scene renders coloured by insolation and the coloured
 mesh (GLB and PLY); with a ``[thermal]`` section the window gains and loads of a building (``loads.csv``).
 """
 

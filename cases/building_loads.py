@@ -1,10 +1,10 @@
 """The thermal part of a case: window gains per glazing unit and the building's loads (thermal's public API).
 
 A case with a ``[thermal]`` section has a geometry whose ``build()`` returns a ``"building"``
-(:class:`thermal.Building`, e.g. :func:`thermal.box_building`): every non-shading surface of it is an analysis
+(:class:`widesky.thermal.Building`, e.g. :func:`widesky.thermal.box_building`): every non-shading surface of it is an analysis
 group named by its ``kind:zone:construction`` label, its shading surfaces are context. The integrator run carries
-each glazing unit's spectral-angular g (:func:`thermal.glazing_response`), so one run gives the gain through
-every window for every unit; :func:`thermal.building_loads` then runs the ISO 13790 5R1C zones once per unit.
+each glazing unit's spectral-angular g (:func:`widesky.thermal.glazing_response`), so one run gives the gain through
+every window for every unit; :func:`widesky.thermal.building_loads` then runs the ISO 13790 5R1C zones once per unit.
 
 Units: irradiance and gains per m2 [W m-2], heat flows [W], energy [kWh], temperatures [degC], U [W m-2 K-1].
 """
@@ -41,7 +41,7 @@ def surface_display_labels(building):
 def prepare_building(building, tcfg):
     """The building with every zone's use from the ``[thermal]`` section (air changes, internal gains per m2
     of floor, set-points)."""
-    from thermal import ZoneSpec
+    from widesky.thermal import ZoneSpec
 
     zones = {z: ZoneSpec(z, s.floor_area, s.volume, tcfg["air_changes"], tcfg["internal_gains"] * s.floor_area,
                          tcfg["heating_setpoint"], tcfg["cooling_setpoint"]) for z, s in building.zones.items()}
@@ -50,8 +50,8 @@ def prepare_building(building, tcfg):
 
 def glazing_responses(units):
     """One spectral-angular g response per unit, named ``"<unit>:spectral"`` (what
-    :func:`thermal.window_gain_by_surface` reads)."""
-    from thermal import glazing_response
+    :func:`widesky.thermal.window_gain_by_surface` reads)."""
+    from widesky.thermal import glazing_response
     return [glazing_response(u, f"{name}:spectral") for name, u in units.items()]
 
 
@@ -63,7 +63,7 @@ def design_day_temperature(times, step_hours, mean, daily_range):
 
 
 def _constructions(tcfg, name, unit):
-    from thermal import Construction
+    from widesky.thermal import Construction
     return {"wall": Construction("wall", tcfg["wall_u"]), "roof": Construction("roof", tcfg["roof_u"]),
             "floor": Construction("floor", tcfg["floor_u"], b=0.5), "window": Construction(name, glazing=unit)}
 
@@ -76,7 +76,7 @@ class ThermalRun:
     ----------
     units : dict of str to thermal.GlazingUnit
     rated : dict of str to dict
-        Per unit :func:`cases.glazing.unit_summary` (U, g, solar and light transmittance) [W m-2 K-1], [1].
+        Per unit :func:`widesky.cases.glazing.unit_summary` (U, g, solar and light transmittance) [W m-2 K-1], [1].
     windows : list of thermal.Surface
     window_area : numpy.ndarray
         (W,) glass area [m2] (frame fraction 0).
@@ -129,7 +129,7 @@ def building_thermal(result, building, tcfg, units, rated, temp_air, temp_sky=No
         The validated ``[thermal]`` section.
     units : dict of str to thermal.GlazingUnit
     rated : dict
-        Per unit the rated values (:func:`cases.glazing.unit_summary`).
+        Per unit the rated values (:func:`widesky.cases.glazing.unit_summary`).
     temp_air : array_like
         (T,) [degC].
     temp_sky : array_like, optional
@@ -139,7 +139,7 @@ def building_thermal(result, building, tcfg, units, rated, temp_air, temp_sky=No
     -------
     ThermalRun
     """
-    from thermal import building_loads, irradiance_by_surface, window_gain_by_surface
+    from widesky.thermal import building_loads, irradiance_by_surface, window_gain_by_surface
 
     surf = [s for s in building.surfaces if s.kind != "shading"]
     labels = [s.label for s in surf]

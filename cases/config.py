@@ -54,6 +54,9 @@ class Field:
 
 
 REQUIRED = object()
+from widesky.irradiance.simulation import (AEROSOL_SOURCES, GROUND_SPECTRA, SKY_DEFAULTS,  # noqa: E402
+                                           SPECTRAL_MODELS)
+
 from .glazing import GLAZING_CHOICES  # noqa: E402
 
 _STEP_CHOICES = ("10min", "15min", "30min", "1h")
@@ -77,18 +80,25 @@ SCHEMA = {
         "step": Field("str", "1h", choices=_STEP_CHOICES, help="interval length"),
     },
     "sky": {
-        "visibility": Field("float", 40.0, "km", 20.0, 131.8, help="ground-level visibility of the clear sky"),
-        "albedo": Field("float", 0.2, "", 0.0, 1.0, help="ground albedo"),
+        "visibility": Field("float", SKY_DEFAULTS.visibility, "km", 20.0, 131.8,
+                            help="ground-level visibility of the clear sky (under a weather file: where it gives none)"),
+        "albedo": Field("float", SKY_DEFAULTS.albedo, "", 0.0, 1.0,
+                        help="ground albedo (under a weather file: where it gives none)"),
         "dataset": Field("path", "", help="Prague Sky Model dataset file (default: the embedded dataset)"),
         "weather": Field("weather", "", help="EPW or TMY3 weather file (a path relative to the case folder, or "
-                         "'data:weather/<file>' in the data directory WIDESKY_DATA_DIR or ../shared/data): its site, "
+                         "'data:weather/<file>': a weather year shipped in the package, else one in the reference data "
+                         "folder WIDESKY_DATA_DIR or ../shared/data): its site, "
                          "measured DNI/DHI scaling the sky, air temperature and wind; default none: the clear sky"),
-        "spectral_model": Field("str", "auto", choices=("auto", "allsky", "clear"),
-                                help="under a weather file: 'allsky' spectra (cloud light, docs/all-sky.md; needs the "
-                                     "data directory for the cloud-water optics), 'clear' (clear-sky spectra scaled "
-                                     "to the measured DNI/DHI), or 'auto': allsky where the data directory is "
-                                     "available, else clear"),
-        "ground_spectrum": Field("str", "vegetation", choices=("vegetation", "grey"),
+        "spectral_model": Field("str", SKY_DEFAULTS.spectral_model, choices=SPECTRAL_MODELS,
+                                help="under a weather file: 'allsky' spectra (cloud light, haze, vegetated ground; "
+                                     "docs/all-sky.md) or 'clear' (clear-sky spectra scaled to the measured DNI/DHI)"),
+        "aerosol": Field("str", SKY_DEFAULTS.aerosol, choices=AEROSOL_SOURCES,
+                         help="under a weather file: each step's aerosol from its aerosol optical depth where valid "
+                              "('aod') or from its station visibility"),
+        "use_measured": Field("bool", SKY_DEFAULTS.use_measured,
+                              help="under a weather file: scale to its measured DNI/DHI (false: the unscaled clear "
+                                   "sky of its steps, an upper bound)"),
+        "ground_spectrum": Field("str", SKY_DEFAULTS.ground_spectrum, choices=GROUND_SPECTRA,
                                  help="with the allsky spectral model: the spectrum the ground reflects, green "
                                       "vegetation where the albedo is at most 0.3 and no snow is reported (the "
                                       "weather's broadband albedo kept), or grey (docs/all-sky.md)"),
@@ -113,14 +123,14 @@ SCHEMA = {
         "temperature_model": Field("str", "faiman", choices=("faiman", "pvsyst"), help="cell temperature model"),
         "dc_loss": Field("float", 0.02, "", 0.0, 0.5, help="DC losses (wiring, mismatch, soiling)"),
         "reference": Field("str", "widesky", choices=("widesky", "astm_g173"),
-                           help="STC reference spectrum: the sky model's AM1.5G (no data needed) or ASTM G173 "
-                                "(read from the data directory)"),
+                           help="STC reference spectrum: the sky model's AM1.5G or ASTM G173 (the copy shipped in "
+                                "the package)"),
         "groups": Field("names", [], help="the analysis groups that are PV modules (default: every group)"),
     },
     "thermal": {
         "glazing": Field("list", ["clear", "low-e", "solar-control"], choices=GLAZING_CHOICES,
-                         help="glazing units compared (each in turn in every window; igdb: units need the data "
-                              "directory)"),
+                         help="glazing units compared (each in turn in every window; igdb: units are the "
+                              "measured IGDB samples shipped in the package)"),
         "temp_air": Field("float", 24.0, "degC", -40.0, 50.0, help="daily mean air temperature without a weather "
                           "file (a cosine day, warmest at 15:00 local time)"),
         "temp_air_range": Field("float", 10.0, "K", 0.0, 30.0, help="daily range of that air temperature"),
@@ -151,7 +161,7 @@ OPTIONAL_SECTIONS = ("pv", "compare", "thermal")
 
 
 def _technology_choices():
-    import pvsim
+    from widesky import pvsim
     return tuple(pvsim.technology_names())
 
 
@@ -271,18 +281,20 @@ def _value(where, f: Field, raw, folder: Path):
 
 
 def _weather_path(where, raw, folder):
-    """A weather file: '' -> None; 'data:<relative>' in the data directory; else relative to the case folder."""
+    """A weather file: '' -> None; 'data:<relative>' shipped in the package, else in the reference data folder; else
+    relative to the case folder."""
     if not isinstance(raw, str):
         raise ConfigError(f"{where} = {raw!r}: expected a file name")
     if not raw:
         return None
     if raw.startswith("data:"):
-        from skymodel.generator.paths import DataNotFoundError, data_file
+        from widesky.core.paths import DataNotFoundError, data_reference
         try:
-            return data_file(raw[5:])
+            return data_reference(raw)
         except DataNotFoundError as exc:
-            raise ConfigError(f"{where} = {raw!r}: {exc} (set WIDESKY_DATA_DIR, or remove the key for the "
-                              "clear sky)") from None
+            raise ConfigError(f"{where} = {exc} (set WIDESKY_DATA_DIR, or remove the key for the clear sky)") from None
+        except ValueError as exc:
+            raise ConfigError(f"{where} = {raw!r}: {exc}") from None
     p = (folder / raw).expanduser().resolve()
     if not p.is_file():
         raise ConfigError(f"{where} = {raw!r}: no such file {p}")

@@ -1,7 +1,7 @@
 """Glazing units of the cases that need no data files: clear, low-e and solar-control double glazing.
 
 The glass is modelled, not measured: clear float glass as a Fresnel slab with Rubin's soda-lime index
-(:func:`pvsim.rubin_soda_lime_index`) and an absorption coefficient of 4 m-1 in the visible rising to 80 m-1
+(:func:`widesky.pvsim.rubin_soda_lime_index`) and an absorption coefficient of 4 m-1 in the visible rising to 80 m-1
 at the ferrous-iron band (a Gaussian centred at 1050 nm, 250 nm wide), which gives a 6 mm pane a light
 transmittance of 0.88 and a solar transmittance of 0.81 (g 0.84, U 5.7), typical of 6 mm clear float. The two
 coatings are *idealised* spectrally selective layers on that glass, each defined by a few scalars (normal
@@ -18,9 +18,9 @@ every report, :func:`unit_summary`; ``tests/test_cases_buildings.py`` holds them
 transmittance 0.79; low-e U 1.09, g 0.62, 0.73; solar control U 1.06, g 0.42, 0.64 -- where double glazing of
 those kinds lies (argon-filled low-e: U about 1.0-1.4 and g about 0.55-0.65; solar control: g about 0.3-0.45 with
 a light transmittance well above g).
-With the IGDB samples of the
-data directory, ``igdb:clear``, ``igdb:low-e`` and ``igdb:low-e #2`` are the measured units of
-:func:`thermal.study.standard_units` instead.
+With the IGDB samples shipped in the
+package, ``igdb:clear``, ``igdb:low-e`` and ``igdb:low-e #2`` are the measured units of
+:func:`widesky.thermal.study.standard_units` instead.
 
 Units: wavelength [nm], thickness [mm], gap [mm], optics [1], U [W m-2 K-1].
 """
@@ -41,7 +41,7 @@ _GAP_MM = 16.0         # gap width [mm]
 
 def clear_glass_nk(wavelength):
     """(n, k) [1] of the modelled clear float glass at ``wavelength`` [nm] (see the module text)."""
-    from pvsim import rubin_soda_lime_index
+    from widesky.pvsim import rubin_soda_lime_index
 
     wl = np.asarray(wavelength, float)
     alpha = 4.0 + 76.0 * np.exp(-(((wl - 1050.0) / 250.0) ** 2))          # absorption coefficient [m-1]
@@ -56,8 +56,8 @@ def _step(wl, t_vis, t_ir, cut, width):
 def _coated(name, wl, n, k, t_vis, t_ir, cut, width, absorptance, emissivity, coating_side):
     """A coated pane: the coating's normal T, the rest reflected apart from ``absorptance``; the clear glass
     substrate gives the angular shape (thermal's scaled-substrate rule). ``coating_side``: "front" or "back"."""
-    from thermal import GlazingLayer
-    from thermal.optics import slab
+    from widesky.thermal import GlazingLayer
+    from widesky.thermal.optics import slab
 
     T_sub, R_sub = (a[0] for a in slab(n, k, _GLASS_MM, wl, [0.0]))
     T = _step(wl, t_vis, t_ir, cut, width) * T_sub
@@ -74,10 +74,10 @@ def glazing_units(names, data_dir=None):
     Raises
     ------
     ValueError
-        For an unknown name (listing the valid ones); ``FileNotFoundError`` for an ``igdb:`` unit without the
-        data directory.
+        For an unknown name (listing the valid ones); ``FileNotFoundError`` for an ``igdb:`` unit with a
+        ``data_dir`` that lacks the sample.
     """
-    from thermal import Gap, GlazingUnit, layer_from_nk
+    from widesky.thermal import Gap, GlazingUnit, layer_from_nk
 
     bad = [n for n in names if n not in GLAZING_CHOICES]
     if bad:
@@ -99,7 +99,7 @@ def glazing_units(names, data_dir=None):
             out[name] = GlazingUnit(name, [sc, clear], [gap])
         else:
             if igdb is None:
-                from thermal.study import standard_units
+                from widesky.thermal.study import standard_units
                 igdb = standard_units(data_dir)
             u = igdb[name.split(":", 1)[1]]
             out[name] = GlazingUnit(name, u.layers, u.gaps)
@@ -111,7 +111,7 @@ def unit_summary(unit, channel_edges, spectrum):
     [nm] (e.g. the sky model's AM1.5 global): ``u_value`` [W m-2 K-1] (EN 673), ``g_normal``, ``g_diffuse``,
     ``t_solar`` [1] and ``t_visible`` [1] (normal transmittance weighted by the CIE 1931 photopic curve under
     that spectrum), evaluated on a 10 nm grid."""
-    from skymodel.colour import cie1931_xyz
+    from widesky.skymodel.colour import cie1931_xyz
 
     edges = np.asarray(channel_edges, float)
     wl = np.arange(edges[0] + 5.0, edges[-1], 10.0)

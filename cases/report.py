@@ -100,7 +100,7 @@ _STAGE_TEXT = {"unshaded": "unshaded POA", "poa": "POA (after shading)", "cover"
 
 def _pv_section(run: CaseRun):
     """HTML of the PV yield: per technology the plant's rating, energy, specific yield and loss waterfall."""
-    from pvsim import WATERFALL_STAGES
+    from widesky.pvsim import WATERFALL_STAGES
 
     y = run.pv
     groups = run.pv_groups
@@ -219,7 +219,7 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
     import pandas as pd
     from tqdm import tqdm
 
-    from skymodel.render import render_sky, write_exr, write_png
+    from widesky.skymodel.render import render_sky, write_exr, write_png
 
     folder = Path(folder)
     bar = tqdm(total=len(REPORT_STAGES), desc="report", unit="part", disable=not progress)
@@ -391,7 +391,7 @@ SHA-1, settings, timings) in <code>provenance.json</code>.</p>
 
 
 def _settings_text(run: CaseRun):
-    from irradiance import PRESETS
+    from widesky.irradiance import PRESETS
 
     tol = run.config["accuracy"]["tolerance"]
     bound = next(t for t, s in PRESETS if s == run.settings)

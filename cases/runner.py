@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from skymodel.outputs import plain_mode
+from widesky.skymodel.outputs import plain_mode
 
 from .config import ConfigError, load_config
 
@@ -56,7 +56,7 @@ class CaseRun:
 
 def build_geometry(path: Path, parameters: dict):
     """The meshes of a case: ``{"analysis": {name: mesh}, "context": {name: mesh}}``, optionally with
-    ``"building"``: a :class:`thermal.Building` whose non-shading surfaces are analysed too (one group per
+    ``"building"``: a :class:`widesky.thermal.Building` whose non-shading surfaces are analysed too (one group per
     surface label; its shading surfaces are context).
 
     ``path`` is a Python file defining ``build(parameters) -> dict`` as above (meshes as trimesh meshes
@@ -90,7 +90,7 @@ def build_geometry(path: Path, parameters: dict):
 
 def band_responses():
     """:data:`BANDS` as unit-weight responses (no optics): 1 inside the band, 0 outside [1]."""
-    from irradiance import Response
+    from widesky.irradiance import Response
     return [Response(name, [a, b], [1.0, 1.0], unit="weight") for name, (a, b) in BANDS.items()]
 
 
@@ -106,7 +106,7 @@ def face_labels(scene, rename=None):
 
 
 def _site(cfg):
-    import irradiance as ir
+    import widesky.irradiance as ir
 
     s = cfg["site"]
     tz = s["tz"]
@@ -132,73 +132,49 @@ def _sha1(path, limit=1 << 26):
     return h.hexdigest()
 
 
-def _weather_states(cfg, sky):
-    """(site, states, measured, rows, description): the clear-sky period of [site], or the weather file's
-    steps inside [period] (its site; measured DNI/DHI scale the all-sky or the clear-sky spectra, sky.spectral_model)."""
-    import irradiance as ir
+def sky_options(cfg):
+    """The case's [sky] table as :class:`widesky.irradiance.SkyOptions` (its defaults are SKY_DEFAULTS)."""
+    import widesky.irradiance as ir
+
+    sk = cfg["sky"]
+    return ir.SKY_DEFAULTS.replace(spectral_model=sk["spectral_model"], aerosol=sk["aerosol"],
+                                   visibility=sk["visibility"], albedo=sk["albedo"],
+                                   ground_spectrum=sk["ground_spectrum"], use_measured=sk["use_measured"],
+                                   dataset=sk["dataset"] or None)
+
+
+def simulation(cfg, scene, settings, n_jobs=None, progress=False, sky_source=None):
+    """The case's :class:`widesky.irradiance.Simulation`: the clear-sky period of [site], or the weather file's
+    steps inside [period] (its records moved to period.start's year)."""
+    import widesky.irradiance as ir
 
     p, sk = cfg["period"], cfg["sky"]
+    kw = dict(sky=sky_options(cfg), settings=settings, n_jobs=n_jobs, progress=progress, sky_source=sky_source)
     if sk["weather"] is None:
-        site = _site(cfg)
-        states = ir.sky_states_for(site, str(p["start"]), str(p["end"]), p["step"], model=sky.model,
-                                   visibility=sk["visibility"], albedo=sk["albedo"], warn=False)
-        return site, states, None, None, "clear sky"
-    from irradiance.allsky_sky import weather_measurements
+        return ir.Simulation(scene, site=_site(cfg), start=str(p["start"]), end=str(p["end"]), step=p["step"],
+                             **kw)
     path = sk["weather"]
-    year = p["start"].year
     try:
-        try:
-            wd = ir.read_weather(path, coerce_year=year)                # typical years mix years
-        except TypeError:
-            wd = ir.read_weather(path)                                  # a CSV carries its own years
-        except ir.WeatherFileError:
-            import calendar
-            if calendar.isleap(year):
-                raise ConfigError(f"sky.weather = {Path(path).name!r}: its records take period.start's year "
-                                  f"{year}, a leap year, and the file has no 29 February; choose a period in a "
-                                  f"common year (e.g. {year - 1})") from None
-            raise
-        states = ir.sky_states_for(wd, str(p["start"]), str(p["end"]), model=sky.model,
-                                   visibility=sk["visibility"], albedo=sk["albedo"], warn=False)
-    except ConfigError:
-        raise
+        return ir.Simulation(scene, weather=path, start=str(p["start"]), end=str(p["end"]),
+                             coerce_year=p["start"].year, **kw)
     except ValueError as exc:            # WeatherFileError is a ValueError; so is an empty period
         raise ConfigError(f"sky.weather = {str(path)!r}: {exc}") from None
-    rows = wd.data.loc[states.times]
-    model = sk["spectral_model"]
-    if model == "auto":                # the all-sky model reads cloud-water optics from the data directory
-        from skymodel.generator.paths import has_data
-        model = "allsky" if has_data() else "clear"
-    measured, how = weather_measurements(rows, model)
-    if model == "clear":
-        how = "clear-sky spectra " + how
-    name = wd.site.name or Path(path).name
-    return wd.site, states, measured, rows, f"weather file {Path(path).name} ({name}), {how}"
-
-
-def _series(rows, column, fallback, T):
-    """(T,) of a weather column with gaps filled by ``fallback`` (scalar or (T,)); ``fallback`` alone without
-    weather."""
-    fb = np.broadcast_to(np.asarray(fallback, float), (T,))
-    if rows is None or column not in rows:
-        return fb.copy()
-    v = rows[column].to_numpy(dtype=float)
-    return np.where(np.isfinite(v), v, fb)
 
 
 def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     """Validate the case in ``folder`` and compute its irradiance, yield and loads (no files written); ``cfg``:
     an already validated configuration (default: read ``folder/case.toml``)."""
-    import irradiance as ir
+    import widesky.irradiance as ir
 
     folder = Path(folder).resolve()
     cfg = load_config(folder) if cfg is None else cfg
     t0 = time.perf_counter()
     timings = {}
     sky = ir.PragueSky(cfg["sky"]["dataset"])
-    site, states, measured, rows, how = _weather_states(cfg, sky)
+    settings = ir.IntegratorSettings.for_tolerance(cfg["accuracy"]["tolerance"])
+    sim = simulation(cfg, None, settings, n_jobs=n_jobs, progress=progress, sky_source=sky)
+    states, site, how = sim.states, sim.input.site, sim.description
     times = states.times
-    sky.check_states(states)
     # the report's hour: the step whose interval holds report.sky_time
     st = site.localize([cfg["report"]["sky_time"]])[0]
     hi = int(np.searchsorted(times, st, side="right")) - 1
@@ -219,13 +195,13 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     scene = ir.make_scene(list(geo["analysis"].values()), context, groups=list(geo["analysis"]),
                           samples_per_face=cfg["scene"]["samples_per_face"], two_sided=cfg["scene"]["two_sided"],
                           context_reflectance=cfg["scene"]["reflectance"] if context else 0.2)
+    sim.scene = scene
     timings["setup"] = time.perf_counter() - t0
-    settings = ir.IntegratorSettings.for_tolerance(cfg["accuracy"]["tolerance"])
     responses = band_responses()
     pv = cfg.get("pv")
     pv_groups = ()
     if pv is not None:
-        import pvsim
+        from widesky import pvsim
         pv_resp, pv_sources = pvsim.technology_responses(pv["technologies"])
         responses = pv_resp + responses
         pv_groups = tuple(pv["groups"]) or tuple(g for g in geo["analysis"]
@@ -242,17 +218,12 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         except FileNotFoundError as exc:
             raise ConfigError(f"thermal.glazing: {exc}") from None
         building = prepare_building(building, tcfg)
-        import pvsim
+        from widesky import pvsim
         am15 = pvsim.widesky_am15g(sky)
         rated = {n: unit_summary(u, am15["channel_edges"], am15["scaled"]) for n, u in units.items()}
         responses = responses + glazing_responses(units)
     t1 = time.perf_counter()
-    from irradiance.allsky_sky import AllSkyWeather
-    spectral_model = "allsky" if isinstance(measured, AllSkyWeather) else "clear"
-    allsky_options = ir.AllSkyOptions(ground=cfg["sky"]["ground_spectrum"])
-    res = ir.poa_irradiance(scene, sky, states, responses=responses, settings=settings, times=times,
-                            measured=measured, spectral_model=spectral_model, allsky_options=allsky_options,
-                            n_jobs=n_jobs, progress=progress)
+    res = sim.run(responses)
     timings["integrator"] = time.perf_counter() - t1
     T = len(times)
     step_h = (times[1] - times[0]).total_seconds() / 3600.0 if len(times) > 1 else 1.0
@@ -261,33 +232,25 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         t3 = time.perf_counter()
         reference = pvsim.widesky_am15g(sky)["scaled"] if pv["reference"] == "widesky" else None
         system = pvsim.SystemSpec(temperature_model=pv["temperature_model"], dc_loss=pv["dc_loss"])
-        pv_result = pvsim.pv_yield(res, pv["technologies"], _series(rows, "temp_air", pv["temp_air"], T),
-                                   np.maximum(_series(rows, "wind_speed", pv["wind_speed"], T), 0.0),
+        pv_result = pvsim.pv_yield(res, pv["technologies"], sim.weather_series("temp_air", pv["temp_air"]),
+                                   np.maximum(sim.weather_series("wind_speed", pv["wind_speed"]), 0.0),
                                    sources=pv_sources, system=system, reference=reference, progress=progress)
         timings["pv_yield"] = time.perf_counter() - t3
     thermal_run = None
     if tcfg is not None:
-        from thermal import sky_temperature
+        from widesky.thermal import sky_temperature
         from .building_loads import building_thermal, design_day_temperature
         t4 = time.perf_counter()
         design = design_day_temperature(times, step_h, tcfg["temp_air"], tcfg["temp_air_range"])
         temp_sky = None
+        rows = sim.input.weather
         if rows is not None and "ghi_infrared" in rows and np.isfinite(rows["ghi_infrared"].to_numpy(float)).all():
             temp_sky = sky_temperature(np.maximum(rows["ghi_infrared"].to_numpy(float), 1.0))
-        thermal_run = building_thermal(res, building, tcfg, units, rated, _series(rows, "temp_air", design, T),
+        thermal_run = building_thermal(res, building, tcfg, units, rated, sim.weather_series("temp_air", design),
                                        temp_sky)
         timings["thermal"] = time.perf_counter() - t4
     t2 = time.perf_counter()
-    if measured is None:
-        hour_measured = None
-    elif isinstance(measured, AllSkyWeather):
-        hour_measured = measured.take(slice(hi, hi + 1))
-    else:
-        hour_measured = tuple(np.asarray(m)[hi:hi + 1] for m in measured)
-    hour = ir.poa_irradiance(scene, sky, states.take(slice(hi, hi + 1)), settings=settings, times=times[hi:hi + 1],
-                             measured=hour_measured, spectral_model=spectral_model, allsky_options=allsky_options,
-                             spectral=True, n_jobs=n_jobs,
-                             progress=False)
+    hour = sim.run(steps=slice(hi, hi + 1), spectral=True, progress=False)
     timings["spectral_hour"] = time.perf_counter() - t2
     rename = None
     if building is not None:
@@ -327,7 +290,7 @@ def _atomic_folder(dest: Path, fill):
 def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Path:
     """Run the case in ``folder`` and write its report folder (default ``./report-<case name>``).
 
-    Returns the report folder. Raises :class:`cases.config.ConfigError` (a ``ValueError``) for an
+    Returns the report folder. Raises :class:`widesky.cases.config.ConfigError` (a ``ValueError``) for an
     invalid configuration, naming the key and its valid values.
     """
     from .report import write_report

@@ -22,6 +22,7 @@ from .result import FaceTable, POAResult
 from .poa import poa_irradiance
 from .allsky import CLEAR_SHAPE, AllSkyFactors, AllSkyOptions, allsky_factors
 from .allsky_sky import AllSkyWeather
+from .simulation import DEFAULTS_TABLE, SKY_DEFAULTS, Simulation, SkyInput, SkyOptions, sky_input
 
 __all__ = [
     # solar position
@@ -50,4 +51,6 @@ __all__ = [
     "reference_poa", "ReferenceResult", "validation_scenes",
     # all-sky spectra under measured weather
     "AllSkyOptions", "AllSkyFactors", "AllSkyWeather", "allsky_factors", "CLEAR_SHAPE",
+    # the pipeline every front end uses
+    "Simulation", "SkyOptions", "SKY_DEFAULTS", "DEFAULTS_TABLE", "SkyInput", "sky_input",
 ]

@@ -1,13 +1,13 @@
 """All-sky spectra under measured weather: per-step, per-channel factors on the clear-sky model.
 
 widesky's sky model is cloudless. Under a weather file, the plain measured path
-(:func:`irradiance.measured_scale_factors`) scales the clear-sky sun to the measured DNI and the
+(:func:`widesky.irradiance.measured_scale_factors`) scales the clear-sky sun to the measured DNI and the
 clear-sky diffuse to the measured DHI, keeping the clear sky's spectral shape: under overcast the
 Rayleigh-blue clear-sky diffuse is then scaled up to an overcast DHI, far too blue. This module
 returns factors of shape (T, C), per step and per channel, that keep the measured broadband DNI and
 DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
 
-1. **Haze** (:mod:`irradiance.haze`): below the dataset's visibility the clear-sky state is corrected
+1. **Haze** (:mod:`widesky.irradiance.haze`): below the dataset's visibility the clear-sky state is corrected
    for the extra aerosol (reddened beam, the scattered light added to the diffuse).
 2. **Cloud index** (Ernst et al. 2016, eq. 5): ``N = (rho - rho_clear) / (1 - rho_clear)`` clipped to
    [0, 1], with ``rho = DHI / GHI`` measured and ``rho_clear`` the clear model's diffuse fraction: 0 for
@@ -17,7 +17,7 @@ DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
    clear diffuse, ``G`` the clear global horizontal spectrum, ``f`` the cloud light's share of the DHI
    (Ernst: ``f = N``; default ``partition="sky_fraction"``: the clear sky's own diffuse is kept only on
    the cloud-free share of the sky, ``(1 - f) DHI = min(DHI, (1 - N) int D)``), and ``t`` the cloud layer's spectral
-   transmittance relative to a grey, non-absorbing cloud (:mod:`irradiance.cloud_optics`: the Mie
+   transmittance relative to a grey, non-absorbing cloud (:mod:`widesky.irradiance.cloud_optics`: the Mie
    extinction, asymmetry and absorption of the droplets per channel in a two-stream slab whose optical
    depth reproduces the measured clear-sky index ``GHI / GHI_clear``, water vapour along the in-cloud
    photon paths of transmitted light (two-stream mean path), and the blue gain of
@@ -32,14 +32,14 @@ DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
 
 5. **Angular distribution**: the clear part ``(1 - N)`` keeps the clear sky's radiance distribution,
    the cloud part is distributed as the CIE standard overcast sky (``overcast_dhi``;
-   :mod:`irradiance.overcast_sky`) except for the share ``F1`` that the Perez all-weather model puts in the
+   :mod:`widesky.irradiance.overcast_sky`) except for the share ``F1`` that the Perez all-weather model puts in the
    circumsolar region (broken and thin cloud are bright toward the sun), which is traced with the sun
    (``circumsolar_dhi``; ``circumsolar="none"`` puts it all in the CIE distribution).
 
 The factors multiply the clear-sky model spectra the integrator evaluates:
 ``dni_scale * dni_clear`` and ``diffuse_scale * sky_radiance`` (circumsolar light takes the diffuse
-factor, as in the integrator); :func:`irradiance.poa_irradiance` applies them with
-``measured=..., spectral_model="allsky"`` (:mod:`irradiance.allsky_sky`), and with
+factor, as in the integrator); :func:`widesky.irradiance.poa_irradiance` applies them with
+``measured=..., spectral_model="allsky"`` (:mod:`widesky.irradiance.allsky_sky`), and with
 ``angular="clear"`` they are plain (T, C) ``dni_scale``/``diffuse_scale``. Every part can be
 switched off (:class:`AllSkyOptions`); :data:`CLEAR_SHAPE` gives back the plain measured scaling.
 """
@@ -83,12 +83,12 @@ class AllSkyOptions:
         Water-vapour absorption along the long in-cloud paths (needs the dew point and the 6S band
         table in the data directory).
     vapour_path : {"two_stream", "diffusion"}
-        The in-cloud mean path of transmitted light (:func:`irradiance.cloud_optics.cloud_vapour_path`):
+        The in-cloud mean path of transmitted light (:func:`widesky.irradiance.cloud_optics.cloud_vapour_path`):
         the two-stream slab's by the equivalence theorem (within 5 % of DISORT), or the thick-slab
         diffusion limit (half of it at optical depth 20).
     cloud_rayleigh : bool
         Multiple reflection between the cloud top and the air above it
-        (:func:`irradiance.cloud_optics.cloud_top_rayleigh_gain`): the blue shift of overcast light.
+        (:func:`widesky.irradiance.cloud_optics.cloud_top_rayleigh_gain`): the blue shift of overcast light.
     cloud_top_pressure : float
         Pressure at the cloud top relative to sea level [1] (0.8: about 1.8 km).
     partition : {"sky_fraction", "ernst"}
@@ -98,8 +98,8 @@ class AllSkyOptions:
         cloud-free share of the sky, ``min(DHI, (1 - N) D_clear)`` [W m-2], and gives the rest of the
         DHI to the clouds (docs/all-sky.md, section 1).
     haze : {"extrapolate", "clamp"}
-        Below the dataset's visibility: extend the aerosol (:mod:`irradiance.haze`) or keep the
-        clamped state (flagged by :func:`irradiance.sky_states`).
+        Below the dataset's visibility: extend the aerosol (:mod:`widesky.irradiance.haze`) or keep the
+        clamped state (flagged by :func:`widesky.irradiance.sky_states`).
     angular : {"cie_overcast", "clear"}
         Angular distribution of the cloud-scattered light: the CIE overcast sky (returned apart as
         ``overcast_dhi``, for the caller to distribute) or each channel's clear-sky distribution
@@ -111,7 +111,7 @@ class AllSkyOptions:
         of sun elevation the share tapers with ``sin(elevation) / sin(5 deg)`` (the light stays in the sky); ``F1`` is
         capped at 1 (at low sun and large sky brightness the published fit exceeds 1).
     ground : {"vegetation", "grey"}
-        The spectrum of light reflected by the ground (:mod:`irradiance.ground`): ``"vegetation"``
+        The spectrum of light reflected by the ground (:mod:`widesky.irradiance.ground`): ``"vegetation"``
         reflects steps of broadband albedo up to 0.3 with no snow reported with a green-vegetation
         spectrum scaled to the weather's broadband albedo (the reflected broadband irradiance unchanged),
         the rest grey; ``"grey"``: the broadband albedo at every wavelength. Applies where the scene has
@@ -121,12 +121,13 @@ class AllSkyOptions:
     asymmetry : float
         Droplet asymmetry parameter [1].
     fog_visibility : float
-        [km], see :func:`irradiance.haze.haze_correction`.
+        [km], see :func:`widesky.irradiance.haze.haze_correction`.
     angstrom : float
         Angstrom exponent [1] of the extra aerosol.
     data_dir : str or None
-        Data directory for the water optical constants (default ``WIDESKY_DATA_DIR`` or
-        ``../shared/data``).
+        Reference data folder for the OPAC water optical constants (``droplet_optics="adt"`` and non-default
+        droplet sizes only; default ``WIDESKY_DATA_DIR`` or ``../shared/data``); where given, the 6S band table
+        is read from it too instead of the copy shipped in the package.
     """
 
     cloud_spectrum: bool = True
@@ -176,7 +177,7 @@ class AllSkyFactors(NamedTuple):
 
     - ``dni_scale``, ``diffuse_scale``: (T, C) factors [1] on the clear-sky sun spectrum and sky radiance;
     - ``overcast_dhi``: (T, C) diffuse horizontal spectrum [W m-2 nm-1] of the cloud-scattered light, to be
-      distributed as the CIE overcast sky (:mod:`irradiance.overcast_sky`); zero with ``angular="clear"``,
+      distributed as the CIE overcast sky (:mod:`widesky.irradiance.overcast_sky`); zero with ``angular="clear"``,
       where it is folded into ``diffuse_scale`` instead (each channel's clear-sky angular distribution);
     - ``circumsolar_dhi``: (T, C) diffuse horizontal spectrum [W m-2 nm-1] of cloud light in the circumsolar
       region, to be traced with the sun (normal irradiance ``circumsolar_dhi / sin(elevation)``); zero with
@@ -271,7 +272,7 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
         (T,) or scalar Earth-Sun distance [AU], for the extraterrestrial irradiance of the Perez sky
         brightness (``circumsolar="perez"``).
     **guards
-        Passed to :func:`irradiance.measured_scale_factors` (``min_model_dni``, ``min_model_dhi``,
+        Passed to :func:`widesky.irradiance.measured_scale_factors` (``min_model_dni``, ``min_model_dhi``,
         ``max_scale``, ``missing``; default ``missing="clear"`` as the integrator: NaN input keeps
         the clear sky, flagged).
 

@@ -12,7 +12,8 @@ energy, the ASTM G173 state, SEDES2 and PVSPEC (used by benchmarks/bench_allsky.
   mismatch and APE against the clear-sky index, and the PVSPEC relation (Pelland et al. 2020) as pvlib
   holds it.
 
-Reference files are read from ``data_dir``, ``WIDESKY_DATA_DIR`` or ``../shared/data``.
+Reference files are read from ``data_dir``, ``WIDESKY_DATA_DIR`` or ``../shared/data``; ASTM G173 from the copy
+shipped in the package (or ``data_dir`` where given).
 Units: wavelength [nm], spectral irradiance [W m-2 nm-1], energy [eV].
 """
 
@@ -20,14 +21,21 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["generic_eqe", "spectral_response", "ape", "band_average", "g173_channels", "model_at_g173",
+from widesky.core.spectral import band_average
+
+__all__ = ["generic_eqe", "spectral_response", "ape", "g173_channels", "model_at_g173",
            "g173_decomposition", "sedes2_global_horizontal", "pvspec_fit", "pvspec_published",
            "mismatch_by_kc", "mismatch_by_airmass", "spctrl2_airmass_trend", "pvspec_annual", "ape_by_kc", "spectral_effects", "KC_BINS", "PVSPEC_TYPES", "HC_EV_NM"]
 
 
 def _data(rel, data_dir=None):
-    from skymodel.generator.paths import data_file
+    from widesky.core.paths import data_file
     return data_file(rel, data_dir)
+
+
+def _g173(data_dir=None):
+    from widesky.core.paths import runtime_file
+    return np.genfromtxt(runtime_file("solar/ASTMG173.csv", data_dir), delimiter=",", skip_header=2)
 
 
 def spectral_effects(E, ref, sr, w):
@@ -70,8 +78,9 @@ def spectral_response(eqe, wavelength):
 
 def g173_channels(edges, data_dir=None):
     """ASTM G173 global tilt band-averaged onto channel edges [nm] -> (C,) [W m-2 nm-1]."""
-    a = np.genfromtxt(_data("solar/ASTMG173.csv", data_dir), delimiter=",", skip_header=2)
-    return band_average(a[:, 0], a[:, 2], np.asarray(edges, dtype=float))
+    a = _g173(data_dir)
+    e = np.asarray(edges, dtype=float)
+    return band_average(a[:, 0], a[:, 2], e[:-1], e[1:], outside="hold")
 
 
 def model_at_g173(sky, components=False, ground="grey"):
@@ -79,8 +88,8 @@ def model_at_g173(sky, components=False, ground="grey"):
     tilted 37 deg toward the sun, AOD 0.084 at 500 nm as visibility through Koschmieder with Angstrom
     1.3, albedo 0.2) [W m-2 nm-1] (C,): the reference that separates the weather's spectral effect from
     the dataset's own difference to G173 at the reference state (``components``: all of plane_poa's parts;
-    ``ground``: "grey" or "vegetation", the all-sky model's ground of :mod:`irradiance.ground`)."""
-    from skymodel.visibility import aod_at_wavelength, visibility_from_aod550
+    ``ground``: "grey" or "vegetation", the all-sky model's ground of :mod:`widesky.irradiance.ground`)."""
+    from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
     vis = float(visibility_from_aod550(aod_at_wavelength(0.084, 500.0, 550.0, 1.3)))
     from .allsky_plane import clear_plane_spectra, plane_poa
     from .skies import SkyStates
@@ -117,16 +126,16 @@ def g173_decomposition(sky, sr, data_dir=None):
     import pvlib
     edges = np.asarray(sky.channel_edges)
     wl, w = np.asarray(sky.wavelengths), np.diff(edges)
-    a = np.genfromtxt(_data("solar/ASTMG173.csv", data_dir), delimiter=",", skip_header=2)
-    g173_dir = band_average(a[:, 0], a[:, 3], edges)
-    g173 = band_average(a[:, 0], a[:, 2], edges)
+    a = _g173(data_dir)
+    g173_dir = band_average(a[:, 0], a[:, 3], edges[:-1], edges[1:], outside="hold")
+    g173 = band_average(a[:, 0], a[:, 2], edges[:-1], edges[1:], outside="hold")
     cos_aoi = np.cos(np.radians(48.236 - 37.0))
     model = model_at_g173(sky, components=True)
     r = pvlib.spectrum.spectrl2(apparent_zenith=48.236, aoi=48.236 - 37.0, surface_tilt=37.0, ground_albedo=0.2,
                                 surface_pressure=101325.0, relative_airmass=1.5, precipitable_water=1.42,
                                 ozone=0.34, aerosol_turbidity_500nm=0.084, dayofyear=94)
-    spl_g = band_average(r["wavelength"], r["poa_global"].ravel(), edges)
-    spl_d = spl_g - band_average(r["wavelength"], r["poa_direct"].ravel(), edges)
+    spl_g = band_average(r["wavelength"], r["poa_global"].ravel(), edges[:-1], edges[1:], outside="hold")
+    spl_d = spl_g - band_average(r["wavelength"], r["poa_direct"].ravel(), edges[:-1], edges[1:], outside="hold")
 
     def se(e, ref):
         return {k: float(v) for k, v in spectral_effects(e, ref, sr, w).items()}
@@ -162,14 +171,6 @@ def sedes2_global_horizontal(coefficients, channel_edges, dni_clear, dhi_clear, 
     mu = sin_el[:, None]
     ccm = a1 + a2 / mu + (b1 + b2 / mu) * k + (c1 + c2 / mu) * k * k
     return g0 * k * ccm
-
-
-def band_average(lam, values, edges):
-    """A finely tabulated spectrum (lam [nm], values) averaged over channels with the given edges [nm]."""
-    fine = np.arange(edges[0], edges[-1] + 1e-9, 0.5)
-    g = np.interp(fine, lam, values)
-    cum = np.concatenate([[0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(fine))])
-    return np.diff(np.interp(edges, fine, cum)) / np.diff(edges)
 
 
 # PVSPEC (Pelland et al. 2020, IEEE PVSC 47, 1258; coefficients as in pvlib.spectrum.spectral_factor_pvspec):
@@ -238,7 +239,7 @@ def spctrl2_airmass_trend(sky, sr, tilt, zeniths=(48.236, 60.0, 66.0, 70.0, 75.0
         r = pvlib.spectrum.spectrl2(apparent_zenith=z, aoi=abs(z - tilt), surface_tilt=tilt, ground_albedo=0.2,
                                     surface_pressure=101325.0, relative_airmass=am, precipitable_water=1.42,
                                     ozone=0.34, aerosol_turbidity_500nm=aod500, dayofyear=94)
-        g = band_average(r["wavelength"], r["poa_global"].ravel(), edges)
+        g = band_average(r["wavelength"], r["poa_global"].ravel(), edges[:-1], edges[1:], outside="hold")
         out.append((float(z), am, {k: float(v) for k, v in spectral_effects(g, g173, sr, w).items()}))
     return out
 

@@ -2,11 +2,11 @@
 
 The cheap path for studies of one orientation (technology comparisons, validation against measured
 spectral effects): the sky is integrated with the integrator's own quadrature
-(:func:`irradiance.patch_radiance` on Reinhart patches, circumsolar light traced with the sun), the
-patch weights are the exact projected solid angles of :func:`irradiance.cosine_weights`, and the ground
+(:func:`widesky.irradiance.patch_radiance` on Reinhart patches, circumsolar light traced with the sun), the
+patch weights are the exact projected solid angles of :func:`widesky.irradiance.cosine_weights`, and the ground
 is an infinite Lambertian plane, ``albedo GHI (1 - cos tilt) / 2``. No ray casting: nothing shades the
-plane or the ground. Per-step, per-channel factors (:func:`irradiance.allsky.allsky_factors`) and the
-CIE overcast blend (:mod:`irradiance.overcast_sky`) apply exactly as in the integrator: the blend is
+plane or the ground. Per-step, per-channel factors (:func:`widesky.irradiance.allsky.allsky_factors`) and the
+CIE overcast blend (:mod:`widesky.irradiance.overcast_sky`) apply exactly as in the integrator: the blend is
 linear in the patch radiance, so it needs only each plane's overcast ratio.
 """
 
@@ -53,7 +53,7 @@ def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=Non
     Parameters
     ----------
     sky : sky source
-        :class:`irradiance.PragueSky` or another (:mod:`irradiance.skies`).
+        :class:`widesky.irradiance.PragueSky` or another (:mod:`widesky.irradiance.skies`).
     states : SkyStates
         T sky states.
     surface_tilt : float
@@ -119,10 +119,10 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
         (``AllSkyFactors.circumsolar_dhi``): on the plane ``circumsolar_dhi cos(aoi) / sin(elevation)``,
         in ``poa_direct`` as the clear circumsolar light.
     albedo_shape : array_like, optional
-        (C,) relative spectral shape [1] of the ground's reflectance (e.g. :func:`irradiance.ground.vegetation_albedo_shape`).
+        (C,) relative spectral shape [1] of the ground's reflectance (e.g. :func:`widesky.irradiance.ground.vegetation_albedo_shape`).
         The broadband ``albedo`` is kept (what a weather file's albedometer measures): each step's spectral
         albedo is ``albedo shape / (sum shape GHI w / sum GHI w)``, so the reflected broadband irradiance is
-        unchanged and only its spectrum follows the shape (:func:`irradiance.ground.ground_scales`: a step
+        unchanged and only its spectrum follows the shape (:func:`widesky.irradiance.ground.ground_scales`: a step
         whose scaled shape would exceed 1 stays grey). None: grey ground. The sky radiance keeps the grey
         albedo it was evaluated with (the sky's own dependence on the ground is a second-order term), as
         in the integrator's all-sky path (``AllSkyOptions.ground``).
@@ -130,7 +130,7 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
         (C+1,) channel edges [nm], needed with ``albedo_shape`` (the broadband weighting).
     vegetated : array_like, optional
         (T,) bool: the steps whose ground follows ``albedo_shape`` (the rest grey; default all;
-        :func:`irradiance.ground.vegetated_steps` gives the all-sky model's rule).
+        :func:`widesky.irradiance.ground.vegetated_steps` gives the all-sky model's rule).
 
     Returns
     -------

@@ -1,12 +1,12 @@
 """The all-sky model inside the integrator: one chunk of steps, from the clear sky to contracted all-sky light.
 
-:func:`irradiance.poa_irradiance` with ``measured=..., spectral_model="allsky"`` calls
+:func:`widesky.irradiance.poa_irradiance` with ``measured=..., spectral_model="allsky"`` calls
 :func:`allsky_patch_radiance` for each chunk of lit steps instead of scaling the contracted clear sky
 by broadband factors. The clear sky is evaluated once, contracted with a broadband column and the
 identity (so the model's spectral DNI and DHI of the step are known from the integrator's own
-quadrature), the per-step per-channel factors of :func:`irradiance.allsky.allsky_factors` are applied
+quadrature), the per-step per-channel factors of :func:`widesky.irradiance.allsky.allsky_factors` are applied
 per channel, and the result is contracted with the integrator's columns; the cloud-scattered light
-is added as CIE overcast patch radiance (:mod:`irradiance.overcast_sky`), which then goes through
+is added as CIE overcast patch radiance (:mod:`widesky.irradiance.overcast_sky`), which then goes through
 the same occlusion, optics and reflection coefficients as any sky light.
 """
 
@@ -30,7 +30,7 @@ class AllSkyWeather(NamedTuple):
     dni, dhi, ghi : [W m-2] (``ghi`` default ``dni sin(elevation) + dhi``).
     visibility : [km] station visibility (the haze extension below the dataset's range).
     temp_dew : [degC] dew point (water vapour in the cloud).
-    snow_depth : [cm] snow depth (a snow-covered ground is not vegetated, :mod:`irradiance.ground`).
+    snow_depth : [cm] snow depth (a snow-covered ground is not vegetated, :mod:`widesky.irradiance.ground`).
     """
 
     dni: np.ndarray
@@ -88,7 +88,7 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     Parameters
     ----------
     sky, patches, states, settings
-        As :func:`irradiance.patch_radiance` (``states``: the chunk's T states).
+        As :func:`widesky.irradiance.patch_radiance` (``states``: the chunk's T states).
     weights : array_like
         (C, R) contraction matrix of the integrator.
     weather : AllSkyWeather
@@ -97,7 +97,7 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     min_visibility : float
         The dataset's lowest visibility [km].
     ground_shape : array_like, optional
-        (C,) relative spectral reflectance [1] of a vegetated ground (:mod:`irradiance.ground`): with it
+        (C,) relative spectral reflectance [1] of a vegetated ground (:mod:`widesky.irradiance.ground`): with it
         the per-step factors of the shape and of a grey ground are returned (``ground``).
 
     Returns
@@ -111,9 +111,9 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     model : tuple
         (model_dni, model_dhi) (T,) [W m-2], the clear model's broadband values.
     ground : tuple or None
-        With ``ground_shape``: (a_shape, a_grey) (T,) [1] of :func:`irradiance.ground.ground_scales`
+        With ``ground_shape``: (a_shape, a_grey) (T,) [1] of :func:`widesky.irradiance.ground.ground_scales`
         from the step's all-sky global horizontal spectrum (vegetated steps by
-        :func:`irradiance.ground.vegetated_steps` from the states' albedo and ``weather.snow_depth``).
+        :func:`widesky.irradiance.ground.vegetated_steps` from the states' albedo and ``weather.snow_depth``).
     """
     W = np.asarray(weights, dtype=float)
     C = sky.n_channels

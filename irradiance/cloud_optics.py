@@ -1,6 +1,6 @@
 """Spectral optics of a water cloud layer: droplet absorption and two-stream slab transmittance.
 
-Used by :mod:`irradiance.allsky` for the spectral change that an overcast cloud layer makes to the
+Used by :mod:`widesky.irradiance.allsky` for the spectral change that an overcast cloud layer makes to the
 light that crosses it. Cloud droplets (effective radius 5-15 um) are large against 280-2480 nm, so
 their extinction is spectrally flat (extinction efficiency ~2, the "extinction paradox"); what
 changes the spectrum is absorption by liquid water, weak in the visible and strong in the NIR
@@ -8,7 +8,7 @@ changes the spectrum is absorption by liquid water, weak in the visible and stro
 
 - :func:`liquid_water_k`: imaginary refractive index of liquid water, read from the OPAC
   stratus-continental optical constants (Hess et al. 1998, ``aerosol_opac/refractive_indices/
-  stco00_refr.dat`` in the data directory; log-linear between the table's wavelengths).
+  stco00_refr.dat`` in the reference data folder, not shipped; log-linear between the table's wavelengths).
 - :func:`droplet_coalbedo`: single-scattering co-albedo ``1 - omega`` of droplets of radius ``r``
   from van de Hulst's anomalous-diffraction absorption efficiency ``Q_abs(w) = 1 + 2 e^-w / w +
   2 (e^-w - 1) / w^2`` with ``w = 4 x k`` (van de Hulst 1957, "Light scattering by small
@@ -32,6 +32,8 @@ import functools
 
 import numpy as np
 
+from widesky.core.rayleigh import rayleigh_cross_section
+
 __all__ = ["liquid_water_k", "droplet_coalbedo", "mie_droplet_optics", "cloud_spectral_transmittance",
            "transmitted_path_factor", "mie_droplet_table", "cloud_thickness_m", "DROPLET_VARIANCE", "slab_transmittance", "cloud_optical_depth",
            "cloud_relative_transmittance", "DEFAULT_DROPLET_RADIUS", "DEFAULT_ASYMMETRY",
@@ -54,16 +56,36 @@ Hu & Stamnes 1993)."""
 def liquid_water_k(wavelength_nm, data_dir=None):
     """Imaginary part of the refractive index of liquid water [1] at wavelengths [nm].
 
-    Read from the OPAC optical constants of water clouds in the data directory (``data_dir``,
-    ``WIDESKY_DATA_DIR`` or ``../shared/data``; raises ``skymodel.generator.paths.DataNotFoundError``
-    when absent). The table is coarse beyond 1 um (1.0, 1.25, 1.5, 1.75, 2.0, 2.5 um), so the
+    Read from the OPAC optical constants of water clouds in the reference data folder (``data_dir``,
+    ``WIDESKY_DATA_DIR`` or ``../shared/data``; not shipped: libRadtran's copy is under GPL-2; raises
+    :class:`widesky.core.paths.DataNotFoundError` naming the file and where to get it when absent). Only the
+    non-default ``droplet_optics="adt"`` and non-default droplet sizes need it. The table is coarse beyond 1 um
+    (1.0, 1.25, 1.5, 1.75, 2.0, 2.5 um), so the
     absorption peaks at 1450 and 1940 nm are underestimated (about 3x at their centres).
     """
-    from skymodel.generator.aerosol import refractive_index
     w = np.asarray(wavelength_nm, dtype=float)
     if np.any(~np.isfinite(w)) or np.any(w < 250) or np.any(w > 40000):
         raise ValueError(f"wavelength_nm outside the table's range [250, 40000] nm: {w.ravel()[:3]}")
-    return -np.imag(refractive_index("stco", w, 0, data_dir=data_dir))
+    return -np.imag(_water_index(w, data_dir))
+
+
+_OPAC_WATER = "aerosol_opac/refractive_indices/stco00_refr.dat"
+
+
+def _water_index(wavelength_nm, data_dir):
+    """Complex refractive index of liquid water from the OPAC water-cloud table in the reference data folder;
+    a missing table is a DataNotFoundError naming the file and where to get it."""
+    from widesky.core.paths import DataNotFoundError, data_file
+    from widesky.skymodel.generator.aerosol import refractive_index
+    try:
+        data_file(_OPAC_WATER, data_dir)
+    except DataNotFoundError as exc:
+        raise DataNotFoundError(
+            f"the liquid-water optical constants {_OPAC_WATER!r} (OPAC, Hess et al. 1998; libRadtran 2.0's "
+            "data/aerosol/OPAC/refractive_indices/stco00_refr.dat, GPL-2, so not shipped with widesky) are needed "
+            "for droplet_optics='adt' and for droplet sizes other than the default: put the file in a reference "
+            f"data folder (data_dir=..., or WIDESKY_DATA_DIR), or keep the default droplets ({exc})") from None
+    return refractive_index("stco", wavelength_nm, 0, data_dir=data_dir)
 
 
 def _q_abs_adt(w):
@@ -122,11 +144,10 @@ def mie_droplet_table(radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANC
     on ``n_radii`` radii 0.5-40 um (finer than the extinction's interference ripple at 280 nm) weighted by the
     gamma distribution's cross-section ``pi r^2 n(r)``. Some 3 minutes on one core for 320 radii."""
     import miepython
-    from skymodel.generator.aerosol import refractive_index
     lam = _MIE_WAVELENGTHS_NM
     r = np.linspace(0.5, 40.0, int(n_radii))
     area = np.pi * r ** 2 * r ** ((1.0 - 3.0 * variance) / variance) * np.exp(-r / (radius_um * variance))
-    m = refractive_index("stco", lam, 0, data_dir=data_dir)
+    m = _water_index(lam, data_dir)
     rows = []
     from tqdm import tqdm
     for li, mi in tqdm(list(zip(lam, m)), desc="droplet Mie table", unit="wavelength", disable=not progress,
@@ -145,7 +166,7 @@ def _mie_table(radius_um, variance, data_dir):
     from pathlib import Path
     if np.isclose(radius_um, DEFAULT_DROPLET_RADIUS) and np.isclose(variance, DROPLET_VARIANCE):
         return np.genfromtxt(Path(__file__).with_name("data") / _SHIPPED_TABLE, delimiter=",", skip_header=2)
-    from skymodel.generator.paths import cache_dir
+    from widesky.core.paths import cache_dir
     path = cache_dir() / f"droplet_mie_r{radius_um:.4g}_v{variance:.4g}.npy"
     if path.is_file():
         return np.load(path)
@@ -377,7 +398,8 @@ def vapour_band_deepening(channel_edges, delta_u, data_dir=None):
     """Band transmittance factor [1] of an extra water-vapour path per channel.
 
     From 6S band-mean water transmittances of the 55 channels at one and two US62 columns
-    (``gas/6S_band_gas_transmittance_USS62_55ch.csv``, sun at 0 and 60 deg): the factor for one more
+    (``gas/6S_band_gas_transmittance_USS62_55ch.csv``, widesky's own 6S product shipped in the package; from
+    ``data_dir`` instead where one is given; sun at 0 and 60 deg): the factor for one more
     column is ``T(2 u0) / T(u0)``, and for ``delta_u`` it is that ratio to the power ``delta_u / u0``
     (a local exponential in the path; saturating bands are not exactly exponential, about right for
     ``delta_u`` up to ``u0``).
@@ -394,8 +416,8 @@ def vapour_band_deepening(channel_edges, delta_u, data_dir=None):
     numpy.ndarray
         (T, C) factors in (0, 1].
     """
-    from skymodel.generator.paths import data_file
-    a = np.genfromtxt(data_file("gas/6S_band_gas_transmittance_USS62_55ch.csv", data_dir),
+    from widesky.core.paths import runtime_file
+    a = np.genfromtxt(runtime_file("gas/6S_band_gas_transmittance_USS62_55ch.csv", data_dir),
                       delimiter=",", names=True)
     e = np.asarray(channel_edges, dtype=float)
     ratio = []
@@ -425,7 +447,6 @@ latitudes (tops mostly 1-2 km; Wood 2012, Mon. Wea. Rev. 140, 2373)."""
 def rayleigh_optical_depth(wavelength_nm, pressure_ratio=1.0):
     """Rayleigh optical depth [1] of the air above a level at ``pressure_ratio`` times the sea-level
     pressure [1], at wavelengths [nm] (Bodhaine et al. 1999 cross-section, 360 ppm CO2)."""
-    from skymodel.generator.rayleigh import rayleigh_cross_section
     p = float(pressure_ratio)
     if not 0.0 <= p <= 1.1:
         raise ValueError(f"pressure_ratio={pressure_ratio!r} outside the valid range [0, 1.1]")

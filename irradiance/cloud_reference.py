@@ -1,8 +1,8 @@
 """Reference spectra under a homogeneous water cloud: the dataset's DISORT chain with a cloud layer.
 
-An independent physical check of the all-sky parametrisation (:mod:`irradiance.allsky`, docs/all-sky.md): the
+An independent physical check of the all-sky parametrisation (:mod:`widesky.irradiance.allsky`, docs/all-sky.md): the
 same layered clear atmosphere the dataset is built from (AFGL profile, Rayleigh, ozone, the 6S k-distribution
-gas terms, OPAC aerosol; :mod:`skymodel.generator.optics`), plus a plane-parallel stratiform water cloud, solved
+gas terms, OPAC aerosol; :mod:`widesky.skymodel.generator.optics`), plus a plane-parallel stratiform water cloud, solved
 for the fluxes at the ground with plane-parallel DISORT (Stamnes et al. 1988; disortpp, delta-M scaling), so that
 multiple scattering in the cloud, droplet absorption, the water vapour inside the cloud, Rayleigh scattering above
 and below it and the multiple reflection between cloud and ground all come out of the radiative transfer itself
@@ -10,7 +10,7 @@ instead of the all-sky model's parametrisations.
 
 The cloud:
 
-- droplets: Mie optics of a gamma size distribution (:func:`irradiance.cloud_optics.mie_droplet_optics`):
+- droplets: Mie optics of a gamma size distribution (:func:`widesky.irradiance.cloud_optics.mie_droplet_optics`):
   extinction (scaled from ``tau550``), single-scattering albedo and asymmetry parameter per wavelength;
   Henyey-Greenstein phase function with that asymmetry (DISORT's delta-M handles the forward peak for fluxes);
 - geometry: from ``cloud_base_km`` up by the thickness ``H = LWP / LWC`` with ``LWP = 2 rho_w r_e tau / 3``
@@ -26,14 +26,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from skymodel.generator.aerosol import aerosol_layer_fractions, opac_mixture
-from skymodel.generator.atmosphere import AVOGADRO, DEFAULT_LEVELS_KM, H2O_MOLAR_MASS, standard_atmosphere
-from skymodel.generator.channels import CHANNEL_CENTERS_NM, N_CHANNELS, channel_index
-from skymodel.generator.gases import load_kdistributions
-from skymodel.generator.optics import channel_subproblems
-from skymodel.generator.ozone import ozone_optical_depth
-from skymodel.generator.solar import extraterrestrial_spectrum
-from skymodel.generator.solver import AtmosphereSpec, SolverConfig, run_disort
+from widesky.skymodel.generator.aerosol import aerosol_layer_fractions, opac_mixture
+from widesky.skymodel.generator.atmosphere import AVOGADRO, DEFAULT_LEVELS_KM, H2O_MOLAR_MASS, standard_atmosphere
+from widesky.skymodel.channels import CHANNEL_CENTERS_NM, N_CHANNELS, channel_index
+from widesky.skymodel.generator.gases import load_kdistributions
+from widesky.skymodel.generator.optics import channel_subproblems
+from widesky.skymodel.generator.ozone import ozone_optical_depth
+from widesky.skymodel.generator.solar import extraterrestrial_spectrum
+from widesky.skymodel.generator.solver import AtmosphereSpec, SolverConfig, run_disort
 
 from .cloud_optics import cloud_thickness_m, mie_droplet_optics, saturation_vapour_density
 
@@ -174,8 +174,8 @@ def allsky_global_horizontal(clear: CloudyFluxes, cloudy: CloudyFluxes, solar_el
     The reference's broadband direct and diffuse horizontal irradiance are the "measured" weather, its
     cloud-free solve the clear sky (so only the cloud parametrisation is compared), the cloud layer's
     temperature the dew point (the model's in-cloud vapour is saturated at the surface dew point, the
-    reference's at the layer's temperature). ``options``: :class:`irradiance.allsky.AllSkyOptions`."""
-    from skymodel.generator.channels import CHANNEL_EDGES_NM
+    reference's at the layer's temperature). ``options``: :class:`widesky.irradiance.allsky.AllSkyOptions`."""
+    from widesky.skymodel.channels import CHANNEL_EDGES_NM
     from .allsky import AllSkyOptions, allsky_factors
     options = AllSkyOptions() if options is None else options
     edges = CHANNEL_EDGES_NM[np.r_[clear.channels, clear.channels[-1] + 1]]

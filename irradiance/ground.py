@@ -5,7 +5,7 @@ A weather file gives the ground's *broadband* albedo (an albedometer's reading, 
 meteorological station's enclosure (short grass, WMO-No. 8, 2018 edition, Vol. I, section 1.3.3.1) and
 of most open field sites, reflects a few per cent of visible light (chlorophyll absorption) and 40-50 % of
 the near infrared beyond the red edge at about 715 nm (Knipling 1970). Reflected light from a grey ground
-of the same broadband albedo is therefore far too blue. The all-sky model (:mod:`irradiance.allsky`,
+of the same broadband albedo is therefore far too blue. The all-sky model (:mod:`widesky.irradiance.allsky`,
 option ``ground``) reflects vegetated steps with the vegetation shape below, scaled per step so that
 the reflected *broadband* irradiance is the weather's albedo times the step's global horizontal
 irradiance, exactly as with a grey ground (energy conserved; only the spectrum of the reflected light
@@ -42,7 +42,7 @@ def vegetation_albedo_shape(wavelength_nm, visible=0.05, near_infrared=0.45, swi
     lower again beyond about 1300 nm where leaf water absorbs (Knipling 1970, Remote Sens. Environ. 1,
     155; Jacquemoud & Baret 1990, Remote Sens. Environ. 34, 75): two logistic steps between the three
     levels. The all-sky model's vegetated ground (:func:`ground_scales`), ``albedo_shape`` of
-    :func:`irradiance.allsky_plane.plane_poa` (only the shape matters there) or, scaled, a scene's
+    :func:`widesky.irradiance.allsky_plane.plane_poa` (only the shape matters there) or, scaled, a scene's
     per-channel ``ground_albedo``.
 
     Parameters

@@ -2,12 +2,12 @@
 
 The Prague Sky Model datasets stop at 20 km visibility; station visibility in weather files falls
 below that in most hours of a maritime climate (59 % of Amsterdam's IWEC daylight hours). widesky
-evaluates the sky at the dataset's lowest visibility (flagged by :func:`irradiance.sky_states`) and
+evaluates the sky at the dataset's lowest visibility (flagged by :func:`widesky.irradiance.sky_states`) and
 then corrects the *spectral shape* of that state for the aerosol the dataset does not hold
 (:func:`haze_correction`), while the measured DNI and DHI keep setting the totals:
 
 - the extra aerosol optical depth at 550 nm is Koschmieder's, as the dataset generator builds it
-  (:func:`skymodel.visibility.aod550_from_visibility`, 1.5 km scale height):
+  (:func:`widesky.skymodel.visibility.aod550_from_visibility`, 1.5 km scale height):
   ``d_tau = aod550(V) - aod550(V_min)``, spread over wavelength by the Angstrom law;
 - the beam is reddened by ``exp(-m d_tau(lambda))`` (Kasten & Young 1989 air mass ``m``);
 - the light it loses is scattered: a fraction ``omega (1 + g) / 2`` of it (single-scattering
@@ -22,7 +22,7 @@ Two physical limits bound the extension, each flagged per step:
   more beam than the measurement shows, ``m d_tau <= -ln(dni / dni_model)``: station visibility
   describes the air at the ground, often a shallow humid layer, not the column the sun shines
   through. Where the sun is hidden (``dni`` = 0) the low visibility comes with cloud, rain or mist
-  and the cloud model (:mod:`irradiance.allsky`) sets the spectrum; the aerosol is not extended.
+  and the cloud model (:mod:`widesky.irradiance.allsky`) sets the spectrum; the aerosol is not extended.
 
 Files that carry an aerosol optical depth (EPW/TMY3 ``aod``) give the column directly:
 ``sky_states(..., prefer="aod")`` then keeps most hours inside the dataset's range.
@@ -102,7 +102,7 @@ def haze_correction(wavelength, channel_width, dni_clear, dhi_clear, sun_elevati
     -------
     HazeCorrection
     """
-    from skymodel.visibility import aod550_from_visibility
+    from widesky.skymodel.visibility import aod550_from_visibility
 
     if not 0 < float(fog_visibility) < float(min_visibility):
         raise ValueError(f"need 0 < fog_visibility < min_visibility, got fog_visibility="

@@ -2,12 +2,12 @@
 
 Method (a daylight-coefficient / "3-phase"-style split; Tregenza & Waters 1983, Reinhart & Herkel 2000):
 
-1. :func:`irradiance.raycast.compute_coefficients` casts rays once per scene (in worker processes,
+1. :func:`widesky.irradiance.raycast.compute_coefficients` casts rays once per scene (in worker processes,
    while this process evaluates the sky): per analysis point the visibility-weighted projected solid
    angle of every sky patch ``D`` (N, P); reflected-sky coefficients of scene surfaces ``R`` (N, P)
    and of the ground ``A`` (N, P) (each reflecting point's secondary ray samples the sky patch it
    escapes into); the walls' view of the ground ``W`` (N,); the sunlit reflectors per shading cell
-   (:func:`irradiance.raycast.shade_cells`) and orientation bin ``R_sun`` (G, N, B) and ``A_sun`` (G, N); sun visibility per sun-position
+   (:func:`widesky.irradiance.raycast.shade_cells`) and orientation bin ``R_sun`` (G, N, B) and ``A_sun`` (G, N); sun visibility per sun-position
    bin of about ``sun_bin`` degrees.
 2. :func:`patch_radiance` integrates the sky model over each patch per step: a stratified grid of
    directions per patch plus, around the sun, a polar quadrature with logarithmically spaced rings (the
@@ -75,7 +75,7 @@ class IntegratorSettings:
         Azimuth sectors per ring.
     sun_bin : float
         Size of the sun-position bins for sun visibility [deg] (one ray per point and bin, see
-        :func:`irradiance.raycast.sun_bins`); 0 casts one ray per point and daylight step.
+        :func:`widesky.irradiance.raycast.sun_bins`); 0 casts one ray per point and daylight step.
     time_chunk : int
         Steps per block of the time-series product (bounds memory).
     """
@@ -104,7 +104,7 @@ class IntegratorSettings:
         """The cheapest preset whose measured annual error is below ``tolerance`` [1] (relative).
 
         The error of a preset is the largest error of a point's annual poa_global on the two
-        validation scenes (:func:`irradiance.reference.validation_scenes`) against the brute-force
+        validation scenes (:func:`widesky.irradiance.reference.validation_scenes`) against the brute-force
         reference over an hourly clear-sky year (``docs/irradiance-integrator.md``); other scenes
         can do worse. Valid tolerances are >= the finest preset's bound (0.006).
         """
@@ -211,7 +211,7 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     Parameters
     ----------
     sky : sky source
-        See :mod:`irradiance.skies` (``radiance``, ``direct_normal``, ``n_channels``).
+        See :mod:`widesky.irradiance.skies` (``radiance``, ``direct_normal``, ``n_channels``).
     patches : SkyPatches
         The sky discretisation.
     states : SkyStates
@@ -324,7 +324,7 @@ def model_irradiance(sky, states: SkyStates, settings=None, chunk: int = 256):
     Parameters
     ----------
     sky : sky source
-        See :mod:`irradiance.skies`.
+        See :mod:`widesky.irradiance.skies`.
     states : SkyStates
         T sky states.
     settings : IntegratorSettings, optional
@@ -357,7 +357,7 @@ def model_irradiance(sky, states: SkyStates, settings=None, chunk: int = 256):
 def measured_scaling(sky, states: SkyStates, dni, dhi, settings=None, **kwargs):
     """Per-step factors that make the clear-sky model reproduce measured DNI and DHI.
 
-    :func:`model_irradiance` gives the model's values, :func:`irradiance.measured_scale_factors`
+    :func:`model_irradiance` gives the model's values, :func:`widesky.irradiance.measured_scale_factors`
     the factors (keyword arguments go to it: floors, cap, ``missing``). Pass ``sun_scale`` and
     ``sky_scale`` to :func:`poa_irradiance` as ``dni_scale`` and ``diffuse_scale``.
 

@@ -244,7 +244,7 @@ class Site:
         -------
         pandas.DataFrame
             Indexed by the given (localized) ``times``; the columns of
-            :func:`irradiance.solarposition.solar_position`.
+            :func:`widesky.irradiance.solarposition.solar_position`.
         """
         labels = self.localize(times)
         instants = sun_times(labels, label, step)

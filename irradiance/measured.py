@@ -9,7 +9,7 @@ bifacial_radiance and Radiance's ``gendaymtx``/``gensdaymtx`` rescale their sky 
 
 where ``model_dni`` and ``model_dhi`` [W m-2] are the model's own broadband direct-normal and
 diffuse-horizontal irradiance for the step's sky state. (Overcast skies are far closer to uniform
-than a scaled clear sky: the all-sky path, :mod:`irradiance.allsky`, blends toward the CIE overcast
+than a scaled clear sky: the all-sky path, :mod:`widesky.irradiance.allsky`, blends toward the CIE overcast
 sky for that.)
 
 This is an approximation: clouds change the spectrum (diffuse light under overcast is bluer, water
@@ -127,7 +127,7 @@ def clearness_index(ghi, solar_zenith, dni_extra, min_cos_zenith=0.065, max_clea
     solar_zenith : array_like
         Solar zenith angle [deg].
     dni_extra : array_like
-        Extraterrestrial normal irradiance [W m-2] (:func:`irradiance.solarposition.dni_extra`).
+        Extraterrestrial normal irradiance [W m-2] (:func:`widesky.irradiance.solarposition.dni_extra`).
     min_cos_zenith : float
         Floor of cos(zenith) [1] (86.27 deg by default).
     max_clearness_index : float

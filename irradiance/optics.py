@@ -4,8 +4,8 @@ The integrator applies a response's angular optic per incoming direction. Every 
 needs becomes an incidence-angle weight function ``g(theta)`` [1] tabulated on a fine grid
 (:class:`AngularWeights`, 0.05 deg, linear interpolation; picklable for the ray-casting workers):
 
-* an angle-only optic (a callable or an :class:`irradiance.response.AngularTable`) is one function;
-* angle x wavelength optics (:class:`irradiance.response.SpectralAngularTable`) go through
+* an angle-only optic (a callable or an :class:`widesky.irradiance.response.AngularTable`) is one function;
+* angle x wavelength optics (:class:`widesky.irradiance.response.SpectralAngularTable`) go through
   incidence-angle classes: piecewise-linear "hat" functions on the nodes ``optic_nodes`` [deg]
   (a partition of unity). The response's factor is taken at the nodes per channel, so the classed
   factor is its linear interpolation in angle between nodes (the classing error, measured in
@@ -114,7 +114,7 @@ class OpticPlan:
 
 
 def plan_optics(responses, nodes=DEFAULT_NODES):
-    """The :class:`OpticPlan` of a list of :class:`irradiance.Response`."""
+    """The :class:`OpticPlan` of a list of :class:`widesky.irradiance.Response`."""
     grid = AngularWeights.grid()
     tables, kind, index, seen = [], [], [], {}
     nodes_arr = None

@@ -3,7 +3,7 @@
 An overcast sky is close to the CIE standard overcast sky (Moon & Spencer 1942; CIE S 011/E:2003,
 type 1): radiance ``L(theta) = L_z (1 + 2 cos theta) / 3``, three times brighter at the zenith than at
 the horizon, with no dependence on the sun's azimuth; not a clear sky's aureole and horizon
-brightening. The all-sky model (:mod:`irradiance.allsky`) distributes its cloud-scattered light this
+brightening. The all-sky model (:mod:`widesky.irradiance.allsky`) distributes its cloud-scattered light this
 way: the integrator adds it as patch radiance ``DHI_cloud f(theta) / sum(f h)`` (``h`` the patches'
 horizontal projected solid angles), the unobstructed-plane path through :func:`overcast_poa_ratio`.
 
@@ -46,7 +46,7 @@ def overcast_poa_ratio(poa_weights, horizontal_weights, cos_zenith):
     ----------
     poa_weights : array_like
         (P,) or (F, P) projected solid angles of the patches seen by each plane [sr]
-        (:func:`irradiance.cosine_weights`).
+        (:func:`widesky.irradiance.cosine_weights`).
     horizontal_weights : array_like
         (P,) the patches' projected solid angles on the horizontal [sr] (``SkyPatches.vector[:, 2]``).
     cos_zenith : array_like

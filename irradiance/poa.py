@@ -1,6 +1,6 @@
 """``poa_irradiance``: per-face irradiance per response and part, in named stages.
 
-Stages (see :mod:`irradiance.integrator` for the method):
+Stages (see :mod:`widesky.irradiance.integrator` for the method):
 
 1. **weights** (:func:`contraction_columns`): every response becomes one contraction column of the
    sky's channels (or, for an angle x wavelength optic, one per incidence-angle class node), each
@@ -9,7 +9,7 @@ Stages (see :mod:`irradiance.integrator` for the method):
    columns, scaled by the Earth-Sun distance, the per-step (and per-channel) factors and the
    measured-weather match; evaluated ahead while the ray-casting tasks run;
 3. **products** (:func:`chunk_products`): per chunk the sky, reflected and beam terms per column
-   (matrix products with the coefficients of :func:`irradiance.raycast.compute_coefficients`);
+   (matrix products with the coefficients of :func:`widesky.irradiance.raycast.compute_coefficients`);
 4. **assembly** (:func:`assemble_parts`): columns into each response's direct, sky-diffuse and
    reflected parts with the optics applied (the beam's exactly at each step's angle of incidence),
    averaged over each face's points, written into a block of steps that a sink keeps in memory
@@ -260,28 +260,28 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     Parameters
     ----------
     scene : Scene
-        From :func:`irradiance.make_scene`.
+        From :func:`widesky.irradiance.make_scene`.
     sky : sky source
-        :class:`irradiance.PragueSky`, :class:`~irradiance.UniformSky` ...
+        :class:`widesky.irradiance.PragueSky`, :class:`~irradiance.UniformSky` ...
     states : SkyStates
-        T sky states (e.g. from :func:`irradiance.sky_states_for`); the sun and sky are scaled by
+        T sky states (e.g. from :func:`widesky.irradiance.sky_states_for`); the sun and sky are scaled by
         ``1 / earth_sun_distance**2``.
     responses : list of Response, or dict of str to Response or array_like, optional
-        Spectral responses with optional angular optics (:class:`irradiance.Response`); arrays (C,)
+        Spectral responses with optional angular optics (:class:`widesky.irradiance.Response`); arrays (C,)
         are channel weights [1] without optics. "broadband" (unit weight, no optics) is always
         computed first.
     settings : IntegratorSettings, optional
         Resolution; default ``IntegratorSettings()``.
     measured : tuple of array_like, optional
         (dni, dhi): (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN =
-        missing: the clear sky is kept); the per-step factors (:func:`irradiance.measured_scale_factors`
+        missing: the clear sky is kept); the per-step factors (:func:`widesky.irradiance.measured_scale_factors`
         on the model's own DNI/DHI from the same quadrature) are kept in ``result.scaling``. Not
         together with ``dni_scale``/``diffuse_scale``.
-        With ``spectral_model="allsky"`` it may be an :class:`irradiance.AllSkyWeather` (adds GHI,
+        With ``spectral_model="allsky"`` it may be an :class:`widesky.irradiance.AllSkyWeather` (adds GHI,
         station visibility and dew point).
     spectral_model : {"clear", "allsky"}
         With ``measured``: "clear" scales the clear sky's spectral and angular shape to the measured
-        DNI/DHI; "allsky" uses :mod:`irradiance.allsky` (per-step, per-channel factors and CIE
+        DNI/DHI; "allsky" uses :mod:`widesky.irradiance.allsky` (per-step, per-channel factors and CIE
         overcast light; the same broadband DNI/DHI, docs/all-sky.md).
     allsky_options : AllSkyOptions, optional
         Switches of the all-sky model (default all parts on).
@@ -313,7 +313,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         Steps per output block (default: a block of about 384 MB).
     compression : {None, "lzf", "gzip"}
         Compression of the result file's (T, F) datasets (None: fastest, see
-        :mod:`irradiance.result`).
+        :mod:`widesky.irradiance.result`).
     parts : dict of str to str or sequence of str, optional
         Per response (not "broadband") the parts to keep, from "direct", "sky_diffuse",
         "ground_diffuse" and "global" (default: the three parts, "global" read as their sum). A

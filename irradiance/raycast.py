@@ -119,7 +119,7 @@ def reflector_bins():
 def sun_bins(sun_directions, size=1.0):
     """Group sun directions into sky cells of about ``size`` degrees.
 
-    The cells are a Reinhart subdivision of the sky (:func:`irradiance.patches.reinhart`) with
+    The cells are a Reinhart subdivision of the sky (:func:`widesky.irradiance.patches.reinhart`) with
     ``mf = round(90 / (7 size))`` (ring height ``90 / (7 mf + 0.5)`` deg); each occupied cell is
     represented by the normalised mean of its members, so a member lies within about one cell
     diagonal of its representative (measured for an hourly year at 50 N and ``size=1``: 3.4x fewer
@@ -318,7 +318,7 @@ class Coefficients:
         Bin size [deg] (0: one bin per direction).
     sky_optic : numpy.ndarray or None
         (M, N, P) float32 sky coefficients of the M incidence-angle weight functions [sr]
-        (:mod:`irradiance.optics`).
+        (:mod:`widesky.irradiance.optics`).
     reflect_optic : numpy.ndarray or None
         (M, N) float32 their factors [1] on each point's reflected light.
     n_rays : int
@@ -387,8 +387,8 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
     ``sun_dirs`` (S_b, 3) are the sun-position bins' directions, ``sun_count`` (S_b,) their
     numbers of steps (the weights of the reflector shading samples) and ``sun_cell`` (S_b,) their
     reflector shading cells (default :func:`shade_cells`). ``optics`` (an
-    :class:`irradiance.optics.AngularWeights`) adds the sky coefficients and reflected-light factors
-    of its incidence-angle weight functions (:func:`irradiance.optics.optic_terms`).
+    :class:`widesky.irradiance.optics.AngularWeights`) adds the sky coefficients and reflected-light factors
+    of its incidence-angle weight functions (:func:`widesky.irradiance.optics.optic_terms`).
     """
     from .raystages import primary_rays, reflected_sky, reflected_sun, sun_visibility
 

@@ -8,7 +8,7 @@
    that cell: the reflected-sun factors.
 4. :func:`sun_visibility` -- one ray per point and sun-position bin.
 
-The physics and the sampling are described in :mod:`irradiance.raycast`; these functions only name
+The physics and the sampling are described in :mod:`widesky.irradiance.raycast`; these functions only name
 its steps. All are pure numpy functions of their arrays and the scene's geometry dictionary.
 """
 

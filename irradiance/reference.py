@@ -1,6 +1,6 @@
 """Brute-force plane-of-array irradiance at a few points: the validation reference of the integrator.
 
-Where :func:`irradiance.integrator.poa_irradiance` averages the sky over patches, applies a patch's
+Where :func:`widesky.irradiance.integrator.poa_irradiance` averages the sky over patches, applies a patch's
 visible fraction to its mean radiance, traces the circumsolar excess with the sun, bins sun positions
 and lights every reflector like an unshaded surface of its orientation bin, this module integrates
 the same light transport (direct sun, sky, one Lambertian reflection) with none of those shortcuts,
@@ -16,7 +16,7 @@ step by step, by midpoint quadrature on dense direction grids and a ray per dire
   ``sum L(w) v(w) max(0, n . w) dw``.
 * **Reflected** (one bounce, Lambertian): ``reflect_samples**2`` rays per cell of a Reinhart grid
   (``reflect_mf``) over the whole sphere in front of the point, sharing the cell's exact projected
-  solid angle (:func:`irradiance.patches.cosine_weights`); every ray that reaches the ground
+  solid angle (:func:`widesky.irradiance.patches.cosine_weights`); every ray that reaches the ground
   plane or a scene surface gives a reflector point ``y`` with its own irradiance, computed per step:
   a sun ray from ``y`` (exact shadowing on the ground and on the walls), its sky through a Reinhart
   grid (``reflect_sky_mf``) with a ray per cell, the circumsolar excess of the disc traced with
@@ -53,7 +53,7 @@ class ReferenceResult:
     poa_global, poa_direct, poa_sky_diffuse, poa_ground_diffuse : numpy.ndarray
         Irradiance [W m-2] (channels contracted with ``weights``; broadband by default);
         ``poa_ground_diffuse`` holds all reflected light (ground and scene surfaces), as in
-        :class:`irradiance.integrator.POAResult`.
+        :class:`widesky.irradiance.integrator.POAResult`.
     points : numpy.ndarray
         (n,) indices of the scene's analysis points.
     disc_correction : numpy.ndarray

@@ -4,7 +4,7 @@ A :class:`Response` holds spectral values on their own wavelength grid with thei
 onto the sky's channels by integrating the piecewise-linear curve over each channel's band
 (:meth:`Response.channel_weights`: a curve with an edge inside a 40 nm band gets the band's true
 mean, not its value at the centre), and an optional angular part applied by the integrator per
-incoming direction (:mod:`irradiance.optics`):
+incoming direction (:mod:`widesky.irradiance.optics`):
 
 * a callable ``f(aoi_deg) -> factor [1]`` (e.g. a Fresnel cover's incidence-angle modifier);
 * an :class:`AngularTable` of (angle [deg], factor [1]), linearly interpolated;
@@ -23,6 +23,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from widesky.core.spectral import band_average
 
 __all__ = ["Response", "AngularTable", "SpectralAngularTable", "UNITS", "OUTPUT_UNITS",
            "band_average", "HC_OVER_Q"]
@@ -58,45 +60,6 @@ def _curve(name, x, y, xname="wavelength", xunit="nm", allow_negative=False):
         raise ValueError(f"{name}: value {y.reshape(x.size, -1)[i].min():g} at {x[i]:g} {xunit} is "
                          "negative (valid: >= 0)")
     return x, y
-
-
-def band_average(x, y, lower, upper):
-    """Mean over each band of the piecewise-linear curve through (x, y), 0 outside [x0, x-1].
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        (K,) ascending abscissae [nm].
-    y : numpy.ndarray
-        (K,) or (K, M) values.
-    lower, upper : array_like
-        (C,) band limits [nm], ``upper > lower``.
-
-    Returns
-    -------
-    numpy.ndarray
-        (C,) or (C, M): integral of the curve over each band divided by the band's width.
-    """
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    y2 = y.reshape(x.size, -1)
-    lo = np.asarray(lower, dtype=float).ravel()
-    hi = np.asarray(upper, dtype=float).ravel()
-    if lo.shape != hi.shape or np.any(hi <= lo):
-        raise ValueError("band limits must have upper > lower [nm]")
-    # cumulative integral at the knots (exact for the linear pieces)
-    cum = np.concatenate([np.zeros((1, y2.shape[1])),
-                          np.cumsum(0.5 * (y2[1:] + y2[:-1]) * np.diff(x)[:, None], axis=0)])
-
-    def F(t):                                       # integral from x0 to t (flat outside)
-        t = np.clip(t, x[0], x[-1])
-        i = np.clip(np.searchsorted(x, t, side="right") - 1, 0, x.size - 2)
-        u = (t - x[i])[:, None]
-        slope = (y2[i + 1] - y2[i]) / (x[i + 1] - x[i])[:, None]
-        return cum[i] + u * (y2[i] + 0.5 * slope * u)
-
-    out = (F(hi) - F(lo)) / (hi - lo)[:, None]
-    return out[:, 0] if y.ndim == 1 else out
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,7 +125,7 @@ class SpectralAngularTable:
 
     def channel_table(self, lower_nm, upper_nm):
         """(A, C) the factor band-averaged over each channel, at the table's angles."""
-        return band_average(self.wavelength_nm, self.factor.T, lower_nm, upper_nm).T
+        return band_average(self.wavelength_nm, self.factor, lower_nm, upper_nm)
 
 
 class Response:

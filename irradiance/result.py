@@ -81,7 +81,7 @@ class FaceTable:
 
     @classmethod
     def from_scene(cls, scene):
-        """The faces of an :class:`irradiance.Scene`."""
+        """The faces of an :class:`widesky.irradiance.Scene`."""
         tri = scene.triangles[scene.face_triangle]
         centroid = scene.vertices[tri].mean(axis=1) + scene.origin
         n = np.asarray(scene.face_normal, dtype=float)
@@ -478,7 +478,7 @@ class atomic_h5:
         folder = os.path.dirname(os.path.abspath(self.path))
         fd, self.tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".h5", dir=folder)
         os.close(fd)
-        from skymodel.outputs import plain_mode
+        from widesky.skymodel.outputs import plain_mode
         plain_mode(self.tmp)
         self.f = h5py.File(self.tmp, "w")
         return self.f

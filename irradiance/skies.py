@@ -9,7 +9,7 @@ A sky source answers two questions for a series of sky states (one per time step
 It also carries ``wavelengths`` (C,) [nm], ``channel_edges`` (C+1,) [nm] and ``min_sun_elevation``
 [deg], the lowest sun elevation at which its sky radiance is defined (below it the integrator returns
 zero sky light). The analytic skies here exist for furnace tests and accuracy studies;
-:class:`PragueSky` wraps :mod:`skymodel`.
+:class:`PragueSky` wraps :mod:`widesky.skymodel`.
 """
 
 from __future__ import annotations
@@ -18,12 +18,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from widesky.skymodel.channels import CHANNEL_EDGES_NM
+
 __all__ = ["SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "default_channel_edges"]
 
 
 def default_channel_edges():
     """The Prague Sky Model's 55 channels of 40 nm, 280-2480 nm: edges (56,) [nm]."""
-    return np.arange(280.0, 2480.0 + 1e-9, 40.0)
+    return CHANNEL_EDGES_NM.copy()
 
 
 def _edges(wavelengths, channel_edges):
@@ -296,7 +298,7 @@ class AnalyticSky(_SpectralSky):
 
 
 class PragueSky(_Channels):
-    """The Prague Sky Model (:mod:`skymodel`) as a sky source.
+    """The Prague Sky Model (:mod:`widesky.skymodel`) as a sky source.
 
     Parameters
     ----------
@@ -314,7 +316,7 @@ class PragueSky(_Channels):
     """
 
     def __init__(self, model=None, *, channels=None, elevation_quantum=0.2, threads=1):
-        import skymodel
+        from widesky import skymodel
         self._sm = skymodel
         if model is None or isinstance(model, (str, bytes)) or hasattr(model, "__fspath__"):
             model = skymodel.load_dataset(model)

@@ -7,7 +7,7 @@ turns a site, its time steps and (optionally) weather into that state per step:
 - sun: the mid-interval *apparent* (refracted) topocentric position, i.e. where the light comes from;
 - visibility: the weather's ``visibility`` [km] where valid, else from its aerosol optical depth
   ``aod`` through the same Koschmieder relation the dataset generator uses
-  (:func:`skymodel.visibility.visibility_from_aod550`, after an Angstrom-law conversion to 550 nm),
+  (:func:`widesky.skymodel.visibility.visibility_from_aod550`, after an Angstrom-law conversion to 550 nm),
   else a configured default;
 - albedo: the weather's ``albedo`` where valid, else a configured default;
 - altitude: the observer's height above the model's (sea-level) ground, 0 by default.
@@ -28,7 +28,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 import pandas as pd
 
-from skymodel.visibility import aod_at_wavelength, visibility_from_aod550
+from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
 
 __all__ = ["SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "sky_states_for", "GroupingSteps",
            "DEFAULT_GROUPING", "SkyGroups", "group_sky_states", "SKY_STATE_COLUMNS"]
@@ -397,9 +397,9 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
     Parameters
     ----------
     source : Site, WeatherData or path
-        A :class:`irradiance.Site` (then ``start`` and ``end`` are required: a regular period), a
-        :class:`irradiance.WeatherData`, or a weather file path (EPW, TMY3, CSV with pvlib names;
-        :func:`irradiance.read_weather`): its steps, per-step visibility (or aerosol optical depth)
+        A :class:`widesky.irradiance.Site` (then ``start`` and ``end`` are required: a regular period), a
+        :class:`widesky.irradiance.WeatherData`, or a weather file path (EPW, TMY3, CSV with pvlib names;
+        :func:`widesky.irradiance.read_weather`): its steps, per-step visibility (or aerosol optical depth)
         and albedo.
     start, end : str or datetime-like, optional
         Period [start, end) (naive times in the site's zone); with a weather file, a part of it.

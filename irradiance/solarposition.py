@@ -490,7 +490,7 @@ def solar_position(times, latitude, longitude, altitude=0.0, pressure=101325.0, 
     ----------
     times : pandas.DatetimeIndex
         Instants at which to compute the position, tz-aware (naive times raise ValueError).
-        For interval data pass the interval mid-points (see :func:`irradiance.location.sun_times`).
+        For interval data pass the interval mid-points (see :func:`widesky.irradiance.location.sun_times`).
     latitude, longitude : float
         Observer latitude [deg] (north positive) and longitude [deg] (east positive).
     altitude : float

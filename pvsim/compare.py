@@ -241,7 +241,7 @@ def bandgap_sweep(scene, sky, states, gaps_ev=None, terminals=2, group=None, cov
                   measured=None, times=None, temp_air=25.0, wind_speed=1.0, n_jobs=None, progress=False,
                   spectral_model="clear", allsky_options=None):
     """Annual yield of a perovskite/Si tandem against the top-cell band gap, one integrator run
-    (``measured``, ``spectral_model`` and ``allsky_options`` as :func:`pvsim.system.simulate`).
+    (``measured``, ``spectral_model`` and ``allsky_options`` as :func:`widesky.pvsim.system.simulate`).
 
     Parameters
     ----------

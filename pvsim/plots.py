@@ -48,7 +48,7 @@ def plot_technologies(path, technologies=None, reference_path=None, data_dir=Non
     technologies : list of str, optional
         Preset names (default all).
     reference_path : str or Path, optional
-        ASTM G173 file (default ``solar/ASTMG173.csv`` in the input data directory).
+        ASTM G173 file (default the copy shipped in the package).
 
     Returns
     -------

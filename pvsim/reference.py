@@ -40,9 +40,9 @@ def widesky_am15g(sky=None, albedo=0.2, angstrom=1.3):
         reference pvsim uses for ``reference="widesky"``).
     """
     import trimesh
-    from irradiance import SkyStates, make_scene, poa_irradiance
-    from irradiance.skies import PragueSky
-    from skymodel.visibility import aod_at_wavelength, visibility_from_aod550
+    from widesky.irradiance import SkyStates, make_scene, poa_irradiance
+    from widesky.irradiance.skies import PragueSky
+    from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
     sky = sky or PragueSky()
     vis = float(visibility_from_aod550(aod_at_wavelength(G173_AOD500, 500.0, 550.0, angstrom)))
     lo, hi = sky.model.visibility_range if hasattr(sky.model, "visibility_range") else (20.0, 131.8)

@@ -5,20 +5,23 @@ external quantum efficiency EQE [1]. ``qe_to_sr`` and ``sr_to_qe`` carry pvlib's
 (pvlib.spectrum.qe_to_sr / sr_to_qe): SR = EQE * lambda * q / (h c).
 
 The reference spectrum (ASTM G173-03 / IEC 60904-3 AM1.5 global tilted) is read from a file the user
-names, or from ``solar/ASTMG173.csv`` in the input data directory (argument, ``WIDESKY_DATA_DIR`` or
-``../shared/data``); the package does not ship a copy.
+names, else from the copy shipped in the package (``widesky/data/solar/ASTMG173.csv``, pvlib's BSD-3
+redistribution; :func:`widesky.core.paths.runtime_file`).
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
+from widesky.core.paths import runtime_file
+from widesky.core.spectral import band_average
+from widesky.skymodel.channels import CHANNEL_EDGES_NM
+
 __all__ = ["PLANCK", "SPEED_OF_LIGHT", "ELEMENTARY_CHARGE", "HC_EV_NM", "qe_to_sr", "sr_to_qe",
            "photon_flux", "band_average", "channel_edges", "read_astm_g173", "am15g",
-           "am15g_channels", "find_data_file", "has_data_file"]
+           "am15g_channels"]
 
 PLANCK = 6.62607015e-34          # h [J s] (SI 2019, exact)
 SPEED_OF_LIGHT = 299792458.0     # c [m s-1] (exact)
@@ -111,82 +114,7 @@ def photon_flux(spectral_irradiance, wavelength):
 
 def channel_edges():
     """The Prague Sky Model's channel edges: 55 channels of 40 nm, 280-2480 nm, (56,) [nm]."""
-    return np.arange(280.0, 2480.0 + 1e-9, 40.0)
-
-
-def band_average(wavelength, values, lower_nm, upper_nm):
-    """Band averages of a tabulated curve: the integral over each band divided by its width.
-
-    The curve is linear between its points and zero outside ``[wavelength[0], wavelength[-1]]``.
-    The integral is exact for that piecewise linear function.
-
-    Parameters
-    ----------
-    wavelength : array_like (K,)
-        Strictly increasing [nm].
-    values : array_like (..., K)
-        The curve (any unit).
-    lower_nm, upper_nm : array_like (C,)
-        Band limits [nm], ``upper > lower``.
-
-    Returns
-    -------
-    numpy.ndarray (..., C)
-        Band-averaged values, same unit as ``values``.
-    """
-    w = np.asarray(wavelength, dtype=float)
-    v = np.asarray(values, dtype=float)
-    lo = np.atleast_1d(np.asarray(lower_nm, dtype=float))
-    hi = np.atleast_1d(np.asarray(upper_nm, dtype=float))
-    if w.ndim != 1 or w.size < 2 or np.any(np.diff(w) <= 0):
-        raise ValueError("wavelength must be strictly increasing with >= 2 points [nm]")
-    if v.shape[-1] != w.size:
-        raise ValueError(f"values must end in an axis of {w.size} like wavelength, got {v.shape}")
-    if lo.shape != hi.shape or np.any(hi <= lo):
-        raise ValueError("band limits must have equal shapes with upper_nm > lower_nm [nm]")
-    # cumulative integral of the piecewise linear curve at its own knots, then at arbitrary points
-    seg = 0.5 * (v[..., 1:] + v[..., :-1]) * np.diff(w)
-    cum = np.concatenate([np.zeros(v.shape[:-1] + (1,)), np.cumsum(seg, axis=-1)], axis=-1)
-
-    def integral_to(x):
-        xc = np.clip(x, w[0], w[-1])
-        i = np.clip(np.searchsorted(w, xc, side="right") - 1, 0, w.size - 2)
-        t = xc - w[i]
-        slope = (v[..., i + 1] - v[..., i]) / (w[i + 1] - w[i])
-        return cum[..., i] + v[..., i] * t + 0.5 * slope * t * t
-
-    return (integral_to(hi) - integral_to(lo)) / (hi - lo)
-
-
-def find_data_file(relative, data_dir=None):
-    """Path of ``relative`` inside the input data directory.
-
-    The directory is ``data_dir``, else the environment variable ``WIDESKY_DATA_DIR``, else
-    ``../shared/data`` beside the checkout (only when neither is given). Raises FileNotFoundError naming what
-    was tried.
-    """
-    tried = []
-    here = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-    for cand in (data_dir, os.environ.get("WIDESKY_DATA_DIR"), here):
-        if not cand:
-            continue
-        p = Path(cand).expanduser() / relative
-        if p.is_file():
-            return p
-        tried.append(str(p))
-        if cand is not here:          # a directory the user named is not replaced by another one
-            break
-    raise FileNotFoundError(f"{relative!r} not found (tried {', '.join(tried) or 'no directory'}); "
-                            "pass the file's path, data_dir=..., or set WIDESKY_DATA_DIR")
-
-
-def has_data_file(relative, data_dir=None):
-    """True when :func:`find_data_file` finds ``relative``."""
-    try:
-        find_data_file(relative, data_dir)
-    except FileNotFoundError:
-        return False
-    return True
+    return CHANNEL_EDGES_NM.copy()
 
 
 def read_astm_g173(path=None, data_dir=None):
@@ -196,10 +124,9 @@ def read_astm_g173(path=None, data_dir=None):
     ----------
     path : str or Path, optional
         The CSV as distributed by NREL (two header lines; columns wavelength [nm], extraterrestrial,
-        global 37 deg tilt, direct + circumsolar [W m-2 nm-1]). Default ``solar/ASTMG173.csv`` in the
-        input data directory.
+        global 37 deg tilt, direct + circumsolar [W m-2 nm-1]). Default the copy shipped in the package.
     data_dir : str or Path, optional
-        Input data directory (see :func:`find_data_file`).
+        Read ``solar/ASTMG173.csv`` from this folder instead of the shipped copy.
 
     Returns
     -------
@@ -207,7 +134,7 @@ def read_astm_g173(path=None, data_dir=None):
         ``wavelength`` (K,) [nm]; ``extraterrestrial``, ``global``, ``direct`` (K,) [W m-2 nm-1].
     """
     import pandas as pd
-    p = Path(path) if path is not None else find_data_file("solar/ASTMG173.csv", data_dir)
+    p = Path(path) if path is not None else runtime_file("solar/ASTMG173.csv", data_dir)
     try:
         df = pd.read_csv(p, skiprows=1)
     except (OSError, ValueError) as exc:

@@ -1,11 +1,11 @@
 """The yield model fused into the integrator's output stream.
 
-:func:`pvsim.simulate` hands a :class:`YieldStream` to ``irradiance.poa_irradiance(consumer=...)``:
+:func:`widesky.pvsim.simulate` hands a :class:`YieldStream` to ``widesky.irradiance.poa_irradiance(consumer=...)``:
 for every chunk of daylight steps the integrator has just assembled, the stream reduces the faces'
 broadband and cover parts, angles of incidence and sub-cell currents to the per-group, per-technology
-sums of the yield model (:mod:`pvsim.system`'s ``_GroupAccumulator``) in one pass of a small C kernel
-(``pvsim._kernel.accumulate``, the GIL released), so the per-face currents are never written and
-read back. The result is :func:`pvsim.pv_yield`'s on the saved run, to float32 rounding
+sums of the yield model (:mod:`widesky.pvsim.system`'s ``_GroupAccumulator``) in one pass of a small C kernel
+(``widesky.pvsim._kernel.accumulate``, the GIL released), so the per-face currents are never written and
+read back. The result is :func:`widesky.pvsim.pv_yield`'s on the saved run, to float32 rounding
 (tests/test_pvsim_stream.py compares the two).
 
 The per-face arithmetic is that of ``pv_yield`` (effective irradiance from the sub-cell currents,
@@ -41,14 +41,14 @@ class YieldStream:
         The run's T states (sun direction and elevation [deg]).
     technologies : list of technology objects
     sources : dict
-        Sub-cell -> (response name, factor), from :func:`pvsim.technology_responses`.
+        Sub-cell -> (response name, factor), from :func:`widesky.pvsim.technology_responses`.
     temp_air, wind_speed : float or array_like (T,)
         [degC], [m s-1].
     system : SystemSpec, optional
     edges : array_like
         Channel edges [nm] of the sky.
     reference, reference_path
-        As :func:`pvsim.pv_yield`.
+        As :func:`widesky.pvsim.pv_yield`.
     """
 
     def __init__(self, faces, states, technologies, sources, temp_air=20.0, wind_speed=1.0, *, system=None,

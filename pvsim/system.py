@@ -5,7 +5,7 @@ EQE with the cover's angular optic, deduplicated where one sub-cell is a scalar 
 plus one ``"cover"`` unit weight with the same optic for the angle-loss bookkeeping).
 ``pv_yield`` reads a ``POAResult`` (in memory or streamed to HDF5) face chunk by face chunk and gives
 per technology and module group the time series with pvlib's column names, energies, kWh/kWp and a
-loss waterfall. ``simulate`` does both around ``irradiance.poa_irradiance``.
+loss waterfall. ``simulate`` does both around ``widesky.irradiance.poa_irradiance``.
 
 Loss waterfall (per group, as reference yields [kWh/kWp] = irradiation at STC-equivalent [kWh m-2]):
 
@@ -70,11 +70,11 @@ class CoverOptics:
     spectral: bool = False
 
     def angular(self):
-        """The optic for ``irradiance.Response``: a callable IAM, or a SpectralAngularTable."""
+        """The optic for ``widesky.irradiance.Response``: a callable IAM, or a SpectralAngularTable."""
         if not self.spectral:
             cover_iam(0.0, self.n, self.K, self.L, self.n_ar)         # validates
             return _Iam(self.n, self.K, self.L, self.n_ar)
-        from irradiance import SpectralAngularTable
+        from widesky.irradiance import SpectralAngularTable
         ang = np.concatenate([np.arange(0.0, 80.0, 5.0), np.arange(80.0, 90.01, 1.0)])
         w = np.arange(280.0, 2480.5, 20.0)           # the PSM range (Rubin n extrapolated below 310 nm)
         k = self.K * w * 1e-9 / (4.0 * np.pi)          # the grey absorption coefficient as extinction k
@@ -161,7 +161,7 @@ def technology_responses(technologies, cover=None):
         sub-cell name -> (response name, factor): the sub-cell's current [A m-2] is the response's
         output times the factor (sub-cells proportional to an earlier one share its response).
     """
-    from irradiance import Response
+    from widesky.irradiance import Response
     optic = None if cover is False else (cover or CoverOptics()).angular()
     resp, source, kept = [], {}, []
     for t in _techs(technologies):
@@ -313,7 +313,7 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
     system : SystemSpec, optional
     reference : array_like (C,), optional
         Band-mean reference spectrum for STC [W m-2 nm-1] on the result's channels (e.g.
-        ``pvsim.reference.widesky_am15g()["spectrum"]``); default ASTM G173 global tilted.
+        ``widesky.pvsim.reference.widesky_am15g()["spectrum"]``); default ASTM G173 global tilted.
     reference_path : str, optional
         ASTM G173 file for the default reference (default from the input data directory).
     face_chunk : int
@@ -336,7 +336,7 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
     missing = sorted(needed - set(result.responses))
     if missing:
         raise ValueError(f"the POA result lacks response(s) {missing}; run poa_irradiance with "
-                         "pvsim.technology_responses(technologies)")
+                         "widesky.pvsim.technology_responses(technologies)")
     faces = result.faces
     side = np.asarray(faces.side)
     dni = _dni_estimate(result, face_chunk)
@@ -545,11 +545,11 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
              reference=None, reference_path=None, spectral_model="clear", keep_currents=True,
              allsky_options=None):
     """One integrator run for all ``technologies`` (shared geometry and sky) with the yield model
-    fused into its output stream (:class:`pvsim.stream.YieldStream`: no current is read back).
+    fused into its output stream (:class:`widesky.pvsim.stream.YieldStream`: no current is read back).
 
     Parameters
     ----------
-    scene, sky, states : as ``irradiance.poa_irradiance``.
+    scene, sky, states : as ``widesky.irradiance.poa_irradiance``.
     technologies : list of str or technology objects
     temp_air, wind_speed : float or (T,) [degC], [m s-1]
     cover : CoverOptics, optional
@@ -558,7 +558,7 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
         Measured irradiance (T,) [W m-2] the sky is scaled to (an ``AllSkyWeather`` with
         ``spectral_model="allsky"``).
     spectral_model : {"clear", "allsky"}
-        Spectral shape under measured weather (``irradiance.poa_irradiance``; docs/all-sky.md). The
+        Spectral shape under measured weather (``widesky.irradiance.poa_irradiance``; docs/all-sky.md). The
         ``widesky pv`` commands use "allsky" whenever a weather file gives DNI and DHI.
     allsky_options : irradiance.AllSkyOptions, optional
         The all-sky model's parts (default all on: cloud spectra, CIE overcast light, vegetated ground).
@@ -566,7 +566,7 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
         HDF5 file for the POA result (streams; bounded memory).
     reference : None, "widesky" or array_like (C,)
         STC reference spectrum: ASTM G173 (default), the sky model's own AM1.5G
-        (:func:`pvsim.reference.widesky_am15g`), or band means [W m-2 nm-1].
+        (:func:`widesky.pvsim.reference.widesky_am15g`), or band means [W m-2 nm-1].
     keep_currents : bool
         Keep every sub-cell current (its global part per face) and the cover's three parts in the POA
         result, in memory or in ``output``, so :func:`pv_yield` can be run on it again; False keeps
@@ -577,7 +577,7 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     -------
     (irradiance.POAResult, YieldResult)
     """
-    from irradiance import FaceTable, poa_irradiance
+    from widesky.irradiance import FaceTable, poa_irradiance
 
     from .stream import YieldStream
     techs = _techs(technologies)

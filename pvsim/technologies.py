@@ -1,7 +1,7 @@
 """The cell-technology library: named presets of parametric EQE, STC efficiency, temperature and
 low-irradiance behaviour, and perovskite/silicon tandems.
 
-Every preset is a cell EQE (the cover glass's optics enter separately, see ``pvsim.optics``) plus
+Every preset is a cell EQE (the cover glass's optics enter separately, see ``widesky.pvsim.optics``) plus
 module-level electrical numbers. Where a measured curve is in ``shared/data/pv`` the edge and window
 parameters were fitted to it (least squares, 10 nm grid); elsewhere they follow the materials'
 band gaps and the window layers named in the ``sources``. The electrical numbers (STC module
@@ -104,7 +104,7 @@ class TandemTechnology:
     (the band-gap-voltage offset w_oc [V] and fill factor ff), so a sub-cell's power is ``J_i V_i``:
     2T (series) delivers ``min(J_top, J_bottom) (V_top + V_bottom)``, 4T ``J_top V_top + J_bottom V_bottom``,
     both times ``module_factor`` (cell-to-module ratio). The STC efficiency therefore follows from the
-    reference spectrum (:func:`pvsim.module.tandem_stc_efficiency`).
+    reference spectrum (:func:`widesky.pvsim.module.tandem_stc_efficiency`).
 
     Attributes
     ----------

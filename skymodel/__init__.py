@@ -2,7 +2,7 @@
 
 Quick start::
 
-    import skymodel
+    from widesky import skymodel
     model = skymodel.load_dataset()                      # the embedded default dataset
     dirs = skymodel.direction_from_zenith([0, 45, 80], [0, 90, 180])   # zenith angles [deg], azimuths [deg]
     L = skymodel.sky_radiance(model, dirs, sun_elevation=30, sun_azimuth=180, visibility=40, albedo=0.2)

@@ -184,7 +184,7 @@ def load_compressed(path, channel_list, **kwargs):
 
 
 def sky_radiance_all_channels(model, *args, **kwargs):
-    """:func:`skymodel.sky_radiance` on a model from :func:`load_compressed`, returned on every channel of the file
+    """:func:`widesky.skymodel.sky_radiance` on a model from :func:`load_compressed`, returned on every channel of the file
     (shape (..., n_channels_file) [W m-2 sr-1 nm-1]) with the omitted channels linearly interpolated."""
     from .evaluate import sky_radiance
 

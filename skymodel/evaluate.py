@@ -22,9 +22,11 @@ import warnings
 
 import numpy as np
 
+from widesky.core.spectral import band_average
+
 from . import _core
 from .dataset import SkyModel
-from .solar import SUN_RADIUS, SUN_SOLID_ANGLE, band_average, extraterrestrial_spectrum
+from .solar import SUN_RADIUS, SUN_SOLID_ANGLE, extraterrestrial_spectrum
 
 __all__ = ["SkyStateClampedWarning", "reference_angles", "sky_radiance", "sun_radiance", "polarisation", "transmittance",
            "solar_direct_normal", "sun_direction", "direction_from_zenith", "directions_from_angles",
@@ -319,7 +321,7 @@ def sky_radiance(model: SkyModel, directions, sun_elevation, sun_azimuth, visibi
     Parameters
     ----------
     model : SkyModel
-        A dataset from :func:`skymodel.load_dataset`.
+        A dataset from :func:`widesky.skymodel.load_dataset`.
     directions : array_like, shape (..., 3)
         View directions, east-north-up (need not be normalised).
     sun_elevation : array_like  [deg]
@@ -419,7 +421,7 @@ def _extraterrestrial(model: SkyModel, chi, wavelengths):
             raise ValueError(f"wavelength outside the extraterrestrial spectrum's range [{wl[0]}, {wl[-1]}] nm")
         return np.interp(w, wl, e)
     lower = model.channel_lower[chi]
-    return band_average(wl, e, lower, lower + model.channel_width)
+    return band_average(wl, e, lower, lower + model.channel_width, outside="raise")
 
 
 def sun_radiance(model: SkyModel, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude=0.0, *,

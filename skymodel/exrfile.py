@@ -10,7 +10,7 @@ attributes, a table of each chunk's file offset, the chunks in increasing y (one
 int32 data size, data). The tests read every file written here back with the OpenEXR library.
 
 Little-endian hosts only (the values are copied as they lie in memory); elsewhere
-:func:`skymodel.render.write_exr` uses the OpenEXR library.
+:func:`widesky.skymodel.render.write_exr` uses the OpenEXR library.
 """
 
 from __future__ import annotations

@@ -371,7 +371,7 @@ def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=
         half (magnitude below 65520; the largest half is 65504), else 32-bit float.
     compression : {"rle", "none", "zips", "zip", "piz", "zstd"}
         OpenEXR compression (all lossless). "rle" (default) and "none" are written by widesky's own
-        encoder (:mod:`skymodel.exrfile`, one C pass over the image); "zip" makes files about 2.5x
+        encoder (:mod:`widesky.skymodel.exrfile`, one C pass over the image); "zip" makes files about 2.5x
         smaller than "rle" and takes several times longer to write (the OpenEXR library).
     threads : int
         Threads of the encoder, or of OpenEXR's compression (0: one per core).

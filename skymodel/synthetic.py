@@ -115,7 +115,7 @@ def write_synthetic_dataset(path, description="synthetic dataset", **kwargs) -> 
     c = synthetic_contents(**kwargs)
     write_dataset(path, c)
     meta = {"synthetic": True, "description": description,
-            "generator": "skymodel.synthetic.synthetic_contents",
+            "generator": "widesky.skymodel.synthetic.synthetic_contents",
             "parameters": {k: (list(v) if isinstance(v, (tuple, list, np.ndarray)) else v) for k, v in kwargs.items()}}
     with atomic_outputs(path.with_suffix(path.suffix + ".json")) as (tmp,):
         tmp.write_text(json.dumps(meta, indent=1, default=float))

@@ -6,8 +6,8 @@ Koschmieder's relation gives the total 550 nm extinction coefficient at the grou
 part leaves the aerosol extinction. With an exponential aerosol profile of scale height ``H`` [km]
 the aerosol optical depth at 550 nm is ``beta_aer * H``.
 
-The generator in :mod:`skymodel.generator` builds its aerosol profile so that it integrates to exactly
-:func:`aod550_from_visibility`; the sky-state logic in :mod:`irradiance` inverts the same relation.
+The generator in :mod:`widesky.skymodel.generator` builds its aerosol profile so that it integrates to exactly
+:func:`aod550_from_visibility`; the sky-state logic in :mod:`widesky.irradiance` inverts the same relation.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ KOSCHMIEDER_CONSTANT = 3.912
 RAYLEIGH_EXTINCTION_550_KM = 0.011488
 """Sea-level Rayleigh extinction coefficient at 550 nm [km-1]: the Bodhaine et al. (1999) cross-section
 4.5105e-27 cm2 (360 ppm CO2) times the number density 2.546899e19 cm-3 (288.15 K, 1013.25 hPa), as
-computed by :func:`skymodel.generator.rayleigh.rayleigh_extinction_sea_level_km` (a test keeps them equal)."""
+computed by :func:`widesky.core.rayleigh.rayleigh_extinction_sea_level_km` (a test keeps them equal)."""
 
 DEFAULT_AEROSOL_SCALE_HEIGHT_KM = 1.5
 """Scale height of the exponential aerosol extinction profile [km] used by the generator. The generator's

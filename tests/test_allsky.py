@@ -8,7 +8,7 @@ References and tolerances:
   diffuse keeps the clear shape, at N = 1 (no cloud absorption) it has the clear global spectrum's
   shape, exactly (1e-12); the beam keeps the clear shape (spectrally flat extinction of cloud particles).
 * Every part off (``CLEAR_SHAPE``) gives the plain measured factors on every channel, exactly.
-* On an unobstructed plane (``irradiance.allsky_plane``) the plain factors reproduce
+* On an unobstructed plane (``widesky.irradiance.allsky_plane``) the plain factors reproduce
   ``poa_irradiance(measured=...)`` on a lone panel far above the ground: direct 1e-5, sky diffuse 1 %
   (the integrator samples cut patches with rays), reflected 3 %. For a sky whose angular shape is the
   same in every channel, spectral factors leave the broadband plane-of-array irradiance unchanged
@@ -19,14 +19,14 @@ import numpy as np
 import pytest
 import trimesh
 
-from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors, cloud_index
-from irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
-from irradiance.ground import vegetated_steps, vegetation_albedo_shape
-from irradiance.integrator import IntegratorSettings, poa_irradiance
-from irradiance.measured import measured_scale_factors
-from irradiance.scene import make_scene
-from irradiance.skies import AnalyticSky, SkyStates
-from skymodel.generator.paths import has_data
+from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors, cloud_index
+from widesky.irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
+from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
+from widesky.irradiance.integrator import IntegratorSettings, poa_irradiance
+from widesky.irradiance.measured import measured_scale_factors
+from widesky.irradiance.scene import make_scene
+from widesky.irradiance.skies import AnalyticSky, SkyStates
+from widesky.skymodel.generator.paths import has_data
 
 needs_data = pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WIDESKY_DATA_DIR)")
 
@@ -174,7 +174,7 @@ def test_plane_path_matches_the_integrator_and_conserves_energy():
 
 @pytest.mark.parametrize("angular", ["clear", "cie_overcast"])
 def test_integrator_allsky_matches_the_plane_path(angular):
-    from irradiance.allsky_sky import AllSkyWeather
+    from widesky.irradiance.allsky_sky import AllSkyWeather
     sky = RedSunSky()
     states = SkyStates.create([12.0, 30.0, 55.0], [120.0, 180.0, 230.0], 30.0, 0.2)
     settings = IntegratorSettings(rays_per_patch=4)
@@ -216,9 +216,9 @@ def test_integrator_allsky_matches_the_plane_path(angular):
 def test_aod_column_keeps_amsterdam_inside_the_dataset():
     import warnings
 
-    from irradiance.skystate import sky_states_for
-    from irradiance.weather import read_weather
-    from skymodel.generator.paths import data_file
+    from widesky.irradiance.skystate import sky_states_for
+    from widesky.irradiance.weather import read_weather
+    from widesky.skymodel.generator.paths import data_file
     wd = read_weather(data_file("weather/NLD_Amsterdam062400_IWEC.epw"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
@@ -263,7 +263,7 @@ def test_perez_circumsolar_fraction_matches_pvlib():
     """F1 of Perez et al. (1990) against pvlib's implementation of the same published model (its circumsolar
     component on a horizontal plane is DHI F1 a / b): the same numbers to rounding."""
     pvlib = pytest.importorskip("pvlib")
-    from irradiance.overcast_sky import perez_circumsolar_fraction
+    from widesky.irradiance.overcast_sky import perez_circumsolar_fraction
     rng = np.random.default_rng(7)
     el, dhi, dni = rng.uniform(2, 89, 300), rng.uniform(10, 450, 300), rng.uniform(0, 950, 300)
     am = pvlib.atmosphere.get_relative_airmass(90 - el, "kastenyoung1989")
@@ -280,7 +280,7 @@ def test_perez_circumsolar_fraction_matches_pvlib():
 def test_cloud_circumsolar_share():
     """With ``circumsolar="perez"`` the share F1 of the cloud light (tapered below 5 deg of sun) moves from the CIE
     overcast part to the sun; the DHI and the spectral shape of the cloud light stay; "none" keeps it all CIE."""
-    from irradiance.overcast_sky import perez_circumsolar_fraction
+    from widesky.irradiance.overcast_sky import perez_circumsolar_fraction
     el, bn, dh = clear_spectra(3)
     el = np.array([3.0, 35.0, 60.0])
     dni = np.array([0.2, 0.4, 0.0]) * (bn @ W)
@@ -327,10 +327,10 @@ def test_spectral_ground_keeps_the_broadband_albedo():
 
 
 def test_ground_scales_keep_the_broadband_albedo_and_fall_back_to_grey():
-    """irradiance.ground: vegetated steps (albedo <= 0.3, no snow reported) reflect the vegetation shape
+    """widesky.irradiance.ground: vegetated steps (albedo <= 0.3, no snow reported) reflect the vegetation shape
     scaled so that the reflected broadband irradiance is albedo x GHI, as for a grey ground; snow, a bright
     ground and a spectrum the scaled shape could not reflect (albedo > 1 in a channel) stay grey."""
-    from irradiance.ground import VEGETATION_MAX_ALBEDO, ground_scales, step_spectral_albedo
+    from widesky.irradiance.ground import VEGETATION_MAX_ALBEDO, ground_scales, step_spectral_albedo
     edges = np.arange(280.0, 2481.0, 40.0)
     wl, w = 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
     shape = vegetation_albedo_shape(wl)
@@ -356,7 +356,7 @@ def test_ground_scales_keep_the_broadband_albedo_and_fall_back_to_grey():
 def test_integrator_vegetated_ground_conserves_the_reflected_broadband():
     """AllSkyOptions(ground=...): the vegetated ground changes the reflected spectrum, not the reflected
     broadband irradiance of each step (nor the sky or the beam); on a step with snow it is grey."""
-    from irradiance.allsky_sky import AllSkyWeather
+    from widesky.irradiance.allsky_sky import AllSkyWeather
     sky = RedSunSky()
     states = SkyStates.create([12.0, 30.0, 55.0], [120.0, 180.0, 230.0], 30.0, 0.2)
     settings = IntegratorSettings(rays_per_patch=4)

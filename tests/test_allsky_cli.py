@@ -12,9 +12,9 @@ import pandas as pd
 import pytest
 import trimesh
 
-from irradiance.location import Site
-from irradiance.weather import read_weather, write_epw
-from skymodel.cli import main
+from widesky.irradiance.location import Site
+from widesky.irradiance.weather import read_weather, write_epw
+from widesky.cli import main
 
 
 @pytest.fixture(scope="module")

@@ -29,9 +29,9 @@ References and tolerances:
 import numpy as np
 import pytest
 
-from irradiance.allsky_compare import (ape_by_kc, g173_decomposition, generic_eqe, mismatch_by_kc,
+from widesky.irradiance.allsky_compare import (ape_by_kc, g173_decomposition, generic_eqe, mismatch_by_kc,
                                        pvspec_annual, pvspec_published, sedes2_global_horizontal, spectral_response)
-from skymodel.generator.paths import has_data
+from widesky.skymodel.generator.paths import has_data
 
 # PVSPEC's a-Si coefficients a1, a2, a3 (Pelland et al. 2020, Table; as in pvlib's spectral_factor_pvspec)
 PVSPEC_ASI = (1.051, -0.1033, 0.009838)
@@ -41,7 +41,7 @@ needs_data = pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WI
 
 @pytest.fixture(scope="module")
 def sky():
-    import irradiance as ir
+    import widesky.irradiance as ir
     return ir.PragueSky()
 
 
@@ -63,9 +63,9 @@ def test_g173_offset_is_g173s_diffuse(sky):
 
 
 def _amsterdam_sample(sky, stride=10):
-    import irradiance as ir
-    from irradiance.allsky_plane import clear_plane_spectra
-    from skymodel.generator.paths import data_file
+    import widesky.irradiance as ir
+    from widesky.irradiance.allsky_plane import clear_plane_spectra
+    from widesky.skymodel.generator.paths import data_file
     wd = ir.read_weather(data_file("weather/NLD_Amsterdam062400_IWEC.epw"))
     sp = wd.site.solar_position(wd.data.index, wd.label, wd.step)
     st = ir.sky_states(sp, wd.data, model=sky.model, prefer="aod")
@@ -80,14 +80,14 @@ def _amsterdam_sample(sky, stride=10):
 
 
 def _allsky(sky, states, d, clear, options):
-    from irradiance.allsky import allsky_factors
-    from irradiance.allsky_plane import plane_poa
+    from widesky.irradiance.allsky import allsky_factors
+    from widesky.irradiance.allsky_plane import plane_poa
     f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, d["dni"].to_numpy(),
                        d["dhi"].to_numpy(), ghi=d["ghi"].to_numpy(), temp_dew=d["temp_dew"].to_numpy(),
                        options=options, albedo=states.albedo)
     ground = {}
     if options.ground == "vegetation":             # the default all-sky ground (irradiance.ground)
-        from irradiance.ground import vegetated_steps, vegetation_albedo_shape
+        from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
         ground = {"albedo_shape": vegetation_albedo_shape(sky.wavelengths), "channel_edges": sky.channel_edges,
                   "vegetated": vegetated_steps(states.albedo)}
     return plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
@@ -108,7 +108,7 @@ def amsterdam(sky):
 @needs_data
 def test_mismatch_against_pvspec(sky, amsterdam):
     pytest.importorskip("pvlib")
-    from irradiance.allsky import CLEAR_SHAPE, AllSkyOptions
+    from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions
     states, d, clear, kc, _ = amsterdam
     wl = np.asarray(sky.wavelengths)
     sr = spectral_response(generic_eqe(wl), wl)
@@ -128,12 +128,12 @@ def test_mismatch_against_pvspec(sky, amsterdam):
 @pytest.mark.slow
 @needs_data
 def test_ape_against_sedes2(sky, amsterdam):
-    from skymodel.generator.paths import DataNotFoundError, data_file
+    from widesky.skymodel.generator.paths import DataNotFoundError, data_file
     try:
         coeffs = data_file("validation/sedes2_cloud_cover_modifiers.csv")
     except DataNotFoundError:
         pytest.skip("SEDES2 coefficient table not in the data directory (validation/sedes2_cloud_cover_modifiers.csv)")
-    from irradiance.allsky import AllSkyOptions
+    from widesky.irradiance.allsky import AllSkyOptions
     states, d, clear, kc, sin_el = amsterdam
     wl, w = np.asarray(sky.wavelengths), np.diff(sky.channel_edges)
     ghi = _allsky(sky, states, d, clear, AllSkyOptions())["ghi"]
@@ -166,7 +166,7 @@ def test_clear_sky_airmass_trend_of_an_independent_code(sky):
     G173 as the air mass grows (the direct beam reddens), the trend that docs/all-sky.md section 4d sets
     beside PVSPEC's. Monotone in both, and a-Si below -3 % by AM 2.9."""
     pytest.importorskip("pvlib")
-    from irradiance.allsky_compare import spctrl2_airmass_trend
+    from widesky.irradiance.allsky_compare import spctrl2_airmass_trend
     wl = np.asarray(sky.wavelengths)
     sr = spectral_response(generic_eqe(wl), wl)
     trend = spctrl2_airmass_trend(sky, sr, 52.3)
@@ -180,12 +180,12 @@ def test_clear_sky_airmass_trend_of_an_independent_code(sky):
 @pytest.mark.slow
 @needs_data
 def test_amsterdam_year_against_freiburg(sky):
-    import irradiance as ir
-    from irradiance.allsky import AllSkyOptions, allsky_factors
-    from irradiance.allsky_compare import g173_channels, spectral_effects
-    from irradiance.allsky_plane import clear_plane_spectra, plane_poa
-    from irradiance.ground import vegetated_steps, vegetation_albedo_shape
-    from skymodel.generator.paths import data_file
+    import widesky.irradiance as ir
+    from widesky.irradiance.allsky import AllSkyOptions, allsky_factors
+    from widesky.irradiance.allsky_compare import g173_channels, spectral_effects
+    from widesky.irradiance.allsky_plane import clear_plane_spectra, plane_poa
+    from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
+    from widesky.skymodel.generator.paths import data_file
     wd = ir.read_weather(data_file("weather/NLD_Amsterdam062400_IWEC.epw"))
     d = wd.data
     sp = wd.site.solar_position(d.index, wd.label, wd.step)

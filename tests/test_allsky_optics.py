@@ -25,16 +25,16 @@ References and tolerances:
 import numpy as np
 import pytest
 
-from irradiance.cloud_optics import (DEFAULT_ASYMMETRY, US62_WATER_COLUMN, cloud_optical_depth,
+from widesky.irradiance.cloud_optics import (DEFAULT_ASYMMETRY, US62_WATER_COLUMN, cloud_optical_depth,
                                      cloud_relative_transmittance, cloud_top_rayleigh_gain,
                                      cloud_vapour_path, droplet_coalbedo, liquid_water_k, mie_droplet_optics,
                                      transmitted_path_factor,
                                      rayleigh_optical_depth, rayleigh_spherical_albedo,
                                      saturation_vapour_density, slab_transmittance, vapour_band_deepening)
-from irradiance.haze import haze_correction, relative_airmass
-from irradiance.overcast_sky import cie_overcast_relative, overcast_poa_ratio
-from irradiance.patches import cosine_weights, direction_from_angles, reinhart
-from skymodel.generator.paths import has_data
+from widesky.irradiance.haze import haze_correction, relative_airmass
+from widesky.irradiance.overcast_sky import cie_overcast_relative, overcast_poa_ratio
+from widesky.irradiance.patches import cosine_weights, direction_from_angles, reinhart
+from widesky.skymodel.generator.paths import has_data
 
 needs_data = pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WIDESKY_DATA_DIR)")
 
@@ -185,7 +185,7 @@ def test_haze_koschmieder_and_policies():
 def _disort_spherical_albedo(tau, n_streams=16, n_mu=24):
     """Spherical albedo of a conservative Rayleigh layer over a black ground by DISORT: the plane albedo
     ``F_up / (mu0 F0)`` integrated ``2 int r(mu0) mu0 dmu0`` with Gauss-Legendre nodes."""
-    from skymodel.generator.validation import rayleigh_layer_fluxes
+    from widesky.skymodel.generator.validation import rayleigh_layer_fluxes
 
     x, wq = np.polynomial.legendre.leggauss(n_mu)
     total = 0.0
@@ -223,8 +223,8 @@ def test_two_stream_mean_path_against_disort():
     equivalence theorem: the two-stream slab against the project's DISORT (16 streams, a beam at 40 deg,
     black ground), within 10 %."""
     pytest.importorskip("disortpp")
-    from irradiance.cloud_reference import _Layers
-    from skymodel.generator.solver import SolverConfig, run_disort
+    from widesky.irradiance.cloud_reference import _Layers
+    from widesky.skymodel.generator.solver import SolverConfig, run_disort
     cfg = SolverConfig(16, 16, intensity_correction=False)
     mu0, g, eps = np.sin(np.radians(40.0)), 0.86, 1e-4
 
@@ -245,7 +245,7 @@ def test_shipped_droplet_table_against_mie():
     """The shipped Mie table (irradiance/data) against an independent Mie average (600 radii 1-40 um; 150
     are too few for the absorption at 1000 nm, whose resonances need the fine grid): extinction shape within
     1 %, co-albedo within 5 %."""
-    from skymodel.generator.aerosol import refractive_index
+    from widesky.skymodel.generator.aerosol import refractive_index
     wl = np.array([450.0, 1000.0, 1500.0, 2100.0])
     ext, co, g = mie_droplet_optics(wl)
     w5 = np.append(wl, 550.0)

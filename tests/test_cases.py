@@ -16,8 +16,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import cases
-from cases.config import ConfigError, validate
+from widesky import cases
+from widesky.cases.config import ConfigError, validate
 
 SHIPPED = Path(cases.__file__).parent
 
@@ -162,7 +162,7 @@ def test_report_folder_contents(small_report):
 
 
 def test_roof_alone_receives_the_model_global_horizontal(small_report):
-    import irradiance as ir
+    import widesky.irradiance as ir
 
     rep, _ = small_report
     ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
@@ -204,8 +204,7 @@ def test_a_failed_run_leaves_the_previous_report_untouched(small_report, monkeyp
     rep, folder = small_report
     before = sorted(p.name for p in rep.iterdir())
     stamp = (rep / "index.html").stat().st_mtime_ns
-    import cases.report
-
+    import widesky.cases.report
     def boom(run, tmp, provenance, others=None, progress=False):
         (Path(tmp) / "index.html").write_text("half")
         raise KeyboardInterrupt                           # as if interrupted while writing
@@ -218,12 +217,12 @@ def test_a_failed_run_leaves_the_previous_report_untouched(small_report, monkeyp
 
 def test_cli_errors_are_one_line(tmp_path, folder):
     _write_case(folder, SMALL.format(extra="").replace('visibility = "40 km"', 'visibility = "40 m"'))
-    p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", str(folder), "-o", str(tmp_path / "r")],
+    p = subprocess.run([sys.executable, "-m", "widesky.cli", "run", str(folder), "-o", str(tmp_path / "r")],
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 2, p.stderr
     assert p.stderr.strip().count("\n") == 0 and "sky.visibility" in p.stderr and "expected km" in p.stderr
     assert not (tmp_path / "r").exists()
-    p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", "no_such_case"], capture_output=True,
+    p = subprocess.run([sys.executable, "-m", "widesky.cli", "run", "no_such_case"], capture_output=True,
                        text=True, timeout=120)
     assert p.returncode == 2 and "solar_potential" in p.stderr
 
@@ -236,7 +235,7 @@ def test_unwritable_report_folder_is_refused_before_the_run(tmp_path, folder):
     blocker.write_text("x")
     before = sorted(x.name for x in tmp_path.iterdir())
     for out, words in ((blocker, "is a file"), (blocker / "r", "cannot write a report folder")):
-        p = subprocess.run([sys.executable, "-m", "skymodel.cli", "run", str(folder), "-o", str(out)],
+        p = subprocess.run([sys.executable, "-m", "widesky.cli", "run", str(folder), "-o", str(out)],
                            capture_output=True, text=True, timeout=120)
         assert p.returncode == 2, p.stderr
         assert words in p.stderr and "computed in" not in p.stderr
@@ -285,7 +284,7 @@ def test_pv_report_energy_bookkeeping(pv_report):
     html = (pv_report / "index.html").read_text()
     assert "PV yield per technology" in html and "Loss waterfall" in html
     ts = pd.read_csv(pv_report / "timeseries.csv", index_col=0)
-    import pvsim
+    from widesky import pvsim
     labels = {n: pvsim.get_technology(n).label for n in ("topcon", "cdte")}
     rows = re.findall(r"<tr><td>([^<]+)</td><td>([\d.]+)</td><td>([\d.]+)</td><td>([\d.]+)</td><td>([\d.]+)</td>"
                       r"<td>([\d.]+)</td><td>(\d)</td><td>([\d.]+)</td><td>([-+\d.]+)</td><td>([-+\d.]+)</td></tr>",
@@ -314,7 +313,7 @@ def test_the_report_hour_is_checked_before_the_run(folder):
 
 def test_a_mesh_file_is_one_group(tmp_path):
     import trimesh
-    from cases.runner import build_geometry
+    from widesky.cases.runner import build_geometry
     trimesh.creation.box((2, 2, 2)).export(tmp_path / "hut.obj")
     geo = build_geometry(tmp_path / "hut.obj", {})
     assert list(geo["analysis"]) == ["hut"] and geo["context"] == {}
@@ -361,7 +360,7 @@ render_size = 160
     html = (rep / "index.html").read_text()
     assert "Sites compared" in html
     # the first site's own yield table holds the same TOPCon value as sites.csv's Prague column
-    import pvsim
+    from widesky import pvsim
     label = pvsim.get_technology("topcon").label
     m = re.search(rf"<tr><td>{re.escape(label)}</td>(?:<td>[^<]*</td>){{4}}<td>([\d.]+)</td>", html)
     assert m and float(m.group(1)) == pytest.approx(sites.loc[label, "50.08, 14.42"], abs=0.06)

@@ -25,9 +25,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import cases
-from cases.config import ConfigError
-from cases.runner import compute
+from widesky import cases
+from widesky.cases.config import ConfigError
+from widesky.cases.runner import compute
 
 SHIPPED = Path(cases.__file__).parent
 
@@ -83,9 +83,9 @@ def facade_report(tmp_path_factory):
 
 def _hand(run, unit, azimuth):
     """Isotropic-sky window gain and beam gain (T,) [W m-2] of a vertical window facing ``azimuth`` [deg]."""
-    import irradiance as ir
-    import pvsim
-    from thermal import glazing_g_table
+    import widesky.irradiance as ir
+    from widesky import pvsim
+    from widesky.thermal import glazing_g_table
 
     states = run.result.states
     dni, dhi = ir.model_irradiance(run.dataset, states, run.settings)
@@ -102,7 +102,7 @@ def _hand(run, unit, azimuth):
 
 
 def test_facade_gains_against_an_isotropic_hand_calculation(facade_run):
-    from thermal.gains import group_weights
+    from widesky.thermal.gains import group_weights
 
     th = facade_run.thermal
     res = facade_run.result
@@ -128,7 +128,7 @@ def test_facade_selective_glazing_cuts_gains_and_cooling(facade_run):
         assert sc[o][1].sum() < 0.75 * clear[o][1].sum()
     cool = {n: th.loads[n].cooling.to_numpy().sum() for n in th.units}
     assert 0 < cool["solar-control"] < cool["clear"]
-    from thermal.gains import group_weights
+    from widesky.thermal.gains import group_weights
     east = [j for j, s in enumerate(th.windows) if abs(s.azimuth - 90.0) < 1]
     w = group_weights(facade_run.result, [th.windows[j].label for j in east])
     ratio = {}
@@ -181,7 +181,7 @@ def test_thermal_glazing_is_validated(tmp_path):
 def _epw(path, run, factor, temp_air, dhi_factor=None):
     """An EPW on the steps of ``run`` carrying ``factor`` x the sky model's own DNI and ``dhi_factor`` (default
     ``factor``) x its DHI."""
-    import irradiance as ir
+    import widesky.irradiance as ir
     dni, dhi = ir.model_irradiance(run.dataset, run.result.states, run.settings)
     el = np.asarray(run.result.states.sun_elevation)
     fd = factor if dhi_factor is None else dhi_factor
@@ -217,18 +217,19 @@ def test_weather_file_scales_the_gains(tmp_path, facade_run):
 @pytest.mark.reference
 @pytest.mark.slow
 def test_weather_cases_use_the_allsky_spectra_by_default(tmp_path, facade_run):
-    """Under a weather file a case uses the all-sky spectra (docs/all-sky.md) where the data directory is there,
-    as `widesky pv compare` does; `spectral_model = "clear"` keeps the clear-sky spectra. A cloudy file (the model's
-    DNI x 0.2, DHI x 2.5) moves the clear window's spectral gain but not the measured horizontal totals."""
+    """Under a weather file a case uses the all-sky spectra (docs/all-sky.md) by default, as every command does
+    (SKY_DEFAULTS); `spectral_model = "clear"` keeps the clear-sky spectra. A cloudy file (the model's DNI x 0.2,
+    DHI x 2.5) moves the clear window's spectral gain but not the measured horizontal totals."""
     runs = {}
-    for model in ("auto", "clear"):
+    for model in ("default", "clear"):
         folder = tmp_path / model
         folder.mkdir()
         _epw(folder / "w.epw", facade_run, 0.2, 20.0, dhi_factor=2.5)
-        _case(folder, "facade", FACADE.format(tz="1", weather=f'weather = "w.epw"\nspectral_model = "{model}"'))
+        extra = "" if model == "default" else f'\nspectral_model = "{model}"'
+        _case(folder, "facade", FACADE.format(tz="1", weather=f'weather = "w.epw"{extra}'))
         runs[model] = compute(folder, n_jobs=1, progress=False)
-    assert "all-sky spectra" in runs["auto"].weather and "clear-sky spectra" in runs["clear"].weather
-    a, c = (runs[m].thermal.window_gain["clear"].sum() for m in ("auto", "clear"))
+    assert "all-sky spectra" in runs["default"].weather and "clear-sky spectra" in runs["clear"].weather
+    a, c = (runs[m].thermal.window_gain["clear"].sum() for m in ("default", "clear"))
     assert a != pytest.approx(c, rel=1e-3)              # the spectral and angular shape moved
     assert 0.7 < a / c < 1.3
     (tmp_path / "clear" / "case.toml").write_text(FACADE.format(tz="1", weather='weather = "w.epw"\n'
@@ -239,7 +240,7 @@ def test_weather_cases_use_the_allsky_spectra_by_default(tmp_path, facade_run):
 
 def _no_data(monkeypatch, tmp_path):
     """Hide the data directory (no WIDESKY_DATA_DIR, no ../shared/data), as on a user's machine."""
-    import skymodel.generator.paths as paths
+    import widesky.skymodel.generator.paths as paths
     monkeypatch.delenv("WIDESKY_DATA_DIR", raising=False)
     monkeypatch.setattr(paths, "_REPO_SIBLING", tmp_path / "no-shared-data")
     assert not paths.has_data()
@@ -328,7 +329,7 @@ def test_bipv_report_yield_and_gains(bipv_report):
     assert "pv roof, pv overhang, pv spandrel" in html
     ts = pd.read_csv(bipv_report / "timeseries.csv", index_col=0)
     faces = pd.read_csv(bipv_report / "faces.csv", index_col=0)
-    import pvsim
+    from widesky import pvsim
     label = pvsim.get_technology("topcon").label
     row = re.search(rf"<tr><td>{re.escape(label)}</td><td>([\d.]+)</td><td>([\d.]+)</td>", html)
     kwp = float(row.group(2))
@@ -403,9 +404,9 @@ def test_compare_sites_on_tmy3_files(tmp_path_factory):
 
 def test_builtin_glazing_units_have_the_documented_values():
     """cases/glazing.py states these values; the pane's energy balance closes; the coatings rank as their kinds."""
-    import pvsim
-    from cases.glazing import clear_glass_nk, glazing_units, unit_summary
-    from thermal import GlazingUnit, layer_from_nk
+    from widesky import pvsim
+    from widesky.cases.glazing import clear_glass_nk, glazing_units, unit_summary
+    from widesky.thermal import GlazingUnit, layer_from_nk
 
     ref = pvsim.widesky_am15g()
     wl = np.arange(280.0, 2500.1, 10.0)

@@ -15,9 +15,9 @@ import pandas as pd
 import pytest
 import trimesh
 
-from irradiance.location import Site
-from irradiance.weather import read_weather, write_epw
-from skymodel.cli import main
+from widesky.irradiance.location import Site
+from widesky.irradiance.weather import read_weather, write_epw
+from widesky.cli import main
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +67,7 @@ def test_weather_file_reproduces_measured_irradiance(roof, epw, tmp_path, capsys
 
 
 def test_clear_sky_period_h5(roof, tmp_path):
-    from irradiance import POAResult
+    from widesky.irradiance import POAResult
     out = tmp_path / "poa.h5"
     assert main(["poa", str(roof), "--lat", "48", "--lon", "11", "--tz", "Europe/Berlin",
                  "--start", "2021-06-21", "--end", "2021-06-22", "--jobs", "1", "-o", str(out)]) == 0

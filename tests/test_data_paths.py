@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from pvsim.spectra import find_data_file
-from skymodel.generator.paths import DataNotFoundError, data_dir, data_file, has_data
+from widesky.pvsim.spectra import find_data_file
+from widesky.skymodel.generator.paths import DataNotFoundError, data_dir, data_file, has_data
 
 
 def test_a_missing_named_directory_is_an_error(tmp_path, monkeypatch):

@@ -20,8 +20,8 @@ import warnings
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel.generator.paths import has_data
+from widesky import skymodel
+from widesky.skymodel.generator.paths import has_data
 
 pytestmark = pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
 
@@ -35,7 +35,7 @@ TINY = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 1.0], "elevations_deg
 def tiny(tmp_path_factory):
     import os
 
-    from skymodel.generator.dataset_build import build_dataset, load_config
+    from widesky.skymodel.generator.dataset_build import build_dataset, load_config
 
     d = tmp_path_factory.mktemp("dsb")
     (d / "tiny.json").write_text(json.dumps(TINY))
@@ -54,7 +54,7 @@ def tiny(tmp_path_factory):
 
 @pytest.mark.slow
 def test_albedo_decomposition_matches_direct_runs(tmp_path, monkeypatch):
-    from skymodel.generator.dataset_build import BuildConfig, radiance_with_albedo, solve_ground, solve_state
+    from widesky.skymodel.generator.dataset_build import BuildConfig, radiance_with_albedo, solve_ground, solve_state
 
     monkeypatch.setenv("WIDESKY_CACHE_DIR", str(tmp_path))
     cfg = BuildConfig(n_streams=4, n_moments=8)
@@ -69,8 +69,8 @@ def test_albedo_decomposition_matches_direct_runs(tmp_path, monkeypatch):
 
 
 def test_segment_to_the_top_equals_the_slant_path():
-    from skymodel.generator.atmosphere import DEFAULT_LEVELS_KM, slant_path_factors
-    from skymodel.generator.dataset_build import PLANET_RADIUS_M, segment_path_factors
+    from widesky.skymodel.generator.atmosphere import DEFAULT_LEVELS_KM, slant_path_factors
+    from widesky.skymodel.generator.dataset_build import PLANET_RADIUS_M, segment_path_factors
 
     R = PLANET_RADIUS_M
     top = R + 1000.0 * DEFAULT_LEVELS_KM[-1]
@@ -85,8 +85,8 @@ def test_segment_to_the_top_equals_the_slant_path():
 
 
 def test_segment_below_the_horizon_is_continuous():
-    from skymodel.generator.atmosphere import DEFAULT_LEVELS_KM
-    from skymodel.generator.dataset_build import segment_path_factors
+    from widesky.skymodel.generator.atmosphere import DEFAULT_LEVELS_KM
+    from widesky.skymodel.generator.dataset_build import segment_path_factors
 
     d = np.linspace(0.0, 600e3, 61)
     f = segment_path_factors(DEFAULT_LEVELS_KM, 0.0, np.zeros_like(d), d).sum(axis=1)
@@ -95,7 +95,7 @@ def test_segment_below_the_horizon_is_continuous():
 
 @pytest.mark.slow
 def test_tiny_build_reproduces_its_fit(tiny):
-    from skymodel.generator.dataset_build import load_state, config_knots, direction_samples, fit_all, state_file
+    from widesky.skymodel.generator.dataset_build import load_state, config_knots, direction_samples, fit_all, state_file
 
     cfg, path, meta = tiny
     m = skymodel.load_dataset(path)
@@ -106,7 +106,7 @@ def test_tiny_build_reproduces_its_fit(tiny):
     s = load_state(state_file(cfg, v, e))
     smp = direction_samples(s["zenith"], s["azimuth"], e)
     ours = skymodel.sky_radiance(m, smp["directions"], e, 180.0, v, cfg.albedos[ia])
-    from skymodel.generator.fit import RadianceFit
+    from widesky.skymodel.generator.fit import RadianceFit
     for c in (2, 20, 40):
         f = RadianceFit(fitted["sun"][-1, ia, 0, -1, c], fitted["zen"][-1, ia, 0, -1, c],
                         fitted["emph"][-1, ia, 0, -1, c], 0.0)
@@ -140,7 +140,7 @@ def test_tiny_build_agrees_with_skylight(tiny):
 
 @pytest.mark.slow
 def test_tiny_build_direct_beam_and_error_report(tiny):
-    from skymodel.generator.dataset_build import load_state, state_file
+    from widesky.skymodel.generator.dataset_build import load_state, state_file
 
     cfg, path, meta = tiny
     m = skymodel.load_dataset(path)

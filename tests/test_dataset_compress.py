@@ -11,10 +11,10 @@ import json
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel.compress import (greedy_omission, interpolate_channels, load_compressed, omission_errors,
+from widesky import skymodel
+from widesky.skymodel.compress import (greedy_omission, interpolate_channels, load_compressed, omission_errors,
                                sky_radiance_all_channels, write_channel_list)
-from skymodel.synthetic import write_synthetic_dataset
+from widesky.skymodel.synthetic import write_synthetic_dataset
 
 WL = 300.0 + 40.0 * np.arange(55)
 
@@ -70,7 +70,7 @@ def test_loading_with_a_channel_list(tmp_path):
 
 
 def test_compress_cli_writes_a_channel_list(tmp_path, capsys):
-    from skymodel.cli import main
+    from widesky.cli import main
 
     path = write_synthetic_dataset(tmp_path / "s.dat", visibilities=(20, 131.8), albedos=(0.0, 1.0), n_channels=55,
                                    rank=2, n_sun=8, n_zen=8, n_emph=6, seed=2)

@@ -14,7 +14,7 @@ import warnings
 
 import pytest
 
-from skymodel.generator.paths import has_data
+from widesky.skymodel.generator.paths import has_data
 
 TINY = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 1.0], "elevations_deg": [10.0, 60.0],
         "knots": [16, 12, 8], "rank": 3, "n_streams": 4, "n_moments": 8, "zenith_step_deg": 15.0,
@@ -32,7 +32,7 @@ def _fresh_cache(tmp, name, monkeypatch, mie_cache):
 
 
 def _build(tmp, name, monkeypatch, processes):
-    from skymodel.generator.dataset_build import build_dataset, load_config
+    from widesky.skymodel.generator.dataset_build import build_dataset, load_config
 
     (tmp / "tiny.json").write_text(json.dumps(TINY))
     out = tmp / f"{name}.dat"
@@ -44,10 +44,10 @@ def _build(tmp, name, monkeypatch, processes):
 @pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
 def test_dask_local_cluster_build_is_byte_identical_to_process_pool(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
-    from skymodel.generator.dask_scheduler import SCHEDULER_ENV
+    from widesky.skymodel.generator.dask_scheduler import SCHEDULER_ENV
 
-    from skymodel.generator.paths import cache_dir
-    from skymodel.generator.solver import AtmosphereSpec, channel_problems, SkyState
+    from widesky.skymodel.generator.paths import cache_dir
+    from widesky.skymodel.generator.solver import AtmosphereSpec, channel_problems, SkyState
 
     monkeypatch.delenv(SCHEDULER_ENV, raising=False)
     channel_problems(SkyState(30.0, aod550=0.1), AtmosphereSpec(), [5])  # Mie tables in the user cache
@@ -68,14 +68,14 @@ def test_dask_local_cluster_build_is_byte_identical_to_process_pool(tmp_path, mo
 
 
 def test_bad_scheduler_address_is_a_one_line_error(tmp_path):
-    from skymodel.generator.dask_scheduler import check_address
+    from widesky.skymodel.generator.dask_scheduler import check_address
 
     with pytest.raises(ValueError, match="scheduler='not an address'"):
         check_address("not an address")
     assert check_address("tcp://127.0.0.1:8786") == "tcp://127.0.0.1:8786"
     cfg = tmp_path / "c.json"
     cfg.write_text(json.dumps(TINY))
-    r = subprocess.run([sys.executable, "-m", "skymodel.cli", "dataset", "build", str(cfg), "-o",
+    r = subprocess.run([sys.executable, "-m", "widesky.cli", "dataset", "build", str(cfg), "-o",
                         str(tmp_path / "x.dat"), "--scheduler", "nowhere"], capture_output=True, text=True,
                        env={**os.environ, "WIDESKY_CACHE_DIR": str(tmp_path / "cache")})
     assert r.returncode == 2

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel.generator.paths import has_data
+from widesky import skymodel
+from widesky.skymodel.generator.paths import has_data
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY_POL = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 0.8], "elevations_deg": [-3.0, 0.0, 20.0, 60.0],
@@ -36,7 +36,7 @@ def test_default_config_keeps_its_cache_keys():
     and fit-cache names as before the Monte Carlo path existed, and no Monte Carlo keys in its sidecar. The default
     configuration (low sun in spherical shells, the sun-knot intervals near the sun and the zenith-knot intervals above
     the horizon halved) shares its folder."""
-    from skymodel.generator.dataset_build import fit_file, load_config
+    from widesky.skymodel.generator.dataset_build import fit_file, load_config
 
     from dataclasses import replace
 
@@ -61,8 +61,8 @@ def test_default_config_keeps_its_cache_keys():
 
 
 def test_polarised_variant_config_is_valid():
-    from skymodel.generator.dataset_build import load_config
-    from skymodel.generator.dataset_mc import radiance_by_mc, uses_mc
+    from widesky.skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_mc import radiance_by_mc, uses_mc
 
     cfg = load_config(ROOT / "skymodel" / "data" / "polarised-dataset.json")
     assert uses_mc(cfg) and cfg.polarisation
@@ -74,8 +74,8 @@ def test_stream_mode_key():
     cache key; "independent" keeps the key of the states solved before the stream modes existed."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import BuildConfig, load_config
-    from skymodel.generator.dataset_mc import mc_config, mc_key
+    from widesky.skymodel.generator.dataset_build import BuildConfig, load_config
+    from widesky.skymodel.generator.dataset_mc import mc_config, mc_key
 
     cfg = load_config(ROOT / "skymodel" / "data" / "polarised-dataset.json")
     assert cfg.mc_streams == BuildConfig().mc_streams == "correlated"
@@ -88,7 +88,7 @@ def test_stream_mode_key():
 
 
 def test_twilight_without_monte_carlo_is_refused():
-    from skymodel.generator.dataset_build import BuildConfig
+    from widesky.skymodel.generator.dataset_build import BuildConfig
 
     with pytest.raises(ValueError, match="mc_below_elevation_deg"):
         BuildConfig(elevations_deg=(-2.0, 10.0))
@@ -99,7 +99,7 @@ def test_twilight_without_monte_carlo_is_refused():
 def test_cli_rejects_unknown_mc_key(tmp_path):
     cfg = tmp_path / "c.json"
     cfg.write_text(json.dumps({**TINY_POL, "mc_sample": 3}))
-    r = subprocess.run([sys.executable, "-m", "skymodel.cli", "dataset", "build", str(cfg), "-o",
+    r = subprocess.run([sys.executable, "-m", "widesky.cli", "dataset", "build", str(cfg), "-o",
                         str(tmp_path / "x.dat")], capture_output=True, text=True,
                        env={**os.environ, "WIDESKY_CACHE_DIR": str(tmp_path / "cache")})
     assert r.returncode == 2 and "mc_sample" in r.stderr and "Traceback" not in r.stderr
@@ -108,7 +108,7 @@ def test_cli_rejects_unknown_mc_key(tmp_path):
 
 def _cache(tmp, name, monkeypatch):
     """An empty state cache sharing the user's (content-keyed) Mie tables."""
-    from skymodel.generator.paths import cache_dir
+    from widesky.skymodel.generator.paths import cache_dir
 
     root = tmp / f"cache_{name}"
     root.mkdir()
@@ -118,7 +118,7 @@ def _cache(tmp, name, monkeypatch):
 
 
 def _build(tmp, name, processes):
-    from skymodel.generator.dataset_build import build_dataset, load_config
+    from widesky.skymodel.generator.dataset_build import build_dataset, load_config
 
     (tmp / "tiny_pol.json").write_text(json.dumps(TINY_POL))
     out = tmp / f"{name}.dat"
@@ -164,9 +164,9 @@ def test_polarisation_reproduces_the_monte_carlo_it_was_fitted_to(tiny_pol):
     """At a grid state the file's polarisation equals the Monte Carlo target -P = -Q_s / I within the fit's mean
     absolute error (solid-angle weighted, the sidecar's figure) plus 0.01; at 90 deg from a sun at 20 deg the visible
     sky is strongly polarised (Rayleigh: positive, above 0.3) and less so 10 deg from the sun."""
-    from skymodel.generator.dataset_build import direction_samples, load_config
-    from skymodel.generator.dataset_mc import mc_file, stored_polarisation
-    from skymodel.generator.cache import load_state
+    from widesky.skymodel.generator.dataset_build import direction_samples, load_config
+    from widesky.skymodel.generator.dataset_mc import mc_file, stored_polarisation
+    from widesky.skymodel.generator.cache import load_state
 
     tmp, out, meta = tiny_pol
     cfg = load_config(tmp / "tiny_pol.json")
@@ -210,7 +210,7 @@ def test_polarised_build_agrees_with_skylight(tiny_pol):
 def test_render_polarisation_on_the_polarised_build(tiny_pol, tmp_path):
     _, out, _ = tiny_pol
     png = tmp_path / "pol.png"
-    r = subprocess.run([sys.executable, "-m", "skymodel.cli", "sky", "render", "--dataset", str(out), "--quantity",
+    r = subprocess.run([sys.executable, "-m", "widesky.cli", "sky", "render", "--dataset", str(out), "--quantity",
                         "polarisation", "--channel", "440nm", "--elevation", "-2", "--resolution", "64", "--no-exr", "--output",
                         str(png)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
@@ -220,7 +220,7 @@ def test_render_polarisation_on_the_polarised_build(tiny_pol, tmp_path):
 @pytest.mark.slow
 def test_polarised_build_on_dask_is_byte_identical(tiny_pol, tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
-    from skymodel.generator.dask_scheduler import SCHEDULER_ENV
+    from widesky.skymodel.generator.dask_scheduler import SCHEDULER_ENV
 
     _, pool_out, _ = tiny_pol
     _cache(tmp_path, "dask", monkeypatch)
@@ -284,8 +284,8 @@ def test_resampled_monte_carlo_radiance_keeps_the_samples_and_adds_no_extremum()
     target outside the state's grid; the fit grid contains the state's grid, and the key renames the fit cache."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import fit_file, load_config
-    from skymodel.generator.dataset_mc import fit_grid, resample_radiance
+    from widesky.skymodel.generator.dataset_build import fit_file, load_config
+    from widesky.skymodel.generator.dataset_mc import fit_grid, resample_radiance
 
     rng = np.random.default_rng(5)
     th = np.array([0.0, 10.0, 20.0, 40.0, 70.0, 84.0, 89.95])

@@ -53,10 +53,10 @@ def test_every_markdown_page_is_in_the_site(site):
 def test_api_reference_is_generated_from_the_docstrings(site):
     _, out = site
     sky = (out / "api" / "skymodel.html").read_text()
-    for name in ("skymodel.sky_radiance", "skymodel.load_dataset", "skymodel.render.render_sky"):
+    for name in ("widesky.skymodel.sky_radiance", "widesky.skymodel.load_dataset", "widesky.skymodel.render.render_sky"):
         assert f'id="{name}"' in sky, name
     irr = (out / "api" / "irradiance.html").read_text()
-    for name in ("irradiance.poa_irradiance", "irradiance.Site", "irradiance.POAResult"):
+    for name in ("widesky.irradiance.poa_irradiance", "widesky.irradiance.Site", "widesky.irradiance.POAResult"):
         assert f'id="{name}"' in irr, name
     assert "[W m-2 sr-1 nm-1]" in sky                       # the units of the docstrings are on the page
 

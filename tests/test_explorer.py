@@ -18,11 +18,12 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import skymodel
-from skymodel.explorer import Explorer, make_server
-from skymodel.render import _display, render_sky
+from widesky import skymodel
+import widesky.explorer
+from widesky.explorer import Explorer, make_server
+from widesky.skymodel.render import _display, render_sky
 
-STATIC = Path(skymodel.__file__).parent / "explorer" / "static"
+STATIC = Path(widesky.explorer.__file__).parent / "static"
 
 
 @pytest.fixture(scope="module")
@@ -196,7 +197,7 @@ def test_tilted_plane_parts(server):
 def test_site_and_time_drive_the_sun(server):
     q = "lat=50.08&lon=14.42&tz=Europe/Prague&time=2024-06-21T13:00"
     status, sun = get_json(server, "/api/sun?" + q)
-    import irradiance as ir
+    import widesky.irradiance as ir
     import pandas as pd
     ref = ir.Site(50.08, 14.42, tz="Europe/Prague").solar_position(
         pd.DatetimeIndex([pd.Timestamp("2024-06-21T13:00")]), label="center", step="1h")
@@ -246,7 +247,7 @@ def test_foreign_host_headers_are_refused(server, host):
 
 
 def test_cli_errors_are_one_line():
-    p = subprocess.run([sys.executable, "-m", "skymodel.cli", "gui", "--port", "70000", "--no-browser"],
+    p = subprocess.run([sys.executable, "-m", "widesky.cli", "gui", "--port", "70000", "--no-browser"],
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "--port 70000" in p.stderr
 
@@ -254,7 +255,7 @@ def test_cli_errors_are_one_line():
 def test_a_user_response_is_integrated(tmp_path):
     """A glazing-like transmittance file: 0.6 over 400-760 nm, 0 elsewhere; its integral is 0.6 x the
     global irradiance of the channels inside that range (channel edges lie on 400 and 760 nm)."""
-    from skymodel.explorer.cli import parse_response
+    from widesky.explorer.cli import parse_response
 
     f = tmp_path / "glass.csv"
     f.write_text("wavelength_nm,value\n400,0.6\n760,0.6\n")

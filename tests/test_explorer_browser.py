@@ -21,7 +21,7 @@ pytestmark = [pytest.mark.slow,
 
 @pytest.fixture(scope="module")
 def page_url(tmp_path_factory):
-    from skymodel.explorer import Explorer, make_server
+    from widesky.explorer import Explorer, make_server
 
     out = tmp_path_factory.mktemp("explorer-browser")
     srv = make_server(Explorer(output_dir=out, threads=1), port=0)
@@ -34,7 +34,7 @@ def page_url(tmp_path_factory):
 def test_explorer_in_a_browser(page_url):
     import numpy as np
 
-    import skymodel
+    from widesky import skymodel
 
     url, out = page_url
     with playwright.sync_playwright() as p:

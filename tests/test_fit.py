@@ -9,9 +9,9 @@ the alternation converges to a near-equivalent, not the identical, factorisation
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel.generator.fit import fit_radiance, fit_transmittance, hat_weights
-from skymodel.synthetic import write_synthetic_dataset
+from widesky import skymodel
+from widesky.skymodel.generator.fit import fit_radiance, fit_transmittance, hat_weights
+from widesky.skymodel.synthetic import write_synthetic_dataset
 
 pytest.importorskip("scipy")
 
@@ -78,7 +78,7 @@ def test_banded_penalty_matches_the_dense_difference_operators(order):
     """The banded storage of the smoothness penalty equals the dense quadratic form built from difference matrices
     (reference: ||D_sun M||^2 + ||M D_zen^T||^2 with D of the stated order along the sun axis and second
     differences along the zenith axis), and the second-order penalty vanishes on M linear along the sun axis."""
-    from skymodel.generator.fit import _regulariser_banded
+    from widesky.skymodel.generator.fit import _regulariser_banded
 
     ns, nz = 6, 5
     band = nz + 1 if order == 1 else 2 * nz
@@ -113,7 +113,7 @@ def test_build_config_refuses_a_bad_sun_penalty_order_before_solving(tmp_path):
     import json
     from pathlib import Path
 
-    from skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_build import load_config
 
     cfg = json.loads((Path(__file__).parents[1] / "skymodel" / "data" / "default-dataset.json").read_text())
     cfg["sun_penalty_order"] = 3
@@ -158,7 +158,7 @@ def test_an_exactly_representable_sky_is_recovered_with_every_fit_term(kw):
     Sobolev term (differences of residuals, zero at the exact fit) do not move the minimiser away from it: with 20
     alternating sweeps (2 leave 0.4 % of unconverged alternation) it is recovered to 1e-4 NMAE on held-out
     directions (measured 2-8e-5; the tiny penalty 1e-9 is the only bias)."""
-    from skymodel.generator.dataset_build import neighbour_pairs
+    from widesky.skymodel.generator.dataset_build import neighbour_pairs
 
     # knot cells wider than the sample spacing, so that every cell holds samples
     sb, zb, eb = np.linspace(0, np.pi, 13), np.linspace(0, 0.5 * np.pi, 10), np.array([0.0, 0.5 * np.pi])
@@ -187,7 +187,7 @@ def test_an_exactly_representable_sky_is_recovered_with_every_fit_term(kw):
 
 def test_sobolev_matrix_is_the_stated_quadratic_form():
     """r^T Q r = sum w r^2 + sum pair_w (r_a - r_b)^2 (the definition) for random residuals and pairs."""
-    from skymodel.generator.fit import sobolev_matrix
+    from widesky.skymodel.generator.fit import sobolev_matrix
 
     rng = np.random.default_rng(8)
     w = rng.uniform(0.1, 2, 30)
@@ -212,7 +212,7 @@ def test_build_config_refuses_bad_fit_terms_when_read(tmp_path, key, value):
     import json
     from pathlib import Path
 
-    from skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_build import load_config
 
     cfg = json.loads((Path(__file__).parents[1] / "skymodel" / "data" / "default-dataset.json").read_text())
     cfg[key] = value
@@ -227,7 +227,7 @@ def test_a_configuration_without_the_new_fit_terms_fits_and_caches_as_before():
     import hashlib
     import json
 
-    from skymodel.generator.dataset_build import BuildConfig, fit_file, fit_options
+    from widesky.skymodel.generator.dataset_build import BuildConfig, fit_file, fit_options
 
     cfg = BuildConfig(sun_penalty_order=2)
     assert fit_options(cfg) == {}
@@ -246,7 +246,7 @@ def test_sun_knot_midpoints_halve_the_intervals_inside_the_range_only():
     fit-cache name then changes while a configuration without the key keeps its name."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import BuildConfig, config_knots, fit_file, with_midpoints
+    from widesky.skymodel.generator.dataset_build import BuildConfig, config_knots, fit_file, with_midpoints
 
     assert with_midpoints([0.0, 1.0, 2.0, 4.0, 8.0], 1.0, 4.0).tolist() == [0.0, 1.0, 1.5, 2.0, 3.0, 4.0, 8.0]
     assert with_midpoints([0.0, 1.0, 2.0], 0.2, 0.9).tolist() == [0.0, 1.0, 2.0]
@@ -267,7 +267,7 @@ def test_sun_knot_refine_halves_the_intervals_again_and_fills_every_new_cell():
     only with the key, and a range outside the first halving is refused."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import (BuildConfig, config_knots, fill_grid, fit_file, refine_fill_deg,
+    from widesky.skymodel.generator.dataset_build import (BuildConfig, config_knots, fill_grid, fit_file, refine_fill_deg,
                                                   with_midpoints)
 
     mid = BuildConfig(knots=(36, 28, 2), knot_powers=(2.0, 2.5, 1.6), sun_knot_midpoints_deg=(0.5, 9.5))
@@ -303,7 +303,7 @@ def test_zenith_knot_midpoints_halve_the_zenith_intervals_above_the_horizon_and_
     are refused."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import BuildConfig, config_knots, fit_file, fit_samples, zenith_fill
+    from widesky.skymodel.generator.dataset_build import BuildConfig, config_knots, fit_file, fit_samples, zenith_fill
 
     cfg = BuildConfig(knots=(36, 28, 2), knot_powers=(2.0, 2.5, 1.6), sun_knot_midpoints_deg=(0.5, 9.5))
     mid = replace(cfg, zenith_knot_midpoints_deg=(80.0, 89.7))
@@ -342,7 +342,7 @@ def test_fit_samples_fill_the_halved_cells_and_keep_the_solved_values():
     rounding, at the solved directions and between them)."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import (FILL_AZIMUTHS_DEG, BuildConfig, fill_grid, fit_directions,
+    from widesky.skymodel.generator.dataset_build import (FILL_AZIMUTHS_DEG, BuildConfig, fill_grid, fit_directions,
                                                   fit_samples)
 
     th, ph = fit_directions(3.0)
@@ -361,7 +361,7 @@ def test_fit_samples_fill_the_halved_cells_and_keep_the_solved_values():
 
 @pytest.mark.parametrize("value", [(9.5, 0.5), (0.5,), (-1.0, 5.0), (1.0, 200.0)])
 def test_build_config_refuses_bad_sun_knot_midpoints(value):
-    from skymodel.generator.dataset_build import BuildConfig
+    from widesky.skymodel.generator.dataset_build import BuildConfig
 
     with pytest.raises(ValueError, match="sun_knot_midpoints_deg="):
         BuildConfig(sun_knot_midpoints_deg=value)

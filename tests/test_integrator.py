@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from irradiance.integrator import IntegratorSettings, patch_radiance, poa_irradiance
-from irradiance.patches import direction_from_angles, reinhart
-from irradiance.raycast import compute_coefficients
-from irradiance.scene import make_scene
-from irradiance.skies import AnalyticSky, SkyStates, UniformSky
+from widesky.irradiance.integrator import IntegratorSettings, patch_radiance, poa_irradiance
+from widesky.irradiance.patches import direction_from_angles, reinhart
+from widesky.irradiance.raycast import compute_coefficients
+from widesky.irradiance.scene import make_scene
+from widesky.irradiance.skies import AnalyticSky, SkyStates, UniformSky
 
 WIDTH = 2200.0            # 55 channels x 40 nm: a spectrally flat unit quantity integrates to this
 
@@ -117,7 +117,7 @@ def test_circumsolar_peak_integrates():
     ref = (rel * w) @ np.maximum(normals @ d.T, 0.0).T * sky.zenith * sky.shape.sum()
     p = reinhart(2)
     L, _, cs = patch_radiance(sky, p, st, weights=np.ones((55, 1)))
-    from irradiance.patches import cosine_weights
+    from widesky.irradiance.patches import cosine_weights
     E = L[..., 0] @ cosine_weights(p, normals).T + cs[:, :1] * np.maximum(st.sun_direction @ normals.T, 0)
     err = E / ref - 1
     assert np.abs(err).max() < 0.02

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from irradiance.integrator import poa_irradiance
-from irradiance.patches import direction_from_angles
-from irradiance.raycast import compute_coefficients
-from irradiance.scene import make_scene
-from irradiance.skies import AnalyticSky, SkyStates
+from widesky.irradiance.integrator import poa_irradiance
+from widesky.irradiance.patches import direction_from_angles
+from widesky.irradiance.raycast import compute_coefficients
+from widesky.irradiance.scene import make_scene
+from widesky.irradiance.skies import AnalyticSky, SkyStates
 
 distributed = pytest.importorskip("distributed")
 

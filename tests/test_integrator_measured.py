@@ -2,7 +2,7 @@
 integrator).
 
 References and tolerances:
-* ``model_irradiance`` against the brute-force reference (``irradiance.reference``: the sky model on a
+* ``model_irradiance`` against the brute-force reference (``widesky.irradiance.reference``: the sky model on a
   1.6 deg grid plus a sun-centred disc quadrature; within 0.05 % of its 0.8 deg / 24 x 32 disc version
   here) on an unobstructed horizontal face, embedded default dataset: DNI exactly (both take the sky
   model's own direct normal irradiance); DHI with the default settings (145 patches) within 2 %
@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from irradiance.integrator import IntegratorSettings, measured_scaling, model_irradiance, poa_irradiance
-from irradiance.reference import reference_poa
-from irradiance.scene import make_scene
-from irradiance.skies import PragueSky, SkyStates, UniformSky
+from widesky.irradiance.integrator import IntegratorSettings, measured_scaling, model_irradiance, poa_irradiance
+from widesky.irradiance.reference import reference_poa
+from widesky.irradiance.scene import make_scene
+from widesky.irradiance.skies import PragueSky, SkyStates, UniformSky
 
 STATES = SkyStates.create([8.0, 25.0, 45.0, 70.0], [100.0, 140.0, 190.0, 230.0], [25.0, 40.0, 60.0, 100.0],
                           [0.1, 0.3, 0.2, 0.5])

@@ -18,13 +18,13 @@ import pandas as pd
 import pytest
 import trimesh
 
-from irradiance.integrator import poa_irradiance
-from irradiance.patches import direction_from_angles
-from irradiance.raycast import sun_bins
-from irradiance.reference import reference_poa, validation_scenes
-from irradiance.scene import make_scene
-from irradiance.skies import PragueSky, SkyStates, UniformSky
-from irradiance.solarposition import solar_position
+from widesky.irradiance.integrator import poa_irradiance
+from widesky.irradiance.patches import direction_from_angles
+from widesky.irradiance.raycast import sun_bins
+from widesky.irradiance.reference import reference_poa, validation_scenes
+from widesky.irradiance.scene import make_scene
+from widesky.irradiance.skies import PragueSky, SkyStates, UniformSky
+from widesky.irradiance.solarposition import solar_position
 
 WIDTH = 2200.0
 STATES = SkyStates.create([10.0, 35.0, 60.0, 85.0], [90.0, 150.0, 200.0, 250.0], 40.0, 0.3)
@@ -139,7 +139,7 @@ def test_optics_against_reference(name, tolerance):
     """The integrator's per-direction optics against the reference's per-ray optics (same annual
     tolerances as without optics; 4 days spread over the year), and the optic's loss itself
     (1 - with / without) within 10 % of the reference's loss per point."""
-    from irradiance import Response
+    from widesky.irradiance import Response
     states = twelve_days().take(np.concatenate([np.arange(24) + 24 * d for d in (0, 3, 6, 9)]))
     scene = validation_scenes()[name]
     sky = PragueSky()

@@ -9,10 +9,10 @@ import pytest
 import trimesh
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from irradiance.integrator import poa_irradiance
-from irradiance.patches import direction_from_angles
-from irradiance.scene import make_scene
-from irradiance.skies import AnalyticSky, SkyStates
+from widesky.irradiance.integrator import poa_irradiance
+from widesky.irradiance.patches import direction_from_angles
+from widesky.irradiance.scene import make_scene
+from widesky.irradiance.skies import AnalyticSky, SkyStates
 
 WIDTH = 2200.0
 

@@ -6,9 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from irradiance.location import (Location, Site, daytime_steps, ensure_tz_aware, fixed_offset_tz,
+from widesky.irradiance.location import (Location, Site, daytime_steps, ensure_tz_aware, fixed_offset_tz,
                                  infer_step, sun_times, time_range)
-from irradiance.solarposition import solar_position
+from widesky.irradiance.solarposition import solar_position
 
 
 def test_site_validation_names_parameter_and_range():

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from irradiance.measured import clearness_index, measured_scale_factors
+from widesky.irradiance.measured import clearness_index, measured_scale_factors
 
 
 def test_scaling_reproduces_measured_irradiance():

@@ -18,10 +18,10 @@ import trimesh
 
 pvlib = pytest.importorskip("pvlib")
 
-from irradiance import (AngularTable, Response, SkyStates, SpectralAngularTable, make_scene,
+from widesky.irradiance import (AngularTable, Response, SkyStates, SpectralAngularTable, make_scene,
                         poa_irradiance)
-from irradiance.optics import DEFAULT_NODES
-from irradiance.skies import UniformSky
+from widesky.irradiance.optics import DEFAULT_NODES
+from widesky.irradiance.skies import UniformSky
 
 
 def plane(tilt, azimuth=180.0, height=1.0):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from irradiance.patches import angles_from_direction, cosine_weights, direction_from_angles, reinhart
+from widesky.irradiance.patches import angles_from_direction, cosine_weights, direction_from_angles, reinhart
 
 
 @pytest.mark.parametrize("mf, count", [(1, 145), (2, 577), (3, 1297), (4, 2305)])

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from irradiance import POAResult, Response, SkyStates, SpectralAngularTable, make_scene, poa_irradiance
-from irradiance.optics import DEFAULT_NODES
-from irradiance.skies import UniformSky
+from widesky.irradiance import POAResult, Response, SkyStates, SpectralAngularTable, make_scene, poa_irradiance
+from widesky.irradiance.optics import DEFAULT_NODES
+from widesky.irradiance.skies import UniformSky
 
 STATES = SkyStates.create([8.0, 30.0, 55.0, 20.0, -5.0], [100.0, 150.0, 190.0, 250.0, 300.0],
                           40.0, [0.2, 0.2, 0.3, 0.3, 0.2])

@@ -5,10 +5,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import pvsim
-from pvsim import (EQEParameters, TECHNOLOGIES, band_average, get_technology, parametric_eqe,
+from widesky import pvsim
+from widesky.pvsim import (EQEParameters, TECHNOLOGIES, band_average, get_technology, parametric_eqe,
                    perovskite, perovskite_silicon_tandem, qe_to_sr, sr_to_qe)
-from pvsim.spectra import PLANCK, SPEED_OF_LIGHT, find_data_file, has_data_file, photon_flux
+from widesky.pvsim.spectra import PLANCK, SPEED_OF_LIGHT, find_data_file, has_data_file, photon_flux
 
 pvlib = pytest.importorskip("pvlib")
 

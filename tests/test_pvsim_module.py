@@ -7,10 +7,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import pvsim
-from pvsim import (channel_sr, cover_iam, cover_transmittance, faiman, get_technology, pvsyst_cell,
+from widesky import pvsim
+from widesky.pvsim import (channel_sr, cover_iam, cover_transmittance, faiman, get_technology, pvsyst_cell,
                    short_circuit_current, spectral_mismatch)
-from pvsim.spectra import ELEMENTARY_CHARGE, PLANCK, SPEED_OF_LIGHT, has_data_file
+from widesky.pvsim.spectra import ELEMENTARY_CHARGE, PLANCK, SPEED_OF_LIGHT, has_data_file
 
 pvlib = pytest.importorskip("pvlib")
 

@@ -13,11 +13,11 @@ import pandas as pd
 import pytest
 import trimesh
 
-import pvsim
-from irradiance import SkyStates, make_scene, poa_irradiance
-from irradiance.skies import AnalyticSky
-from pvsim.spectra import has_data_file
-from pvsim.system import SystemSpec, pv_yield, simulate, technology_responses
+from widesky import pvsim
+from widesky.irradiance import SkyStates, make_scene, poa_irradiance
+from widesky.irradiance.skies import AnalyticSky
+from widesky.pvsim.spectra import has_data_file
+from widesky.pvsim.system import SystemSpec, pv_yield, simulate, technology_responses
 
 pytestmark = [pytest.mark.reference,
               pytest.mark.skipif(not has_data_file("solar/ASTMG173.csv"), reason="../shared/data absent")]

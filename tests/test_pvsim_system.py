@@ -8,11 +8,11 @@ import pandas as pd
 import pytest
 import trimesh
 
-import pvsim
-from irradiance import SkyStates, make_scene, poa_irradiance
-from irradiance.skies import AnalyticSky
-from pvsim.spectra import has_data_file
-from pvsim.system import COVER_RESPONSE, CoverOptics, SystemSpec, pv_yield, simulate, technology_responses
+from widesky import pvsim
+from widesky.irradiance import SkyStates, make_scene, poa_irradiance
+from widesky.irradiance.skies import AnalyticSky
+from widesky.pvsim.spectra import has_data_file
+from widesky.pvsim.system import COVER_RESPONSE, CoverOptics, SystemSpec, pv_yield, simulate, technology_responses
 
 pvlib = pytest.importorskip("pvlib")
 
@@ -218,7 +218,7 @@ def test_comparison_outputs(run, tmp_path):
 # --- command line --------------------------------------------------------------------------------
 
 def _cli(argv, capsys):
-    from skymodel.cli import main
+    from widesky.cli import main
     rc = main(argv)
     out = capsys.readouterr()
     return rc, out.out, out.err
@@ -305,7 +305,7 @@ def test_cli_compare_under_weather_uses_the_allsky_model_by_default(capsys, tmp_
     times more, docs/all-sky.md), so the all-sky model must lower a-Si's spectral factor against the clear
     path on the same sky, and name its spectral model in the note."""
     from importlib.resources import files
-    weather = str(files("irradiance.data") / "sample_golden_june.epw")
+    weather = str(files("widesky.irradiance.data") / "sample_golden_june.epw")
     obj = tmp_path / "roof.obj"
     quad(35, 180).export(obj)
     factors = {}

@@ -5,8 +5,8 @@ import pickle
 import numpy as np
 import trimesh
 
-from irradiance import make_scene
-from irradiance.raycast import _pool_task_args, compute_coefficients, start_coefficients
+from widesky.irradiance import make_scene
+from widesky.irradiance.raycast import _pool_task_args, compute_coefficients, start_coefficients
 
 
 def test_pool_tasks_carry_the_key_not_the_scene():

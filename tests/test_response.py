@@ -8,8 +8,8 @@ wavelength / 1239.84198 nm W A-1, CODATA 2018 exact constants); tolerances are f
 import numpy as np
 import pytest
 
-from irradiance import AngularTable, Response, SpectralAngularTable
-from irradiance.response import HC_OVER_Q, band_average
+from widesky.irradiance import AngularTable, Response, SpectralAngularTable
+from widesky.irradiance.response import HC_OVER_Q, band_average
 
 EDGES = np.arange(280.0, 2480.0 + 1e-9, 40.0)
 LO, HI = EDGES[:-1], EDGES[1:]

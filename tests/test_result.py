@@ -6,8 +6,8 @@ import pandas as pd
 import pytest
 import trimesh
 
-from irradiance import AngularTable, POAResult, Response, SkyStates, make_scene, poa_irradiance
-from irradiance.skies import AnalyticSky
+from widesky.irradiance import AngularTable, POAResult, Response, SkyStates, make_scene, poa_irradiance
+from widesky.irradiance.skies import AnalyticSky
 
 
 def quad(tilt, azimuth, centre=(0.0, 0.0, 0.0)):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from irradiance.scene import load_mesh, make_scene
+from widesky.irradiance.scene import load_mesh, make_scene
 
 
 def tri(offset=(0.0, 0.0, 0.0)):

@@ -10,9 +10,9 @@ import sys
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel import render as render_mod
-from skymodel.cli import main
+from widesky import skymodel
+from widesky.skymodel import render as render_mod
+from widesky.cli import main
 
 SMALL = ["--resolution", "24"]
 
@@ -143,7 +143,7 @@ def test_dataset_synthetic_writes_a_valid_file(tmp_path, capsys):
 
 def test_sun_position_into_a_closed_pipe():
     """``widesky sun position | head -2`` was 'Broken pipe', exit 2: now a quiet exit 0."""
-    cmd = [sys.executable, "-c", "import sys; from skymodel.cli import main; sys.exit(main())", "sun", "position",
+    cmd = [sys.executable, "-c", "import sys; from widesky.cli import main; sys.exit(main())", "sun", "position",
            "--lat", "52.3", "--lon", "4.77", "--start", "2021-06-21", "--end", "2021-07-21", "--step", "1min",
            "--tz", "Europe/Amsterdam"]
     with subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE) as p:

@@ -15,8 +15,8 @@ import warnings
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel.synthetic import write_synthetic_dataset
+from widesky import skymodel
+from widesky.skymodel.synthetic import write_synthetic_dataset
 
 R_PLANET = 6378000.0
 
@@ -320,7 +320,7 @@ def test_ground_level_variant(datasets):
 def test_table_equals_direct_on_dense_image(datasets):
     """The piecewise-polynomial table path gives the direct path's values on a dense fisheye, including
     cells where configurations change sign (rough dataset)."""
-    from skymodel.render import fisheye_directions
+    from widesky.skymodel.render import fisheye_directions
 
     m = skymodel.load_dataset(datasets["rough"])
     d, mask = fisheye_directions(120)
@@ -339,8 +339,8 @@ def test_twilight_table_equals_direct_on_dense_image(datasets, which):
     """Sun below the horizon (the shadow angle replaces the zero angle in the zenith factor): the twilight
     table path gives the direct path's values on dense up- and side-facing fisheyes, to the daytime table's
     tolerance, with the clamp exercised (rough dataset) and every interpolation level (full dataset)."""
-    from skymodel.evaluate import KERNEL_INFO
-    from skymodel.render import fisheye_disc
+    from widesky.skymodel.evaluate import KERNEL_INFO
+    from widesky.skymodel.render import fisheye_disc
 
     m = skymodel.load_dataset(datasets[which])
     for view, state in (("up", (-2.2, 123.0, 60.0, 0.4)), ("side", (-0.6, 200.0, 30.0, 0.9)),
@@ -356,7 +356,7 @@ def test_twilight_table_equals_direct_on_dense_image(datasets, which):
     if which == "rough":
         assert (a == 0).mean() > 0.01 and KERNEL_INFO["mixed_terms"] > 0  # the clamp is exercised
     # rows scattered into an image (the renderer's call) give the same values
-    from skymodel.evaluate import _evaluate_component
+    from widesky.skymodel.evaluate import _evaluate_component
 
     img = np.zeros((dirs.shape[0] + 7, m.n_channels))
     rows = np.arange(dirs.shape[0], dtype=np.int64)[::-1] + 7
@@ -434,7 +434,7 @@ def test_sun_radiance_and_direct_normal(datasets):
 
 def test_reference_loop_baseline_agrees(datasets):
     """The benchmark's baseline (a straight per-direction, per-channel port in C) gives the same values."""
-    from skymodel import _core
+    from widesky.skymodel import _core
 
     m = skymodel.load_dataset(datasets["full"])
     sun, zen, emph = m.radiance_coefficients()

@@ -13,7 +13,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from skymodel.exrfile import NATIVE_COMPRESSIONS, write_scanline_exr
+from widesky.skymodel.exrfile import NATIVE_COMPRESSIONS, write_scanline_exr
 
 OpenEXR = pytest.importorskip("OpenEXR")
 pytestmark = pytest.mark.skipif(not NATIVE_COMPRESSIONS, reason="widesky's encoder runs on little-endian hosts only")
@@ -107,8 +107,8 @@ def test_nonfinite_values(tmp_path):
 def test_write_exr_auto_falls_back_to_float(tmp_path):
     """write_exr(pixel_type="auto") writes half floats unless a value does not fit one (then float32); an
     explicit "half" stores inf there."""
-    import skymodel
-    from skymodel.render import render_sky, write_exr
+    from widesky import skymodel
+    from widesky.skymodel.render import render_sky, write_exr
 
     r = render_sky(skymodel.load_dataset(), resolution=24)
     big = dataclasses.replace(r, values=r.values.copy())
@@ -124,7 +124,7 @@ def test_blocks_of_scanlines(tmp_path, monkeypatch):
     """Scanlines coded a block at a time into one reused buffer (here 3 lines per block, the last one
     short: 2 lines) give the same file as one block; a value beyond the half range in the last block,
     refused, leaves the file as it was before the image."""
-    import skymodel.exrfile as exrfile
+    import widesky.skymodel.exrfile as exrfile
 
     h, w, c = 5, 19, 6
     v = hard_image(h, w, c, seed=7)
@@ -155,8 +155,8 @@ def test_blocks_of_scanlines(tmp_path, monkeypatch):
 def test_write_exr_preview_and_spectral_channels(tmp_path, pixel_type, compression):
     """write_exr of a render, by widesky's encoder (rle) and by the OpenEXR library (zip): the RGB preview
     equals the render's linear sRGB and every S0 channel its values, after rounding to the pixel type."""
-    import skymodel
-    from skymodel.render import render_sky, write_exr
+    from widesky import skymodel
+    from widesky.skymodel.render import render_sky, write_exr
 
     r = render_sky(skymodel.load_dataset(), sun_elevation=20.0, resolution=21)
     header, ch = read_exr(write_exr(tmp_path / "a.exr", r, pixel_type=pixel_type, compression=compression))

@@ -12,10 +12,10 @@ import sys
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel import DatasetError
-from skymodel.synthetic import synthetic_contents, write_synthetic_dataset
-from skymodel.writer import write_dataset
+from widesky import skymodel
+from widesky.skymodel import DatasetError
+from widesky.skymodel.synthetic import synthetic_contents, write_synthetic_dataset
+from widesky.skymodel.writer import write_dataset
 
 SPEC_SMALL = dict(visibilities=(20, 60), albedos=(0, 1), altitudes=(0,), elevations=(0, 30, 90), n_channels=2,
                   rank=2, n_sun=7, n_zen=7, n_emph=6, trans_dims=(4, 3), trans_rank=2, polarisation=True,
@@ -241,7 +241,7 @@ def test_a_valid_sidecar_spectrum_is_used(small, tmp_path):
 def test_chunked_decoding_equals_whole_file_decoding(tmp_path, monkeypatch):
     """Decoding in chunks (here forced to one configuration row at a time) gives the same arrays as
     decoding the whole selection at once with numpy (the reference's float32(double(half)/scale))."""
-    import skymodel.dataset as ds
+    import widesky.skymodel.dataset as ds
 
     path = write_synthetic_dataset(tmp_path / "c.dat", visibilities=(20, 40, 131.8), albedos=(0, 0.5, 1),
                                    n_channels=6, rank=3, n_sun=9, n_zen=8, n_emph=5, polarisation=True, seed=4)
@@ -264,8 +264,8 @@ def test_chunked_decoding_equals_whole_file_decoding(tmp_path, monkeypatch):
 MUTATION_SCRIPT = r"""
 import sys, struct, warnings
 import numpy as np
-import skymodel
-from skymodel import DatasetError
+from widesky import skymodel
+from widesky.skymodel import DatasetError
 src, work, seed, n = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 base = open(src, "rb").read()
 rng = np.random.default_rng(seed)

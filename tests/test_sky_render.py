@@ -7,11 +7,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel.synthetic import write_synthetic_dataset
-from skymodel.cli import main
-from skymodel.colour import channel_xyz_weights, cie1931_xyz, srgb_encode
-from skymodel.render import fisheye_directions, render_sky, write_exr, write_png
+from widesky import skymodel
+from widesky.skymodel.synthetic import write_synthetic_dataset
+from widesky.cli import main
+from widesky.skymodel.colour import channel_xyz_weights, cie1931_xyz, srgb_encode
+from widesky.skymodel.render import fisheye_directions, render_sky, write_exr, write_png
 
 # The channel-name pattern of the spectral OpenEXR layout (Fichet, Pacanowski, Wilkie 2021, JCGT 10(3),
 # section 3: Stokes component, wavelength with a comma as decimal mark, unit)
@@ -98,8 +98,8 @@ def test_colour_and_display_kernels():
     (float64 reference, float32 accumulation: rtol 1e-5 of the pixel's magnitude), and the one-pass 8-bit
     encoder equals the sRGB transfer function of the scaled, clipped value to one 8-bit level (the 16-bit
     table's rounding); NaN, negative and over-range values give 0, 0 and 255."""
-    from skymodel.colour import xyz_to_linear_srgb
-    from skymodel.render import _encode8
+    from widesky.skymodel.colour import xyz_to_linear_srgb
+    from widesky.skymodel.render import _encode8
 
     model = skymodel.load_dataset()
     r = render_sky(model, sun_elevation=12.0, sun_azimuth=200.0, visibility=30.0, albedo=0.2, resolution=40)
@@ -127,7 +127,7 @@ def test_png_writer_round_trip(tmp_path, shape):
     """widesky's PNG writer (skymodel.pngfile) read back with Pillow: the same pixels, exactly."""
     from PIL import Image
 
-    from skymodel.pngfile import write_rgb_png
+    from widesky.skymodel.pngfile import write_rgb_png
 
     img = np.random.default_rng(sum(shape)).integers(0, 256, shape, dtype=np.uint8)
     img[: shape[0] // 2] = img[0]  # repeated rows: the Up filter's zero differences
@@ -141,7 +141,7 @@ def test_png_writer_round_trip(tmp_path, shape):
 
 
 def test_percentile99_equals_numpy():
-    from skymodel.render import _percentile99
+    from widesky.skymodel.render import _percentile99
 
     rng = np.random.default_rng(2)
     for n in (1, 2, 100, 12345):
@@ -161,7 +161,7 @@ def test_render_quantities(tmp_path):
     assert np.isfinite(p.values).all()
     png = write_png(tmp_path / "pol.png", p)
     assert png.stat().st_size > 0
-    from skymodel.render import polarisation_colours
+    from widesky.skymodel.render import polarisation_colours
     c = polarisation_colours(np.array([-1.0, -0.5, 0.0, 0.5, 1.0, 3.0, np.nan])).astype(int)
     assert c[2].tolist() == [221, 221, 221] and c[6].tolist() == c[2].tolist()      # 0 (and NaN): neutral grey
     assert c[4, 0] > c[4, 2] and c[0, 2] > c[0, 0]                                   # +1 red, -1 blue

@@ -12,8 +12,8 @@ import warnings
 import numpy as np
 import pytest
 
-import skymodel
-from skymodel.synthetic import write_synthetic_dataset
+from widesky import skymodel
+from widesky.skymodel.synthetic import write_synthetic_dataset
 
 skylight_prague = pytest.importorskip("skylight.prague")
 Manager = skylight_prague.PragueSkyModelManager

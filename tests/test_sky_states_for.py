@@ -14,9 +14,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from irradiance import Site, SkyStates, model_irradiance, sky_states_for
-from irradiance.skies import PragueSky
-from irradiance.weather import write_epw
+from widesky.irradiance import Site, SkyStates, model_irradiance, sky_states_for
+from widesky.irradiance.skies import PragueSky
+from widesky.irradiance.weather import write_epw
 
 pvlib = pytest.importorskip("pvlib")
 

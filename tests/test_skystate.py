@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import irradiance
-from irradiance.location import Site, daytime_steps
-from irradiance.skystate import (PSM_RANGES, GroupingSteps, SkyRanges, group_sky_states,
+from widesky import irradiance
+from widesky.irradiance.location import Site, daytime_steps
+from widesky.irradiance.skystate import (PSM_RANGES, GroupingSteps, SkyRanges, group_sky_states,
                                  sky_ranges, sky_states)
-from irradiance.weather import read_epw
-from skymodel.visibility import aod550_from_visibility, aod_at_wavelength
+from widesky.irradiance.weather import read_epw
+from widesky.skymodel.visibility import aod550_from_visibility, aod_at_wavelength
 
 SAMPLE = Path(irradiance.__file__).parent / "data" / "sample_golden_june.epw"
 
@@ -176,7 +176,7 @@ def test_sample_weather_sky_states():
 def test_cli_sun_skystates(capsys, tmp_path):
     import argparse
 
-    from irradiance import cli_sun
+    from widesky.commands import sun as cli_sun
     parser = argparse.ArgumentParser(prog="widesky")
     cli_sun.register(parser.add_subparsers(dest="command"))
     out_csv = tmp_path / "states.csv"
@@ -191,8 +191,8 @@ def test_cli_sun_skystates(capsys, tmp_path):
 def test_real_dataset_object_provides_the_ranges(tmp_path):
     """A loaded skymodel.SkyModel (here a small synthetic dataset) works as ``model``."""
     try:
-        import skymodel
-        from skymodel.synthetic import write_synthetic_dataset
+        from widesky import skymodel
+        from widesky.skymodel.synthetic import write_synthetic_dataset
         model = skymodel.load_dataset(write_synthetic_dataset(
             tmp_path / "s.dat", visibilities=(20.0, 131.8), albedos=(0.0, 1.0), n_channels=2))
     except Exception as exc:  # the dataset code belongs to skymodel; skip if it is not usable here

@@ -36,8 +36,8 @@ References and tolerances:
 import numpy as np
 import pytest
 
-from skymodel.generator import smoothness as S
-from skymodel.generator.paths import has_data
+from widesky.skymodel.generator import smoothness as S
+from widesky.skymodel.generator.paths import has_data
 
 
 def test_turning_points_count_reversals_beyond_the_hysteresis():
@@ -234,8 +234,8 @@ needs_data = pytest.mark.skipif(not has_data(), reason="input data directory abs
 def solved_channels():
     """Solver radiance at 29.2 km, sun 8 deg, channels 380 / 540 / 1260 nm, on the build's fit directions and on
     the 80 deg almucantar (1 deg steps), with the tabulated and the Legendre-series intensity correction."""
-    from skymodel.generator.dataset_build import fit_directions, load_config, _problems
-    from skymodel.generator.solver import SolverConfig, run_disort
+    from widesky.skymodel.generator.dataset_build import fit_directions, load_config, _problems
+    from widesky.skymodel.generator.solver import SolverConfig, run_disort
 
     cfg = load_config("skymodel/data/default-dataset.json")
     probs, et, _ = _problems(29.2, cfg)
@@ -293,9 +293,9 @@ def test_the_solvers_own_sky_at_8_deg_is_within_the_limits(solved_channels):
 @needs_data
 @pytest.mark.slow
 def test_default_fit_settings_give_a_smooth_accurate_sky(solved_channels):
-    from skymodel.evaluate import reference_angles
-    from skymodel.generator.dataset_build import config_knots, fit_state, load_config
-    from skymodel.generator.fit import RadianceFit
+    from widesky.skymodel.evaluate import reference_angles
+    from widesky.skymodel.generator.dataset_build import config_knots, fit_state, load_config
+    from widesky.skymodel.generator.fit import RadianceFit
 
     cfg = load_config("skymodel/data/default-dataset.json")
     br = config_knots(cfg)
@@ -311,7 +311,7 @@ def test_default_fit_settings_give_a_smooth_accurate_sky(solved_channels):
     assert not S._fails(m, S.REL_TOL).any(), m
     # accuracy along the held-out 80 deg almucantar
     az = solved_channels["az_alm"]
-    from skymodel.evaluate import directions_from_angles
+    from widesky.skymodel.evaluate import directions_from_angles
     a = reference_angles(directions_from_angles(np.full(len(az), 80.0), 180.0 + az), 8.0, 180.0)
     fit = np.stack([RadianceFit(sun[c], zen[c], emph[c], 0).evaluate(a["gamma"], a["zero"], a["zero"], *br)
                     for c in range(3)], -1)
@@ -331,10 +331,10 @@ def test_sun_knot_midpoints_remove_the_scallops_on_a_low_sun_aureole_ray():
     solver's)."""
     from dataclasses import replace
 
-    from skymodel.evaluate import reference_angles
-    from skymodel.generator.dataset_build import config_knots, fit_directions, fit_state, load_config
-    from skymodel.generator.dataset_mc import single_scatter
-    from skymodel.generator.fit import RadianceFit
+    from widesky.skymodel.evaluate import reference_angles
+    from widesky.skymodel.generator.dataset_build import config_knots, fit_directions, fit_state, load_config
+    from widesky.skymodel.generator.dataset_mc import single_scatter
+    from widesky.skymodel.generator.fit import RadianceFit
 
     cfg = load_config("skymodel/data/default-dataset.json")
     cfg = replace(cfg, sun_knot_midpoints_deg=None, sun_knot_refine_deg=None)   # the knots before the midpoints
@@ -367,8 +367,8 @@ def test_default_dataset_passes_the_smoothness_check():
     sidecar."""
     import json
 
-    import skymodel
-    from skymodel.dataset import default_dataset_path
+    from widesky import skymodel
+    from widesky.skymodel.dataset import default_dataset_path
 
     model = skymodel.load_dataset()
     meta = json.loads(default_dataset_path().with_name("default.dat.json").read_text())
@@ -393,8 +393,8 @@ def test_band_samples_lie_in_the_interpolation_band_and_copy_the_solar_vertical(
     the same gamma on the state's solar vertical. Reference: a sky that depends on gamma alone (an analytic aureole,
     1 / (gamma + 1 deg)), whose band values must equal that function of the sample's gamma (within 0.5 %: PCHIP
     interpolation in log radiance along the vertical); no band without neighbours."""
-    from skymodel.evaluate import direction_from_zenith, reference_angles
-    from skymodel.generator.dataset_build import BAND_GAMMAS_DEG, band_samples, fit_directions
+    from widesky.skymodel.evaluate import direction_from_zenith, reference_angles
+    from widesky.skymodel.generator.dataset_build import BAND_GAMMAS_DEG, band_samples, fit_directions
 
     ele = 17.0
     th, ph = fit_directions(ele)
@@ -418,7 +418,7 @@ def test_band_min_elevation_keeps_the_band_off_below_it_and_the_cache_names_of_b
     ``band_max_gamma_deg`` and is written to the sidecar only where set (reference: the names and values set here)."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import BuildConfig, fit_file, has_band
+    from widesky.skymodel.generator.dataset_build import BuildConfig, fit_file, has_band
 
     plain = BuildConfig()
     band = replace(plain, band_max_gamma_deg=15.0, band_weight=0.03)
@@ -445,9 +445,9 @@ def test_the_interpolation_band_removes_the_extra_turning_points_between_17_and_
     since the seventh rebuild the sun-knot intervals at 3.5-8.5 deg halved again: measured once each)."""
     from dataclasses import replace
 
-    from skymodel.evaluate import reference_angles
-    from skymodel.generator.dataset_build import config_knots, fit_state, load_config, solve_state
-    from skymodel.generator.fit import RadianceFit
+    from widesky.skymodel.evaluate import reference_angles
+    from widesky.skymodel.generator.dataset_build import config_knots, fit_state, load_config, solve_state
+    from widesky.skymodel.generator.fit import RadianceFit
 
     shipped = load_config("skymodel/data/default-dataset.json")
     cfg = replace(shipped, zenith_knot_midpoints_deg=None, sun_knot_refine_deg=None)   # the fifth rebuild's knots
@@ -541,8 +541,8 @@ def test_the_check_flags_the_file_the_issue_was_filed_against(first_file):
     80 deg almucantar; 40 km / 45 deg, a 110 % zenith spot at 1260 nm), in most checked channels."""
     import json
 
-    import skymodel
-    from skymodel.dataset import default_dataset_path
+    from widesky import skymodel
+    from widesky.skymodel.dataset import default_dataset_path
 
     old = skymodel.load_dataset(first_file)
     assert len(old.elevations) == 17 and len(old.visibilities) == 11   # the same grid as today's file

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from irradiance.solarposition import (delta_t_estimate, dni_extra, julian_day, solar_position,
+from widesky.irradiance.solarposition import (delta_t_estimate, dni_extra, julian_day, solar_position,
                                       spa)
 
 UNIX_EPOCH = dt.datetime(1970, 1, 1)
@@ -301,7 +301,7 @@ def test_non_finite_time_rejected():
 def _cli(argv):
     import argparse
 
-    from irradiance import cli_sun
+    from widesky.commands import sun as cli_sun
     parser = argparse.ArgumentParser(prog="widesky")
     cli_sun.register(parser.add_subparsers(dest="command"))
     args = parser.parse_args(argv)

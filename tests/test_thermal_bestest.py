@@ -16,7 +16,7 @@ import warnings
 import pytest
 
 try:
-    from skymodel.generator.paths import data_file
+    from widesky.skymodel.generator.paths import data_file
     data_file("bestest/detailed_UsersGuide.mo")
     data_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")
     HAVE_DATA = True
@@ -29,7 +29,7 @@ pytestmark = [pytest.mark.reference, pytest.mark.slow,
 
 @functools.lru_cache(maxsize=None)
 def _integrator():
-    from thermal.bestest import integrator_irradiance
+    from widesky.thermal.bestest import integrator_irradiance
     with warnings.catch_warnings():       # TMY3 visibilities beyond the sky model's range: clamped
         warnings.filterwarnings("ignore", "8760 steps: clamped to the sky model's ranges",
                                 UserWarning)
@@ -38,13 +38,13 @@ def _integrator():
 
 @functools.lru_cache(maxsize=None)
 def _run(case, route="weather", exterior="hourly"):
-    from thermal.bestest import run_case
+    from widesky.thermal.bestest import run_case
     return run_case(case, poa=_integrator() if route == "integrator" else None, exterior=exterior)
 
 
 @functools.lru_cache(maxsize=None)
 def _refs():
-    from thermal.bestest import reference_results
+    from widesky.thermal.bestest import reference_results
     return reference_results()
 
 
@@ -92,7 +92,7 @@ def test_calm_night_lowers_the_heating_peak():
 def test_layer_u_values_by_hand():
     """U-values from the detailed models' layers (x / k) with ISO 6946 R_si and R_se = 0.04:
     the Case 600 wall is 9 mm siding (k 0.14), 66 mm fibreglass (0.04), 12 mm plasterboard (0.16)."""
-    from thermal.bestest import case_definition, layer_resistance
+    from widesky.thermal.bestest import case_definition, layer_resistance
     r = layer_resistance(data_file("bestest/detailed_Cases6xx_Case600FF.mo"), "matExtWal")
     assert r == pytest.approx(0.009 / 0.14 + 0.066 / 0.04 + 0.012 / 0.16, rel=1e-12)
     c = case_definition("600")
@@ -122,7 +122,7 @@ def test_reference_tables_parsed():
 
 
 def test_case_inputs_from_files():
-    from thermal.bestest import case_definition
+    from widesky.thermal.bestest import case_definition
     c = case_definition("600")
     assert c.window_area == 12.0 and c.zone.floor_area == 48.0
     assert [w[0] for w in c.walls] == pytest.approx([0.0, 90.0, 180.0, 270.0])
@@ -134,7 +134,7 @@ def test_case_inputs_from_files():
 
 def test_read_mos_drycold():
     """The DRYCOLD table: 8760 hours, Denver-Stapleton header, coldest hour -24.4 degC (4 Jan)."""
-    from thermal.bestest import read_mos
+    from widesky.thermal.bestest import read_mos
     data, site = read_mos(data_file("weather/DRYCOLD.mos"))
     assert len(data) == 8760 and site["latitude"] == pytest.approx(39.76)
     assert data["temp_air"].min() == pytest.approx(-24.4)

@@ -5,10 +5,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from thermal.building import ZoneSpec, box_building, building_from_meshes, parse_label
-from thermal.glazing import Gap, GlazingUnit, layer_from_broadband
-from thermal.loads import Construction, building_loads, opaque_gains, window_gains, zone_parameters
-from thermal.surface import surface_irradiance
+from widesky.thermal.building import ZoneSpec, box_building, building_from_meshes, parse_label
+from widesky.thermal.glazing import Gap, GlazingUnit, layer_from_broadband
+from widesky.thermal.loads import Construction, building_loads, opaque_gains, window_gains, zone_parameters
+from widesky.thermal.surface import surface_irradiance
 
 GLASS = layer_from_broadband("clear", 0.834, 0.075, 0.075, 3.048)
 UNIT = GlazingUnit("dbl", [GLASS, GLASS], [Gap(12.0)])
@@ -101,8 +101,8 @@ def test_glazing_response_through_integrator():
     spectrally flat) sky: the gain per m2 of glass on an unobstructed vertical window is the
     hemispherical g times the sky irradiance (the ground reflects the same radiance), within the
     integrator's sky quadrature (1 %)."""
-    irr = pytest.importorskip("irradiance")
-    from thermal.gains import building_scene, glazing_response, window_gain_by_surface
+    import widesky.irradiance as irr
+    from widesky.thermal.gains import building_scene, glazing_response, window_gain_by_surface
     b = box_building(6, 6, 3.0, wwr={"south": 0.4}, perimeter_zones=False)
     scene, labels = building_scene(b, ground_albedo=1.0, analysis_reflectance=0.0)
     sky = irr.UniformSky(radiance=1.0)

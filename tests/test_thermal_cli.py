@@ -4,11 +4,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from skymodel.cli import main
-from thermal.facade import write_facade_ply
+from widesky.cli import main
+from widesky.thermal.facade import write_facade_ply
 
 try:
-    from skymodel.generator.paths import data_file
+    from widesky.skymodel.generator.paths import data_file
     data_file("glazing/CLEAR5.LOF")
     data_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")
     HAVE_DATA = True
@@ -109,7 +109,7 @@ def test_loads_command_context_shades(tmp_path, capsys):
 def test_context_box_option():
     """``--context-box X,Y,W,D,H``: a block with its south-west corner at X,Y on the ground."""
     import argparse
-    from thermal.cli import _context
+    from widesky.commands.thermal import _context
     m, = _context(argparse.Namespace(context=[], context_box=["-5,-12,30,6,15"]))
     assert m.bounds.tolist() == [[-5.0, -12.0, 0.0], [25.0, -6.0, 15.0]]
     for bad in ("1,2,3", "0,0,1,1,-2"):

@@ -4,14 +4,14 @@ and the sample IGDB files against the ASHRAE 140-2020 glass record."""
 import numpy as np
 import pytest
 
-from thermal.glazing import (Gap, GlazingUnit, combine_layers, gap_conductance, inward_fractions,
+from widesky.thermal.glazing import (Gap, GlazingUnit, combine_layers, gap_conductance, inward_fractions,
                              layer_from_broadband, layer_from_nk, read_igdb, read_nk_yml,
                              read_solar_spectrum)
-from thermal.optics import (coated_angular, equivalent_slab, fresnel_interface, hemispherical,
+from widesky.thermal.optics import (coated_angular, equivalent_slab, fresnel_interface, hemispherical,
                             invert_slab, slab)
 
 try:
-    from skymodel.generator.paths import data_file
+    from widesky.skymodel.generator.paths import data_file
     data_file("glazing/CLEAR_3.DAT")
     HAVE_DATA = True
 except Exception:                     # noqa: BLE001 - any missing-data condition skips
@@ -123,7 +123,7 @@ def test_clear3_against_ashrae140_glass_record():
     """NFRC 102 (generic clear 3 mm, CLEAR_3.DAT) weighted by AM1.5 (G173 global) against the
     ASHRAE 140-2020 glass record Glass600 (tauSol 0.834, rhoSol 0.075, which is that same glass,
     rated with the NFRC spectrum): tolerance 0.005."""
-    from thermal.bestest import read_modelica_record
+    from widesky.thermal.bestest import read_modelica_record
     rec = read_modelica_record(data_file("bestest/detailed_Data_Glass600.mo"))
     c3 = read_igdb(data_file("glazing/CLEAR_3.DAT"))
     wl, e = read_solar_spectrum()

@@ -4,8 +4,8 @@ surface irradiance against pvlib's Hay-Davies; sol-air temperature by hand."""
 import numpy as np
 import pytest
 
-from thermal.surface import absorbed_solar, aoi, sol_air_temperature, surface_irradiance
-from thermal.zone import ZoneParameters, simulate_5r1c
+from widesky.thermal.surface import absorbed_solar, aoi, sol_air_temperature, surface_irradiance
+from widesky.thermal.zone import ZoneParameters, simulate_5r1c
 
 P = ZoneParameters(floor_area=48.0, h_tr_w=36.0, h_tr_op=51.0, h_ve=18.0, heat_capacity=2.0e6,
                    mass_area=140.0)
@@ -162,7 +162,7 @@ def test_exterior_coefficients_by_hand():
     """ISO 6946:2017 Annex C: h_c = 4 + 4 v, h_r = eps 4 sigma T^3; at 4 m s-1 and 10 degC the
     sum is 24.6 W m-2 K-1, close to the nominal 1/R_se = 25 that ISO 13790 fixes, so the hourly
     U-value equals the nominal one there; a calm hour lowers a window's U far more than a wall's."""
-    from thermal.exterior import exterior_coefficients, hourly_u_value, wind_at_height
+    from widesky.thermal.exterior import exterior_coefficients, hourly_u_value, wind_at_height
     hc, hr = exterior_coefficients(4.0, 10.0, 0.9)
     assert hc == pytest.approx(20.0) and hr == pytest.approx(0.9 * 4 * 5.670374419e-8 * 283.15 ** 3)
     assert hourly_u_value(0.51, 25.0) == pytest.approx(0.51, rel=1e-12)

@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import irradiance
-from irradiance.location import Site
-from irradiance.weather import (WeatherFileError, read_epw, read_tmy3, read_weather,
+from widesky import irradiance
+from widesky.irradiance.location import Site
+from widesky.irradiance.weather import (WeatherFileError, read_epw, read_tmy3, read_weather,
                                 read_weather_csv, write_epw)
 
 SHARED = Path(os.environ.get("WIDESKY_SHARED_DATA",

@@ -4,8 +4,8 @@ months of different years still reads."""
 
 import pytest
 
-from irradiance.weather import WeatherFileError, read_epw
-from irradiance.cli_sun import SAMPLE_WEATHER
+from widesky.irradiance.weather import WeatherFileError, read_epw
+from widesky.commands.sun import SAMPLE_WEATHER
 
 HEADER = 8  # header lines of the sample file; record k is on line HEADER + 1 + k
 

@@ -1,11 +1,11 @@
 """widesky.thermal: facade solar gains with spectral-angular glazing, and hourly zone loads.
 
-Glazing optics per wavelength and angle (:mod:`thermal.optics`, :mod:`thermal.glazing`), opaque
-surfaces and weather-driven surface irradiance (:mod:`thermal.surface`), the ISO 13790 5R1C zone
-model (:mod:`thermal.zone`) with hourly outside surface coefficients (:mod:`thermal.exterior`),
-building input (:mod:`thermal.building`), gains and loads
-(:mod:`thermal.loads`), the integrator wiring (:mod:`thermal.gains`), ASHRAE 140 validation
-(:mod:`thermal.bestest`) and the spectral-vs-rated glazing study (:mod:`thermal.study`).
+Glazing optics per wavelength and angle (:mod:`widesky.thermal.optics`, :mod:`widesky.thermal.glazing`), opaque
+surfaces and weather-driven surface irradiance (:mod:`widesky.thermal.surface`), the ISO 13790 5R1C zone
+model (:mod:`widesky.thermal.zone`) with hourly outside surface coefficients (:mod:`widesky.thermal.exterior`),
+building input (:mod:`widesky.thermal.building`), gains and loads
+(:mod:`widesky.thermal.loads`), the integrator wiring (:mod:`widesky.thermal.gains`), ASHRAE 140 validation
+(:mod:`widesky.thermal.bestest`) and the spectral-vs-rated glazing study (:mod:`widesky.thermal.study`).
 See docs/thermal.md.
 """
 
@@ -20,7 +20,7 @@ from .building import Building, Surface, ZoneSpec, box_building, building_from_m
 from .loads import (MASS_CLASSES, Construction, LoadsResult, building_loads, glazing_g_table,
                     opaque_gains, sky_losses, window_gains, zone_parameters)
 from .gains import (building_scene, glazing_response, irradiance_by_surface, rated_glazing_response,
-                    sky_states_for_weather, window_gain_by_surface)
+                    window_gain_by_surface)
 from .facade import write_face_csv, write_facade_ply
 from .thinfilm import Film, coated_layer_from_stack, drude_index, solar_control_layer, stack_optics
 
@@ -41,7 +41,7 @@ __all__ = [
     "building_loads", "LoadsResult", "glazing_g_table",
     # the integrator route
     "glazing_response", "rated_glazing_response", "building_scene", "irradiance_by_surface",
-    "window_gain_by_surface", "sky_states_for_weather",
+    "window_gain_by_surface",
     # outputs
     "write_facade_ply", "write_face_csv",
 ]

@@ -50,7 +50,7 @@ EXTERIOR_MODELS = ("hourly", "constant")
 
 
 def _data_file(relative, data_dir):
-    from skymodel.generator.paths import data_file
+    from widesky.core.paths import data_file
     return data_file(relative, data_dir)
 
 
@@ -92,7 +92,7 @@ def read_mos(path):
     if loc is None or not rows:
         raise ValueError(f"{path}: no #LOCATION header or no data rows")
     a = np.array(rows)
-    from irradiance import fixed_offset_tz
+    from widesky.irradiance import fixed_offset_tz
     start = pd.Timestamp("2001-01-01", tz=fixed_offset_tz(loc["tz"]))
     idx = start + pd.to_timedelta(a[:, 0], unit="s")
     cols = ["temp_air", "temp_dew", "relative_humidity", "pressure", "ghi_infrared", "ghi", "dni",
@@ -333,7 +333,7 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
         ``window_gain`` per case window (T,) [W m-2 of glass]; replaces the weather-only route.
     exterior : str
         ``"hourly"``: outside surface coefficients per hour from the wind and air temperature
-        (:mod:`thermal.exterior`), with the U-values, sky loss and absorbed-solar share they give;
+        (:mod:`widesky.thermal.exterior`), with the U-values, sky loss and absorbed-solar share they give;
         ``"constant"``: ISO 13790's fixed R_se = 0.04 (EN 673's h_e = 23 for the window).
 
     Returns
@@ -351,7 +351,7 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     if poa is not None:
         irr = poa
     else:
-        from irradiance import dni_extra, solar_position, sun_times
+        from widesky.irradiance import dni_extra, solar_position, sun_times
         times = sun_times(weather.index, label="right")
         sp = solar_position(times, site["latitude"], site["longitude"], site["altitude"])
         irr = surface_irradiance([s[0] for s in surf], [s[1] for s in surf],
@@ -414,7 +414,7 @@ def load_weather(weather="tmy3", data_dir=None):
     path = _data_file(WEATHER_FILES[weather], data_dir)
     if weather == "drycold":
         return read_mos(path)
-    from irradiance import read_epw
+    from widesky.irradiance import read_epw
     w = read_epw(path)
     site = {"name": w.site.name, "latitude": w.site.latitude, "longitude": w.site.longitude,
             "altitude": w.site.altitude, "tz": w.site.tz.utcoffset(None).total_seconds() / 3600}
@@ -436,22 +436,21 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
         and ``aoi`` [deg] for the N, E, S, W walls and the roof; ``window_gain``: dict window name
         -> (T,) [W m-2 of glass]; ``result``: the POAResult.
     """
-    from irradiance import PragueSky, poa_irradiance, read_epw
+    from widesky.irradiance import SKY_DEFAULTS, PragueSky, Simulation, read_epw
     from .building import box_building
-    from .gains import (building_scene, group_weights, irradiance_by_surface,
-                        rated_glazing_response, sky_states_for_weather)
+    from .gains import building_scene, group_weights, irradiance_by_surface, rated_glazing_response
     if weather not in WEATHER_FILES or weather == "drycold":
         raise ValueError(f"weather={weather!r}: the integrator route reads the EPW ('tmy3')")
     w = read_epw(_data_file(WEATHER_FILES[weather], data_dir))
     sky = sky or PragueSky()
     b = box_building(8.0, 6.0, 2.7, wwr={"south": 12.0 / 21.6}, sill=0.2, perimeter_zones=False)
     scene, labels = building_scene(b, ground_albedo=GROUND_REFLECTANCE)
-    states, measured = sky_states_for_weather(w, sky, default_albedo=GROUND_REFLECTANCE)
+    sim = Simulation(scene, weather=w, sky=SKY_DEFAULTS.replace(albedo=GROUND_REFLECTANCE), sky_source=sky,
+                     n_jobs=n_jobs, progress=progress)
     units = {c: window_unit(c, data_dir) for c in ("600", "660", "670")}
     flat = np.array([280.0, 2500.0]), np.ones(2)
     responses = [rated_glazing_response(u, *flat, name=u.name) for u in units.values()]
-    res = poa_irradiance(scene, sky, states, responses=responses, measured=measured,
-                         n_jobs=n_jobs, progress=progress)
+    res = sim.run(responses)
     order = []
     for az in (0.0, 90.0, 180.0, 270.0):
         order.append(next(i for i, lab in enumerate(labels) if lab.startswith("wall")

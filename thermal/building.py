@@ -3,7 +3,7 @@
 A building is a triangle mesh whose faces carry a surface label. A label is
 ``kind:zone:construction`` with ``kind`` one of :data:`KINDS` (``shading`` surfaces belong to no
 zone: ``shading::``). Labels come from face groups (one label per mesh, e.g. the group names of
-:func:`irradiance.make_scene`) or from the generator. Errors name the offending label: an unknown
+:func:`widesky.irradiance.make_scene`) or from the generator. Errors name the offending label: an unknown
 kind, a window that lies on no wall of its zone, a zone listed without surfaces.
 
 Geometry convention: x east, y north, z up [m]; azimuth clockwise from north (180 = south),
@@ -115,7 +115,7 @@ class Building:
 
     def analysis_meshes(self):
         """One (vertices, faces) per non-shading surface and their labels (for
-        :func:`irradiance.make_scene` ``analysis=...``, ``groups=...``), and the shading surfaces
+        :func:`widesky.irradiance.make_scene` ``analysis=...``, ``groups=...``), and the shading surfaces
         as one context mesh (or None)."""
         meshes, labels = [], []
         for s in self.surfaces:

@@ -15,8 +15,8 @@ resistance that go with it:
 * ``U(t) = 1 / (1/U_n - R_se,n + 1/h_e(t))``: the element's resistance without its nominal outside
   resistance, plus the hourly one.
 
-The long-wave loss to the sky (ISO 13790 11.3.5, :func:`thermal.loads.sky_losses`) and the
-absorbed solar that reaches the zone (11.3.4, :func:`thermal.loads.opaque_gains`) then take
+The long-wave loss to the sky (ISO 13790 11.3.5, :func:`widesky.thermal.loads.sky_losses`) and the
+absorbed solar that reaches the zone (11.3.4, :func:`widesky.thermal.loads.opaque_gains`) then take
 ``R_se(t) = 1 / h_e(t)`` with ``U(t)``.
 
 Units: wind [m s-1], heights [m], temperatures [degC], coefficients [W m-2 K-1], resistances

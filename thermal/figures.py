@@ -1,8 +1,8 @@
 """Figures of docs/thermal.md (matplotlib, written atomically as PNG).
 
-``python -m thermal.figures OUTDIR [--bestest-integrator JSON] [--study DIR ...]``: the glazing
+``python -m widesky.thermal.figures OUTDIR [--bestest-integrator JSON] [--study DIR ...]``: the glazing
 and ASHRAE 140 figures always; the integrator-route BESTEST markers from a JSON of
-:func:`thermal.bestest.run_case` results; the glazing-study figure from the folders
+:func:`widesky.thermal.bestest.run_case` results; the glazing-study figure from the folders
 ``widesky thermal study`` wrote.
 """
 
@@ -139,7 +139,7 @@ def fig_study(outdir, study_dirs):
 
 
 def fig_facade(outdir, ply_path, title=""):
-    """Render a facade map PLY (:func:`thermal.facade.write_facade_ply`) seen from the south-west."""
+    """Render a facade map PLY (:func:`widesky.thermal.facade.write_facade_ply`) seen from the south-west."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -194,7 +194,7 @@ def study_table(study_dirs):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m thermal.figures")
+    ap = argparse.ArgumentParser(prog="python -m widesky.thermal.figures")
     ap.add_argument("outdir")
     ap.add_argument("--bestest-integrator", default=None)
     ap.add_argument("--study", nargs="*", default=[])

@@ -1,12 +1,12 @@
 """Facade solar gains through widesky's integrator: glazing as a spectral-angular Response.
 
 The spectral route: each glazing unit's solar heat gain coefficient g(theta, lambda) (transmitted
-plus inward-flowing absorbed, :meth:`thermal.glazing.GlazingUnit.optics`) becomes an
-:class:`irradiance.Response` with a :class:`irradiance.SpectralAngularTable`. The integrator applies
+plus inward-flowing absorbed, :meth:`widesky.thermal.glazing.GlazingUnit.optics`) becomes an
+:class:`widesky.irradiance.Response` with a :class:`widesky.irradiance.SpectralAngularTable`. The integrator applies
 it per incoming direction (the beam at its angle of incidence, every sky patch and reflected ray at
 its own) and per channel of the sky's spectrum, so ``result.get(name, part)`` is the gain per m2 of
 glass from that part [W m-2]. The broadband route users know: the unit's rated g (AM1.5 global
-weighted) times its normalised angular curve, as an :class:`irradiance.AngularTable`, applied by
+weighted) times its normalised angular curve, as an :class:`widesky.irradiance.AngularTable`, applied by
 the same integrator to broadband light. The two differ only by the spectrum the glazing sees.
 
 Units: [W m-2] per m2 of glass, angles [deg], wavelength [nm].
@@ -20,7 +20,7 @@ from .glazing import ANGLES, WAVELENGTHS, GlazingUnit
 from .loads import glazing_g_table
 
 __all__ = ["glazing_response", "rated_glazing_response", "building_scene", "irradiance_by_surface",
-           "window_gain_by_surface", "sky_states_for_weather", "group_weights", "front_faces"]
+           "window_gain_by_surface", "group_weights", "front_faces"]
 
 
 def glazing_response(unit: GlazingUnit, name=None, quantity="shgc"):
@@ -38,7 +38,7 @@ def glazing_response(unit: GlazingUnit, name=None, quantity="shgc"):
     irradiance.Response
         Unit weight over 280-2500 nm with a SpectralAngularTable (A angles x K wavelengths) [1].
     """
-    from irradiance import Response, SpectralAngularTable
+    from widesky.irradiance import Response, SpectralAngularTable
     if quantity not in ("shgc", "transmittance"):
         raise ValueError(f"quantity={quantity!r} not one of ('shgc', 'transmittance')")
     o = unit.optics(ANGLES, WAVELENGTHS)
@@ -55,7 +55,7 @@ def rated_glazing_response(unit: GlazingUnit, spectrum_wavelength, spectrum, nam
     irradiance.Response
         Unit weight with an AngularTable of the spectrum-weighted g by angle [1].
     """
-    from irradiance import AngularTable, Response
+    from widesky.irradiance import AngularTable, Response
     ang, g, _, _ = glazing_g_table(unit, spectrum_wavelength, spectrum)
     return Response(name or f"{unit.name}:rated", np.array([280.0, 2500.0]), np.ones(2),
                     unit="weight", angular=AngularTable(ang, g))
@@ -63,7 +63,7 @@ def rated_glazing_response(unit: GlazingUnit, spectrum_wavelength, spectrum, nam
 
 def building_scene(building, context=(), *, ground_albedo=None, samples_per_face=1,
                    analysis_reflectance=0.3):
-    """:func:`irradiance.make_scene` of a building: one analysis group per non-shading surface
+    """:func:`widesky.irradiance.make_scene` of a building: one analysis group per non-shading surface
     (named by its label), shading surfaces and ``context`` meshes as context.
 
     Returns
@@ -72,7 +72,7 @@ def building_scene(building, context=(), *, ground_albedo=None, samples_per_face
     labels : list of str
         The group names, in the order of the building's non-shading surfaces.
     """
-    from irradiance import make_scene
+    from widesky.irradiance import make_scene
     meshes, labels, shade = building.analysis_meshes()
     ctx = list(context) if isinstance(context, (list, tuple)) else [context]
     if shade is not None:
@@ -147,18 +147,3 @@ def window_gain_by_surface(res, labels, building, constructions, route="spectral
     return out
 
 
-def sky_states_for_weather(weather, sky, default_visibility=50.0, default_albedo=0.2, warn=True):
-    """SkyStates of a WeatherData (through :func:`irradiance.sky_states_for`: mid-interval sun,
-    Earth-Sun distance, clamp flags) and its measured (dni, dhi).
-
-    Returns
-    -------
-    states : irradiance.SkyStates
-    measured : tuple of numpy.ndarray
-        (T,) dni, dhi [W m-2].
-    """
-    from irradiance import sky_states_for
-    states = sky_states_for(weather, model=getattr(sky, "model", None),
-                            visibility=default_visibility, albedo=default_albedo, warn=warn)
-    data = weather.data
-    return states, (data["dni"].to_numpy(), data["dhi"].to_numpy())

@@ -2,7 +2,7 @@
 inward-flowing fraction, U-value and solar heat gain coefficient, per wavelength and angle.
 
 A unit is a list of layers (outside first) separated by gas gaps. Each layer's optics per angle of
-incidence, wavelength and polarisation come from :mod:`thermal.optics` (uncoated: Fresnel slab from
+incidence, wavelength and polarisation come from :mod:`widesky.thermal.optics` (uncoated: Fresnel slab from
 n, k; coated: the scaled-substrate rule with the substrate's s and p shapes). Layers are combined,
 for s and p light separately and then averaged, by the adding method (net radiation between
 parallel specular layers, all at the same angle in air)::
@@ -80,7 +80,7 @@ class GlazingLayer:
         (K,) refractive index and extinction coefficient of the (substrate) glass [1].
     angular_model : {"substrate", "equivalent"}
         For coated layers: the scaled-substrate rule (default) or the equivalent-slab route
-        (:func:`thermal.optics.equivalent_slab`), the second estimate used for the uncertainty.
+        (:func:`widesky.thermal.optics.equivalent_slab`), the second estimate used for the uncertainty.
     """
 
     name: str
@@ -470,12 +470,12 @@ def layer_from_broadband(name, tau, rho_front, rho_back, thickness_mm, emissivit
 
 
 def read_solar_spectrum(data_dir=None, column="global"):
-    """ASTM G173-03 reference spectrum (AM1.5) from the data directory.
+    """ASTM G173-03 reference spectrum (AM1.5): the copy shipped in the package.
 
     Parameters
     ----------
     data_dir : path, optional
-        Default ``WIDESKY_DATA_DIR`` or ``../shared/data`` (file ``solar/ASTMG173.csv``).
+        Read ``solar/ASTMG173.csv`` from this folder instead of the shipped copy.
     column : {"global", "direct", "extraterrestrial"}
 
     Returns
@@ -483,9 +483,9 @@ def read_solar_spectrum(data_dir=None, column="global"):
     wavelength_nm, irradiance : numpy.ndarray
         280-4000 nm [nm], [W m-2 nm-1].
     """
-    from skymodel.generator.paths import data_file
+    from widesky.core.paths import runtime_file
     cols = ("extraterrestrial", "global", "direct")
     if column not in cols:
         raise ValueError(f"column={column!r} not one of {cols}")
-    a = np.loadtxt(data_file("solar/ASTMG173.csv", data_dir), delimiter=",", skiprows=2)
+    a = np.loadtxt(runtime_file("solar/ASTMG173.csv", data_dir), delimiter=",", skiprows=2)
     return a[:, 0], a[:, 1 + cols.index(column)]

@@ -6,7 +6,7 @@ standard's F_w g_n):
 * window: ``A (1 - frame) (E_direct g(aoi) + (E_sky + E_ground) g_diffuse)`` [W], with ``g`` the
   unit's solar heat gain coefficient by incidence angle (broadband route) -- or, on the spectral
   route, the integrator's irradiance weighted per channel and incoming direction by the unit's
-  spectral-angular g (see :mod:`thermal.gains`);
+  spectral-angular g (see :mod:`widesky.thermal.gains`);
 * opaque: ``alpha R_se U A E_global`` (absorbed shortwave that reaches the zone, ``R_se = 0.04``);
 * long-wave loss to the sky: ``R_se U A h_r F_r (theta_air - theta_sky)``, ``h_r = 4 eps sigma
   T_mean^3``, ``F_r = (1 + cos tilt) / 2``.
@@ -147,7 +147,7 @@ def opaque_gains(area, u_value, absorptance, poa_global, r_se=R_SE):
     """Absorbed solar that reaches the zone through opaque elements, ``alpha R_se U A E`` [W].
 
     ``u_value`` [W m-2 K-1] and ``r_se`` [m2 K W-1] may be per step, (T, S) (hourly outside
-    coefficients, :mod:`thermal.exterior`)."""
+    coefficients, :mod:`widesky.thermal.exterior`)."""
     return (np.asarray(absorptance, float) * np.asarray(r_se, float) * np.asarray(u_value, float)
             * np.asarray(area, float) * np.asarray(poa_global, float))
 
@@ -163,7 +163,7 @@ def sky_losses(area, u_value, emissivity, tilt, temp_air, temp_sky, r_se=R_SE):
         (T,) [degC].
     r_se : float or array_like
         Outside surface resistance [m2 K W-1], scalar or (T, S) per step (with an hourly
-        ``u_value``, :mod:`thermal.exterior`).
+        ``u_value``, :mod:`widesky.thermal.exterior`).
     """
     ta = np.asarray(temp_air, float)[:, None]
     ts = np.asarray(temp_sky, float)[:, None]
@@ -266,7 +266,7 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
     irradiance : dict of str to array_like
         (T, S) per non-shading surface of ``building`` (its order): ``poa_direct``,
         ``poa_sky_diffuse``, ``poa_ground_diffuse`` [W m-2] and ``aoi`` [deg]
-        (e.g. :func:`thermal.surface.surface_irradiance`, or the integrator's parts).
+        (e.g. :func:`widesky.thermal.surface.surface_irradiance`, or the integrator's parts).
     temp_sky : array_like, optional
         (T,) sky temperature [degC]; None: no sky loss.
     window_gain : array_like, optional

@@ -23,27 +23,28 @@ __all__ = ["standard_units", "glazing_study", "office_box"]
 
 
 def standard_units(data_dir=None, solar_control=False):
-    """The three units of the worked case, from the IGDB samples in the data directory.
+    """The three units of the worked case, from the IGDB samples shipped in the package (``widesky/data/glazing``;
+    ``data_dir``: read the files of the same names from that folder instead).
 
     ``clear``: 3 mm clear / 12 mm air / 3 mm clear (NFRC 102 twice); ``low-e``: 5 mm clear /
     12.7 mm argon / Pilkington Energy Advantage low-e with its coating on surface 3;
     ``low-e #2``: the same coating on surface 2 (the solar-control position, coating facing the gap
-    on the outer pane). The data directory holds no spectrally selective solar-control coating;
+    on the outer pane). The samples hold no spectrally selective solar-control coating;
     a user's IGDB file enters the same way. With ``solar_control=True`` a fourth unit,
-    ``solar-control``: 6 mm clear with the double-silver stack of :mod:`thermal.thinfilm` on
+    ``solar-control``: 6 mm clear with the double-silver stack of :mod:`widesky.thermal.thinfilm` on
     surface 2 / 12.7 mm argon / 6 mm clear (a documented construction, not a product).
     """
-    from skymodel.generator.paths import data_file
+    from widesky.core.paths import runtime_file
     from .glazing import Gap, GlazingUnit, read_igdb
-    c3 = read_igdb(data_file("glazing/CLEAR_3.DAT", data_dir))
-    c5 = read_igdb(data_file("glazing/CLEAR5.LOF", data_dir))
-    le = read_igdb(data_file("glazing/LOW-E_5.LOF", data_dir))
+    c3 = read_igdb(runtime_file("glazing/CLEAR_3.DAT", data_dir))
+    c5 = read_igdb(runtime_file("glazing/CLEAR5.LOF", data_dir))
+    le = read_igdb(runtime_file("glazing/LOW-E_5.LOF", data_dir))
     units = {"clear": GlazingUnit("clear", [c3, c3], [Gap(12.0, "air")]),
              "low-e": GlazingUnit("low-e", [c5, le], [Gap(12.7, "argon")]),
              "low-e #2": GlazingUnit("low-e #2", [le.flipped(), c5], [Gap(12.7, "argon")])}
     if solar_control:
         from .thinfilm import solar_control_layer
-        c6 = read_igdb(data_file("glazing/CLEAR_6.DAT", data_dir))
+        c6 = read_igdb(runtime_file("glazing/CLEAR_6.DAT", data_dir))
         units["solar-control"] = GlazingUnit("solar-control", [solar_control_layer(c6).flipped(), c6],
                                              [Gap(12.7, "argon")])
     return units
@@ -73,7 +74,7 @@ def glazing_study(weather_path, units=None, building=None, *, sky=None, n_jobs=1
     Parameters
     ----------
     weather_path : path
-        EPW or TMY3 file (:func:`irradiance.read_weather`).
+        EPW or TMY3 file (:func:`widesky.irradiance.read_weather`).
     units : dict of str to GlazingUnit, optional
         Default :func:`standard_units`.
     building : Building, optional
@@ -83,7 +84,7 @@ def glazing_study(weather_path, units=None, building=None, *, sky=None, n_jobs=1
         Ray-casting processes.
     progress : bool
     data_dir : path, optional
-        For the AM1.5 spectrum and the default units.
+        A folder to read the AM1.5 spectrum and the default units from instead of the shipped copies.
     result_path : path, optional
         HDF5 file the integrator result streams to.
 
@@ -95,9 +96,9 @@ def glazing_study(weather_path, units=None, building=None, *, sky=None, n_jobs=1
         ``window_gain_kWh``, ``heating_kWh``, ``cooling_kWh``, ``peak_cooling_W``;
         ``incident``: (T, W) global on each window [W m-2]; ``times``; ``site``.
     """
-    from irradiance import PragueSky, poa_irradiance, read_weather
+    from widesky.irradiance import PragueSky, Simulation, read_weather
     from .gains import (building_scene, glazing_response, irradiance_by_surface,
-                        rated_glazing_response, sky_states_for_weather, window_gain_by_surface)
+                        rated_glazing_response, window_gain_by_surface)
     from .glazing import read_solar_spectrum
     from .loads import building_loads
     from .surface import sky_temperature
@@ -108,13 +109,12 @@ def glazing_study(weather_path, units=None, building=None, *, sky=None, n_jobs=1
     sky = sky or PragueSky()
     sw, se = read_solar_spectrum(data_dir)
     scene, labels = building_scene(building)
-    states, measured = sky_states_for_weather(w, sky)
+    sim = Simulation(scene, weather=w, sky_source=sky, n_jobs=n_jobs, progress=progress)
     responses = []
     for name, u in units.items():
         responses.append(glazing_response(u, f"{name}:spectral"))
         responses.append(rated_glazing_response(u, sw, se, f"{name}:rated"))
-    res = poa_irradiance(scene, sky, states, responses=responses, measured=measured, n_jobs=n_jobs,
-                         progress=progress, output=result_path)
+    res = sim.run(responses, output=result_path)
     irr = irradiance_by_surface(res, labels)
     surf = [s for s in building.surfaces if s.kind != "shading"]
     wins = [j for j, s in enumerate(surf) if s.kind == "window"]

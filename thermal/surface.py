@@ -1,6 +1,6 @@
 """Shortwave on building surfaces from weather data alone, and opaque surfaces (pure numpy).
 
-The integrator (:func:`irradiance.poa_irradiance`) is widesky's way of getting per-surface
+The integrator (:func:`widesky.irradiance.poa_irradiance`) is widesky's way of getting per-surface
 irradiance: a spectral sky, shading and reflections from the scene. For an unobstructed box driven
 by a weather file (the ASHRAE 140 cases) this module gives the weather-only route the Standard's
 reference programs use: the Hay-Davies (1980) anisotropic transposition, whose circumsolar part is

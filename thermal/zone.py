@@ -129,7 +129,7 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
     h_tr_w, h_tr_op : array_like, optional
         (T,) or (T, Z) window and opaque transmission conductances per step [W K-1], replacing
         the constants of ``params`` (e.g. U-values with an hourly, wind-dependent outside surface
-        coefficient, :func:`thermal.exterior.hourly_u_value`). ``h_tr_op`` must stay below
+        coefficient, :func:`widesky.thermal.exterior.hourly_u_value`). ``h_tr_op`` must stay below
         ``h_ms A_m`` at every step.
 
     Returns

@@ -1,6 +1,6 @@
 """Geometry of the bipv case: a small office building with PV on its roof and on its south facade.
 
-The building (``thermal.box_building``, storeys of four perimeter zones, one window band per facade and storey)
+The building (``widesky.thermal.box_building``, storeys of four perimeter zones, one window band per facade and storey)
 carries three PV groups, each an analysis group of its own:
 
 * ``pv roof``: rows of south-facing tables tilted ``roof_tilt`` on the flat roof, ``roof_rows`` of them;
@@ -14,12 +14,12 @@ The window geometry follows ``box_building``: sill 0.9 m above the floor, head 0
 
 import numpy as np
 
-from cases.shapes import box, merge, quad_grid
+from widesky.cases.shapes import box, merge, quad_grid
 
 
 def build(parameters):
     """The building (its surfaces are analysis groups), the three PV groups, and the neighbour as context."""
-    from thermal import box_building
+    from widesky.thermal import box_building
 
     w = float(parameters.get("width", 20.0))             # east-west [m]
     d = float(parameters.get("depth", 12.0))             # north-south [m]

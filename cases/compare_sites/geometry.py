@@ -6,7 +6,7 @@ the southern hemisphere) at ``tilt`` degrees, its lower edge ``clearance`` above
 
 import numpy as np
 
-from cases.shapes import quad_grid
+from widesky.cases.shapes import quad_grid
 
 
 def build(parameters):

@@ -1,18 +1,18 @@
 """Geometry of the facade case: an office block in an east-west street canyon.
 
-The block (``thermal.box_building``: storeys of four perimeter zones, one window band per facade and storey) has
+The block (``widesky.thermal.box_building``: storeys of four perimeter zones, one window band per facade and storey) has
 a street of ``street`` metres on its south and north sides, each lined by a block of ``opposite_height``; a lower
 block stands across a side street to the east. Coordinates: metres east (x), north (y), up (z); the ground is
 z = 0.
 """
 
-from cases.shapes import box
+from widesky.cases.shapes import box
 
 
 def build(parameters):
     """The office block as a ``building`` (its surfaces are the analysis groups) and the street's blocks as
     context."""
-    from thermal import box_building
+    from widesky.thermal import box_building
 
     w = float(parameters.get("width", 30.0))             # east-west [m]
     d = float(parameters.get("depth", 14.0))             # north-south [m]

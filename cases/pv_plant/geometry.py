@@ -8,7 +8,7 @@ slope; analysed two-sided (front and rear).
 
 import numpy as np
 
-from cases.shapes import box, quad_grid
+from widesky.cases.shapes import box, quad_grid
 
 
 def build(parameters):

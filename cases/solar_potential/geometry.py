@@ -4,7 +4,7 @@ on a grid of about ``cell`` metres, two neighbouring blocks as context.
 Coordinates: metres east (x), north (y), up (z); the ground is z = 0.
 """
 
-from cases.shapes import box, quad_grid
+from widesky.cases.shapes import box, quad_grid
 
 
 def build(parameters):

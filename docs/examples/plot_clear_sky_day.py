@@ -4,13 +4,13 @@ A clear-sky day at a site
 
 Global, direct normal and diffuse horizontal irradiance of the clear-sky model through a summer and a
 winter day in Prague, hourly, from the solar position (NREL SPA) and the embedded dataset, integrated with
-the per-face integrator's own sky quadrature (:func:`irradiance.model_irradiance`).
+the per-face integrator's own sky quadrature (:func:`widesky.irradiance.model_irradiance`).
 """
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-import irradiance as ir
+import widesky.irradiance as ir
 
 site = ir.Site(50.08, 14.42, altitude=200.0, tz="Europe/Prague", name="Prague")
 sky = ir.PragueSky()

@@ -11,9 +11,9 @@ shape and colour, not its absolute brightness.
 import matplotlib.pyplot as plt
 import numpy as np
 
-import skymodel
-from skymodel.colour import srgb_encode
-from skymodel.render import render_sky
+from widesky import skymodel
+from widesky.skymodel.colour import srgb_encode
+from widesky.skymodel.render import render_sky
 
 model = skymodel.load_dataset()
 fig, axes = plt.subplots(1, 3, figsize=(9, 3.3))

@@ -10,7 +10,7 @@ part of it into the sky; the water-vapour bands (940, 1140, 1380, 1870 nm) are d
 import matplotlib.pyplot as plt
 import numpy as np
 
-import skymodel
+from widesky import skymodel
 
 model = skymodel.load_dataset()
 zenith = skymodel.directions_from_angles([0.0], [0.0])

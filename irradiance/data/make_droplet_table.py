@@ -1,6 +1,6 @@
 """Regenerate ``droplet_mie_r10_v0.1.csv``: Mie optics of water-cloud droplets (docs/all-sky.md, section 1).
 
-``irradiance.cloud_optics.mie_droplet_table`` for the default droplets (effective radius 10 um, effective
+``widesky.irradiance.cloud_optics.mie_droplet_table`` for the default droplets (effective radius 10 um, effective
 variance 0.1) from the OPAC water-cloud refractive index in the data directory; about 3 minutes on one core:
 
     python irradiance/data/make_droplet_table.py [--data-dir DIR]
@@ -16,7 +16,7 @@ OUT = Path(__file__).with_name("droplet_mie_r10_v0.1.csv")
 
 
 def main(argv=None):
-    from irradiance.cloud_optics import DEFAULT_DROPLET_RADIUS, DROPLET_VARIANCE, mie_droplet_table
+    from widesky.irradiance.cloud_optics import DEFAULT_DROPLET_RADIUS, DROPLET_VARIANCE, mie_droplet_table
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data-dir", default=None, help="data directory (default WIDESKY_DATA_DIR or ../shared/data)")
     args = ap.parse_args(argv)

@@ -1,6 +1,6 @@
 """Generate ``sample_golden_june.epw``: a synthetic, public-domain two-week EPW file.
 
-Run ``python -m irradiance.data.make_sample_weather`` (from the repository root) to regenerate it;
+Run ``python -m widesky.irradiance.data.make_sample_weather`` (from the repository root) to regenerate it;
 the output is deterministic. Site: NREL's Solar Radiation Research Laboratory, Golden, Colorado
 (39.742 N, 105.179 W, 1829 m, UTC-7), 14-27 June 2021. The first week is cloudless, the second has
 broken clouds; nothing here is measured.
@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from irradiance.location import Site, time_range
-from irradiance.weather import write_epw
+from widesky.irradiance.location import Site, time_range
+from widesky.irradiance.weather import write_epw
 
 OUTPUT = Path(__file__).with_name("sample_golden_june.epw")
 SITE = Site(39.742, -105.179, 1829.0, tz=-7, name="Golden CO (synthetic)")

@@ -15,7 +15,7 @@ Mixtures: OPAC continental types by number density of each component (Hess et al
 
 Vertical profile: the aerosol extinction is exponential with scale height H [km] from the ground to the top
 level, renormalised so that the layer optical depths sum exactly to the requested AOD at 550 nm; with a
-visibility V [km] that AOD is :func:`skymodel.visibility.aod550_from_visibility` (Koschmieder 3.912 / V minus
+visibility V [km] that AOD is :func:`widesky.skymodel.visibility.aod550_from_visibility` (Koschmieder 3.912 / V minus
 Rayleigh, times H).
 """
 

@@ -1,7 +1,7 @@
 """Sky-state tasks of a dataset build on an existing Dask distributed cluster.
 
-The solve and fit tasks of :mod:`skymodel.generator.dataset_build` are independent and write their results into
-the state cache (:mod:`skymodel.generator.cache`), so they can run anywhere that sees the same cache folder and
+The solve and fit tasks of :mod:`widesky.skymodel.generator.dataset_build` are independent and write their results into
+the state cache (:mod:`widesky.skymodel.generator.cache`), so they can run anywhere that sees the same cache folder and
 the same package: on the local spawn process pool by default, or on the workers of a Dask scheduler when one is
 named, by ``widesky dataset build ... --scheduler ADDRESS`` or the environment variable ``WIDESKY_DASK_SCHEDULER``
 (for example ``tcp://127.0.0.1:8786``). Results are collected in submission order; the build only reads them back

@@ -4,7 +4,7 @@ Pipeline (docs/default-dataset.md):
 
 1. **Solve** every (visibility, solar elevation) grid state with a black ground (albedo 0) on a product grid of
    view zeniths x relative azimuths sized for the fit (:func:`fit_directions`); one DISORT run per channel
-   sub-problem (:mod:`skymodel.generator.solver`). Per visibility, one extra pair of runs (albedo 0 and 1) gives the
+   sub-problem (:mod:`widesky.skymodel.generator.solver`). Per visibility, one extra pair of runs (albedo 0 and 1) gives the
    atmosphere's response to a Lambertian ground, which does not depend on the sun: for a plane-parallel
    atmosphere over a Lambertian ground, per sub-problem k,
 
@@ -13,8 +13,8 @@ Pipeline (docs/default-dataset.md):
    with E_k(0) the black-ground global irradiance, S_k the spherical albedo of the atmosphere and t_k(theta)
    its diffuse transmittance for isotropic illumination from below. Every albedo of the grid then costs no
    solver run (checked against direct runs in tests/test_dataset_build.py).
-2. **Fit** each (visibility, albedo, elevation, channel) into the PSM form with :func:`skymodel.generator.fit.fit_radiance`
-   using the evaluator's own angles (:func:`skymodel.reference_angles`).
+2. **Fit** each (visibility, albedo, elevation, channel) into the PSM form with :func:`widesky.skymodel.generator.fit.fit_radiance`
+   using the evaluator's own angles (:func:`widesky.skymodel.reference_angles`).
 3. **Transmittance**: sqrt(T) of straight paths through the spherical shells on the format's (distance,
    altitude) parameter grid, band-averaged with the solver's k-distribution sub-problems, factored into U . V.
 4. **Write** the file and its JSON sidecar (grids, inputs, versions, the extraterrestrial spectrum).
@@ -24,7 +24,7 @@ solver-relevant settings), so an interrupted build resumes where it stopped, and
 refits without solving again.
 
 With the Monte Carlo keys of :class:`BuildConfig` (``polarisation``, ``mc_below_elevation_deg``, ...) the build also
-solves polarised Monte Carlo states in spherical shells (:mod:`skymodel.generator.dataset_mc`): the polarisation
+solves polarised Monte Carlo states in spherical shells (:mod:`widesky.skymodel.generator.dataset_mc`): the polarisation
 section, and the radiance of low-sun and twilight elevations.
 """
 
@@ -76,11 +76,11 @@ class BuildConfig:
     smallest real sample's; None: not, the builds before it), band_min_elevation_deg (optional [deg]: the band only
     for grid elevations at or above it, :func:`has_band`; None: every grid elevation), rank,
     smoothing [1], sun_penalty_order, iterations, refine, relative_power, relative_floor, sobolev (see
-    :func:`skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments);
+    :func:`widesky.skymodel.generator.fit.fit_radiance`; :func:`fit_options`); solver settings (n_streams, n_moments);
     atmosphere (AtmosphereSpec fields);
     trans_dims (dDim, aDim), trans_rank; direction grid steps [deg]; validation (counts, seed); seed.
 
-    Monte Carlo (:mod:`skymodel.generator.dataset_mc`; all off by default, and a configuration without these keys
+    Monte Carlo (:mod:`widesky.skymodel.generator.dataset_mc`; all off by default, and a configuration without these keys
     builds exactly what it built before, with the same cache keys): ``polarisation`` (bool) adds the format's
     polarisation section, fitted from a polarised Monte Carlo state per grid state, with ``pol_knots`` (gamma,
     zenith counts) and ``pol_rank``; ``mc_below_elevation_deg`` [deg]: grid elevations below it take their radiance
@@ -92,11 +92,11 @@ class BuildConfig:
     of a state, a smooth error field over the sky) or "independent" (one stream per direction, the builds before
     2026-12-02; docs/atmosphere-and-solver.md, "Correlated streams"); ``mc_fit_resample`` true: the radiance fit of a
     Monte Carlo state runs on the DISORT states' direction grid, the state interpolated onto it shape-preservingly
-    (:func:`skymodel.generator.dataset_mc.resample_radiance`) instead of on the state's own coarse grid;
+    (:func:`widesky.skymodel.generator.dataset_mc.resample_radiance`) instead of on the state's own coarse grid;
     ``mc_single_scatter_exact`` true: the Monte Carlo radiance is scalar (DISORT's physics) and split, the singly
     scattered light computed deterministically in spherical shells on the DISORT fit grid (held-out grid for the
     validation states) and only the rest (orders >= 2 and all ground-reflected light, smooth over the sky) taken from
-    the Monte Carlo grid, smoothed (:func:`skymodel.generator.dataset_mc.split_radiance`, the rest smoothed across
+    the Monte Carlo grid, smoothed (:func:`widesky.skymodel.generator.dataset_mc.split_radiance`, the rest smoothed across
     visibility; skymodel/data/default-dataset.json, the default dataset's build; docs/default-dataset.md, "Low sun in
     spherical shells").
     """
@@ -242,7 +242,7 @@ MC_KEYS = ("polarisation", "mc_below_elevation_deg", "mc_samples", "mc_channels_
            "mc_zenith_step_deg", "mc_azimuths_deg", "mc_seed", "mc_streams", "mc_fit_resample",
            "mc_single_scatter_exact", "pol_knots",
            "pol_rank")
-"""The configuration keys of the Monte Carlo path (:mod:`skymodel.generator.dataset_mc`)."""
+"""The configuration keys of the Monte Carlo path (:mod:`widesky.skymodel.generator.dataset_mc`)."""
 
 
 def load_config(path) -> BuildConfig:
@@ -323,7 +323,7 @@ def fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg: float, extra_deg=())
     [deg]. With the sun-knot intervals near the sun halved, some knot cells hold no sample of the build's grid and the
     fit sags there (the piecewise-linear factors follow the regulariser between samples); the fit then takes these
     directions too, the solved radiance interpolated shape-preservingly onto them
-    (:func:`skymodel.generator.dataset_mc.resample_radiance`), which adds no extremum between the solved samples.
+    (:func:`widesky.skymodel.generator.dataset_mc.resample_radiance`), which adds no extremum between the solved samples.
     ``extra_deg`` [deg]: more angles from the sun added both ways (:func:`refine_fill_deg`)."""
     th, ph = np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float)
     zs = 90.0 - float(solar_elevation_deg)
@@ -539,11 +539,11 @@ def _direct_transmittance(probs, path_factors) -> np.ndarray:
 def solve_split_validation(visibility_km: float, elevation_deg: float, albedo: float, config: BuildConfig,
                            data_dir=None) -> dict:
     """Held-out reference of a validation state whose elevation takes the split Monte Carlo radiance
-    (:func:`skymodel.generator.dataset_mc.split_state`): the exact singly scattered light on the held-out grid
+    (:func:`widesky.skymodel.generator.dataset_mc.split_state`): the exact singly scattered light on the held-out grid
     (:func:`validation_directions`) plus the rest from the Monte Carlo state at that elevation: at a grid state the
     grid's own, smoothed across visibility as the fit's is
-    (:func:`skymodel.generator.dataset_mc.rest_across_visibility` on the held-out grid), elsewhere a run of its own
-    with :data:`skymodel.generator.dataset_mc.SPLIT_VALIDATION_SAMPLES_FACTOR` times the paths; the same keys as
+    (:func:`widesky.skymodel.generator.dataset_mc.rest_across_visibility` on the held-out grid), elsewhere a run of its own
+    with :data:`widesky.skymodel.generator.dataset_mc.SPLIT_VALIDATION_SAMPLES_FACTOR` times the paths; the same keys as
     :func:`solve_state` uses for validation (zenith, azimuth [deg], radiance (T, P, 55) [W m-2 sr-1 nm-1] at
     ``albedo`` [1], dni, et (55,) [W m-2 nm-1], seconds)."""
     from .atmosphere import slant_path_factors
@@ -712,7 +712,7 @@ def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: flo
 
 def _pool_map(fn, jobs, processes, progress, desc):
     """Map ``fn`` over ``jobs`` on a spawn process pool (one BLAS/OpenMP thread per worker), or on a Dask cluster
-    when one is configured (:mod:`skymodel.generator.dask_scheduler`); yields results."""
+    when one is configured (:mod:`widesky.skymodel.generator.dask_scheduler`); yields results."""
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[var] = "1"
     bar = None
@@ -747,7 +747,7 @@ def _pool_map(fn, jobs, processes, progress, desc):
 def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, validation: bool = True,
               log=None):
     """Solve (or find in the cache) every grid state, ground response and validation state of ``config``; the
-    Monte Carlo states (:mod:`skymodel.generator.dataset_mc`), the longest tasks, go first; the split validation
+    Monte Carlo states (:mod:`widesky.skymodel.generator.dataset_mc`), the longest tasks, go first; the split validation
     states, which read every visibility's Monte Carlo state of their elevation, run after all of them."""
     from .dataset_mc import needs_mc_state, radiance_by_mc
 
@@ -826,7 +826,7 @@ def direction_samples(zenith_deg, azimuth_deg, solar_elevation_deg):
     Returns
     -------
     dict with directions (T*P, 3) east-north-up (sun toward the south), gamma, zero, shadow (T*P,) [rad] from
-    :func:`skymodel.reference_angles`, alpha (the zenith factor's angle: zero with the sun up, shadow below the
+    :func:`widesky.skymodel.reference_angles`, alpha (the zenith factor's angle: zero with the sun up, shadow below the
     horizon) and solid-angle weights (T*P,) [sr] of the grid cells (whole circle: each half-circle azimuth counts
     twice).
     """
@@ -873,7 +873,7 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
     breaks : (sun, zenith, emph) knots [rad]; rank : int.
     band : optional :func:`band_samples` dict, fitted too, each with ``band_weight`` times the smallest fit weight of
         the grid's samples (not counted in ``nmae``).
-    fit_kw : further keyword arguments of :func:`skymodel.generator.fit.fit_radiance` (:func:`fit_options`); with
+    fit_kw : further keyword arguments of :func:`widesky.skymodel.generator.fit.fit_radiance` (:func:`fit_options`); with
         ``sobolev`` the neighbour pairs of the (T, P) grid (:func:`neighbour_pairs`) are added.
 
     Returns
@@ -1147,7 +1147,7 @@ def transmittance_samples(visibility_km: float, config: BuildConfig, observer_al
 
 
 def fit_transmittance_bounded(sqrt_t, rank):
-    """:func:`skymodel.generator.fit.fit_transmittance` plus one constant basis column and a per-(visibility, channel)
+    """:func:`widesky.skymodel.generator.fit.fit_transmittance` plus one constant basis column and a per-(visibility, channel)
     rescale that keep U . V inside [0, 1] at every sample (the format's requirement).
 
     Returns U (nAltT, dDim, aDim, rank + 1), V (nVisT, nAltT, nCh, rank + 1) float32 and the largest
@@ -1189,7 +1189,7 @@ def _versions() -> dict:
 def extraterrestrial_table(config: BuildConfig, data_dir=None):
     """The solver's extraterrestrial spectrum at 1 nm for the sidecar: wavelength (2202,) [nm] (bin centres
     280.5-2479.5 plus the edges 280 and 2480, holding the end bins' values) and irradiance [W m-2 nm-1]."""
-    from .channels import FINE_WAVELENGTHS_NM
+    from ..channels import FINE_WAVELENGTHS_NM
     from .solar import extraterrestrial_spectrum
 
     _, et = extraterrestrial_spectrum(config.spec().et_source, data_dir)
@@ -1254,7 +1254,7 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
     meta = {
         "synthetic": False,
         "description": config.description,
-        "generator": "skymodel.generator.dataset_build (widesky dataset build)",
+        "generator": "widesky.skymodel.generator.dataset_build (widesky dataset build)",
         "config": config.to_dict(),
         "versions": _versions(),
         "solver": {"method": "plane-parallel DISORT (disortpp), Buras-Emde intensity correction with the tabulated "
@@ -1332,13 +1332,13 @@ def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
 def solver_reference(config: BuildConfig, progress: bool = False, rel_tol: float | None = None,
                      floor_fraction: float | None = None) -> list:
     """The solver's own turning points along the smoothness check's profiles at every grid state, where they exceed
-    the check's limits (:func:`skymodel.generator.smoothness.reference_entries` rows; from the cached solves). Only
+    the check's limits (:func:`widesky.skymodel.generator.smoothness.reference_entries` rows; from the cached solves). Only
     grid states that hold the sky solved at their own elevation count: the 0 deg states of a DISORT build (a sky
     solved at ``min_solve_elevation_deg``), those above ``max_fit_elevation_deg`` (the highest fit) and those whose
     radiance comes from the Monte Carlo solution (its noise is not the sky's shape) get no allowance, except the split
-    Monte Carlo states (:func:`skymodel.generator.dataset_mc.split_radiance`: their structure is the exact single
+    Monte Carlo states (:func:`widesky.skymodel.generator.dataset_mc.split_radiance`: their structure is the exact single
     scattering, the noise only in the smooth rest), which are solved at their own elevation. The solver's turning
-    points are counted with the guard band (:data:`skymodel.generator.smoothness.REFERENCE_REL_TOL` and
+    points are counted with the guard band (:data:`widesky.skymodel.generator.smoothness.REFERENCE_REL_TOL` and
     ``REFERENCE_FLOOR_FRACTION``) unless ``rel_tol`` / ``floor_fraction`` [1] say otherwise."""
     from .dataset_mc import radiance_by_mc, split_state
     from tqdm import tqdm
@@ -1362,10 +1362,10 @@ def solver_reference(config: BuildConfig, progress: bool = False, rel_tol: float
 
 
 def smoothness_report(dataset_path, reference_rows=None, between=None) -> dict:
-    """The smoothness check (:mod:`skymodel.generator.smoothness`) of a written dataset over its grid and between grid
+    """The smoothness check (:mod:`widesky.skymodel.generator.smoothness`) of a written dataset over its grid and between grid
     points, summarised for the sidecar; with ``reference_rows`` (:func:`solver_reference`) a profile fails only beyond
     the solver's own turning points there, and with ``between``
-    (:func:`skymodel.generator.smoothness_between.between_reference`) the pairs between grid points solved at their
+    (:func:`widesky.skymodel.generator.smoothness_between.between_reference`) the pairs between grid points solved at their
     own state are judged against that solve."""
     from ..dataset import load_dataset
     from .smoothness import check_dataset, reference_from_entries, summarise
@@ -1383,7 +1383,7 @@ def smoothness_report(dataset_path, reference_rows=None, between=None) -> dict:
 def build_dataset(config: BuildConfig, output, processes: int = 2, progress: bool = True, validation: bool = True,
                   log=None, data_dir=None) -> dict:
     """Solve (resumable), fit and write a dataset (see module docstring); returns the sidecar dict, with the
-    held-out error report (:func:`skymodel.generator.dataset_errors.evaluate_errors`) when ``validation``."""
+    held-out error report (:func:`widesky.skymodel.generator.dataset_errors.evaluate_errors`) when ``validation``."""
     t0 = time.perf_counter()
     n, secs = solve_all(config, processes, progress, validation, log)
     meta = assemble(config, output, processes, progress, log, data_dir)

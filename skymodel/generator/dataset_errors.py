@@ -1,7 +1,7 @@
 """Fitting error of a generated dataset against the reference solver on held-out skies (the paper's Fig. 10).
 
-For every validation state of a build configuration (:func:`skymodel.generator.dataset_build.validation_states`; solved on
-held-out directions, :func:`skymodel.generator.dataset_build.validation_directions`) the dataset is evaluated with widesky's
+For every validation state of a build configuration (:func:`widesky.skymodel.generator.dataset_build.validation_states`; solved on
+held-out directions, :func:`widesky.skymodel.generator.dataset_build.validation_directions`) the dataset is evaluated with widesky's
 evaluator at the same directions and sky state and compared per channel:
 
 - normalised mean absolute error of radiance, ``sum w |model - solver| / sum w solver`` with solid-angle weights

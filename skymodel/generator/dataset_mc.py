@@ -1,6 +1,6 @@
 """Monte Carlo sky states of a dataset build: polarisation, low sun and twilight (``widesky dataset build``).
 
-A build configuration turns the Monte Carlo solver (:mod:`skymodel.generator.montecarlo`) on with
+A build configuration turns the Monte Carlo solver (:mod:`widesky.skymodel.generator.montecarlo`) on with
 ``polarisation: true`` (every fitted grid state gets a polarised Monte Carlo solution, whose degree of polarisation
 fills the format's polarisation section) and/or ``mc_below_elevation_deg`` (grid elevations below it take their sky
 radiance from the Monte Carlo solution in spherical shells instead of plane-parallel DISORT; elevations below 0 deg,
@@ -10,7 +10,7 @@ for byte and with the same cache keys.
 One Monte Carlo state = one (visibility, solar elevation) on its own product grid of view zeniths x relative
 azimuths (:func:`mc_directions`), all 55 channels in batches of neighbouring channels that share paths, traced over
 a white ground with the contributions split by the number of ground reflections (``ground_orders``), so that every
-albedo of the grid comes from one run (:func:`skymodel.generator.montecarlo.stokes_at_albedo`), with the random
+albedo of the grid comes from one run (:func:`widesky.skymodel.generator.montecarlo.stokes_at_albedo`), with the random
 stream mode of ``mc_streams`` (default "correlated": common random numbers across the state's directions, so that
 its error is a smooth field over the sky rather than a speckle; docs/atmosphere-and-solver.md). It is cached as
 ``mc_<key>_v<vis>_e<ele>.npz`` beside the DISORT states, ``<key>`` hashing everything that changes its numbers.
@@ -39,7 +39,7 @@ MC_AZIMUTHS_DEG = (0.0, 1.0, 2.5, 5.0, 10.0, 17.0, 25.0, 35.0, 47.5, 60.0, 75.0,
                    165.0, 180.0)
 """Default relative azimuths of the Monte Carlo direction grid [deg] (0 = toward the sun), refined near the sun."""
 MC_FIRST_ORDER = {"radiance": "quadrature", "polarisation": "sampled"}
-"""First-order method (:class:`skymodel.generator.montecarlo.MonteCarloConfig`) of the build's Monte Carlo states
+"""First-order method (:class:`widesky.skymodel.generator.montecarlo.MonteCarloConfig`) of the build's Monte Carlo states
 whose radiance is used (low sun and twilight: the quadrature, 3-185x more efficient at -2 deg) and of those that only
 give the polarisation (sun higher up: the original sampled estimator, whose degree of polarisation is as good or
 better at 36 deg; docs/atmosphere-and-solver.md, "Variance reduction")."""
@@ -93,7 +93,7 @@ def needs_mc_state(config, elevation_deg: float) -> bool:
 
 
 def mc_config(config, visibility_km: float, elevation_deg: float):
-    """The :class:`skymodel.generator.montecarlo.MonteCarloConfig` of one grid state (its own seed)."""
+    """The :class:`widesky.skymodel.generator.montecarlo.MonteCarloConfig` of one grid state (its own seed)."""
     from .montecarlo import MonteCarloConfig
 
     h = hashlib.sha1(json.dumps([int(config.mc_seed), round(float(visibility_km), 4),
@@ -153,7 +153,7 @@ def solve_mc_state(visibility_km: float, elevation_deg: float, config, data_dir=
     Parameters
     ----------
     fine_directions : (zenith (T2,), azimuth (P2,)) [deg], split states only: the grid of the exact singly scattered
-        light (default the DISORT fit grid, :func:`skymodel.generator.dataset_build.fit_directions`).
+        light (default the DISORT fit grid, :func:`widesky.skymodel.generator.dataset_build.fit_directions`).
 
     Returns
     -------
@@ -460,7 +460,7 @@ def fit_polarisation(values, samples, breaks, rank, smoothing=1e-5, refine=2):
 
     Parameters
     ----------
-    values : (T, P, C) [1] on the grid of ``samples`` (:func:`skymodel.generator.dataset_build.direction_samples`).
+    values : (T, P, C) [1] on the grid of ``samples`` (:func:`widesky.skymodel.generator.dataset_build.direction_samples`).
     breaks : (sun, zenith) knots [rad]; rank : int.
 
     Returns

@@ -150,7 +150,7 @@ def fit_radiance(gamma, alpha, zero, values, sun_breaks, zen_breaks, emph_breaks
         pair's weights; :func:`sobolev_matrix`). 0 (default): none.
     pairs : ndarray (k, 2) int, optional
         Indices of the neighbouring sample pairs (needed with ``sobolev``; e.g.
-        :func:`skymodel.generator.dataset_build.neighbour_pairs` of a product grid).
+        :func:`widesky.skymodel.generator.dataset_build.neighbour_pairs` of a product grid).
 
     Returns
     -------

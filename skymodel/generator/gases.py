@@ -18,7 +18,7 @@ with the fewest terms (1 to 4) that reach the tolerance. Inside the solver, term
 optical depth k_i W_l into layer l (W_l the layer's water [cm]); term j of the mixed gases puts k_j N_l / N into it
 (N_l the layer's air column, N the total), so the slant and diffuse paths see the saturation of the band.
 
-Ozone is not taken from 6S: see :mod:`skymodel.generator.ozone`. In the output of Py6S the field ``no2`` is N2O.
+Ozone is not taken from 6S: see :mod:`widesky.skymodel.generator.ozone`. In the output of Py6S the field ``no2`` is N2O.
 
 The fitted coefficients are a product of this project computed with 6S; they ship with the package as
 ``kdist_6s.json`` and are regenerated with ``widesky build fit-gases``.
@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .channels import CHANNEL_EDGES_NM, N_CHANNELS
+from ..channels import CHANNEL_EDGES_NM, N_CHANNELS
 
 WATER_U_GRID_CM = np.array([0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 11.0,
                             15.0, 20.0, 28.0, 40.0])

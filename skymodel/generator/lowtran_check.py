@@ -5,7 +5,7 @@ first import): slant path from the ground to space, US standard atmosphere (its 
 (``ihaze=0``), 20 cm-1 resolution. The stock package returns the total transmittance only, so we compare
 
 * the total molecular transmittance (Rayleigh x ozone x H2O x mixed gases) of LOWTRAN7 with ours
-  (:func:`skymodel.generator.direct_transmittance` with zero aerosol), per channel, weighted by the extraterrestrial
+  (:func:`widesky.skymodel.generator.direct_transmittance` with zero aerosol), per channel, weighted by the extraterrestrial
   spectrum at 1 nm; and
 * the gas part alone: LOWTRAN7's total divided by our Rayleigh x ozone, against our 6S k-distributions. Beyond
   about 700 nm Rayleigh and ozone are small, so there this compares the two band models of H2O, O2 and CO2
@@ -22,7 +22,7 @@ import warnings
 
 import numpy as np
 
-from .channels import CHANNEL_CENTERS_NM, CHANNEL_EDGES_NM, N_CHANNELS
+from ..channels import CHANNEL_CENTERS_NM, CHANNEL_EDGES_NM, N_CHANNELS
 
 __all__ = ["lowtran_transmittance", "lowtran_comparison"]
 

@@ -1,12 +1,12 @@
 """Monte Carlo reference solver: polarised backward path tracing in spherical shells (kernel: skymodel._montecarlo).
 
-Same atmosphere as the DISORT chain (:mod:`skymodel.generator.solver`): the layers, Rayleigh optical depths,
-ozone, k-distribution gas terms and OPAC aerosol of :func:`skymodel.generator.solver.channel_problems`, each
+Same atmosphere as the DISORT chain (:mod:`widesky.skymodel.generator.solver`): the layers, Rayleigh optical depths,
+ozone, k-distribution gas terms and OPAC aerosol of :func:`widesky.skymodel.generator.solver.channel_problems`, each
 sub-problem (spectral group x water term x mixed-gas term) one spectral *component* of the tracer. Differences
 from DISORT, on purpose: the layers are homogeneous spherical shells (Earth radius 6371 km, no refraction) or, for
 validation, plane-parallel slabs; light is a Stokes vector (I, Q, U, V); Rayleigh scattering uses the matrix with
-depolarisation (Hansen & Travis 1974 eq. 2.15, Delta from :func:`skymodel.generator.rayleigh.depolarization_ratio`)
-and aerosol the exact Mie matrix (:mod:`skymodel.generator.montecarlo_mie`, no delta-M truncation); the sun may be
+depolarisation (Hansen & Travis 1974 eq. 2.15, Delta from :func:`widesky.core.rayleigh.depolarization_ratio`)
+and aerosol the exact Mie matrix (:mod:`widesky.skymodel.generator.montecarlo_mie`, no delta-M truncation); the sun may be
 below the horizon (twilight).
 
 Method (kernel comments give the details):
@@ -47,7 +47,7 @@ parallel-transported from the zenith, :func:`sampling_frames`; later: the curren
 around the ground normal a frame that is continuous near the observer), so the estimate is a piecewise-continuous
 function of the view direction: the same error per direction, but an error field that is smooth across directions
 (the sky has no direction-to-direction speckle, at the price that averages over directions, e.g. the hemispherical
-integral, no longer average the noise down; docs/atmosphere-and-solver.md, "Correlated streams"). Angles as in :mod:`skymodel.generator.solver`: view zenith [deg] 0-90, azimuth [deg]
+integral, no longer average the noise down; docs/atmosphere-and-solver.md, "Correlated streams"). Angles as in :mod:`widesky.skymodel.generator.solver`: view zenith [deg] 0-90, azimuth [deg]
 relative to the sun's (0 = toward the sun).
 """
 
@@ -60,9 +60,9 @@ import numpy as np
 
 from .aerosol import HUMIDITIES, OPAC_TYPES
 from .atmosphere import EARTH_RADIUS_KM
-from .channels import CHANNEL_CENTERS_NM
+from ..channels import CHANNEL_CENTERS_NM
 from .montecarlo_mie import matrix_mu_grid, mixture_matrix
-from .rayleigh import depolarization_ratio
+from widesky.core.rayleigh import depolarization_ratio
 
 MIN_SOLAR_ELEVATION_DEG = -10.0
 FIRST_ORDER_METHODS = ("quadrature", "sampled")
@@ -183,7 +183,7 @@ def _isotropic_table():
 def channel_components(problems: dict, atmosphere, albedo, aerosol_type: str, relative_humidity: int,
                        co2_ppm: float = 360.0, data_dir=None) -> Components:
     """Components of the channels in ``problems`` (dict channel -> list of SubProblem, as returned by
-    :func:`skymodel.generator.solver.channel_problems`); output index = position of the channel in the dict.
+    :func:`widesky.skymodel.generator.solver.channel_problems`); output index = position of the channel in the dict.
     albedo : (55,) ground albedo per channel [1]."""
     if aerosol_type not in OPAC_TYPES:
         raise ValueError(f"aerosol_type={aerosol_type!r}: valid types are {tuple(OPAC_TYPES)}")

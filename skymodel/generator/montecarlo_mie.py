@@ -1,6 +1,6 @@
 """Full scattering matrix of the OPAC aerosol mixtures for the Monte Carlo solver.
 
-The DISORT chain needs only the phase-function moments (:mod:`skymodel.generator.aerosol`); the polarised Monte
+The DISORT chain needs only the phase-function moments (:mod:`widesky.skymodel.generator.aerosol`); the polarised Monte
 Carlo solver needs the four independent elements of the scattering matrix of spheres (Bohren & Huffman 1983,
 eq. 4.77, their S11, S12, S33, S34), from the same Mie coefficients (miepython ``an_bn``), the same OPAC size
 distributions, refractive indices and mixing by number density, on a cosine grid of 2000 Gauss-Legendre nodes

@@ -7,7 +7,7 @@ A 40 nm channel is split into
   bands and the Rayleigh slope are band-averaged correctly (weight: the group's share of the extraterrestrial
   irradiance in the channel; ozone and Rayleigh optical depths: ET-weighted means over the group's bins;
   aerosol properties at the group's ET-weighted mean wavelength);
-- the exponential-sum terms i of water vapour and j of the mixed gases (:mod:`skymodel.generator.gases`),
+- the exponential-sum terms i of water vapour and j of the mixed gases (:mod:`widesky.skymodel.generator.gases`),
   combined under the random-overlap assumption.
 
 Each sub-problem (g, i, j) has weight w_g w_i w_j (summing to 1) and is one solver run.
@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .channels import FINE_WAVELENGTHS_NM, fine_slice
-from .rayleigh import rayleigh_cross_section, rayleigh_moments
+from ..channels import FINE_WAVELENGTHS_NM, fine_slice
+from widesky.core.rayleigh import rayleigh_cross_section, rayleigh_moments
 
 GROUP_RATIO = 1.2
 GROUP_ABS = 0.02
@@ -31,7 +31,7 @@ class SubProblem:
     """One solver run of a channel: weight [1], effective wavelength [nm] and per-layer (ground first) optical depths
     of Rayleigh scattering, aerosol extinction and gas absorption [1], aerosol single-scattering albedo [1] and
     aerosol Legendre moments (nmom+1,) [1]; optionally the aerosol phase function tabulated at
-    :data:`skymodel.generator.aerosol.PHASE_MU` [1], which the solver's intensity correction uses instead of the
+    :data:`widesky.skymodel.generator.aerosol.PHASE_MU` [1], which the solver's intensity correction uses instead of the
     (truncated) Legendre series."""
 
     weight: float
@@ -61,7 +61,7 @@ class SubProblem:
         return dtau[::-1].copy(), np.clip(ssa[::-1], 0.0, 1.0 - 1e-12), mom[::-1].copy()
 
     def phase_table(self):
-        """Per-layer phase function (L, len(PHASE_MU)) [1] at :data:`skymodel.generator.aerosol.PHASE_MU`, top of
+        """Per-layer phase function (L, len(PHASE_MU)) [1] at :data:`widesky.skymodel.generator.aerosol.PHASE_MU`, top of
         atmosphere first (DISORT's order): Rayleigh (1 + 5 chi_2 P_2(mu), exact for its two moments) and the
         aerosol's tabulated Mie phase function, weighted by their scattering optical depths; None without a table."""
         from .aerosol import PHASE_MU

@@ -13,8 +13,9 @@ import functools
 
 import numpy as np
 
+from widesky.core.spectral import band_average
+
 from .paths import data_file
-from .solar import _bin_average
 
 T0 = 273.15
 
@@ -26,7 +27,8 @@ def _coefficients(data_dir):
     out = np.zeros((3, len(edges) - 1))
     inside = edges[1:] <= a[-1, 0]
     for k in range(3):
-        out[k, inside] = _bin_average(a[:, 0], a[:, 1 + k], edges[: inside.sum() + 1])
+        e = edges[: inside.sum() + 1]
+        out[k, inside] = band_average(a[:, 0], a[:, 1 + k], e[:-1], e[1:], outside="hold")
     return out * 1e-20
 
 
@@ -43,7 +45,7 @@ def ozone_cross_section(temperature_k, data_dir=None) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (L, 2200)
-        Cross-section [cm2 per molecule] on :data:`skymodel.generator.channels.FINE_WAVELENGTHS_NM`.
+        Cross-section [cm2 per molecule] on :data:`widesky.skymodel.channels.FINE_WAVELENGTHS_NM`.
     """
     c = _coefficients(None if data_dir is None else str(data_dir))
     dt = np.atleast_1d(np.asarray(temperature_k, float))[:, None] - T0

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .channels import CHANNEL_CENTERS_NM
+from ..channels import CHANNEL_CENTERS_NM
 
 
 def run(which=("rayleigh", "lowsun", "g173", "spctrl2", "6s", "lowtran"), figures=None, data_dir=None, processes=None):

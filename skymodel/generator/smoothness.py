@@ -24,7 +24,7 @@ and just over it in the fit is not called spurious), the build keeps
 the profiles above the limit (:func:`reference_entries`, the sidecar's ``smoothness_reference``), and a profile then
 fails only with more turning points than both the limit and the solver's there (between grid states: the most of the
 bracketing grid states'). A between-grid pair that fails by that rule is solved at its own state by the build
-(:mod:`skymodel.generator.smoothness_between`) and then judged against that solve instead (``between`` of
+(:mod:`widesky.skymodel.generator.smoothness_between`) and then judged against that solve instead (``between`` of
 :func:`reference_from_entries`). The verdicts by the limits alone and by the bracketing rule are kept beside it.
 
 Pure functions over arrays; :func:`check_dataset` runs everything and :func:`summarise` reduces it for the sidecar.
@@ -481,7 +481,7 @@ def _rows_by_state(rows) -> dict:
 def reference_from_entries(rows, grid, between=None) -> dict:
     """Inverse of :func:`reference_entries`: {"grid": (visibilities, elevations, albedos) of the dataset,
     "tp": {(v, e, a): {kind: {(channel, profile): turning points}}}} for :func:`check_states`; with ``between``
-    (:func:`skymodel.generator.smoothness_between.between_reference`: the (state, channel) pairs off the grid
+    (:func:`widesky.skymodel.generator.smoothness_between.between_reference`: the (state, channel) pairs off the grid
     re-examined against the solver's sky solved there, and its rows) also "own": {(v, e, a): {channel, ...}} and
     "own_tp" (as "tp"), which replace the bracketing rule for those pairs (:func:`allowed_turning_points`)."""
     out = {"grid": tuple(np.asarray(x, float) for x in grid), "tp": _rows_by_state(rows)}

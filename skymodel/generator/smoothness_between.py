@@ -1,6 +1,6 @@
 """The solver's own sky at states between grid points, for the smoothness check (issue 11).
 
-Between grid states the check (:mod:`skymodel.generator.smoothness`) first allows a profile the most turning points
+Between grid states the check (:mod:`widesky.skymodel.generator.smoothness`) first allows a profile the most turning points
 that the solver's own sky has at the bracketing grid states. That rule cannot see what the sky does *between* them:
 two neighbours whose rays from the sun have one turning point each, one a minimum close to the sun (the aureole
 falling onto the brightening above a low sun), the other a maximum further out, blend into a ray with both, and so
@@ -8,14 +8,14 @@ does the sky itself in between (docs/default-dataset.md, "The check"). Every bet
 fails by that rule is therefore looked at again against the solver's sky solved at that state itself:
 
 - at elevations that the build solves with DISORT, a DISORT solve at the state (its visibility, elevation and
-  albedo) on the build's fit directions (:func:`skymodel.generator.dataset_build.fit_directions`);
+  albedo) on the build's fit directions (:func:`widesky.skymodel.generator.dataset_build.fit_directions`);
 - at elevations that take the split Monte Carlo radiance, what the build itself would solve there: the exact single
-  scattering at the state (:func:`skymodel.generator.dataset_mc.single_scatter`, noise-free) plus the smoothed rest
+  scattering at the state (:func:`widesky.skymodel.generator.dataset_mc.single_scatter`, noise-free) plus the smoothed rest
   (multiple scattering and ground light, a cosine series of order 2 in azimuth, :func:`split_rest`) of the grid's
   Monte Carlo states at the two bracketing elevations, each smoothed across visibility by the build's cubic in log
   visibility and evaluated at the state's visibility, then blended linearly in elevation with the evaluator's weights.
 
-The solver's turning points there (:func:`skymodel.generator.smoothness.solver_turning_points`) replace the
+The solver's turning points there (:func:`widesky.skymodel.generator.smoothness.solver_turning_points`) replace the
 bracketing rule for that (state, channel): the pair fails only with more turning points than the limit and that
 solve. Results are cached in the build cache.
 """
@@ -69,7 +69,7 @@ def between_state_radiance(config, visibility_km: float, elevation_deg: float, a
 
     Parameters
     ----------
-    config : :class:`skymodel.generator.dataset_build.BuildConfig` (its cache holds the grid's Monte Carlo states).
+    config : :class:`widesky.skymodel.generator.dataset_build.BuildConfig` (its cache holds the grid's Monte Carlo states).
     visibility_km [km], elevation_deg [deg], albedo [1]: the state.
     channels : channel indices (0..54) to return (default all 55).
 
@@ -136,7 +136,7 @@ def _reference_job(job):
 
 def between_reference(config, model, grid_reference, processes: int = 2, progress: bool = True) -> dict:
     """Re-examine every between-grid (state, channel) pair of ``model`` that fails the smoothness check by the
-    bracketing rule (``grid_reference``: :func:`skymodel.generator.smoothness.reference_from_entries` of the grid
+    bracketing rule (``grid_reference``: :func:`widesky.skymodel.generator.smoothness.reference_from_entries` of the grid
     rows) against the solver's own sky at that state.
 
     Returns
@@ -144,8 +144,8 @@ def between_reference(config, model, grid_reference, processes: int = 2, progres
     dict, JSON-ready: ``examined`` [[visibility km, elevation deg, albedo, channel index], ...] (the pairs at
     elevations where :func:`solvable` gives a reference; the others keep the bracketing rule) and ``rows`` (the
     profiles of those pairs where the solve has more turning points than the limit, as
-    :func:`skymodel.generator.smoothness.reference_entries` rows), for
-    :func:`skymodel.generator.smoothness.reference_from_entries`'s ``between``.
+    :func:`widesky.skymodel.generator.smoothness.reference_entries` rows), for
+    :func:`widesky.skymodel.generator.smoothness.reference_from_entries`'s ``between``.
     """
     from .dataset_build import _pool_map
     from .smoothness import LIMITS, between_grid_states, check_states

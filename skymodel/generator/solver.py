@@ -6,7 +6,7 @@ global horizontal irradiances plus global irradiance on tilted planes.
 
 Method (see docs/atmosphere-and-solver.md):
 
-- each channel is a weighted set of sub-problems (:mod:`skymodel.generator.optics`); each is one DISORT run
+- each channel is a weighted set of sub-problems (:mod:`widesky.skymodel.generator.optics`); each is one DISORT run
   (Stamnes et al. 1988; disortpp 1.2.1) with a Lambertian ground, ``n_streams`` streams, delta-M scaling and the
   Buras-Emde intensity correction (Buras, Dowling & Emde 2011, JQSRT 112, 2028) fed with the **tabulated** Mie +
   Rayleigh phase function of every layer (``intensity_corr_buras`` with ``num_phase_func_angles > 0``). Without a
@@ -34,7 +34,7 @@ import numpy as np
 
 from .aerosol import HUMIDITIES, OPAC_TYPES, aerosol_layer_fractions, opac_mixture
 from .atmosphere import PROFILES, slant_path_factors, standard_atmosphere
-from .channels import CHANNEL_CENTERS_NM, N_CHANNELS, channel_index
+from ..channels import CHANNEL_CENTERS_NM, N_CHANNELS, channel_index
 from .gases import load_kdistributions
 from .optics import channel_subproblems
 from .ozone import ozone_optical_depth

@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .channels import CHANNEL_EDGES_NM, N_CHANNELS
+from widesky.core.spectral import band_average
+
+from ..channels import CHANNEL_EDGES_NM, N_CHANNELS
 from .paths import data_file
-from .solar import _bin_average
 from .solver import _trapezoid
 from .solver import AtmosphereSpec, SkyState, SolverConfig, direct_transmittance, solve_sky
 
@@ -40,8 +41,9 @@ def g173_case(et_source: str = "g173", aerosol_type: str = "continental_average"
 def g173_reference(data_dir=None):
     """ASTM G173-03 band means per channel [W m-2 nm-1]: dict etr, global_tilt, direct (55,)."""
     a = np.loadtxt(data_file("solar/ASTMG173.csv", data_dir), delimiter=",", skiprows=2)
-    return {k: _bin_average(a[:, 0], a[:, i], CHANNEL_EDGES_NM) for k, i in (("etr", 1), ("global_tilt", 2),
-                                                                             ("direct", 3))}
+    lo, hi = CHANNEL_EDGES_NM[:-1], CHANNEL_EDGES_NM[1:]
+    return {k: band_average(a[:, 0], a[:, i], lo, hi, outside="hold")
+            for k, i in (("etr", 1), ("global_tilt", 2), ("direct", 3))}
 
 
 def g173_comparison(result=None, processes=None, progress=False, data_dir=None, **case):
@@ -116,7 +118,8 @@ def spctrl2_comparison(result=None, processes=None, progress=False, data_dir=Non
         out["model_" + k] = float(np.sum(model) * 40.0)
         out["ref_" + k] = float(_trapezoid(ref[k][sel], w[sel]))
         out[k + "_ratio"] = out["model_" + k] / out["ref_" + k]
-        out["channel_ref_" + k] = _bin_average(w, ref[k], CHANNEL_EDGES_NM)
+        out["channel_ref_" + k] = band_average(w, ref[k], CHANNEL_EDGES_NM[:-1], CHANNEL_EDGES_NM[1:],
+                                               outside="hold")
         out["channel_ratio_" + k] = model / out["channel_ref_" + k]
     return out
 
@@ -129,7 +132,7 @@ def sixs_comparison(result=None, channels=None, processes=2, data_dir=None):
     Returns dict with per-channel direct and diffuse (incl. 6S's environment term) horizontal fractions of both codes
     and the integrated ratios ours / 6S.
     """
-    from .channels import channel_index
+    from ..channels import channel_index
 
     ch = channel_index(channels)
     if result is None:
@@ -182,7 +185,7 @@ SWEIGART_RAYLEIGH = (
 
 
 def rayleigh_benchmark(n_streams: int = 16):
-    """Run the Sweigart (1970) Rayleigh cases through :func:`skymodel.generator.solver.run_disort`'s DISORT setup.
+    """Run the Sweigart (1970) Rayleigh cases through :func:`widesky.skymodel.generator.solver.run_disort`'s DISORT setup.
 
     Returns list of (tau, ssa, model_down, ref_down, model_up, ref_up) with fluxes for beam flux pi.
     """

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from skymodel.generator import gases
-from skymodel.generator.aerosol import mie_sphere
+from widesky.skymodel.generator import gases
+from widesky.skymodel.generator.aerosol import mie_sphere
 
 
 @pytest.mark.parametrize("m,x", [(1.53 - 0.008j, 5.0), (1.75 - 0.44j, 0.3), (1.45 - 1e-8j, 300.0)])
@@ -73,7 +73,7 @@ def test_shipped_fit_reproduces_fresh_6s_run(channel):
 @pytest.mark.reference
 @pytest.mark.slow
 def test_opac_component_optics():
-    from skymodel.generator.aerosol import component_optics, opac_mixture
+    from widesky.skymodel.generator.aerosol import component_optics, opac_mixture
 
     for comp, rh in (("inso", 0), ("waso", 50), ("soot", 0)):
         o = component_optics(comp, rh)

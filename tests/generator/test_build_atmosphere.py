@@ -3,10 +3,11 @@
 import numpy as np
 import pytest
 
-from skymodel import visibility
-from skymodel.generator import atmosphere, rayleigh, solar
-from skymodel.generator.aerosol import aerosol_layer_fractions
-from skymodel.generator.channels import CHANNEL_EDGES_NM, fine_slice
+from widesky.skymodel import visibility
+from widesky.core import rayleigh
+from widesky.skymodel.generator import atmosphere, solar
+from widesky.skymodel.generator.aerosol import aerosol_layer_fractions
+from widesky.skymodel.channels import CHANNEL_EDGES_NM, fine_slice
 
 
 def test_rayleigh_matches_hansen_travis_optical_depth():
@@ -78,7 +79,7 @@ def test_afgl_us_standard_columns_and_scaling():
 @pytest.mark.reference
 def test_ozone_band_transmittance_is_spectrally_averaged():
     # the 280-320 nm trap: exp(-mean tau) is ~0 while the band transmittance is ~0.25 (6S: 0.252 at SZA 0, US62)
-    from skymodel.generator.ozone import ozone_optical_depth
+    from widesky.skymodel.generator.ozone import ozone_optical_depth
 
     a = atmosphere.standard_atmosphere("us")
     tau = ozone_optical_depth(a).sum(axis=0)

@@ -27,8 +27,8 @@ pytestmark = [pytest.mark.reference, pytest.mark.filterwarnings("ignore::Depreca
 
 
 def test_lowtran7_agrees_with_our_molecular_transmittance():
-    from skymodel.generator.lowtran_check import lowtran_comparison
-    from skymodel.generator.solar import channel_extraterrestrial
+    from widesky.skymodel.generator.lowtran_check import lowtran_comparison
+    from widesky.skymodel.generator.solar import channel_extraterrestrial
 
     r = lowtran_comparison(zeniths_deg=(0.0, 48.236, 70.0))
     et = channel_extraterrestrial("tsis1")

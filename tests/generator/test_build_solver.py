@@ -7,8 +7,8 @@ import pytest
 
 pytest.importorskip("disortpp")
 
-from skymodel.generator import solver, validation  # noqa: E402
-from skymodel.generator.solver import AtmosphereSpec, SkyState, SkyTask  # noqa: E402
+from widesky.skymodel.generator import solver, validation  # noqa: E402
+from widesky.skymodel.generator.solver import AtmosphereSpec, SkyState, SkyTask  # noqa: E402
 
 
 def test_sweigart_rayleigh_benchmark():

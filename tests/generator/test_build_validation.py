@@ -5,7 +5,7 @@ import pytest
 
 pytest.importorskip("disortpp")
 
-from skymodel.generator import validation  # noqa: E402
+from widesky.skymodel.generator import validation  # noqa: E402
 
 pytestmark = [pytest.mark.reference, pytest.mark.slow]
 

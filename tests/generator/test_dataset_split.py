@@ -1,7 +1,7 @@
 """Split Monte Carlo states of a dataset build (``mc_single_scatter_exact``): the low-sun sky in spherical shells.
 
 What is checked:
-- the recombination (:func:`skymodel.generator.dataset_mc.split_radiance`) on synthetic states with a known answer:
+- the recombination (:func:`widesky.skymodel.generator.dataset_mc.split_radiance`) on synthetic states with a known answer:
   exact where the rest (the multiple scattering) lies in its model space (cosine series in azimuth up to order 2,
   a smooth function of the view zenith), within the noise where 2 % noise is added, with no turning point along
   an almucantar beyond the noise-free sky's, and with the single scattering carried over unchanged on the fine grid;
@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from skymodel.generator.dataset_mc import MC_AZIMUTHS_DEG, split_radiance
-from skymodel.generator.smoothness import turning_points
+from widesky.skymodel.generator.dataset_mc import MC_AZIMUTHS_DEG, split_radiance
+from widesky.skymodel.generator.smoothness import turning_points
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -99,8 +99,8 @@ def test_split_radiance_averages_the_noise_and_adds_no_ripple():
 
 
 def test_split_configuration_keys_and_files():
-    from skymodel.generator.dataset_build import fit_file, load_config, validation_file
-    from skymodel.generator.dataset_mc import mc_config, mc_key, split_state
+    from widesky.skymodel.generator.dataset_build import fit_file, load_config, validation_file
+    from widesky.skymodel.generator.dataset_mc import mc_config, mc_key, split_state
 
     plain = replace(load_config(ROOT / "skymodel" / "data" / "default-dataset.json"), mc_below_elevation_deg=None,
                     mc_single_scatter_exact=False)
@@ -120,10 +120,10 @@ def test_split_configuration_keys_and_files():
 
 @pytest.mark.reference
 def test_single_scatter_tends_to_plane_parallel_for_a_high_sun():
-    from skymodel.generator.dataset_build import load_config
-    from skymodel.generator.dataset_mc import single_scatter
-    from skymodel.generator.montecarlo import MonteCarloConfig, solve_sky_mc
-    from skymodel.generator.solver import SkyState
+    from widesky.skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_mc import single_scatter
+    from widesky.skymodel.generator.montecarlo import MonteCarloConfig, solve_sky_mc
+    from widesky.skymodel.generator.solver import SkyState
 
     cfg = load_config(ROOT / "skymodel" / "data" / "default-dataset.json")
     th, ph = np.array([0.0, 30.0, 60.0]), np.array([0.0, 45.0, 120.0, 180.0])
@@ -142,8 +142,8 @@ def test_single_scatter_tends_to_plane_parallel_for_a_high_sun():
 def test_split_validation_job_writes_its_state(tmp_path, monkeypatch):
     """The build's job for a validation state at a split elevation solves it with the split reference and caches it
     under the Monte Carlo key (the solve itself replaced by a stub returning a marked state)."""
-    from skymodel.generator import dataset_build
-    from skymodel.generator.cache import load_state
+    from widesky.skymodel.generator import dataset_build
+    from widesky.skymodel.generator.cache import load_state
 
     monkeypatch.setenv("WIDESKY_CACHE_DIR", str(tmp_path))
     cfg = replace(dataset_build.load_config(ROOT / "skymodel" / "data" / "default-dataset.json"),
@@ -161,7 +161,7 @@ def test_split_validation_job_writes_its_state(tmp_path, monkeypatch):
 
 
 def test_split_configuration_refuses_what_it_cannot_build():
-    from skymodel.generator.dataset_build import BuildConfig
+    from widesky.skymodel.generator.dataset_build import BuildConfig
 
     with pytest.raises(ValueError, match="mc_single_scatter_exact needs mc_below_elevation_deg"):
         BuildConfig(mc_single_scatter_exact=True)
@@ -174,7 +174,7 @@ def test_smooth_across_visibility_keeps_a_cubic_and_averages_noise():
     """A cubic in log visibility comes back exactly (11 visibilities 20-131.8 km); independent noise on 11 states is
     cut to sqrt(4 / 11) of its rms (the least-squares projection onto 4 parameters), here within 10 % over 20,000
     series; fewer visibilities than the degree needs lower the degree (2 states come back unchanged)."""
-    from skymodel.generator.dataset_mc import smooth_across_visibility
+    from widesky.skymodel.generator.dataset_mc import smooth_across_visibility
 
     vis = np.geomspace(20.0, 131.8, 11)
     x = np.log(vis)
@@ -197,7 +197,7 @@ def test_smooth_across_visibility_keeps_a_cubic_and_averages_noise():
 def test_between_elevation_bracket_uses_the_evaluators_weights():
     """The split between-grid reference (skymodel.generator.smoothness_between) blends the bracketing grid elevations
     with the evaluator's linear weights (skymodel.evaluate: linear in elevation between grid values)."""
-    from skymodel.generator.smoothness_between import _elevation_bracket
+    from widesky.skymodel.generator.smoothness_between import _elevation_bracket
 
     grid = [0.0, 1.0, 2.0, 3.0, 4.5, 6.0, 8.0, 10.5]
     assert _elevation_bracket(grid, 2.5) == [(2.0, 0.5), (3.0, 0.5)]
@@ -205,7 +205,7 @@ def test_between_elevation_bracket_uses_the_evaluators_weights():
     assert (e0, e1) == (4.5, 6.0) and abs(w0 - 0.5) < 1e-12 and abs(w1 - 0.5) < 1e-12
     (e0, w0), (e1, w1) = _elevation_bracket(grid, 7.0)
     assert (e0, e1) == (6.0, 8.0) and abs(w1 - 0.5) < 1e-12
-    from skymodel.evaluate import _reference_lookup
+    from widesky.skymodel.evaluate import _reference_lookup
 
     for q in (0.5, 3.75, 9.25, 9.9):
         i, f = _reference_lookup(q, np.asarray(grid))
@@ -216,7 +216,7 @@ def test_rest_across_visibility_lowers_the_noise_of_each_state():
     """Synthetic split states at 11 visibilities, the same rest with 2 % independent noise each: after smoothing
     across visibility every state's rest is closer to the truth (rms over the sky) than its own smoothed rest,
     by about sqrt(4 / 11) on average (tolerance: below 0.8 of it)."""
-    from skymodel.generator.dataset_mc import rest_across_visibility, split_rest
+    from widesky.skymodel.generator.dataset_mc import rest_across_visibility, split_rest
 
     vis = tuple(np.geomspace(20.0, 131.8, 11))
     cfg = type("Cfg", (), {"visibilities_km": vis})()
@@ -235,7 +235,7 @@ def test_rest_across_visibility_lowers_the_noise_of_each_state():
 def test_split_validation_runs_after_the_grid_states(tmp_path, monkeypatch):
     """solve_all runs the split validation states (which read every visibility's Monte Carlo state of their elevation)
     in a second pool, after every grid state; the other jobs in the first."""
-    from skymodel.generator import dataset_build
+    from widesky.skymodel.generator import dataset_build
 
     monkeypatch.setenv("WIDESKY_CACHE_DIR", str(tmp_path))
     cfg = replace(dataset_build.load_config(ROOT / "skymodel" / "data" / "default-dataset.json"),

@@ -93,8 +93,8 @@ def test_isolated_nan_of_the_tabulated_correction_is_repaired():
     43.374 km, sun 24.606 deg, view zenith 63.75 deg, relative azimuth 0.125 deg). run_disort re-solves that entry:
     the result must be finite and continuous with its neighbours 0.025 deg away (reference: the mean of the two
     azimuth neighbours, within 0.1 %; the radiance changes by 0.07 % over the 0.05 deg between them)."""
-    import skymodel.generator.solver as solver
-    from skymodel.generator.dataset_build import _problems, load_config
+    import widesky.skymodel.generator.solver as solver
+    from widesky.skymodel.generator.dataset_build import _problems, load_config
 
     cfg = load_config(pathlib.Path(__file__).parents[2] / "skymodel" / "data" / "default-dataset.json")
     probs, _, _ = _problems(43.374, cfg)
@@ -123,7 +123,7 @@ def test_reused_solver_keeps_its_first_azimuth_count_in_1_2_1():
 
 
 def test_run_disort_with_fewer_azimuths_after_more_matches_a_fresh_solve():
-    from skymodel.generator import solver
+    from widesky.skymodel.generator import solver
 
     class _Rayleigh:  # a SubProblem-like homogeneous layer (the interface run_disort uses)
         weight = 1.0

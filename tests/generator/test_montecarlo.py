@@ -6,8 +6,8 @@ Tolerances are 4 standard errors of the Monte Carlo mean (seeded, deterministic)
 import numpy as np
 import pytest
 
-from skymodel.generator.montecarlo import STREAM_MODES, Components, MonteCarloConfig, rayleigh_slab, trace
-from skymodel.generator.rayleigh import depolarization_ratio
+from widesky.skymodel.generator.montecarlo import STREAM_MODES, Components, MonteCarloConfig, rayleigh_slab, trace
+from widesky.core.rayleigh import depolarization_ratio
 
 PP = dict(planet_radius_km=None)
 
@@ -132,7 +132,7 @@ def test_ground_orders_give_every_albedo_from_one_run(streams):
     """A run over a white ground split by order of ground reflection (``ground_orders``) reproduces separate runs at
     albedo 0.6 (Rayleigh slab tau 0.3, polarised, plane-parallel) within 4 se, and exactly its own orders at a = 0 / 1;
     spherical shells with a sun below the horizon too."""
-    from skymodel.generator.montecarlo import stokes_at_albedo
+    from widesky.skymodel.generator.montecarlo import stokes_at_albedo
 
     vz, va = np.array([10.0, 40.0, 60.0, 80.0, 40.0]), np.array([0.0, 30.0, 90.0, 140.0, 180.0])
     direct = trace(rayleigh_slab(0.3, 0.6), 50.0, vz, va, MonteCarloConfig(samples=20000, seed=5, streams=streams,
@@ -189,8 +189,8 @@ def test_mie_matrix_consistent_with_the_disort_chain():
     """The tabulated aerosol matrix has P11 normalised to mean 1 over the sphere, its asymmetry parameter is the
     DISORT chain's first Legendre moment (same Mie coefficients, independent angular sums) within 0.5 %, P12 / P11
     lies in [-1, 1] and vanishes in the exact forward and backward directions."""
-    from skymodel.generator.aerosol import opac_mixture
-    from skymodel.generator.montecarlo_mie import legendre_moment, matrix_mu_grid, mixture_matrix
+    from widesky.skymodel.generator.aerosol import opac_mixture
+    from widesky.skymodel.generator.montecarlo_mie import legendre_moment, matrix_mu_grid, mixture_matrix
 
     for lam in (500.0, 1620.0):
         t = mixture_matrix("continental_average", 50, lam)

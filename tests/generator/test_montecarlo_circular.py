@@ -20,8 +20,8 @@ the quadrature itself against the Monte Carlo's second order. Tolerance: 4 stand
 import numpy as np
 import pytest
 
-from skymodel.generator.montecarlo import Components, MonteCarloConfig, trace
-from skymodel.generator.montecarlo_mie import matrix_mu_grid
+from widesky.skymodel.generator.montecarlo import Components, MonteCarloConfig, trace
+from widesky.skymodel.generator.montecarlo_mie import matrix_mu_grid
 
 M_SPHERE, X_SPHERE = 1.33 + 0.0j, 2.0
 TAU, THICK_KM = 0.2, 1.0

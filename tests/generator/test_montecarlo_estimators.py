@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from skymodel.generator.montecarlo import STREAM_MODES, Components, MonteCarloConfig, rayleigh_slab, trace
+from widesky.skymodel.generator.montecarlo import STREAM_MODES, Components, MonteCarloConfig, rayleigh_slab, trace
 
 R_EARTH = 6371.0
 
@@ -111,8 +111,8 @@ def test_dataset_states_choose_the_estimator_by_what_they_provide():
     polarisation-only states with the sampled first order, and the choice is part of the cache key."""
     from dataclasses import replace
 
-    from skymodel.generator.dataset_build import load_config
-    from skymodel.generator.dataset_mc import mc_config, mc_key
+    from widesky.skymodel.generator.dataset_build import load_config
+    from widesky.skymodel.generator.dataset_mc import mc_config, mc_key
 
     cfg = load_config(Path(__file__).resolve().parents[2] / "skymodel" / "data" / "polarised-dataset.json")
     assert mc_config(cfg, 51.3, -2.0).first_order == "quadrature"

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from skymodel.generator.montecarlo import MonteCarloConfig, sampling_frames, trace
+from widesky.skymodel.generator.montecarlo import MonteCarloConfig, sampling_frames, trace
 
 
 def _layered(tau_abs):
@@ -79,7 +79,7 @@ def test_sampling_frames_are_continuous_and_the_zenith_is_one_estimate():
     """The azimuth reference of the correlated streams is a unit vector perpendicular to the view, continuous over
     the hemisphere (neighbours 0.5 deg apart differ by less than 0.02, the pole and the horizon included), for
     upward and downward views; at the zenith every azimuth gives the same I and degree of polarisation (1e-9)."""
-    from skymodel.generator.montecarlo import _unit_views
+    from widesky.skymodel.generator.montecarlo import _unit_views
 
     th, ph = np.meshgrid(np.arange(0.0, 90.01, 0.5), np.arange(-180.0, 180.01, 0.5), indexing="ij")
     for down in (False, True):

@@ -8,7 +8,7 @@ tests are deterministic. Full-precision numbers: ``python benchmarks/bench_monte
 import numpy as np
 import pytest
 
-from skymodel.generator.montecarlo import STREAM_MODES, MonteCarloConfig, hemisphere_directions, rayleigh_slab, trace
+from widesky.skymodel.generator.montecarlo import STREAM_MODES, MonteCarloConfig, hemisphere_directions, rayleigh_slab, trace
 
 # Natraj, Li & Yung (2009), ApJ 691, 1909, "Rayleigh scattering in planetary atmospheres: corrected tables through
 # accurate computation of X and Y functions" (the corrected Coulson, Dave & Sekera 1960 tables): light reflected at
@@ -60,8 +60,8 @@ def test_scalar_radiance_against_disort_high_sun_flat_planet():
     """Scalar Monte Carlo (P11 only, planet radius 1e6 km) against DISORT (32 streams, Buras-Emde correction) at a
     solar elevation of 60 deg, 500 nm channel with aerosol: radiances within 0.5 % + 4 se, hemisphere-averaged
     radiance (DHI / pi against DISORT's diffuse flux) within 0.5 % + 4 se."""
-    from skymodel.generator.montecarlo import solve_sky_mc
-    from skymodel.generator.solver import SkyState, solve_sky
+    from widesky.skymodel.generator.montecarlo import solve_sky_mc
+    from widesky.skymodel.generator.solver import SkyState, solve_sky
 
     st = SkyState(60.0, aod550=0.2, ground_albedo=0.2)
     vz, va = [0.0, 30.0, 60.0, 80.0, 45.0], [0.0, 90.0, 180.0, 180.0, 0.0]

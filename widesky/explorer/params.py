@@ -93,7 +93,7 @@ def parse_view(query, models, n_datasets, site_sun=None) -> View:
     n_datasets : int
         Number of datasets named on the command line.
     models : callable
-        ``models(index)`` -> the loaded :class:`skymodel.SkyModel` of that dataset index.
+        ``models(index)`` -> the loaded :class:`widesky.skymodel.SkyModel` of that dataset index.
     site_sun : callable, optional
         ``site_sun(query) -> (elevation, azimuth)`` [deg] used when ``sun=site``.
     """

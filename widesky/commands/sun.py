@@ -13,12 +13,13 @@ Examples::
 from __future__ import annotations
 
 import sys
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-SAMPLE_WEATHER = Path(__file__).resolve().parent / "data" / "sample_golden_june.epw"
+SAMPLE_WEATHER = Path(str(resources.files("widesky.irradiance.data") / "sample_golden_june.epw"))
 
 
 def register(subparsers) -> None:
@@ -93,7 +94,7 @@ def _check_period_size(start, end, step):
 
 
 def _position(args) -> int:
-    from .location import Site, time_range
+    from widesky.irradiance.location import Site, time_range
 
     try:
         site = Site(args.lat, args.lon, args.altitude, tz=_tz_arg(args.tz) or "UTC")
@@ -128,11 +129,11 @@ def _position(args) -> int:
 
 
 def _skystates(args) -> int:
-    from .skystate import GroupingSteps, group_sky_states, sky_states
-    from .weather import read_weather
+    from widesky.irradiance.skystate import GroupingSteps, group_sky_states, sky_states
+    from widesky.irradiance.weather import read_weather
 
     if args.csv:
-        from skymodel.outputs import check_output_path
+        from widesky.skymodel.outputs import check_output_path
 
         check_output_path(args.csv, "--csv", (".csv",))
     for name in ("elevation_step", "visibility_step", "albedo_step"):
@@ -168,7 +169,7 @@ def _skystates(args) -> int:
     print(f"grouping {steps}: {g.n_groups} distinct skies for {g.n_evaluated} steps "
           f"(reduction {g.reduction:.2f}x)")
     if args.csv:
-        from skymodel.outputs import atomic_outputs
+        from widesky.skymodel.outputs import atomic_outputs
 
         with atomic_outputs(args.csv) as (tmp,):
             states.to_csv(tmp)

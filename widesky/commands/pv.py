@@ -9,9 +9,10 @@ Examples::
     widesky pv yield roof.obj --weather denver.epw --technology tandem_2t --two-sided -o series.csv
     widesky pv sweep roof.obj --lat 50.08 --lon 14.42 --start 2023-01-01 --end 2024-01-01 -o sweep.csv
 
-Without ``--weather`` the sky is the dataset's clear sky for every step, with ``--temp-air`` and
-``--wind-speed`` constant; with it, the clear sky is scaled to the file's DNI and DHI and the cell
-temperature uses its temp_air and wind_speed (docs/pvsim.md).
+Without ``--weather`` the sky is the dataset's clear sky for every step (an upper bound), with ``--temp-air``
+and ``--wind-speed`` constant; with it, every step gets the all-sky model's spectra at the file's measured DNI
+and DHI and the cell temperature uses its temp_air and wind_speed (docs/pvsim.md). The sky options and their
+defaults are the ones every command shares (:data:`widesky.irradiance.SKY_DEFAULTS`).
 """
 
 from __future__ import annotations
@@ -20,19 +21,17 @@ import sys
 
 import numpy as np
 
+from widesky.commands.sky_args import add_sky_arguments, check_site_arguments, simulation, sky_options
+
 
 def _site_args(p):
     p.add_argument("mesh", nargs="+", help="analysis mesh file(s) (OBJ, PLY, STL, GLB ...): one module group each")
     p.add_argument("--context", action="append", default=[], help="occluding mesh file (repeatable)")
-    from irradiance.cli_poa import add_site_options
-    add_site_options(p, spectral_model=None, aerosol="aod")
-    p.add_argument("--visibility", type=float, default=50.0, help="visibility [km] where the file gives none")
-    p.add_argument("--albedo", type=float, default=0.2, help="ground albedo [1] where the file gives none")
+    add_sky_arguments(p)
     p.add_argument("--temp-air", type=float, default=20.0, help="air temperature without --weather [degC]")
     p.add_argument("--wind-speed", type=float, default=1.0, help="wind speed without --weather [m s-1]")
     p.add_argument("--two-sided", action="store_true", help="analyse the rear of every face (bifacial)")
     p.add_argument("--ground-z", type=float, default=None, help="ground height [m] (default: lowest vertex)")
-    p.add_argument("--dataset", default=None, help="PSM dataset file (default: embedded)")
     p.add_argument("--tolerance", type=float, default=0.02, help="integrator tolerance [1] (see widesky poa)")
     p.add_argument("--cover-n", type=float, default=1.526, help="cover glass refractive index [1]")
     p.add_argument("--cover-ar", type=float, default=None, help="anti-reflection layer index [1]")
@@ -88,8 +87,8 @@ def register(subparsers) -> None:
 
 
 def _list(args) -> int:
-    from .module import reference_currents, tandem_stc_efficiency
-    from .technologies import TECHNOLOGIES, TandemTechnology
+    from widesky.pvsim.module import reference_currents, tandem_stc_efficiency
+    from widesky.pvsim.technologies import TECHNOLOGIES, TandemTechnology
     print(f"{'name':12s} {'label':30s} {'Eg [eV]':>9s} {'eta_stc':>8s} {'gamma [%/K]':>11s} "
           f"{'rel200':>7s} {'bifac':>6s} {'Jsc AM1.5G [mA cm-2]':>22s}")
     for n, t in TECHNOLOGIES.items():
@@ -107,14 +106,14 @@ def _list(args) -> int:
 
 
 def _plot_library(args) -> int:
-    from .plots import plot_technologies
+    from widesky.pvsim.plots import plot_technologies
     print(plot_technologies(args.output, args.technology or None))
     return 0
 
 
 def _technologies(args, default):
-    from .curves import cell_from_csv
-    from .technologies import get_technology
+    from widesky.pvsim.curves import cell_from_csv
+    from widesky.pvsim.technologies import get_technology
     names = args.technology or default
     techs = []
     for n in names:
@@ -133,98 +132,41 @@ def _technologies(args, default):
     return techs
 
 
-def _weather_series(args, times):
-    """(temp_air, wind_speed) (T,) for the steps."""
-    T = len(times)
-    if args.weather is None:
-        return np.full(T, args.temp_air), np.full(T, args.wind_speed)
-    from irradiance.weather import read_weather
-    data = read_weather(args.weather).data.reindex(times)
-    out = []
-    for col, fallback in (("temp_air", args.temp_air), ("wind_speed", args.wind_speed)):
-        v = data[col].to_numpy(dtype=float) if col in data else np.full(T, np.nan)
-        out.append(np.where(np.isfinite(v), v, fallback))
-    return out[0], np.maximum(out[1], 0.0)
-
-
-def _sky_states(args, sky):
-    """(SkyStates, measured (dni, dhi) or None, note) for the clear-sky period or the weather file."""
-    from irradiance import Site, read_weather, sky_states_for
-    if args.weather is None:
-        missing = [n for n in ("lat", "lon", "start", "end") if getattr(args, n) is None]
-        if missing:
-            raise ValueError("without --weather, give " + ", ".join("--" + m for m in missing))
-        try:
-            tz = float(args.tz)
-        except ValueError:
-            tz = args.tz
-        site = Site(args.lat, args.lon, args.site_altitude, tz=tz)
-        return (sky_states_for(site, args.start, args.end, args.step, model=sky.model,
-                               visibility=args.visibility, albedo=args.albedo), None, "clear sky")
-    import warnings
-    wd = read_weather(args.weather)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", UserWarning)
-        states = sky_states_for(wd, args.start, args.end, model=sky.model, visibility=args.visibility,
-                                albedo=args.albedo, prefer=args.aerosol)
-    for w in caught:
-        print(f"widesky: warning: {w.message}", file=sys.stderr)
-    note = f"weather {args.weather} ({wd.site.latitude:.3f}, {wd.site.longitude:.3f})"
-    from irradiance.allsky_sky import weather_measurements
-    model = args.spectral_model
-    if model is None:                  # the all-sky model reads cloud-water optics from the data directory
-        from skymodel.generator.paths import has_data
-        model = "allsky" if has_data() else "clear"
-        if model == "clear" and not args.clear_sky:
-            print("widesky: warning: no input data directory (WIDESKY_DATA_DIR) for the all-sky model: "
-                  "clear-sky spectra scaled to the measured DNI/DHI", file=sys.stderr)
-    measured, how = weather_measurements(wd.data.loc[states.times], model, args.aerosol, args.clear_sky)
-    return states, measured, f"{note}, {how}"
-
-
 def _setup(args):
-    from irradiance.integrator import IntegratorSettings
-    from irradiance.scene import make_scene
-    from irradiance.skies import PragueSky
-    from .system import CoverOptics, SystemSpec
+    from widesky.irradiance.integrator import IntegratorSettings
+    from widesky.irradiance.scene import make_scene
+    from widesky.pvsim.system import CoverOptics, SystemSpec
+    check_site_arguments(args)
+    sky_options(args)
     if args.cover_ar is not None and not 1.0 <= args.cover_ar <= args.cover_n:
         raise ValueError(f"--cover-ar={args.cover_ar} outside the valid range [1, --cover-n={args.cover_n}]")
     cover = CoverOptics(n=args.cover_n, n_ar=args.cover_ar, spectral=args.spectral_cover)
     system = SystemSpec(temperature_model=args.temperature_model, dc_loss=args.dc_loss,
                         dc_ac_ratio=args.dc_ac_ratio)
-    sky = PragueSky(args.dataset)
-    states, measured, note = _sky_states(args, sky)
-    times = states.times
-    sky.check_states(states)
     from pathlib import Path
     stems = [Path(m).stem for m in args.mesh]
     groups = stems if len(set(stems)) == len(stems) else [str(m) for m in args.mesh]
     scene = make_scene(args.mesh, args.context, groups=groups, ground_z=args.ground_z, two_sided=args.two_sided)
-    ta, ws = _weather_series(args, times)
-    from irradiance.allsky_sky import AllSkyWeather
-    from irradiance.allsky import AllSkyOptions
-    spectral_model = "allsky" if isinstance(measured, AllSkyWeather) else "clear"
-    return dict(scene=scene, sky=sky, states=states, measured=measured, times=times, note=note,
-                spectral_model=spectral_model, allsky_options=AllSkyOptions(ground=args.ground_spectrum),
-                cover=cover, system=system, settings=IntegratorSettings.for_tolerance(args.tolerance),
-                temp_air=ta, wind_speed=ws)
+    sim = simulation(args, scene, IntegratorSettings.for_tolerance(args.tolerance))
+    return dict(sim=sim, note=sim.description, cover=cover, system=system,
+                temp_air=sim.weather_series("temp_air", args.temp_air),
+                wind_speed=np.maximum(sim.weather_series("wind_speed", args.wind_speed), 0.0))
 
 
 def _run_yield(args, techs):
-    from .system import simulate
+    from widesky.pvsim.system import simulate
     c = _setup(args)
-    res, y = simulate(c["scene"], c["sky"], c["states"], techs, c["temp_air"], c["wind_speed"],
-                      cover=c["cover"], system=c["system"], measured=c["measured"], times=c["times"],
-                      spectral_model=c["spectral_model"], allsky_options=c["allsky_options"],
-                      settings=c["settings"], n_jobs=args.jobs, progress=sys.stderr.isatty(),
+    sim = c["sim"]
+    res, y = simulate(sim.scene, sim.sky_source, technologies=techs, temp_air=c["temp_air"],
+                      wind_speed=c["wind_speed"], cover=c["cover"], system=c["system"],
                       reference=None if args.reference == "g173" else "widesky", reference_path=args.g173,
-                      keep_currents=False)
+                      keep_currents=False, **sim.integrator_arguments())
     return res, y, c["note"] + ("" if args.reference == "g173" else ", reference: widesky AM1.5G")
 
 
 def _compare(args) -> int:
-    from .compare import summary_text, write_comparison
-    from .technologies import TECHNOLOGIES
+    from widesky.pvsim.compare import summary_text, write_comparison
+    from widesky.pvsim.technologies import TECHNOLOGIES
     techs = _technologies(args, list(TECHNOLOGIES))
     res, y, note = _run_yield(args, techs)
     paths = write_comparison(y, args.output, args.group, note)
@@ -235,7 +177,7 @@ def _compare(args) -> int:
 
 def _yield(args) -> int:
     import pandas as pd
-    from .compare import _write_text, summary_table
+    from widesky.pvsim.compare import _write_text, summary_table
     techs = _technologies(args, ["perc"])
     res, y, note = _run_yield(args, techs)
     g = args.group or y.groups[0]
@@ -253,7 +195,7 @@ def _yield(args) -> int:
 
 
 def _sweep(args) -> int:
-    from .compare import _write_text, bandgap_sweep
+    from widesky.pvsim.compare import _write_text, bandgap_sweep
     try:
         a, b, st = (float(x) for x in args.gaps.split(":"))
     except ValueError:
@@ -262,11 +204,10 @@ def _sweep(args) -> int:
         raise ValueError(f"--gaps {args.gaps!r}: band gaps must lie in [1.5, 1.8] eV with a step > 0")
     gaps = np.round(np.arange(a, b + 1e-9, st), 4)
     c = _setup(args)
-    df = bandgap_sweep(c["scene"], c["sky"], c["states"], gaps, args.terminals, args.group, cover=c["cover"],
-                       settings=c["settings"], measured=c["measured"], times=c["times"],
-                       temp_air=c["temp_air"], wind_speed=c["wind_speed"], n_jobs=args.jobs,
-                       spectral_model=c["spectral_model"], allsky_options=c["allsky_options"],
-                       progress=sys.stderr.isatty())
+    sim = c["sim"]
+    df = bandgap_sweep(sim.scene, sim.sky_source, gaps_ev=gaps, terminals=args.terminals, group=args.group,
+                       cover=c["cover"], temp_air=c["temp_air"], wind_speed=c["wind_speed"],
+                       **sim.integrator_arguments())
     _write_text(args.output, df.to_csv(float_format="%.6g"))
     best = df["dc_kwh_per_m2"].idxmax()
     print(f"{args.terminals}T tandem: annual DC yield peaks at a top gap of {best:.2f} eV "
@@ -276,5 +217,5 @@ def _sweep(args) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    from skymodel.cli import main
+    from widesky.cli import main
     sys.exit(main(["pv", *sys.argv[1:]]))

@@ -53,7 +53,7 @@ def register(sub):
 
 def _parse_channel(model, text):
     """(channels, wavelengths) for ``--channel``, checked against the model's channels."""
-    from .evaluate import channel_indices
+    from widesky.skymodel.evaluate import channel_indices
 
     text = str(text).strip().lower()
     if text == "rgb":
@@ -93,9 +93,9 @@ def _check_render_args(args):
 
 
 def _render(args):
-    import skymodel
-    from .outputs import atomic_outputs, check_output_path
-    from .render import check_render_memory, render_sky, write_exr, write_png
+    from widesky import skymodel
+    from widesky.skymodel.outputs import atomic_outputs, check_output_path
+    from widesky.skymodel.render import check_render_memory, render_sky, write_exr, write_png
 
     _check_render_args(args)
     out = check_output_path(args.output, "--output", (".png", ".exr"))
@@ -139,7 +139,7 @@ def _render(args):
 
 
 def _info(args):
-    import skymodel
+    from widesky import skymodel
 
     model = skymodel.load_dataset(args.dataset)
     if args.load:

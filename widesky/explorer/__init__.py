@@ -9,7 +9,7 @@ EXR export. Everything it needs ships with the package: no network access, no CD
 
 From Python::
 
-    from skymodel.explorer import Explorer, make_server
+    from widesky.explorer import Explorer, make_server
     srv = make_server(Explorer(output_dir="out"), port=0)   # a free port on 127.0.0.1
     srv.serve_forever()
 """

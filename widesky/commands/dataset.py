@@ -72,9 +72,9 @@ def _count(value, option, lo, hi):
 
 
 def _synthetic(args):
-    from .dataset import SPECTRAL_RANGE, load_dataset
-    from .outputs import check_output_path
-    from .synthetic import write_synthetic_dataset
+    from widesky.skymodel.dataset import SPECTRAL_RANGE, load_dataset
+    from widesky.skymodel.outputs import check_output_path
+    from widesky.skymodel.synthetic import write_synthetic_dataset
 
     # every option is checked before anything is written
     vis = _floats(args.visibilities, "--visibilities", 1e-3, 1e4, "km")
@@ -103,14 +103,14 @@ def _build(args):
     import os
     import time
 
-    from .generator.dataset_build import build_dataset, load_config, solve_all
+    from widesky.skymodel.generator.dataset_build import build_dataset, load_config, solve_all
 
     def log(msg):
         print(time.strftime("%H:%M:%S"), msg, flush=True)
 
     cfg = load_config(args.config)
     if args.scheduler is not None:
-        from .generator.dask_scheduler import SCHEDULER_ENV, check_address
+        from widesky.skymodel.generator.dask_scheduler import SCHEDULER_ENV, check_address
 
         os.environ[SCHEDULER_ENV] = check_address(args.scheduler)
     if args.solve_only:
@@ -128,10 +128,10 @@ def _build(args):
 
 
 def _compress(args):
-    from .compress import greedy_omission, omission_errors, radiance_samples, write_channel_list
-    from .dataset import load_dataset
+    from widesky.skymodel.compress import greedy_omission, omission_errors, radiance_samples, write_channel_list
+    from widesky.skymodel.dataset import load_dataset
 
-    from .outputs import check_output_path
+    from widesky.skymodel.outputs import check_output_path
 
     out = args.output or str(args.dataset) + ".channels.json"
     check_output_path(out, "--output")

@@ -1,8 +1,8 @@
 """What the sky explorer computes: images, the spectrum of one direction, irradiance on two planes.
 
-Pure functions of a loaded :class:`skymodel.SkyModel` and a :class:`~skymodel.explorer.params.View`.
+Pure functions of a loaded :class:`widesky.skymodel.SkyModel` and a :class:`~skymodel.explorer.params.View`.
 The irradiance of an unobstructed plane (horizontal, and tilted at ``surface_tilt`` towards
-``surface_azimuth``) uses the per-face integrator's own quadrature (:func:`irradiance.patch_radiance` on
+``surface_azimuth``) uses the per-face integrator's own quadrature (:func:`widesky.irradiance.patch_radiance` on
 Reinhart patches with their exact cosine weights, the circumsolar excess traced with the sun), so the
 numbers are the ones ``widesky poa`` gives for a face with nothing around it; the ground is a
 Lambertian plane of the sky state's albedo with the isotropic view factor ``(1 - cos tilt) / 2``.
@@ -15,9 +15,9 @@ import time
 
 import numpy as np
 
-from ..colour import channel_xyz_weights
-from ..evaluate import polarisation, sky_radiance, sun_direction, sun_radiance, transmittance
-from ..render import QUANTITIES, Render, _display, fisheye_directions, render_sky
+from widesky.skymodel.colour import channel_xyz_weights
+from widesky.skymodel.evaluate import polarisation, sky_radiance, sun_direction, sun_radiance, transmittance
+from widesky.skymodel.render import QUANTITIES, Render, _display, fisheye_directions, render_sky
 
 __all__ = ["render_view", "png_bytes", "direction_at", "spectrum_at", "plane_irradiance", "LUMINOUS_EFFICACY",
            "VISIBLE_NM"]
@@ -41,7 +41,7 @@ def _render_channels(model, view):
 
 
 def render_view(model, view, threads=0):
-    """Render a view; returns (:class:`skymodel.render.Render`, composite flag, seconds of evaluation)."""
+    """Render a view; returns (:class:`widesky.skymodel.render.Render`, composite flag, seconds of evaluation)."""
     chi, composite = _render_channels(model, view)
     t0 = time.perf_counter()
     r = render_sky(model, sun_elevation=view.sun_elevation, sun_azimuth=view.sun_azimuth,
@@ -119,7 +119,7 @@ _PATCH_CACHE = {}
 
 def _patches(mf):
     if mf not in _PATCH_CACHE:
-        from irradiance import cosine_weights, reinhart
+        from widesky.irradiance import cosine_weights, reinhart
         p = reinhart(mf)
         _PATCH_CACHE[mf] = (p, cosine_weights(p, np.array([[0.0, 0.0, 1.0]]))[0])
     return _PATCH_CACHE[mf]
@@ -147,7 +147,7 @@ def plane_irradiance(model, view, responses=None, mf=2):
         ``ground_diffuse``, ``global`` spectra [W m-2 nm-1] and ``integrated``: response name ->
         value of the global spectrum, ``broadband``: part -> [W m-2]; ``aoi_deg`` of the tilted plane [deg]; ``units`` per response.
     """
-    from irradiance import IntegratorSettings, PragueSky, SkyStates, cosine_weights, patch_radiance
+    from widesky.irradiance import IntegratorSettings, PragueSky, SkyStates, cosine_weights, patch_radiance
 
     sky = PragueSky(model, elevation_quantum=0.0, threads=0)
     states = SkyStates.create(view.sun_elevation, view.sun_azimuth, view.visibility, view.albedo, view.altitude)

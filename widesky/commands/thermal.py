@@ -18,7 +18,8 @@ def register(subparsers) -> None:
     sub.required = True
 
     g = sub.add_parser("glazing", help="U-value, solar transmittance and g of a glazing unit")
-    g.add_argument("layers", nargs="+", help="IGDB/Optics layer files, outside first")
+    g.add_argument("layers", nargs="+", help="IGDB/Optics layer files, outside first, or the names of the "
+                   "samples shipped with widesky (CLEAR_3.DAT, CLEAR_6.DAT, CLEAR5.LOF, LOW-E_5.LOF)")
     g.add_argument("--gap", action="append", default=[], metavar="MM[:GAS]",
                    help="gap between consecutive layers (e.g. 12:argon); once per gap, default 12:air")
     g.add_argument("--flip", action="append", type=int, default=[], metavar="I",
@@ -32,18 +33,20 @@ def register(subparsers) -> None:
                    help="tmy3: Denver Intl AP TMY3 (the 140-2020 weather, default); drycold: older")
     b.add_argument("--sky", default="weather", choices=("weather", "integrator"),
                    help="weather: Hay-Davies from the file (default, seconds); integrator: widesky's "
-                        "sky scaled to the file's DNI/DHI (minutes; tmy3 only)")
+                        "all-sky spectra at the file's DNI/DHI (minutes; tmy3 only)")
     b.add_argument("--exterior", default="hourly", choices=("hourly", "constant"),
                    help="outside surface coefficients: hourly from wind and air temperature "
                         "(ISO 6946 Annex C, default) or ISO 13790's constant R_se = 0.04")
-    b.add_argument("--json", help="also write the results here (for python -m thermal.figures)")
+    b.add_argument("--json", help="also write the results here (for python -m widesky.thermal.figures)")
     b.add_argument("--jobs", type=int, default=1, help="ray-casting processes (integrator)")
     b.add_argument("--data-dir", default=None,
                    help="data directory (default WIDESKY_DATA_DIR or ../shared/data)")
     b.set_defaults(func=_bestest)
 
     lo = sub.add_parser("loads", help="hourly gains and loads of a box building for a weather file")
-    lo.add_argument("--weather", required=True, help="EPW or TMY3 file")
+    lo.add_argument("--weather", required=True,
+                    help="EPW or TMY3 file, or data:weather/<file> for a year shipped with widesky "
+                         "(data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw)")
     lo.add_argument("--width", type=float, default=20.0, help="[m] along x (east)")
     lo.add_argument("--depth", type=float, default=12.0, help="[m] along y (north)")
     lo.add_argument("--floor-height", type=float, default=3.5, help="[m]")
@@ -54,8 +57,8 @@ def register(subparsers) -> None:
     lo.add_argument("--rotation", type=float, default=0.0, help="clockwise rotation [deg]")
     lo.add_argument("--glazing", default="clear", choices=UNIT_NAMES)
     lo.add_argument("--sky", default="integrator", choices=("integrator", "weather"),
-                    help="integrator: widesky's spectral sky scaled to the measured DNI/DHI, with "
-                         "shading (default); weather: Hay-Davies from the file, no shading")
+                    help="integrator: widesky's spectral sky (the all-sky model at the measured DNI/DHI, as "
+                         "every command) with shading (default); weather: Hay-Davies from the file, no shading")
     lo.add_argument("--route", default="spectral", choices=("spectral", "rated"),
                     help="window gains from the spectral-angular g or the rated AM1.5 g(angle)")
     lo.add_argument("--output", required=True, help="hourly CSV of zone heating, cooling and solar [W]")
@@ -74,7 +77,9 @@ def register(subparsers) -> None:
 
     s = sub.add_parser("study", help="spectral vs rated glazing: effective g per orientation and "
                                      "month, annual gains and loads")
-    s.add_argument("--weather", required=True, help="EPW or TMY3 file")
+    s.add_argument("--weather", required=True,
+                   help="EPW or TMY3 file, or data:weather/<file> for a year shipped with widesky "
+                        "(data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw)")
     s.add_argument("--output", required=True, help="folder for effective_g.csv and annual.csv")
     s.add_argument("--jobs", type=int, default=1)
     s.add_argument("--solar-control", action="store_true",
@@ -84,7 +89,7 @@ def register(subparsers) -> None:
 
 
 def _parse_gap(text):
-    from .glazing import Gap
+    from widesky.thermal.glazing import Gap
     mm, _, gas = text.partition(":")
     try:
         return Gap(float(mm), gas or "air")
@@ -92,12 +97,26 @@ def _parse_gap(text):
         raise ValueError(f"--gap {text!r}: {exc}") from None
 
 
+def _weather_file(text):
+    """``--weather``: a file, or ``data:weather/<file>`` (shipped with widesky, else in the reference data folder)."""
+    from widesky.core.paths import DATA_PREFIX, data_reference
+    if text.startswith(DATA_PREFIX):
+        return data_reference(text)
+    if not Path(text).is_file():
+        raise ValueError(f"--weather {text!r} not found")
+    return Path(text)
+
+
 def _glazing(args) -> int:
-    from .glazing import GlazingUnit, read_igdb, read_solar_spectrum
+    from widesky.core.paths import runtime_file, runtime_files
+    from widesky.thermal.glazing import GlazingUnit, read_igdb, read_solar_spectrum
     layers = []
+    samples = [n for n in runtime_files("glazing") if n.upper().endswith((".DAT", ".LOF"))]
     for i, path in enumerate(args.layers):
         if not Path(path).is_file():
-            raise ValueError(f"layer file {path!r} not found")
+            if path not in samples:
+                raise ValueError(f"layer file {path!r} not found (nor a shipped sample: {', '.join(samples)})")
+            path = runtime_file(f"glazing/{path}")
         layer = read_igdb(path)
         layers.append(layer.flipped() if i in args.flip else layer)
     gaps = [_parse_gap(t) for t in args.gap]
@@ -113,8 +132,8 @@ def _glazing(args) -> int:
         print(f"  {layer.name[:40]:40s} {kind:8s} absorbed {a:.3f}  inward fraction {n:.3f}")
     if args.csv:
         import pandas as pd
-        from .facade import write_face_csv
-        from .glazing import ANGLES
+        from widesky.thermal.facade import write_face_csv
+        from widesky.thermal.glazing import ANGLES
         rows = [{"aoi_deg": a, **{k: v for k, v in unit.rated(sw, se, a).items() if k != "absorbed"},
                  **{f"absorbed_{j}": v for j, v in enumerate(unit.rated(sw, se, a)["absorbed"])}}
                 for a in ANGLES]
@@ -124,8 +143,8 @@ def _glazing(args) -> int:
 
 def _bestest(args) -> int:
     import json
-    from .bestest import CASES, integrator_irradiance, reference_results, run_case
-    from .facade import atomic_write
+    from widesky.thermal.bestest import CASES, integrator_irradiance, reference_results, run_case
+    from widesky.thermal.facade import atomic_write
     for c in args.case:
         if c not in CASES:
             raise ValueError(f"--case {c!r} not one of {CASES}")
@@ -161,7 +180,7 @@ def _context(args):
     if not (args.context or args.context_box):
         return []
     import trimesh
-    from irradiance.scene import load_mesh
+    from widesky.irradiance.scene import load_mesh
     meshes = []
     for p in args.context:
         if not Path(p).is_file():
@@ -196,15 +215,14 @@ def _wwr(text):
 
 def _loads(args) -> int:
     import pandas as pd
-    from irradiance import read_weather
-    from .building import ZoneSpec, box_building
-    from .facade import write_face_csv, write_facade_ply
-    from .loads import building_loads
-    from .study import _constructions, standard_units
-    from .surface import sky_temperature, surface_irradiance
+    from widesky.irradiance import read_weather
+    from widesky.thermal.building import ZoneSpec, box_building
+    from widesky.thermal.facade import write_face_csv, write_facade_ply
+    from widesky.thermal.loads import building_loads
+    from widesky.thermal.study import _constructions, standard_units
+    from widesky.thermal.surface import sky_temperature, surface_irradiance
 
-    if not Path(args.weather).is_file():
-        raise ValueError(f"--weather {args.weather!r} not found")
+    args.weather = _weather_file(args.weather)
     context = _context(args)
     if context and args.sky != "integrator":
         raise ValueError("--context and --context-box need --sky integrator (the weather route "
@@ -221,7 +239,7 @@ def _loads(args) -> int:
     surf = [s for s in b.surfaces if s.kind != "shading"]
     window_gain = None
     if args.sky == "weather":
-        from irradiance import dni_extra
+        from widesky.irradiance import dni_extra
         sp = w.site.solar_position(data.index, w.label, w.step)
         irr = surface_irradiance([s.tilt for s in surf], [s.azimuth for s in surf],
                                  sp["zenith"].to_numpy(), sp["azimuth"].to_numpy(),
@@ -231,18 +249,18 @@ def _loads(args) -> int:
         if args.route == "spectral":
             raise ValueError("--route spectral needs --sky integrator (the weather file has no spectra)")
     else:
-        from irradiance import PragueSky, poa_irradiance
-        from .gains import (building_scene, front_faces, glazing_response, irradiance_by_surface,
-                            rated_glazing_response, sky_states_for_weather, window_gain_by_surface)
-        from .glazing import read_solar_spectrum
-        sky = PragueSky()
+        from widesky.irradiance import Simulation
+        from widesky.thermal.gains import (building_scene, front_faces, glazing_response, irradiance_by_surface,
+                                           rated_glazing_response, window_gain_by_surface)
+        from widesky.thermal.glazing import read_solar_spectrum
         scene, labels = building_scene(b, context)
-        states, measured = sky_states_for_weather(w, sky)
+        sim = Simulation(scene, weather=w, n_jobs=args.jobs, progress=sys.stderr.isatty())
+        for msg in sim.warnings:
+            print(f"widesky: warning: {msg}", file=sys.stderr)
         resp = (glazing_response(unit, f"{args.glazing}:spectral") if args.route == "spectral"
                 else rated_glazing_response(unit, *read_solar_spectrum(args.data_dir),
                                             f"{args.glazing}:rated"))
-        res = poa_irradiance(scene, sky, states, responses=[resp], measured=measured,
-                             n_jobs=args.jobs, progress=sys.stderr.isatty())
+        res = sim.run([resp])
         irr = irradiance_by_surface(res, labels)
         window_gain = window_gain_by_surface(res, labels, b, cons, args.route)
     t_sky = (sky_temperature(np.maximum(data["ghi_infrared"].fillna(300).to_numpy(), 1.0))
@@ -283,13 +301,12 @@ def _loads(args) -> int:
 
 
 def _study(args) -> int:
-    from .facade import write_face_csv
-    from .study import glazing_study
-    if not Path(args.weather).is_file():
-        raise ValueError(f"--weather {args.weather!r} not found")
+    from widesky.thermal.facade import write_face_csv
+    from widesky.thermal.study import glazing_study
+    args.weather = _weather_file(args.weather)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    from .study import standard_units
+    from widesky.thermal.study import standard_units
     units = standard_units(args.data_dir, solar_control=args.solar_control)
     r = glazing_study(args.weather, units, n_jobs=args.jobs, progress=sys.stderr.isatty(),
                       data_dir=args.data_dir)

@@ -7,17 +7,18 @@ import importlib
 import os
 import sys
 
-# Packages that contribute subcommands: each module exposes ``register(subparsers)``.
-# A module that does not exist (yet) is skipped; any other import error is raised.
+# The front ends that contribute subcommands (the app layer: they sit above the packages they drive); each
+# module exposes ``register(subparsers)``. A module that does not exist is skipped; any other import error is
+# raised.
 SUBCOMMAND_MODULES = (
-    "skymodel.cli_sky",
-    "skymodel.cli_dataset",
-    "skymodel.generator.cli",
-    "irradiance.cli_sun",
-    "irradiance.cli_poa",
-    "skymodel.explorer.cli", "cases.cli",
-    "pvsim.cli",
-    "thermal.cli",
+    "widesky.commands.sky",
+    "widesky.commands.dataset",
+    "widesky.skymodel.generator.cli",
+    "widesky.commands.sun",
+    "widesky.commands.poa",
+    "widesky.explorer.cli", "widesky.commands.run",
+    "widesky.commands.pv",
+    "widesky.commands.thermal",
 )
 
 
@@ -25,11 +26,11 @@ SUBCOMMAND_MODULES = (
 # pull in pandas, trimesh, ...: seconds of start-up for nothing). Anything else (no command, --help, an
 # unknown name) registers every module.
 COMMAND_MODULES = {
-    "sky": "skymodel.cli_sky",
-    "dataset": "skymodel.cli_dataset",
-    "build": "skymodel.generator.cli",
-    "sun": "irradiance.cli_sun",
-    "poa": "irradiance.cli_poa",
+    "sky": "widesky.commands.sky",
+    "dataset": "widesky.commands.dataset",
+    "build": "widesky.skymodel.generator.cli",
+    "sun": "widesky.commands.sun",
+    "poa": "widesky.commands.poa",
 }
 
 

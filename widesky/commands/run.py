@@ -18,7 +18,7 @@ def register(subparsers) -> None:
 
 
 def _resolve(case):
-    from . import CASES_DIR, list_cases
+    from widesky.cases import CASES_DIR, list_cases
 
     p = Path(case)
     if p.is_dir():
@@ -29,8 +29,8 @@ def _resolve(case):
 
 
 def _run(args) -> int:
-    from . import SCHEMA, list_cases
-    from .runner import run_case
+    from widesky.cases import SCHEMA, list_cases
+    from widesky.cases.runner import run_case
 
     if args.list:
         for name in list_cases():
@@ -43,7 +43,7 @@ def _run(args) -> int:
                 rng = f" [{f.lo:g}, {f.hi:g}]" if f.lo is not None else ""
                 choices = f.choices
                 if section == "pv" and key == "technologies":
-                    from .config import _technology_choices
+                    from widesky.cases.config import _technology_choices
                     choices = _technology_choices()
                 ch = f" one of {', '.join(choices)}" if choices else ""
                 unit = f" {f.unit}" if f.unit else ""

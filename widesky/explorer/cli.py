@@ -33,7 +33,7 @@ UNITS = {"weight": "W m-2", "transmittance": "W m-2", "sr": "A m-2", "qe": "A m-
 
 def parse_response(item, model):
     """``NAME[:UNIT]=FILE`` -> (name, (weights (C,) per channel of ``model``, output unit))."""
-    from irradiance import Response
+    from widesky.irradiance import Response
 
     key, sep, path = item.partition("=")
     name, _, unit = key.partition(":")

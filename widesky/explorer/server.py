@@ -1,6 +1,6 @@
 """The sky explorer's HTTP server (standard library ``http.server``), bound to 127.0.0.1 only.
 
-Routes (GET unless noted; parameters in the query string, see :mod:`skymodel.explorer.params`)::
+Routes (GET unless noted; parameters in the query string, see :mod:`widesky.explorer.params`)::
 
     /                    the page (self-contained: its script and style come from this server)
     /app.js, /style.css
@@ -57,16 +57,16 @@ class Explorer:
     responses : dict of str to (ndarray, str), optional
         Extra spectral responses: name -> (weights per channel of dataset 0, output unit), e.g. a cell SR
         [A W-1] -> "A m-2" or a glazing transmittance [1] -> "W m-2"; the irradiance spectra are
-        integrated against them (see :func:`skymodel.explorer.cli.parse_response`).
+        integrated against them (see :func:`widesky.explorer.cli.parse_response`).
     threads : int
         Evaluator threads (0: all cores).
     load_options : dict, optional
-        Passed to :func:`skymodel.load_dataset` for every dataset, to load part of it:
+        Passed to :func:`widesky.skymodel.load_dataset` for every dataset, to load part of it:
         ``wavelength_range`` (lo, hi) [nm], ``visibility`` (lo, hi) [km], ``albedo`` (lo, hi) [1].
     """
 
     def __init__(self, datasets=None, output_dir=".", responses=None, threads=0, load_options=None):
-        import skymodel
+        from widesky import skymodel
 
         self.paths = [None] if not datasets else [Path(p) for p in datasets]
         self._models = [None] * len(self.paths)
@@ -82,7 +82,7 @@ class Explorer:
             self.model(i)
 
     def model(self, index):
-        """The :class:`skymodel.SkyModel` of dataset ``index`` (opened once, decoded on first use)."""
+        """The :class:`widesky.skymodel.SkyModel` of dataset ``index`` (opened once, decoded on first use)."""
         with self._lock:
             if self._models[index] is None:
                 self._models[index] = self._load(self.paths[index], **self.load_options)
@@ -156,7 +156,7 @@ class Explorer:
             return self._save(m, v, name, formats)
 
     def _save(self, m, v, name, formats):
-        from ..render import render_sky, write_exr, write_png
+        from widesky.skymodel.render import render_sky, write_exr, write_png
 
         written = []
         if "png" in formats:
@@ -198,7 +198,7 @@ def site_sun(query):
     """(apparent elevation, azimuth) [deg] of the sun for ``lat``, ``lon`` [deg], ``time`` (ISO 8601, local
     time of ``tz``) and ``tz`` (IANA name or hours east of UTC), by NREL SPA."""
     import pandas as pd
-    from irradiance import Site
+    from widesky.irradiance import Site
 
     from .params import _number
 

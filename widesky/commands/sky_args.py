@@ -1,0 +1,103 @@
+"""The site, period, weather and sky options every simulating command shares (``poa``, ``pv``, ``thermal
+loads``), read into one :class:`widesky.irradiance.SkyOptions` and one :class:`widesky.irradiance.Simulation`.
+
+Their defaults are not repeated here: an option the user does not give is None and takes its value from
+:data:`widesky.irradiance.SKY_DEFAULTS`, the one table every command, the case files and the API share.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+from widesky.irradiance.simulation import (AEROSOL_SOURCES, GROUND_SPECTRA, SKY_DEFAULTS, SPECTRAL_MODELS,
+                                           Simulation, SkyOptions)
+
+D = SKY_DEFAULTS
+
+
+def add_sky_arguments(p, *, site=True) -> None:
+    """Add the weather / site / period / sky options to the argparse parser ``p``."""
+    p.add_argument("--weather", default=None,
+                   help="weather file (EPW, TMY3, CSV): site, steps, aerosol, albedo, measured DNI/DHI")
+    p.add_argument("--clear-sky", action="store_true",
+                   help="with --weather: do not scale to the measured DNI/DHI (the clear sky of the file's "
+                        "steps: an upper bound)")
+    p.add_argument("--spectral-model", default=None, choices=SPECTRAL_MODELS,
+                   help=f"with --weather (default {D.spectral_model}): 'allsky' gives each step the all-sky "
+                        "model's spectra (cloud spectra, CIE overcast light, haze below the dataset's visibility; "
+                        "docs/all-sky.md), 'clear' the clear sky's shape; both keep the measured DNI/DHI")
+    p.add_argument("--ground-spectrum", default=None, choices=GROUND_SPECTRA,
+                   help=f"with the all-sky model (default {D.ground_spectrum}): the spectrum the ground "
+                        "reflects, green vegetation where the albedo is at most 0.3 and no snow is reported, "
+                        "or grey")
+    p.add_argument("--aerosol", default=None, choices=AEROSOL_SOURCES,
+                   help=f"with --weather (default {D.aerosol}): each step's aerosol from the file's aerosol "
+                        "optical depth where valid, or from its station visibility")
+    p.add_argument("--visibility", type=float, default=None,
+                   help=f"visibility [km] without --weather, or where the file gives none (default {D.visibility:g})")
+    p.add_argument("--albedo", type=float, default=None,
+                   help=f"ground albedo [1] without --weather, or where the file gives none (default {D.albedo:g})")
+    if site:
+        p.add_argument("--lat", type=float, default=None, help="latitude [deg], north positive")
+        p.add_argument("--lon", type=float, default=None, help="longitude [deg], east positive")
+        p.add_argument("--site-altitude", type=float, default=0.0, help="site altitude [m]")
+        p.add_argument("--tz", default="UTC", help="time zone: IANA name or hours east of UTC")
+        p.add_argument("--start", default=None, help="period start (required without --weather)")
+        p.add_argument("--end", default=None, help="period end, exclusive (required without --weather)")
+        p.add_argument("--step", default="1h", help="step, e.g. 1h or 15min")
+    p.add_argument("--dataset", default=None, help="PSM dataset file (default: the embedded dataset)")
+
+
+def sky_options(args) -> SkyOptions:
+    """The command line's sky options on top of :data:`SKY_DEFAULTS` (bad values named with their range)."""
+    for name, v, lo, hi in (("--visibility", args.visibility, 0.0, None), ("--albedo", args.albedo, 0.0, 1.0)):
+        if v is not None and (not math.isfinite(v) or v < lo or (hi is not None and v > hi)
+                              or (name == "--visibility" and v <= 0)):
+            rng = f"[{lo:g}, {hi:g}]" if hi is not None else f"> {lo:g}"
+            raise ValueError(f"{name} {v}: outside the valid range {rng}")
+    weather = getattr(args, "weather", None)
+    if args.spectral_model == "allsky" and (weather is None or args.clear_sky):
+        raise ValueError("--spectral-model allsky: needs --weather (measured DNI/DHI) and no --clear-sky")
+    return D.replace(spectral_model=args.spectral_model, aerosol=args.aerosol, visibility=args.visibility,
+                     albedo=args.albedo, ground_spectrum=args.ground_spectrum, dataset=args.dataset,
+                     use_measured=False if args.clear_sky else None)
+
+
+def site(args):
+    """The :class:`widesky.irradiance.Site` of ``--lat/--lon/--site-altitude/--tz`` (without ``--weather``)."""
+    from widesky.irradiance.location import Site
+    missing = [n for n in ("lat", "lon", "start", "end") if getattr(args, n) is None]
+    if missing:
+        raise ValueError("without --weather, give " + ", ".join("--" + m for m in missing))
+    tz = args.tz
+    try:
+        tz = float(tz)
+    except ValueError:
+        pass
+    return Site(args.lat, args.lon, args.site_altitude, tz=tz)
+
+
+def check_site_arguments(args) -> None:
+    """A weather file gives the site: refuse ``--lat``/``--lon`` beside it."""
+    if args.weather is not None:
+        given = [n for n in ("lat", "lon") if getattr(args, n, None) is not None]
+        if given:
+            raise ValueError("--weather gives the site: remove " + ", ".join("--" + g for g in given))
+    if not math.isfinite(args.site_altitude) or not -500.0 <= args.site_altitude <= 9000.0:
+        raise ValueError(f"--site-altitude {args.site_altitude}: outside the valid range [-500, 9000]")
+
+
+def simulation(args, scene, settings, sky_source=None) -> Simulation:
+    """The :class:`widesky.irradiance.Simulation` of the command line's scene, site or weather, and sky; its
+    warnings (clamped steps) printed to stderr."""
+    options = sky_options(args)
+    kw = dict(sky=options, settings=settings, n_jobs=args.jobs, progress=sys.stderr.isatty(),
+              sky_source=sky_source)
+    if args.weather is None:
+        sim = Simulation(scene, site=site(args), start=args.start, end=args.end, step=args.step, **kw)
+    else:
+        sim = Simulation(scene, weather=args.weather, start=args.start, end=args.end, **kw)
+    for w in sim.warnings:
+        print(f"widesky: warning: {w}", file=sys.stderr)
+    return sim

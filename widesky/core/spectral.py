@@ -1,0 +1,73 @@
+"""Spectral helpers shared by every package: band averaging of tabulated curves.
+
+One band averager for the whole of widesky (the sky's extraterrestrial spectrum, cell responses, spectral
+angular tables, reference spectra against the 40 nm channels): the mean over each band of the curve that is
+linear between its tabulated points, integrated exactly.
+
+Units: wavelength [nm]; the values in any unit, which the band means keep.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["band_average", "OUTSIDE"]
+
+OUTSIDE = ("zero", "hold", "raise")
+"""What :func:`band_average` takes the curve to be beyond its table: 0, its end values, or an error."""
+
+
+def band_average(wavelength, values, lower_nm, upper_nm, *, axis=-1, outside="zero"):
+    """Band averages of a tabulated curve: the integral over each band divided by the band's width.
+
+    The curve is linear between its points; the integral is exact for that piecewise-linear function.
+
+    Parameters
+    ----------
+    wavelength : array_like
+        (K,) strictly increasing abscissae [nm], at least 2.
+    values : array_like
+        The curve [any unit], with an axis of length K at ``axis`` (any other axes are carried along).
+    lower_nm, upper_nm : array_like
+        (C,) band limits [nm], ``upper_nm > lower_nm`` (scalars give C = 1).
+    axis : int
+        The axis of ``values`` along ``wavelength`` (default the last).
+    outside : {"zero", "hold", "raise"}
+        The curve beyond ``[wavelength[0], wavelength[-1]]``: 0 (default), its end values held constant, or
+        a ValueError for a band that reaches past the table.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``values`` with the wavelength axis replaced by the C bands [same unit as ``values``].
+    """
+    w = np.asarray(wavelength, dtype=float)
+    v = np.moveaxis(np.asarray(values, dtype=float), axis, -1)
+    lo = np.atleast_1d(np.asarray(lower_nm, dtype=float))
+    hi = np.atleast_1d(np.asarray(upper_nm, dtype=float))
+    if outside not in OUTSIDE:
+        raise ValueError(f"outside={outside!r} is not one of {OUTSIDE}")
+    if w.ndim != 1 or w.size < 2 or np.any(np.diff(w) <= 0):
+        raise ValueError("wavelength must be strictly increasing with >= 2 points [nm]")
+    if v.shape[-1] != w.size:
+        raise ValueError(f"values must have an axis of {w.size} like wavelength at axis={axis}, got "
+                         f"{np.shape(values)}")
+    if lo.shape != hi.shape or np.any(hi <= lo):
+        raise ValueError("band limits must have equal shapes with upper_nm > lower_nm [nm]")
+    if outside == "raise" and (np.any(lo < w[0]) or np.any(hi > w[-1])):
+        raise ValueError(f"bands [{lo.min()}, {hi.max()}] nm outside the spectrum's range [{w[0]}, {w[-1]}] nm")
+    # cumulative integral of the piecewise-linear curve at its own knots, then at arbitrary points
+    seg = 0.5 * (v[..., 1:] + v[..., :-1]) * np.diff(w)
+    cum = np.concatenate([np.zeros(v.shape[:-1] + (1,)), np.cumsum(seg, axis=-1)], axis=-1)
+
+    def integral_to(x):
+        xc = np.clip(x, w[0], w[-1])
+        i = np.clip(np.searchsorted(w, xc, side="right") - 1, 0, w.size - 2)
+        t = xc - w[i]
+        slope = (v[..., i + 1] - v[..., i]) / (w[i + 1] - w[i])
+        f = cum[..., i] + v[..., i] * t + 0.5 * slope * t * t
+        if outside == "hold":                       # the end values, constant beyond the table
+            f = f + v[..., :1] * np.minimum(x - w[0], 0.0) + v[..., -1:] * np.maximum(x - w[-1], 0.0)
+        return f
+
+    return np.moveaxis((integral_to(hi) - integral_to(lo)) / (hi - lo), -1, axis)
