@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from widesky.core.atomic import atomic_write
 import widesky.irradiance as ir
 from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors
 from widesky.irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
@@ -107,9 +108,8 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
         clear = clear_plane_spectra(sky, states, tilt, azimuth, progress=progress)
         if cfile is not None:
             cfile.parent.mkdir(parents=True, exist_ok=True)
-            tmp = cfile.with_suffix(".tmp.npz")
-            np.savez(tmp, **clear._asdict())
-            os.replace(tmp, cfile)
+            with atomic_write(cfile) as tmp:
+                np.savez(tmp, **clear._asdict())
     t_sky = time.perf_counter() - t0
     dni, dhi, ghi = (data[c].to_numpy() for c in ("dni", "dhi", "ghi"))
     tdew = data["temp_dew"].to_numpy() if "temp_dew" in data else None
@@ -404,9 +404,8 @@ def figure(results, path, diffuse=None):
     ax.set_title("APE of global horizontal spectra vs clear-sky index")
     ax.legend(fontsize=7)
     fig.tight_layout()
-    tmp = Path(path).with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
+    with atomic_write(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     print(f"figure written: {path}")
 
 

@@ -1,6 +1,6 @@
 """The all-sky model's cloudy spectra against radiative transfer with a cloud layer (docs/all-sky.md, section 4e).
 
-For each solar elevation and cloud optical depth, ``widesky.irradiance.cloud_reference.cloudy_fluxes`` solves the
+For each solar elevation and cloud optical depth, ``widesky.skymodel.generator.cloud_reference.cloudy_fluxes`` solves the
 dataset's clear atmosphere with a homogeneous stratiform water cloud (Mie droplets, saturated in-cloud vapour,
 DISORT fluxes). Its broadband direct and diffuse horizontal irradiance are then given to the all-sky model as the
 "measured" weather, with the same atmosphere's clear-sky spectra (the cloud-free solve) as the clear sky, and the
@@ -16,16 +16,16 @@ Needs the data directory (../shared/data or WIDESKY_DATA_DIR) and disortpp; abou
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
 import numpy as np
 
+from widesky.core.atomic import atomic_write
 from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions
 from widesky.irradiance.allsky_compare import ape, generic_eqe, spectral_response
 from widesky.skymodel.channels import CHANNEL_EDGES_NM
-from widesky.irradiance.cloud_reference import allsky_global_horizontal, cloudy_fluxes
+from widesky.skymodel.generator.cloud_reference import allsky_global_horizontal, cloudy_fluxes
 
 TECHS = ("a-Si", "CdTe", "c-Si", "CIGS")
 BANDS = ((380, 500), (500, 700), (700, 900), (900, 1100), (1100, 1300))
@@ -114,9 +114,8 @@ def figure(rows, wl, w, path):
     ax.set_title(f"Spectral change under cloud, sun {mid:g} deg")
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
+    with atomic_write(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     print(f"figure written: {path}")
 
 

@@ -53,7 +53,7 @@ def _solve(vis, ele, channels, th, ph, tabulated, cfg):
 
 
 def _grid(ele, step, azimuths):
-    from widesky.skymodel.generator.dataset_build import SUN_OFFSETS_DEG
+    from widesky.skymodel.generator.dataset_grid import SUN_OFFSETS_DEG
     from widesky.skymodel.generator.solver import MAX_VIEW_ZENITH_DEG
 
     zs = 90.0 - ele

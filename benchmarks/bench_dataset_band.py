@@ -16,10 +16,11 @@ Run:  python benchmarks/bench_dataset_band.py skymodel/data/default-dataset.json
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
+
+from widesky.core.atomic import atomic_write
 
 
 def main(argv=None):
@@ -124,10 +125,9 @@ def main(argv=None):
                 ax.tick_params(labelsize=7)
         fig.suptitle(f"sun at {mid:g} deg, between the grid elevations {a.low:g} and {a.high:g} deg", fontsize=9)
         fig.tight_layout()
-        tmp = a.figure + f".{os.getpid()}.tmp.png"
-        fig.savefig(tmp, dpi=110)
+        with atomic_write(a.figure) as tmp:
+            fig.savefig(tmp, dpi=110)
         plt.close(fig)
-        os.replace(tmp, a.figure)
         print(f"wrote {a.figure}")
 
 

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from widesky.core.atomic import atomic_write
+
 AZIMUTH_DEG = 180.0
 """Relative azimuth of the vertical [deg] (the antisolar one)."""
 
@@ -109,9 +111,8 @@ def main(argv=None):
                      f"{centres[c]:.0f} nm (grey: beyond the check's 89.5 deg)", fontsize=10)
         fig.tight_layout()
         out = Path(a.figure)
-        tmp = out.with_name(out.name + ".tmp.png")
-        fig.savefig(tmp, dpi=110)
-        tmp.replace(out)
+        with atomic_write(out) as tmp:
+            fig.savefig(tmp, dpi=110)
         print(f"wrote {out}")
 
 

@@ -39,12 +39,12 @@ Single-threaded kernel (threads=1) unless ``--threads N``.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
 import numpy as np
 
+from widesky.core.atomic import atomic_write
 from widesky.skymodel.generator.montecarlo import (MonteCarloConfig, hemisphere_directions, rayleigh_slab, solve_sky_mc,
                                            trace)
 from widesky.skymodel.generator.solver import SkyState, solve_sky
@@ -56,9 +56,8 @@ STATE = dict(aod550=0.2, ground_albedo=0.2)
 def _save(fig, name):
     FIG.mkdir(parents=True, exist_ok=True)
     out = FIG / name
-    tmp = out.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, out)
+    with atomic_write(out) as tmp:
+        fig.savefig(tmp, dpi=110)
     print(f"wrote {out}")
 
 

@@ -313,7 +313,8 @@ def main(argv=None):
         return _worker(args.worker, args.faces, args.jobs, args.worker_output)
     if args.compare:
         return compare(args)
-    from widesky.irradiance.integrator import IntegratorSettings, poa_irradiance
+    from widesky.irradiance.integrator import IntegratorSettings
+    from widesky.irradiance.poa import poa_irradiance
     from widesky.irradiance.scene import make_scene
 
     t0 = time.perf_counter()

@@ -88,7 +88,7 @@ def hourly(scenes, states, args):
     """Per-step errors of the default settings against the reference, steps where the reference's
     poa_global exceeds 50 W m-2: relative error of poa_global, and errors of the sky-diffuse and
     reflected components as fractions of that step's poa_global (percentiles over steps and points)."""
-    from widesky.irradiance.integrator import poa_irradiance
+    from widesky.irradiance.poa import poa_irradiance
     from widesky.irradiance.skies import PragueSky
 
     sky = PragueSky()
@@ -128,7 +128,8 @@ def main(argv=None):
         plot([(kw, {k: tuple(v) for k, v in errs.items()}, secs, load)
               for kw, errs, secs, load in saved["rows"]], args)
         return 0
-    from widesky.irradiance.integrator import IntegratorSettings, poa_irradiance
+    from widesky.irradiance.integrator import IntegratorSettings
+    from widesky.irradiance.poa import poa_irradiance
     from widesky.irradiance.reference import validation_scenes
     from widesky.irradiance.skies import PragueSky
 

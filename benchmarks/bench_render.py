@@ -61,7 +61,7 @@ def mark(name):
     marks.append((name, time.perf_counter(), time.process_time()))
 import numpy as np
 from widesky import skymodel
-from widesky.skymodel.outputs import atomic_outputs
+from widesky.core.atomic import atomic_outputs
 from widesky.skymodel.render import render_sky, write_exr, write_png
 mark("imports")
 m = skymodel.load_dataset()

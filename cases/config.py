@@ -31,7 +31,8 @@ class Field:
     kind : str
         ``"float"``, ``"int"``, ``"bool"``, ``"str"``, ``"path"`` (relative to the case folder), ``"time"``
         (ISO 8601 local date-time), ``"list"`` (of str from ``choices``), ``"names"`` (a list of any str),
-        ``"weather"`` (a weather file: relative to the case folder, or ``data:<file>`` in the data directory).
+        ``"weather"`` (a weather file: relative to the case folder, or ``data:<folder>/<file>``, shipped with
+        widesky, else in the reference data folder).
     default : object
         Value when the key is absent; ``REQUIRED`` makes it mandatory.
     unit : str

@@ -132,13 +132,15 @@ def _pv_section(run: CaseRun):
     chart = bar_chart([month_label[m - 1] for m in month_names], monthly, title="monthly specific yield (AC)",
                       xlabel="month", ylabel="specific yield [kWh/kWp]") if len(month_names) > 1 else ""
     pv = run.config["pv"]
+    air = (f"Air temperature and wind from the weather file (hour by hour; {pv['temp_air']:g} degC and "
+           f"{pv['wind_speed']:g} m s-1 where it gives none)" if run.config["sky"]["weather"] is not None else
+           f"Air temperature {pv['temp_air']:g} degC and wind {pv['wind_speed']:g} m s-1 (constant)")
     return f"""<h2>PV yield per technology</h2>
 {table}
 <p class="note">The plant: every analysed module group ({', '.join(groups)}), front faces rated at STC
 (front area x STC efficiency x 1000 W m-2), rear light added with each technology's bifaciality. Spectral gain:
 the cell's effective irradiance against the same broadband light at the AM1.5G spectrum
-({'the sky model' if pv['reference'] == 'widesky' else 'ASTM G173'} reference). Air temperature
-{pv['temp_air']:g} degC and wind {pv['wind_speed']:g} m s-1 (constant), {pv['temperature_model']} cell temperature,
+({'the sky model' if pv['reference'] == 'widesky' else 'ASTM G173'} reference). {air}, {pv['temperature_model']} cell temperature,
 DC losses {100 * pv['dc_loss']:g} %, PVWatts inverter (pvsim, docs/pvsim.md). The rank is by AC specific yield:
 where the inverter clips (DC/AC ratio 1.2, pvsim's default), technologies with close DC yields can tie or swap in AC
 (docs/pvsim.md, "Two oddities"): compare the DC column.</p>
@@ -337,6 +339,9 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
 <html lang="en"><head><meta charset="utf-8"><title>{escape(cfg['case']['title'])}</title>
 <style>{_CSS}</style></head><body>
 <h1>{escape(cfg['case']['title'])}</h1>
+<p class="headline"><b>{escape(run.site.name or cfg['site']['name'] or 'site')}</b>
+({run.site.latitude:.2f}, {run.site.longitude:.2f}) &middot; {cfg['period']['start']:%Y-%m-%d} to
+{cfg['period']['end']:%Y-%m-%d} &middot; sky: {escape(run.weather)}</p>
 <p>{escape(cfg['case']['description'])}</p>
 {_table(["", ""], [
     ["site", f"{run.site.name or cfg['site']['name']} {run.site.latitude:.3f} N, {run.site.longitude:.3f} E, "
@@ -401,6 +406,19 @@ def _settings_text(run: CaseRun):
             f"sun bins of {st.sun_bin:g} deg. Its measured error: at most {100 * bound:.2g} % on a point's annual "
             "global irradiance on the two validation scenes against the brute-force reference "
             "(docs/irradiance-integrator.md, \"Accuracy against speed\"); other scenes can do worse.</p>"
-            "<p>The sky is the clear-sky Prague Sky Model of the dataset: no clouds; with the sun below about "
-            "3 deg the embedded dataset's diffuse light is qualitative (plane-parallel solver), and below 0 deg "
-            "the sky is dark.</p>")
+            + _sky_limits(run))
+
+
+def _sky_limits(run: CaseRun) -> str:
+    """What the report's sky is and is not (the run's sky model, from its description)."""
+    low = ("below 0 deg the sky is dark; the embedded dataset's low-sun sky (below 9 deg) comes from a "
+           "spherical-shell solver (docs/default-dataset.md).")
+    if "all-sky" in run.weather:
+        return ("<p>The sky is measured weather: every hour keeps the file's broadband DNI and DHI, with the all-sky "
+                "model's spectra and angular shape (cloud light shaped by droplets and water vapour, CIE overcast "
+                "light, haze, a vegetated ground; docs/all-sky.md) on top of the dataset's clear sky; " + low + "</p>")
+    if "clear-sky spectra" in run.weather:
+        return ("<p>The sky is measured weather: every hour keeps the file's broadband DNI and DHI, with the clear "
+                "sky's spectral and angular shape scaled to them (no cloud spectra: docs/all-sky.md); " + low + "</p>")
+    return ("<p>The sky is the clear-sky Prague Sky Model of the dataset, every hour cloudless: the yields are an "
+            "upper bound, not an expected year (give the case a weather file for that); " + low + "</p>")

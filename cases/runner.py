@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from widesky.skymodel.outputs import plain_mode
+from widesky.core.atomic import plain_mode
 
 from .config import ConfigError, load_config
 

@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 
 HERE = Path(__file__).resolve().parent
 try:                                   # the installed widesky (its C core built) ...
-    import skymodel._core  # noqa: F401
+    import widesky.skymodel._core  # noqa: F401
 except ImportError:                    # ... else the checkout's packages (an in-place build)
     sys.path.insert(0, str(HERE.parent))
 os.environ.setdefault("OMP_NUM_THREADS", "1")

@@ -32,7 +32,9 @@ import functools
 
 import numpy as np
 
+from widesky.core.atomic import atomic_write
 from widesky.core.rayleigh import rayleigh_cross_section
+from widesky.skymodel.opac import refractive_index
 
 __all__ = ["liquid_water_k", "droplet_coalbedo", "mie_droplet_optics", "cloud_spectral_transmittance",
            "transmitted_path_factor", "mie_droplet_table", "cloud_thickness_m", "DROPLET_VARIANCE", "slab_transmittance", "cloud_optical_depth",
@@ -76,7 +78,6 @@ def _water_index(wavelength_nm, data_dir):
     """Complex refractive index of liquid water from the OPAC water-cloud table in the reference data folder;
     a missing table is a DataNotFoundError naming the file and where to get it."""
     from widesky.core.paths import DataNotFoundError, data_file
-    from widesky.skymodel.generator.aerosol import refractive_index
     try:
         data_file(_OPAC_WATER, data_dir)
     except DataNotFoundError as exc:
@@ -162,7 +163,6 @@ def mie_droplet_table(radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANC
 def _mie_table(radius_um, variance, data_dir):
     """The (W, 4) table: the shipped one for the default droplets (``irradiance/data``, made by
     ``irradiance/data/make_droplet_table.py``), otherwise computed once and kept in the cache directory."""
-    import os
     from pathlib import Path
     if np.isclose(radius_um, DEFAULT_DROPLET_RADIUS) and np.isclose(variance, DROPLET_VARIANCE):
         return np.genfromtxt(Path(__file__).with_name("data") / _SHIPPED_TABLE, delimiter=",", skip_header=2)
@@ -171,9 +171,8 @@ def _mie_table(radius_um, variance, data_dir):
     if path.is_file():
         return np.load(path)
     table = mie_droplet_table(radius_um, variance, data_dir)
-    tmp = path.with_suffix(f".{os.getpid()}.tmp.npy")
-    np.save(tmp, table)
-    os.replace(tmp, path)
+    with atomic_write(path) as tmp:
+        np.save(tmp, table)
     return table
 
 

@@ -392,6 +392,3 @@ def lazy_zeros(shape, dtype):
     import mmap
     return np.frombuffer(mmap.mmap(-1, nbytes), dtype=dtype).reshape(shape)
 
-
-from .poa import poa_irradiance  # noqa: E402  (its stages import this module)
-from .result import POAResult  # noqa: E402

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .patches import cosine_weights
-from .raycast import _clear_dni, _cosine_directions, _fbincount, cast_rays, reflector_points, shade_cells
+from .rays import _clear_dni, _cosine_directions, _fbincount, cast_rays, reflector_points, shade_cells
 
 __all__ = ["PrimaryRays", "Bounce", "primary_rays", "reflected_sky", "reflected_sun", "sun_visibility"]
 

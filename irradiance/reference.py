@@ -1,6 +1,6 @@
 """Brute-force plane-of-array irradiance at a few points: the validation reference of the integrator.
 
-Where :func:`widesky.irradiance.integrator.poa_irradiance` averages the sky over patches, applies a patch's
+Where :func:`widesky.irradiance.poa.poa_irradiance` averages the sky over patches, applies a patch's
 visible fraction to its mean radiance, traces the circumsolar excess with the sun, bins sun positions
 and lights every reflector like an unshaded surface of its orientation bin, this module integrates
 the same light transport (direct sun, sky, one Lambertian reflection) with none of those shortcuts,
@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .patches import cosine_weights, orthonormal_frame, reinhart
-from .raycast import cast_rays, reflector_points
+from .rays import cast_rays, reflector_points
 from .skies import SkyStates
 
 __all__ = ["reference_poa", "ReferenceResult"]
@@ -53,7 +53,7 @@ class ReferenceResult:
     poa_global, poa_direct, poa_sky_diffuse, poa_ground_diffuse : numpy.ndarray
         Irradiance [W m-2] (channels contracted with ``weights``; broadband by default);
         ``poa_ground_diffuse`` holds all reflected light (ground and scene surfaces), as in
-        :class:`widesky.irradiance.integrator.POAResult`.
+        :class:`widesky.irradiance.result.POAResult`.
     points : numpy.ndarray
         (n,) indices of the scene's analysis points.
     disc_correction : numpy.ndarray

@@ -29,12 +29,14 @@ rest. They are stored uncompressed by default: LZF with shuffle halves the file 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
-import tempfile
 from dataclasses import dataclass
 
 import numpy as np
+
+from widesky.core.atomic import atomic_write
 
 __all__ = ["FaceTable", "POAResult", "PARTS", "FORMAT", "FORMAT_VERSION"]
 
@@ -466,35 +468,13 @@ def _stamp(t, tz):
 
 
 # -- HDF5 writing ----------------------------------------------------------------------------------
-class atomic_h5:
+@contextlib.contextmanager
+def atomic_h5(path):
     """Context manager: an h5py.File on a temporary file in the target's folder, moved onto the
-    target with ``os.replace`` on success and removed on failure."""
-
-    def __init__(self, path):
-        self.path = os.fspath(path)
-
-    def __enter__(self):
-        import h5py
-        folder = os.path.dirname(os.path.abspath(self.path))
-        fd, self.tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".h5", dir=folder)
-        os.close(fd)
-        from widesky.skymodel.outputs import plain_mode
-        plain_mode(self.tmp)
-        self.f = h5py.File(self.tmp, "w")
-        return self.f
-
-    def __exit__(self, exc_type, exc, tb):
-        try:
-            self.f.close()
-        finally:
-            if exc_type is None:
-                os.replace(self.tmp, self.path)
-            else:
-                try:
-                    os.unlink(self.tmp)
-                except OSError:
-                    pass
-        return False
+    target on success and removed on failure (:func:`widesky.core.atomic.atomic_write`)."""
+    import h5py
+    with atomic_write(path) as tmp, h5py.File(tmp, "w") as f:
+        yield f
 
 
 def chunk_shape(T, F, C=None):

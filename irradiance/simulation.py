@@ -7,10 +7,11 @@ irradiance) goes through here, so the same weather file gives the same spectra w
 Example::
 
     import widesky
-    scene = widesky.irradiance.make_scene("roof.obj")
-    sim = widesky.Simulation(scene, weather="denver.epw")          # all-sky spectra (the default)
-    poa = sim.run()                                                # POAResult, broadband [W m-2]
-    print(sim.description)   # "weather file denver.epw (Denver), all-sky spectra scaled to measured DNI/DHI"
+    import widesky.irradiance as ir
+    scene = ir.make_scene("roof.obj")
+    sim = widesky.Simulation(scene, weather="data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")  # shipped year
+    poa = sim.run()                                  # POAResult, broadband [W m-2]; all-sky spectra (the default)
+    print(sim.description)   # "weather file USA_CO_...epw (Denver Intl Ap, USA), all-sky spectra scaled to ..."
 
 Units: visibility [km], albedo [1], angles [deg], irradiance [W m-2] and [W m-2 nm-1].
 """
@@ -33,6 +34,8 @@ from .poa import poa_irradiance
 from .skies import PragueSky, SkyStates
 from .skystate import sky_states_for
 from .weather import WeatherData, WeatherFileError, read_weather
+
+from widesky.core.paths import DATA_PREFIX, data_reference
 
 __all__ = ["SkyOptions", "SKY_DEFAULTS", "DEFAULTS_TABLE", "SkyInput", "sky_input", "Simulation",
            "SPECTRAL_MODELS", "AEROSOL_SOURCES", "GROUND_SPECTRA"]
@@ -147,8 +150,21 @@ class SkyInput:
         return self.states.times
 
 
+def weather_path(name) -> Path:
+    """The file a weather argument names: a path, or ``data:weather/<file>`` (a year shipped in the package, else
+    one in the reference data folder); a missing file is a FileNotFoundError naming it."""
+    if str(name).startswith(DATA_PREFIX):
+        return data_reference(str(name))
+    p = Path(name).expanduser()
+    if not p.is_file():
+        raise FileNotFoundError(f"weather file {str(name)!r} not found (a path, or data:weather/<file> for a year "
+                                f"shipped with widesky)")
+    return p
+
+
 def _read(path, coerce_year):
     """A weather file, its records moved to ``coerce_year`` when given (typical years mix years)."""
+    path = weather_path(path)
     if coerce_year is None:
         return read_weather(path)
     try:
@@ -172,7 +188,8 @@ def sky_input(source, start=None, end=None, step="1h", *, options: SkyOptions = 
     ----------
     source : Site, WeatherData, str or path-like
         A site (``start`` and ``end`` required; the dataset's clear sky at ``options.visibility`` and
-        ``options.albedo``) or a weather file (EPW, TMY3, CSV with pvlib names) or its data.
+        ``options.albedo``) or a weather file (EPW, TMY3, CSV with pvlib names; a path, or
+        ``data:weather/<file>`` for a year shipped with widesky) or its data.
     start, end : str or datetime-like, optional
         Period [start, end) in the site's zone; with a weather file, the part of it to run.
     step : str
@@ -199,7 +216,7 @@ def sky_input(source, start=None, end=None, step="1h", *, options: SkyOptions = 
     if isinstance(source, WeatherData):
         wd, label = source, "weather data"
     else:
-        wd, label = _read(source, coerce_year), f"weather file {Path(source).name}"
+        wd, label = _read(source, coerce_year), f"weather file {Path(str(source)).name}"
     states = sky_states_for(wd, start, end, model=model, visibility=options.visibility, albedo=options.albedo,
                             prefer=options.aerosol, warn=warn)
     rows = wd.data.loc[states.times]

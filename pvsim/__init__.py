@@ -19,7 +19,8 @@ from .module import (G_STC, T_STC, bifacial_effective_irradiance, channel_sr, cu
                      reference_currents, short_circuit_current, spectral_mismatch, stack_power,
                      tandem_stc_efficiency, temperature_factor)
 from .system import (COVER_RESPONSE, WATERFALL_STAGES, CoverOptics, SystemSpec, TechnologyYield, YieldResult,
-                     pv_yield, simulate, technology_parts, technology_responses)
+                     pv_yield, technology_parts, technology_responses)
+from .stream import simulate
 from .compare import (bandgap_sweep, hourly_spectral_factors, monthly_spectral_factor, plot_comparison,
                       summary_table, summary_text, visibility_spectral_factor, waterfall_table,
                       write_comparison)

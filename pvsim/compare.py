@@ -8,11 +8,11 @@ factors are energy-weighted (ratios of sums).
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from widesky.core.atomic import atomic_write
 
 from .system import WATERFALL_STAGES, YieldResult
 
@@ -205,17 +205,9 @@ def plot_comparison(y: YieldResult, path, group=None, title=None):
 
 
 def _write_text(path, text):
-    p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=p.name + ".", dir=p.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        from .plots import _umask_mode
-        os.chmod(tmp, _umask_mode())
-        os.replace(tmp, p)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    """Write ``text`` to ``path`` atomically (:func:`widesky.core.atomic.atomic_write`)."""
+    with atomic_write(path) as tmp:
+        tmp.write_text(text)
 
 
 def write_comparison(y: YieldResult, outdir, group=None, note=""):
@@ -241,7 +233,7 @@ def bandgap_sweep(scene, sky, states, gaps_ev=None, terminals=2, group=None, cov
                   measured=None, times=None, temp_air=25.0, wind_speed=1.0, n_jobs=None, progress=False,
                   spectral_model="clear", allsky_options=None):
     """Annual yield of a perovskite/Si tandem against the top-cell band gap, one integrator run
-    (``measured``, ``spectral_model`` and ``allsky_options`` as :func:`widesky.pvsim.system.simulate`).
+    (``measured``, ``spectral_model`` and ``allsky_options`` as :func:`widesky.pvsim.stream.simulate`).
 
     Parameters
     ----------
@@ -259,7 +251,7 @@ def bandgap_sweep(scene, sky, states, gaps_ev=None, terminals=2, group=None, cov
         [kWh/kWp], ``current_mismatch_loss`` [1].
     """
     import pandas as pd
-    from .system import simulate
+    from .stream import simulate
     from .technologies import perovskite_silicon_tandem
     gaps = np.round(np.arange(1.5, 1.8001, 0.02), 3) if gaps_ev is None else np.asarray(gaps_ev, float)
     base = perovskite_silicon_tandem(terminals)

@@ -7,12 +7,15 @@ optional AR layer of index ``n_ar``: both interfaces with incoherent multiple re
 them), then the cover of thickness L with absorption coefficient K along the refracted path,
 ``exp(-K L / cos theta_r)``; s and p are averaged after absorption. The incidence angle modifier is
 the transmittance normalised to normal incidence (the STC rating includes the normal-incidence loss).
-This is the model behind ``pvlib.iam.physical``; the tests compare the two.
+This is the model behind ``pvlib.iam.physical``; the tests compare the two. The interface reflectances
+(:func:`fresnel_interface`) are :mod:`widesky.core.fresnel`'s, shared with thermal's glazing.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from widesky.core.fresnel import fresnel_interface
 
 __all__ = ["fresnel_interface", "cover_transmittance", "cover_iam", "spectral_cover_iam",
            "extinction_to_absorption", "rubin_soda_lime_index"]
@@ -25,35 +28,6 @@ def _check_positive(name, value, lo=0.0, strict=True):
         op = ">" if strict else ">="
         raise ValueError(f"{name}={np.asarray(value)[bad].ravel()[0]!r} must be finite and {op} {lo:g}")
     return v
-
-
-def fresnel_interface(n1, n2, cos_incidence):
-    """Reflectances of one dielectric interface.
-
-    Parameters
-    ----------
-    n1, n2 : float or array_like
-        Refractive indices of the incidence and transmission media [1].
-    cos_incidence : array_like
-        Cosine of the incidence angle in medium 1 [1], in [0, 1].
-
-    Returns
-    -------
-    r_s, r_p : numpy.ndarray
-        Reflectances for s and p polarisation [1].
-    cos_refraction : numpy.ndarray
-        Cosine of the refraction angle in medium 2 [1] (total internal reflection: r = 1, cos 0).
-    """
-    ci = np.clip(np.asarray(cos_incidence, dtype=float), 0.0, 1.0)
-    sin_t = n1 / n2 * np.sqrt(1.0 - ci * ci)
-    ct = np.sqrt(np.clip(1.0 - sin_t * sin_t, 0.0, 1.0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rs = ((n1 * ci - n2 * ct) / (n1 * ci + n2 * ct)) ** 2
-        rp = ((n1 * ct - n2 * ci) / (n1 * ct + n2 * ci)) ** 2
-    tir = sin_t >= 1.0
-    rs = np.where(tir | ~np.isfinite(rs), 1.0, rs)
-    rp = np.where(tir | ~np.isfinite(rp), 1.0, rp)
-    return rs, rp, ct
 
 
 def _through_interfaces(indices, cos_incidence):

@@ -2,39 +2,28 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from widesky.core.atomic import atomic_write
 
 from .technologies import TECHNOLOGIES, TandemTechnology, get_technology
 
 __all__ = ["save_figure", "plot_technologies"]
 
 
-def _umask_mode():
-    um = os.umask(0)
-    os.umask(um)
-    return 0o666 & ~um
-
-
 def save_figure(fig, path, dpi=130):
-    """Write a matplotlib figure to ``path`` atomically (temporary file in the same folder, then
-    os.replace), and close it."""
+    """Write a matplotlib figure to ``path`` atomically (:func:`widesky.core.atomic.atomic_write`), and
+    close it. A ``path`` without a suffix is written as PNG."""
     import matplotlib.pyplot as plt
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=p.stem + ".", suffix=p.suffix or ".png", dir=p.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=dpi)
-        os.chmod(tmp, _umask_mode())          # mkstemp makes 0600 files
-        os.replace(tmp, p)
+        with atomic_write(p) as tmp:
+            fig.savefig(tmp, dpi=dpi, format=None if p.suffix else "png")
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.remove(tmp)
     return p
 
 

@@ -18,11 +18,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from widesky.irradiance import FaceTable, poa_irradiance
+
 from .module import G_STC, stack_power
-from .system import COVER_RESPONSE, _GroupAccumulator, _yield_finish, _yield_setup
+from .reference import widesky_am15g
+from .system import (COVER_RESPONSE, _GroupAccumulator, _techs, _yield_finish, _yield_setup, technology_parts,
+                     technology_responses)
 from .technologies import TandemTechnology
 
-__all__ = ["YieldStream"]
+__all__ = ["YieldStream", "simulate"]
 
 _BROADBAND = (("broadband", "direct"), ("broadband", "sky_diffuse"), ("broadband", "ground_diffuse"))
 _COVER = ((COVER_RESPONSE, "direct"), (COVER_RESPONSE, "sky_diffuse"), (COVER_RESPONSE, "ground_diffuse"))
@@ -166,3 +170,59 @@ class YieldStream:
         """The YieldResult of everything accumulated (call after the run)."""
         return _yield_finish(self.accs, self.faces, self.techs, self.setup,
                              self.states.times if times is None else times, self.states)
+
+
+def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *, cover=None, system=None,
+             measured=None, times=None, settings=None, output=None, n_jobs=None, progress=False,
+             reference=None, reference_path=None, spectral_model="clear", keep_currents=True,
+             allsky_options=None):
+    """One integrator run for all ``technologies`` (shared geometry and sky) with the yield model
+    fused into its output stream (:class:`YieldStream`: no current is read back).
+
+    Parameters
+    ----------
+    scene, sky, states : as ``widesky.irradiance.poa_irradiance``.
+    technologies : list of str or technology objects
+    temp_air, wind_speed : float or (T,) [degC], [m s-1]
+    cover : CoverOptics, optional
+    system : SystemSpec, optional
+    measured : (dni, dhi) or irradiance.AllSkyWeather, optional
+        Measured irradiance (T,) [W m-2] the sky is scaled to (an ``AllSkyWeather`` with
+        ``spectral_model="allsky"``).
+    spectral_model : {"clear", "allsky"}
+        Spectral shape under measured weather (``widesky.irradiance.poa_irradiance``; docs/all-sky.md). The
+        ``widesky pv`` commands use "allsky" whenever a weather file gives DNI and DHI.
+    allsky_options : irradiance.AllSkyOptions, optional
+        The all-sky model's parts (default all on: cloud spectra, CIE overcast light, vegetated ground).
+    output : str, optional
+        HDF5 file for the POA result (streams; bounded memory).
+    reference : None, "widesky" or array_like (C,)
+        STC reference spectrum: ASTM G173 (default), the sky model's own AM1.5G
+        (:func:`widesky.pvsim.reference.widesky_am15g`), or band means [W m-2 nm-1].
+    keep_currents : bool
+        Keep every sub-cell current (its global part per face) and the cover's three parts in the POA
+        result, in memory or in ``output``, so :func:`pv_yield` can be run on it again; False keeps
+        the broadband parts and the cover's global part (the currents and the cover's split exist
+        only chunk by chunk: less memory, less writing).
+
+    Returns
+    -------
+    (irradiance.POAResult, YieldResult)
+    """
+    techs = _techs(technologies)
+    resp, sources = technology_responses(techs, cover)
+    if isinstance(reference, str):
+        if reference != "widesky":
+            raise ValueError(f"reference={reference!r} must be None, 'widesky' or an array")
+        reference = widesky_am15g(sky)["scaled"]
+    stream = YieldStream(FaceTable.from_scene(scene), states, techs, sources, temp_air, wind_speed,
+                         system=system, edges=sky.channel_edges, reference=reference,
+                         reference_path=reference_path)
+    parts = technology_parts(resp)
+    if not keep_currents:
+        parts = {**{k: () for k in parts}, COVER_RESPONSE: "global"}
+    res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
+                         times=times, output=output, n_jobs=n_jobs, progress=progress,
+                         spectral_model=spectral_model, allsky_options=allsky_options, parts=parts,
+                         consumer=stream)
+    return res, stream.result(times if times is not None else res.times)

@@ -5,7 +5,7 @@ EQE with the cover's angular optic, deduplicated where one sub-cell is a scalar 
 plus one ``"cover"`` unit weight with the same optic for the angle-loss bookkeeping).
 ``pv_yield`` reads a ``POAResult`` (in memory or streamed to HDF5) face chunk by face chunk and gives
 per technology and module group the time series with pvlib's column names, energies, kWh/kWp and a
-loss waterfall. ``simulate`` does both around ``widesky.irradiance.poa_irradiance``.
+loss waterfall. :func:`widesky.pvsim.stream.simulate` does both around ``widesky.irradiance.poa_irradiance``.
 
 Loss waterfall (per group, as reference yields [kWh/kWp] = irradiation at STC-equivalent [kWh m-2]):
 
@@ -36,7 +36,7 @@ from .spectra import am15g_channels, channel_edges
 from .technologies import TECHNOLOGIES, TandemTechnology, get_technology
 from .temperature import faiman, pvsyst_cell
 
-__all__ = ["CoverOptics", "SystemSpec", "technology_parts", "technology_responses", "pv_yield", "simulate", "YieldResult",
+__all__ = ["CoverOptics", "SystemSpec", "technology_parts", "technology_responses", "pv_yield", "YieldResult",
            "TechnologyYield", "COVER_RESPONSE", "WATERFALL_STAGES"]
 
 COVER_RESPONSE = "cover"
@@ -538,63 +538,3 @@ class _GroupAccumulator:
         if self.j_sum is None:
             return 0.0
         return current_mismatch_loss(tech, self.j_sum)
-
-
-def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *, cover=None, system=None,
-             measured=None, times=None, settings=None, output=None, n_jobs=None, progress=False,
-             reference=None, reference_path=None, spectral_model="clear", keep_currents=True,
-             allsky_options=None):
-    """One integrator run for all ``technologies`` (shared geometry and sky) with the yield model
-    fused into its output stream (:class:`widesky.pvsim.stream.YieldStream`: no current is read back).
-
-    Parameters
-    ----------
-    scene, sky, states : as ``widesky.irradiance.poa_irradiance``.
-    technologies : list of str or technology objects
-    temp_air, wind_speed : float or (T,) [degC], [m s-1]
-    cover : CoverOptics, optional
-    system : SystemSpec, optional
-    measured : (dni, dhi) or irradiance.AllSkyWeather, optional
-        Measured irradiance (T,) [W m-2] the sky is scaled to (an ``AllSkyWeather`` with
-        ``spectral_model="allsky"``).
-    spectral_model : {"clear", "allsky"}
-        Spectral shape under measured weather (``widesky.irradiance.poa_irradiance``; docs/all-sky.md). The
-        ``widesky pv`` commands use "allsky" whenever a weather file gives DNI and DHI.
-    allsky_options : irradiance.AllSkyOptions, optional
-        The all-sky model's parts (default all on: cloud spectra, CIE overcast light, vegetated ground).
-    output : str, optional
-        HDF5 file for the POA result (streams; bounded memory).
-    reference : None, "widesky" or array_like (C,)
-        STC reference spectrum: ASTM G173 (default), the sky model's own AM1.5G
-        (:func:`widesky.pvsim.reference.widesky_am15g`), or band means [W m-2 nm-1].
-    keep_currents : bool
-        Keep every sub-cell current (its global part per face) and the cover's three parts in the POA
-        result, in memory or in ``output``, so :func:`pv_yield` can be run on it again; False keeps
-        the broadband parts and the cover's global part (the currents and the cover's split exist
-        only chunk by chunk: less memory, less writing).
-
-    Returns
-    -------
-    (irradiance.POAResult, YieldResult)
-    """
-    from widesky.irradiance import FaceTable, poa_irradiance
-
-    from .stream import YieldStream
-    techs = _techs(technologies)
-    resp, sources = technology_responses(techs, cover)
-    if isinstance(reference, str):
-        if reference != "widesky":
-            raise ValueError(f"reference={reference!r} must be None, 'widesky' or an array")
-        from .reference import widesky_am15g
-        reference = widesky_am15g(sky)["scaled"]
-    stream = YieldStream(FaceTable.from_scene(scene), states, techs, sources, temp_air, wind_speed,
-                         system=system, edges=sky.channel_edges, reference=reference,
-                         reference_path=reference_path)
-    parts = technology_parts(resp)
-    if not keep_currents:
-        parts = {**{k: () for k in parts}, COVER_RESPONSE: "global"}
-    res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
-                         times=times, output=output, n_jobs=n_jobs, progress=progress,
-                         spectral_model=spectral_model, allsky_options=allsky_options, parts=parts,
-                         consumer=stream)
-    return res, stream.result(times if times is not None else res.times)

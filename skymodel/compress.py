@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .outputs import atomic_outputs
+from widesky.core.atomic import atomic_outputs
 
 __all__ = ["greedy_omission", "interpolate_channels", "omission_errors", "radiance_samples", "omission_curve",
            "write_channel_list", "read_channel_list", "load_compressed", "sky_radiance_all_channels"]

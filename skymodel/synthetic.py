@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .outputs import atomic_outputs
+from widesky.core.atomic import atomic_outputs
 from .writer import DatasetContents, write_dataset
 
 __all__ = ["synthetic_contents", "write_synthetic_dataset"]

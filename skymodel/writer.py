@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .outputs import atomic_outputs
+from widesky.core.atomic import atomic_outputs
 
 __all__ = ["DatasetContents", "write_dataset", "encode_radiance_blocks"]
 

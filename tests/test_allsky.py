@@ -22,13 +22,12 @@ import trimesh
 from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors, cloud_index
 from widesky.irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
 from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
-from widesky.irradiance.integrator import IntegratorSettings, poa_irradiance
+from widesky.irradiance.integrator import IntegratorSettings
+from widesky.irradiance.poa import poa_irradiance
 from widesky.irradiance.measured import measured_scale_factors
 from widesky.irradiance.scene import make_scene
 from widesky.irradiance.skies import AnalyticSky, SkyStates
-from widesky.skymodel.generator.paths import has_data
 
-needs_data = pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WIDESKY_DATA_DIR)")
 
 EDGES = np.arange(280.0, 2480.1, 40.0)
 LAM = 0.5 * (EDGES[1:] + EDGES[:-1])
@@ -104,8 +103,6 @@ def test_cloud_index_formula():
     assert cloud_index([np.nan], [100.0], [0.1])[0] == 0.0
 
 
-@pytest.mark.reference
-@needs_data
 def test_cloud_water_deepens_the_nir():
     el, bn, dh = clear_spectra(2)
     dni, dhi = np.zeros(2), np.array([0.05, 0.4]) * ((bn * np.sin(np.radians(el))[:, None] + dh) @ W)
@@ -212,13 +209,12 @@ def test_integrator_allsky_matches_the_plane_path(angular):
 
 
 @pytest.mark.reference
-@needs_data
 def test_aod_column_keeps_amsterdam_inside_the_dataset():
     import warnings
 
     from widesky.irradiance.skystate import sky_states_for
     from widesky.irradiance.weather import read_weather
-    from widesky.skymodel.generator.paths import data_file
+    from widesky.core.paths import data_file
     wd = read_weather(data_file("weather/NLD_Amsterdam062400_IWEC.epw"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)

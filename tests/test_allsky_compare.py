@@ -31,12 +31,11 @@ import pytest
 
 from widesky.irradiance.allsky_compare import (ape_by_kc, g173_decomposition, generic_eqe, mismatch_by_kc,
                                        pvspec_annual, pvspec_published, sedes2_global_horizontal, spectral_response)
-from widesky.skymodel.generator.paths import has_data
 
 # PVSPEC's a-Si coefficients a1, a2, a3 (Pelland et al. 2020, Table; as in pvlib's spectral_factor_pvspec)
 PVSPEC_ASI = (1.051, -0.1033, 0.009838)
 
-needs_data = pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WIDESKY_DATA_DIR)")
+needs_data = pytest.mark.reference         # the Amsterdam IWEC year and validation files: reference data
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +64,7 @@ def test_g173_offset_is_g173s_diffuse(sky):
 def _amsterdam_sample(sky, stride=10):
     import widesky.irradiance as ir
     from widesky.irradiance.allsky_plane import clear_plane_spectra
-    from widesky.skymodel.generator.paths import data_file
+    from widesky.core.paths import data_file
     wd = ir.read_weather(data_file("weather/NLD_Amsterdam062400_IWEC.epw"))
     sp = wd.site.solar_position(wd.data.index, wd.label, wd.step)
     st = ir.sky_states(sp, wd.data, model=sky.model, prefer="aod")
@@ -128,7 +127,7 @@ def test_mismatch_against_pvspec(sky, amsterdam):
 @pytest.mark.slow
 @needs_data
 def test_ape_against_sedes2(sky, amsterdam):
-    from widesky.skymodel.generator.paths import DataNotFoundError, data_file
+    from widesky.core.paths import DataNotFoundError, data_file
     try:
         coeffs = data_file("validation/sedes2_cloud_cover_modifiers.csv")
     except DataNotFoundError:
@@ -185,7 +184,7 @@ def test_amsterdam_year_against_freiburg(sky):
     from widesky.irradiance.allsky_compare import g173_channels, spectral_effects
     from widesky.irradiance.allsky_plane import clear_plane_spectra, plane_poa
     from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
-    from widesky.skymodel.generator.paths import data_file
+    from widesky.core.paths import data_file
     wd = ir.read_weather(data_file("weather/NLD_Amsterdam062400_IWEC.epw"))
     d = wd.data
     sp = wd.site.solar_position(d.index, wd.label, wd.step)

@@ -34,9 +34,6 @@ from widesky.irradiance.cloud_optics import (DEFAULT_ASYMMETRY, US62_WATER_COLUM
 from widesky.irradiance.haze import haze_correction, relative_airmass
 from widesky.irradiance.overcast_sky import cie_overcast_relative, overcast_poa_ratio
 from widesky.irradiance.patches import cosine_weights, direction_from_angles, reinhart
-from widesky.skymodel.generator.paths import has_data
-
-needs_data = pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WIDESKY_DATA_DIR)")
 
 
 def _two_stream_numeric(tau, coalbedo, g):
@@ -83,7 +80,6 @@ def _mie_gamma(wl, k, re=10.0, ve=0.1, n=None, n_radii=150):
 
 @pytest.mark.reference
 @pytest.mark.slow
-@needs_data
 def test_droplet_optics_against_mie():
     wl = np.array([700.0, 900.0, 1000.0, 1200.0, 1500.0, 2100.0])
     k = liquid_water_k(wl)
@@ -95,7 +91,6 @@ def test_droplet_optics_against_mie():
 
 
 @pytest.mark.reference
-@needs_data
 def test_liquid_water_k_table():
     assert liquid_water_k([1000.0])[0] == pytest.approx(2.89e-6, rel=1e-9)
     k = liquid_water_k([450.0, 700.0, 1000.0, 1500.0])
@@ -106,8 +101,6 @@ def test_liquid_water_k_table():
         droplet_coalbedo([500.0], [1e-9], 0.1)
 
 
-@pytest.mark.reference
-@needs_data
 def test_vapour_deepening_and_path():
     edges = np.arange(880.0, 1000.1, 40.0)                         # 880-920, 920-960, 960-1000
     f = vapour_band_deepening(edges, np.array([0.0, US62_WATER_COLUMN]))
@@ -223,7 +216,7 @@ def test_two_stream_mean_path_against_disort():
     equivalence theorem: the two-stream slab against the project's DISORT (16 streams, a beam at 40 deg,
     black ground), within 10 %."""
     pytest.importorskip("disortpp")
-    from widesky.irradiance.cloud_reference import _Layers
+    from widesky.skymodel.generator.cloud_reference import _Layers
     from widesky.skymodel.generator.solver import SolverConfig, run_disort
     cfg = SolverConfig(16, 16, intensity_correction=False)
     mu0, g, eps = np.sin(np.radians(40.0)), 0.86, 1e-4
@@ -240,12 +233,11 @@ def test_two_stream_mean_path_against_disort():
 
 @pytest.mark.reference
 @pytest.mark.slow
-@needs_data
 def test_shipped_droplet_table_against_mie():
     """The shipped Mie table (irradiance/data) against an independent Mie average (600 radii 1-40 um; 150
     are too few for the absorption at 1000 nm, whose resonances need the fine grid): extinction shape within
     1 %, co-albedo within 5 %."""
-    from widesky.skymodel.generator.aerosol import refractive_index
+    from widesky.skymodel.opac import refractive_index
     wl = np.array([450.0, 1000.0, 1500.0, 2100.0])
     ext, co, g = mie_droplet_optics(wl)
     w5 = np.append(wl, 550.0)

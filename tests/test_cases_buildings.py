@@ -214,7 +214,6 @@ def test_weather_file_scales_the_gains(tmp_path, facade_run):
     assert a.window_gain["clear"].sum() == pytest.approx(facade_run.thermal.window_gain["clear"].sum(), rel=2e-3)
 
 
-@pytest.mark.reference
 @pytest.mark.slow
 def test_weather_cases_use_the_allsky_spectra_by_default(tmp_path, facade_run):
     """Under a weather file a case uses the all-sky spectra (docs/all-sky.md) by default, as every command does
@@ -239,8 +238,8 @@ def test_weather_cases_use_the_allsky_spectra_by_default(tmp_path, facade_run):
 
 
 def _no_data(monkeypatch, tmp_path):
-    """Hide the data directory (no WIDESKY_DATA_DIR, no ../shared/data), as on a user's machine."""
-    import widesky.skymodel.generator.paths as paths
+    """Hide the reference data folder (no WIDESKY_DATA_DIR, no ../shared/data), as on a user's machine."""
+    import widesky.core.paths as paths
     monkeypatch.delenv("WIDESKY_DATA_DIR", raising=False)
     monkeypatch.setattr(paths, "_REPO_SIBLING", tmp_path / "no-shared-data")
     assert not paths.has_data()
@@ -265,9 +264,9 @@ def test_weather_key_errors(tmp_path, monkeypatch):
         cases.load_config(folder)
 
 
-@pytest.mark.reference
 @pytest.mark.slow
 def test_facade_runs_on_a_tmy3_file_of_the_data_directory(tmp_path):
+    """``data:weather/<file>``: the Denver TMY3 year ships in the package."""
     toml = FACADE.format(tz="Europe/Prague", weather='weather = "data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"')
     folder = _case(tmp_path, "facade", toml.replace("2024-06-21T", "2024-07-02T"))
     with pytest.raises(ConfigError, match=r"a leap year, and the file has no 29 February; choose a period in a "

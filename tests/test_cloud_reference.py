@@ -3,7 +3,7 @@
 Reference: the dataset's clear atmosphere (US standard, OPAC continental aerosol AOD550 0.1, 6S k-distribution
 gases) with a stratiform water cloud of optical depth 20 (Mie droplets r_eff 10 um, saturated, base 1 km),
 fluxes by DISORT (16 streams, delta-M) with a grey ground of albedo 0.2, sun at 40 deg
-(``widesky.irradiance.cloud_reference.cloudy_fluxes``). The model gets the reference's broadband DNI and DHI as the
+(``widesky.skymodel.generator.cloud_reference.cloudy_fluxes``). The model gets the reference's broadband DNI and DHI as the
 weather and its cloud-free solve as the clear sky. Tolerances at sun 40 deg: average photon energy 340-1060 nm
 within 0.01 eV of the reference (the cloud shifts it by +0.044 eV), the mismatch of generic a-Si, CdTe, c-Si and
 CIGS responses relative to the clear spectrum within 1.5 points (a-Si: +13 %), band ratios within 0.03; the model
@@ -16,16 +16,13 @@ a-Si.
 import numpy as np
 import pytest
 
-from widesky.skymodel.generator.paths import has_data
-
-pytestmark = [pytest.mark.reference, pytest.mark.slow,
-              pytest.mark.skipif(not has_data(), reason="needs ../shared/data (WIDESKY_DATA_DIR)")]
+pytestmark = [pytest.mark.reference, pytest.mark.slow]
 
 
 @pytest.fixture(scope="module")
 def case():
     pytest.importorskip("disortpp")
-    from widesky.irradiance.cloud_reference import cloudy_fluxes
+    from widesky.skymodel.generator.cloud_reference import cloudy_fluxes
     return cloudy_fluxes(0.0, 40.0), cloudy_fluxes(20.0, 40.0)
 
 
@@ -46,7 +43,7 @@ def test_reference_cloud_is_physical(case):
 def test_model_follows_the_reference_cloud(case):
     from widesky.irradiance.allsky import AllSkyOptions
     from widesky.irradiance.allsky_compare import ape, generic_eqe, spectral_response
-    from widesky.irradiance.cloud_reference import allsky_global_horizontal
+    from widesky.skymodel.generator.cloud_reference import allsky_global_horizontal
     clear, cloudy = case
     wl, w = clear.wavelength_nm, np.full(clear.ghi.size, 40.0)
     sr = spectral_response(generic_eqe(wl), wl)
@@ -72,7 +69,7 @@ def test_model_against_the_reference_cloud_at_other_suns(elevation):
     pytest.importorskip("disortpp")
     from widesky.irradiance.allsky import AllSkyOptions
     from widesky.irradiance.allsky_compare import ape, generic_eqe, spectral_response
-    from widesky.irradiance.cloud_reference import allsky_global_horizontal, cloudy_fluxes
+    from widesky.skymodel.generator.cloud_reference import allsky_global_horizontal, cloudy_fluxes
     clear, cloudy = cloudy_fluxes(0.0, elevation), cloudy_fluxes(20.0, elevation)
     wl, w = clear.wavelength_nm, np.full(clear.ghi.size, 40.0)
     s = spectral_response(generic_eqe(wl), wl)["a-Si"]

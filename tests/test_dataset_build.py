@@ -21,9 +21,7 @@ import numpy as np
 import pytest
 
 from widesky import skymodel
-from widesky.skymodel.generator.paths import has_data
-
-pytestmark = pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
+pytestmark = pytest.mark.reference          # the generator's inputs (AFGL, OPAC, ozone, TSIS-1): reference data
 
 TINY = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 1.0], "elevations_deg": [10.0, 60.0],
         "knots": [16, 12, 8], "rank": 3, "n_streams": 4, "n_moments": 8, "zenith_step_deg": 15.0,

@@ -14,7 +14,6 @@ import warnings
 
 import pytest
 
-from widesky.skymodel.generator.paths import has_data
 
 TINY = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 1.0], "elevations_deg": [10.0, 60.0],
         "knots": [16, 12, 8], "rank": 3, "n_streams": 4, "n_moments": 8, "zenith_step_deg": 15.0,
@@ -41,7 +40,7 @@ def _build(tmp, name, monkeypatch, processes):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
+@pytest.mark.reference
 def test_dask_local_cluster_build_is_byte_identical_to_process_pool(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
     from widesky.skymodel.generator.dask_scheduler import SCHEDULER_ENV

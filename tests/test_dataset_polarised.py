@@ -20,7 +20,6 @@ import numpy as np
 import pytest
 
 from widesky import skymodel
-from widesky.skymodel.generator.paths import has_data
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY_POL = {"visibilities_km": [20.0, 131.8], "albedos": [0.0, 0.8], "elevations_deg": [-3.0, 0.0, 20.0, 60.0],
@@ -129,8 +128,6 @@ def _build(tmp, name, processes):
 
 @pytest.fixture(scope="module")
 def tiny_pol(tmp_path_factory):
-    if not has_data():
-        pytest.skip("input data directory absent (set WIDESKY_DATA_DIR)")
     mp = pytest.MonkeyPatch()
     tmp = tmp_path_factory.mktemp("pol")
     try:
@@ -141,6 +138,7 @@ def tiny_pol(tmp_path_factory):
         mp.undo()
 
 
+@pytest.mark.reference
 @pytest.mark.slow
 def test_polarised_build_has_polarisation_and_twilight(tiny_pol):
     _, out, meta = tiny_pol
@@ -159,6 +157,7 @@ def test_polarised_build_has_polarisation_and_twilight(tiny_pol):
     assert np.all(tw > 0) and np.all(tw < ss)
 
 
+@pytest.mark.reference
 @pytest.mark.slow
 def test_polarisation_reproduces_the_monte_carlo_it_was_fitted_to(tiny_pol):
     """At a grid state the file's polarisation equals the Monte Carlo target -P = -Q_s / I within the fit's mean
@@ -185,6 +184,7 @@ def test_polarisation_reproduces_the_monte_carlo_it_was_fitted_to(tiny_pol):
     assert pol[0] > 0.3 and pol[1] < pol[0]
 
 
+@pytest.mark.reference
 @pytest.mark.slow
 def test_polarised_build_agrees_with_skylight(tiny_pol):
     sl = pytest.importorskip("skylight.prague")
@@ -206,6 +206,7 @@ def test_polarised_build_agrees_with_skylight(tiny_pol):
                                    atol=1e-9 * np.abs(theirs).max())
 
 
+@pytest.mark.reference
 @pytest.mark.slow
 def test_render_polarisation_on_the_polarised_build(tiny_pol, tmp_path):
     _, out, _ = tiny_pol
@@ -217,6 +218,7 @@ def test_render_polarisation_on_the_polarised_build(tiny_pol, tmp_path):
     assert png.stat().st_size > 0
 
 
+@pytest.mark.reference
 @pytest.mark.slow
 def test_polarised_build_on_dask_is_byte_identical(tiny_pol, tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from widesky.irradiance.integrator import IntegratorSettings, patch_radiance, poa_irradiance
+from widesky.irradiance.integrator import IntegratorSettings, patch_radiance
+from widesky.irradiance.poa import poa_irradiance
 from widesky.irradiance.patches import direction_from_angles, reinhart
 from widesky.irradiance.raycast import compute_coefficients
 from widesky.irradiance.scene import make_scene

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from widesky.irradiance.integrator import poa_irradiance
+from widesky.irradiance.poa import poa_irradiance
 from widesky.irradiance.patches import direction_from_angles
 from widesky.irradiance.raycast import compute_coefficients
 from widesky.irradiance.scene import make_scene

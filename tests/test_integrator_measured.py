@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from widesky.irradiance.integrator import IntegratorSettings, measured_scaling, model_irradiance, poa_irradiance
+from widesky.irradiance.integrator import IntegratorSettings, measured_scaling, model_irradiance
+from widesky.irradiance.poa import poa_irradiance
 from widesky.irradiance.reference import reference_poa
 from widesky.irradiance.scene import make_scene
 from widesky.irradiance.skies import PragueSky, SkyStates, UniformSky

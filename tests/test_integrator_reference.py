@@ -18,7 +18,7 @@ import pandas as pd
 import pytest
 import trimesh
 
-from widesky.irradiance.integrator import poa_irradiance
+from widesky.irradiance.poa import poa_irradiance
 from widesky.irradiance.patches import direction_from_angles
 from widesky.irradiance.raycast import sun_bins
 from widesky.irradiance.reference import reference_poa, validation_scenes

@@ -9,7 +9,7 @@ import pytest
 import trimesh
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from widesky.irradiance.integrator import poa_irradiance
+from widesky.irradiance.poa import poa_irradiance
 from widesky.irradiance.patches import direction_from_angles
 from widesky.irradiance.scene import make_scene
 from widesky.irradiance.skies import AnalyticSky, SkyStates

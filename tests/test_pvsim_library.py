@@ -8,13 +8,12 @@ import pytest
 from widesky import pvsim
 from widesky.pvsim import (EQEParameters, TECHNOLOGIES, band_average, get_technology, parametric_eqe,
                    perovskite, perovskite_silicon_tandem, qe_to_sr, sr_to_qe)
-from widesky.pvsim.spectra import PLANCK, SPEED_OF_LIGHT, find_data_file, has_data_file, photon_flux
+from widesky.core.paths import data_file
+from widesky.pvsim.spectra import PLANCK, SPEED_OF_LIGHT, photon_flux
 
 pvlib = pytest.importorskip("pvlib")
 
 
-needs_g173 = pytest.mark.skipif(not has_data_file("solar/ASTMG173.csv"), reason="../shared/data absent")
-needs_pv = pytest.mark.skipif(not has_data_file("pv/PVcircuit_Si_EQE.csv"), reason="../shared/data absent")
 
 
 def _g173_fine():
@@ -80,8 +79,6 @@ def test_band_average_zero_outside_and_partial_cover():
         band_average(w, v, [330.0], [290.0])
 
 
-@pytest.mark.reference
-@needs_g173
 def test_am15g_channels_integral():
     # ASTM G173-03 global tilted integrated 280-2480 nm is 992.5 W m-2 (skymodel.generator.validation)
     g = pvsim.am15g_channels()
@@ -169,8 +166,6 @@ def test_tandem_bottom_sees_only_subgap_light():
     assert b[2] == pytest.approx(shj * t.interlayer_transmittance, rel=1e-6)
 
 
-@pytest.mark.reference
-@needs_g173
 def test_preset_jsc_in_published_ranges():
     """AM1.5G Jsc of each preset's cell EQE against the ranges of published cells [mA cm-2]:
     Green et al., Solar cell efficiency tables (Version 64, 2024) records and typical production cells
@@ -227,10 +222,9 @@ def test_bad_curves_clear_errors(tmp_path, text, match):
 
 
 @pytest.mark.reference
-@needs_pv
 def test_relative_sr_rejected_as_absolute():
     # pvlib's example c-Si SR is relative (max 1): as absolute A/W it implies EQE 1.3 at 950 nm
-    p = find_data_file("pv/pvlib_example_spectral_response_cSi_points.csv")
+    p = data_file("pv/pvlib_example_spectral_response_cSi_points.csv")
     with pytest.raises(ValueError, match="exceeds .* A W-1"):
         pvsim.read_curve_csv(p, "sr")
 
@@ -238,11 +232,10 @@ def test_relative_sr_rejected_as_absolute():
 # --- shapes against measured curves (deviations stated in docs/pvsim.md) ---------------------------
 
 def _measured(name):
-    return pd.read_csv(find_data_file(f"pv/{name}"), comment="#").to_numpy(dtype=float)
+    return pd.read_csv(data_file(f"pv/{name}"), comment="#").to_numpy(dtype=float)
 
 
 @pytest.mark.reference
-@needs_pv
 def test_model_form_fits_measured_curves():
     """The parametric form fitted to each measured curve (least squares over its edge and window
     parameters) leaves an rms residual below 3.5 % EQE: c-Si absorber 1.2 %, GaAs 1.4 %, the 1.62 eV
@@ -270,8 +263,6 @@ def test_model_form_fits_measured_curves():
 
 
 @pytest.mark.reference
-@needs_pv
-@needs_g173
 def test_presets_against_measured_devices():
     """Presets (representative current products) against the particular measured/simulated devices;
     bounds are the deviations docs/pvsim.md states, rounded up."""

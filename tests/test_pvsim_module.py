@@ -10,12 +10,11 @@ import pytest
 from widesky import pvsim
 from widesky.pvsim import (channel_sr, cover_iam, cover_transmittance, faiman, get_technology, pvsyst_cell,
                    short_circuit_current, spectral_mismatch)
-from widesky.pvsim.spectra import ELEMENTARY_CHARGE, PLANCK, SPEED_OF_LIGHT, has_data_file
+from widesky.pvsim.spectra import ELEMENTARY_CHARGE, PLANCK, SPEED_OF_LIGHT
 
 pvlib = pytest.importorskip("pvlib")
 
 
-needs_g173 = pytest.mark.skipif(not has_data_file("solar/ASTMG173.csv"), reason="../shared/data absent")
 
 
 # --- cover optics --------------------------------------------------------------------------------
@@ -116,8 +115,6 @@ def test_effective_irradiance_and_mismatch_two_channel_arithmetic():
     assert np.isnan(spectral_mismatch(eff, 0.0, 150.0))
 
 
-@pytest.mark.reference
-@needs_g173
 def test_mismatch_against_pvlib():
     """Field spectrum = G173 direct, reference = G173 global. With 1 nm channels widesky's channel
     arithmetic equals pvlib.spectrum.calc_spectral_mismatch_field to 1e-4; on the PSM's 40 nm channels
@@ -143,8 +140,6 @@ def test_mismatch_against_pvlib():
             assert mm == pytest.approx(m_pvlib, rel=tol), (name, edges is None)
 
 
-@pytest.mark.reference
-@needs_g173
 def test_effective_irradiance_is_1000_at_stc():
     ref = pvsim.am15g_channels()
     for name in pvsim.technology_names():
@@ -192,8 +187,6 @@ def test_tandem_stack_rules_hand_values():
         pvsim.stack_power(t2, {"tandem_2t:top": 1.0})
 
 
-@pytest.mark.reference
-@needs_g173
 def test_tandem_bandgap_optimum():
     """Under AM1.5G the 2T stack's STC efficiency peaks for a top gap in 1.64-1.75 eV (published
     optimum for perovskite on Si about 1.67-1.73 eV: Hoerantner et al., ACS Energy Lett. 2 (2017) 2506);

@@ -16,11 +16,8 @@ import trimesh
 from widesky import pvsim
 from widesky.irradiance import SkyStates, make_scene, poa_irradiance
 from widesky.irradiance.skies import AnalyticSky
-from widesky.pvsim.spectra import has_data_file
-from widesky.pvsim.system import SystemSpec, pv_yield, simulate, technology_responses
-
-pytestmark = [pytest.mark.reference,
-              pytest.mark.skipif(not has_data_file("solar/ASTMG173.csv"), reason="../shared/data absent")]
+from widesky.pvsim.stream import simulate
+from widesky.pvsim.system import SystemSpec, pv_yield, technology_responses
 
 TECHS = ["perc", "shj", "cdte", "a_si", "perovskite", "tandem_2t", "tandem_4t"]
 

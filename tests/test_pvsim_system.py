@@ -11,14 +11,10 @@ import trimesh
 from widesky import pvsim
 from widesky.irradiance import SkyStates, make_scene, poa_irradiance
 from widesky.irradiance.skies import AnalyticSky
-from widesky.pvsim.spectra import has_data_file
-from widesky.pvsim.system import COVER_RESPONSE, CoverOptics, SystemSpec, pv_yield, simulate, technology_responses
+from widesky.pvsim.stream import simulate
+from widesky.pvsim.system import COVER_RESPONSE, CoverOptics, SystemSpec, pv_yield, technology_responses
 
 pvlib = pytest.importorskip("pvlib")
-
-
-pytestmark = [pytest.mark.reference,
-              pytest.mark.skipif(not has_data_file("solar/ASTMG173.csv"), reason="../shared/data absent")]
 
 
 def quad(tilt, azimuth, centre=(0.0, 0.0, 0.0), size=1.0):

@@ -37,7 +37,6 @@ import numpy as np
 import pytest
 
 from widesky.skymodel.generator import smoothness as S
-from widesky.skymodel.generator.paths import has_data
 
 
 def test_turning_points_count_reversals_beyond_the_hysteresis():
@@ -227,7 +226,7 @@ def test_the_solver_reference_reads_the_aureole_rays_on_past_their_end():
     assert (late == 1).all()
 
 
-needs_data = pytest.mark.skipif(not has_data(), reason="input data directory absent (set WIDESKY_DATA_DIR)")
+needs_data = pytest.mark.reference         # the generator's inputs: reference data
 
 
 @pytest.fixture(scope="module")

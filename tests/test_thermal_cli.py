@@ -7,22 +7,15 @@ import pytest
 from widesky.cli import main
 from widesky.thermal.facade import write_facade_ply
 
-try:
-    from widesky.skymodel.generator.paths import data_file
-    data_file("glazing/CLEAR5.LOF")
-    data_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")
-    HAVE_DATA = True
-except Exception:                     # noqa: BLE001
-    HAVE_DATA = False
-needs_data = pytest.mark.skipif(not HAVE_DATA, reason="../shared/data not available")
+from widesky.core.paths import runtime_file
+
+DENVER = "data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"      # shipped in the package
 
 
-@needs_data
-@pytest.mark.reference
 def test_glazing_command(tmp_path, capsys):
     csv = tmp_path / "g.csv"
-    rc = main(["thermal", "glazing", str(data_file("glazing/CLEAR5.LOF")),
-               str(data_file("glazing/LOW-E_5.LOF")), "--gap", "12.7:argon", "--csv", str(csv)])
+    rc = main(["thermal", "glazing", str(runtime_file("glazing/CLEAR5.LOF")),
+               "LOW-E_5.LOF", "--gap", "12.7:argon", "--csv", str(csv)])         # a path, a shipped sample
     out = capsys.readouterr().out
     assert rc == 0 and "U = 1.5" in out and "inward fraction" in out
     t = pd.read_csv(csv, index_col=0)
@@ -37,12 +30,9 @@ def test_errors_are_one_line(capsys, tmp_path):
     assert "case" in capsys.readouterr().err
 
 
-@needs_data
-@pytest.mark.reference
 def test_loads_command_weather_route(tmp_path, capsys):
     out, ply = tmp_path / "loads.csv", tmp_path / "map.ply"
-    rc = main(["thermal", "loads", "--weather", str(data_file(
-        "weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")), "--sky", "weather", "--route", "rated",
+    rc = main(["thermal", "loads", "--weather", DENVER, "--sky", "weather", "--route", "rated",
         "--wwr", "S=0.5,N=0.2", "--output", str(out), "--facade-map", str(ply)])
     assert rc == 0 and "4 zones, 8760 steps" in capsys.readouterr().out
     df = pd.read_csv(out, index_col=0)
@@ -51,8 +41,7 @@ def test_loads_command_weather_route(tmp_path, capsys):
     m = trimesh.load(ply, process=False)
     assert len(m.faces) > 0
     assert main(["thermal", "loads", "--weather", str(out) + "x", "--output", str(out)]) == 2
-    assert main(["thermal", "loads", "--weather", str(data_file(
-        "weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")), "--sky", "weather", "--wwr", "Q=1",
+    assert main(["thermal", "loads", "--weather", DENVER, "--sky", "weather", "--wwr", "Q=1",
         "--output", str(out)]) == 2
 
 
@@ -74,8 +63,6 @@ def test_facade_ply_roundtrip(tmp_path):
     assert [x.name for x in tmp_path.iterdir()] == ["m.ply"]      # no temporary left behind
 
 
-@needs_data
-@pytest.mark.reference
 @pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:.*clamped to the sky model's ranges:UserWarning")
 def test_loads_command_context_shades(tmp_path, capsys):
@@ -83,7 +70,7 @@ def test_loads_command_context_shades(tmp_path, capsys):
     facade on the winter solstice: the south zone's solar gain falls below a tenth of the
     unshaded one (9:00-16:00 of 21 December in the Denver TMY3 year, integrator route)."""
     import trimesh
-    lines = data_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw").read_text().splitlines()
+    lines = runtime_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw").read_text().splitlines()
     day = [r for r in lines[8:]
            if r.split(",")[1:3] == ["12", "21"] and 9 <= int(r.split(",")[3]) <= 16]
     epw = tmp_path / "dec21.epw"

@@ -1,6 +1,5 @@
 """EPW, TMY3 and CSV weather readers."""
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -8,21 +7,18 @@ import pandas as pd
 import pytest
 
 from widesky import irradiance
+from widesky.core.paths import data_file
 from widesky.irradiance.location import Site
 from widesky.irradiance.weather import (WeatherFileError, read_epw, read_tmy3, read_weather,
                                 read_weather_csv, write_epw)
 
-SHARED = Path(os.environ.get("WIDESKY_SHARED_DATA",
-                             Path(__file__).resolve().parents[1].parent / "shared" / "data"))
-AMSTERDAM = SHARED / "weather" / "NLD_Amsterdam062400_IWEC.epw"
+AMSTERDAM = "weather/NLD_Amsterdam062400_IWEC.epw"      # in the reference data folder (IWEC: not shipped)
 SAMPLE = Path(irradiance.__file__).parent / "data" / "sample_golden_june.epw"
 
 
 @pytest.fixture(scope="module")
 def amsterdam():
-    if not AMSTERDAM.is_file():
-        pytest.skip(f"shared reference data not found at {AMSTERDAM}")
-    return read_epw(AMSTERDAM)
+    return read_epw(data_file(AMSTERDAM))
 
 
 @pytest.mark.reference
@@ -55,7 +51,7 @@ def test_amsterdam_missing_report_and_zero_policy(amsterdam):
     assert amsterdam.missing["albedo"] == 8760
     assert amsterdam.missing["ghi"] == 0 and amsterdam.missing["dni"] == 0
     assert "precipitable_water=8760" in amsterdam.summary()
-    raw = read_epw(AMSTERDAM, zero_as_missing=())
+    raw = read_epw(data_file(AMSTERDAM), zero_as_missing=())
     assert (raw.data["precipitable_water"] == 0).all()
     assert raw.missing["precipitable_water"] == 0
 
@@ -84,12 +80,12 @@ def test_amsterdam_physics_sanity(amsterdam):
 
 @pytest.mark.reference
 def test_coerce_year(amsterdam, tmp_path):
-    w = read_epw(AMSTERDAM, coerce_year=2021)
+    w = read_epw(data_file(AMSTERDAM), coerce_year=2021)
     assert (w.data.index[:-1].year == 2021).all() and w.data.index[-1].year == 2022
     assert w.data.index.is_monotonic_increasing
     # a leap day in a non-leap year is reported with its line, not shifted
     bad = tmp_path / "leap.epw"
-    lines = AMSTERDAM.read_text(encoding="latin-1").splitlines()
+    lines = data_file(AMSTERDAM).read_text(encoding="latin-1").splitlines()
     rec = lines[8].split(",")
     rec[1], rec[2] = "2", "29"
     lines[8] = ",".join(rec)

@@ -1,15 +1,14 @@
 """Facade maps: per-face values on the building mesh as a coloured PLY and a per-face CSV.
 
-Both files are written atomically (a temporary file in the same folder, then ``os.replace``).
+Both files are written atomically (:func:`widesky.core.atomic.atomic_write`: a temporary file in the same
+folder, then ``os.replace``).
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
-from pathlib import Path
-
 import numpy as np
+
+from widesky.core import atomic
 
 __all__ = ["write_facade_ply", "write_face_csv", "colour_map", "atomic_write"]
 
@@ -31,17 +30,10 @@ def colour_map(values, vmin=None, vmax=None):
 
 
 def atomic_write(path, write):
-    """Write ``path`` atomically: ``write(fh)`` fills a temporary binary file, then os.replace."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    """Write ``path`` atomically: ``write(fh)`` fills a temporary binary file
+    (:func:`widesky.core.atomic.atomic_write`)."""
+    with atomic.atomic_write(path) as tmp, open(tmp, "wb") as fh:
+        write(fh)
 
 
 def write_facade_ply(path, vertices, faces, values, vmin=None, vmax=None):

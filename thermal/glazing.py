@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .optics import coated_angular, equivalent_slab, hemispherical, invert_slab, slab
+from widesky.core.fresnel import invert_slab, slab
+
+from .optics import coated_angular, equivalent_slab, hemispherical
 
 __all__ = ["GlazingLayer", "Gap", "GlazingUnit", "GAS_PROPERTIES", "combine_layers",
            "inward_fractions", "gap_conductance", "read_igdb", "read_nk_yml", "layer_from_nk",

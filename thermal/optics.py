@@ -3,7 +3,9 @@
 Uncoated glass is a slab of refractive index ``n`` and extinction coefficient ``k``: Fresnel
 reflection at both faces (s and p polarisation), Beer-Lambert absorption along the refracted path
 and incoherent multiple reflections inside the slab (Rubin 1985, Sol. Energy Mater. 12, 275; the
-route of ISO 15099:2003 section 7 and LBNL WINDOW/Optics for uncoated layers). Multi-layer units
+route of ISO 15099:2003 section 7 and LBNL WINDOW/Optics for uncoated layers): :func:`slab`,
+:func:`invert_slab` and :func:`fresnel_interface`, shared with pvsim's cover glass, live in
+:mod:`widesky.core.fresnel` and are re-exported here. Multi-layer units
 carry the s and p polarisations through the stack separately (``polarised=True``) and average at
 the end: averaging per layer instead would underestimate the solar transmittance of clear double
 glazing by 0.025 at 60 deg and 0.031 at 70 deg (measured, docs/thermal.md).
@@ -29,137 +31,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from widesky.core.fresnel import fresnel_interface, invert_slab, slab
+
 __all__ = ["fresnel_interface", "slab", "invert_slab", "coated_angular", "equivalent_slab",
            "hemispherical"]
-
-
-def _check_aoi(aoi):
-    aoi = np.asarray(aoi, dtype=float)
-    bad = ~np.isfinite(aoi) | (aoi < 0) | (aoi > 90)
-    if np.any(bad):
-        raise ValueError(f"aoi={aoi[bad].ravel()[0]!r} deg outside [0, 90]")
-    return aoi
-
-
-def fresnel_interface(n, aoi):
-    """Reflectance of an air/dielectric interface for s and p polarisation.
-
-    Parameters
-    ----------
-    n : array_like
-        Real refractive index of the dielectric [1] (>= 1).
-    aoi : array_like
-        Angle of incidence in air [deg], 0-90; broadcast against ``n``.
-
-    Returns
-    -------
-    rs, rp : numpy.ndarray
-        Interface reflectance for s and p polarised light [1].
-    cos_t : numpy.ndarray
-        Cosine of the refraction angle inside the dielectric [1].
-    """
-    n = np.asarray(n, dtype=float)
-    if np.any(n < 1):
-        raise ValueError(f"n={float(np.min(n))!r} outside [1, inf)")
-    th = np.radians(_check_aoi(aoi))
-    ci = np.cos(th)
-    st = np.sin(th) / n
-    ct = np.sqrt(np.maximum(1.0 - st * st, 0.0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rs = ((ci - n * ct) / (ci + n * ct)) ** 2
-        rp = ((n * ci - ct) / (n * ci + ct)) ** 2
-    grazing = ci <= 1e-12
-    rs = np.where(grazing, 1.0, rs)
-    rp = np.where(grazing, 1.0, rp)
-    return rs, rp, ct
-
-
-def slab(n, k, thickness_mm, wavelength_nm, aoi, polarised=False):
-    """Transmittance and reflectance of an uncoated, non-scattering slab in air.
-
-    Parameters
-    ----------
-    n, k : array_like
-        Refractive index and extinction coefficient [1] per wavelength (K,).
-    thickness_mm : float
-        Slab thickness [mm].
-    wavelength_nm : array_like
-        (K,) wavelengths [nm].
-    aoi : array_like
-        (A,) angles of incidence [deg].
-    polarised : bool
-        Return the s and p values separately.
-
-    Returns
-    -------
-    T, R : numpy.ndarray
-        (A, K) transmittance and reflectance [1] (the same from both sides), unpolarised; with
-        ``polarised``: ((T_s, R_s), (T_p, R_p)).
-    """
-    if not np.isfinite(thickness_mm) or thickness_mm <= 0:
-        raise ValueError(f"thickness_mm={thickness_mm!r} outside (0, inf)")
-    n = np.asarray(n, dtype=float)[None, :]
-    k = np.asarray(k, dtype=float)[None, :]
-    if np.any(k < 0):
-        raise ValueError(f"k={float(np.min(k))!r} outside [0, inf)")
-    lam = np.asarray(wavelength_nm, dtype=float)[None, :]
-    aoi = np.atleast_1d(_check_aoi(aoi))[:, None]
-    rs, rp, ct = fresnel_interface(n, aoi)
-    alpha = 4.0 * np.pi * k / (lam * 1e-6)                      # [mm-1]
-    with np.errstate(divide="ignore", over="ignore"):
-        tau = np.where(ct > 1e-12, np.exp(-alpha * thickness_mm / np.maximum(ct, 1e-12)), 0.0)
-    out = []
-    for r in (rs, rp):
-        den = 1.0 - (r * tau) ** 2
-        ok = den > 1e-15                                       # den = 0 only for r = 1 (grazing)
-        q = np.where(ok, (1 - r) ** 2 / np.where(ok, den, 1.0), 0.0)
-        out.append((q * tau, r + q * r * tau ** 2))
-    if polarised:
-        return tuple(out)
-    return 0.5 * (out[0][0] + out[1][0]), 0.5 * (out[0][1] + out[1][1])
-
-
-def invert_slab(T0, R0, thickness_mm, wavelength_nm):
-    """Refractive index and extinction coefficient of a slab from its normal T and R.
-
-    Inverts the normal-incidence slab equations of :func:`slab` (interface reflectance
-    ``r = ((n - 1) / (n + 1))**2``, internal transmittance ``tau = exp(-4 pi k d / lambda)``)::
-
-        T = (1 - r)^2 tau / (1 - r^2 tau^2),  R = r + r T tau
-
-    Parameters
-    ----------
-    T0, R0 : array_like
-        (K,) normal transmittance and reflectance [1], ``T0 + R0 <= 1``.
-    thickness_mm : float
-        [mm].
-    wavelength_nm : array_like
-        (K,) [nm].
-
-    Returns
-    -------
-    n, k : numpy.ndarray
-        (K,) [1]. Where T0 = 0 the slab is opaque: k is set so tau = 1e-9 and n from R0.
-    """
-    T0 = np.asarray(T0, dtype=float)
-    R0 = np.asarray(R0, dtype=float)
-    if np.any((T0 < 0) | (R0 < 0) | (T0 + R0 > 1 + 1e-9)):
-        raise ValueError("T0 and R0 must be >= 0 with T0 + R0 <= 1")
-    # eliminate tau: with R = r + r T tau -> tau = (R - r) / (r T); substitute into T's equation.
-    # Quadratic in r:  (2 - R) r^2 - (1 + 2 R - R^2 + T^2) r + R = 0 (the smaller root is physical).
-    a = 2.0 - R0
-    b = -(1.0 + 2.0 * R0 - R0 ** 2 + T0 ** 2)
-    disc = np.maximum(b * b - 4 * a * R0, 0.0)
-    r = (-b - np.sqrt(disc)) / (2 * a)
-    r = np.clip(r, 1e-8, 0.999)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tau = np.where(T0 > 0, (R0 - r) / (r * np.maximum(T0, 1e-12)), 0.0)
-        tau = np.where((T0 > 0) & ~(tau > 0), T0 / (1 - r) ** 2, tau)   # R0 ~ r: weak inter-reflection
-    tau = np.clip(tau, 1e-9, 1.0)
-    sr = np.sqrt(r)
-    n = (1 + sr) / (1 - sr)
-    k = -np.log(tau) * np.asarray(wavelength_nm, dtype=float) * 1e-6 / (4 * np.pi * thickness_mm)
-    return n, k
 
 
 def coated_angular(T0, Rf0, Rb0, n_sub, k_sub, thickness_mm, wavelength_nm, aoi, polarised=False):

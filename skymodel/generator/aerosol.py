@@ -4,7 +4,8 @@ Components (Hess, Koepke & Schult 1998, Bull. Am. Meteorol. Soc. 79, 831, "OPAC"
 (water-soluble, humidity-dependent) and SOOT, each a lognormal number size distribution
 n(r) = N / (sqrt(2 pi) r ln sigma) exp(-(ln r - ln r_mod)^2 / (2 ln^2 sigma)) truncated to [r_min, r_max], with
 parameters and refractive indices read from the data directory (``aerosol_opac/size_distr.cfg`` and
-``aerosol_opac/refractive_indices/<comp><rh>_refr.dat``).
+``aerosol_opac/refractive_indices/<comp><rh>_refr.dat``, the latter by :mod:`widesky.skymodel.opac`, which the
+all-sky model's droplet optics share).
 
 Mie theory: the coefficients a_n, b_n come from miepython (``miepython.an_bn``, Wiscombe 1979 series
 length); efficiencies and the amplitude functions S1, S2 are summed here (Bohren & Huffman 1983, eqs. 4.61-4.62,
@@ -24,15 +25,16 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from widesky.core.atomic import atomic_write
+
+from ..opac import humidity_tag, refractive_index
 from .paths import cache_dir, data_file
 
 COMPONENT_NUMBER = {"inso": 1, "waso": 2, "soot": 3}
-HUMIDITIES = (0, 50, 70, 80, 90, 95, 98, 99)
 OPAC_TYPES = {
     # Hess et al. (1998) Table 4, number densities [cm-3]
     "continental_clean": {"waso": 2600.0, "inso": 0.15},
@@ -54,40 +56,18 @@ N_RADII = 120
 AREA_CUTOFF = 1e-10
 
 
-def _humidity_tag(component, rh):
-    if component != "waso":
-        return 0
-    if rh not in HUMIDITIES:
-        raise ValueError(f"relative_humidity={rh}: OPAC tables exist for {HUMIDITIES} %")
-    return rh
-
-
 @functools.lru_cache(maxsize=32)
 def size_distribution(component: str, relative_humidity: int = 50, data_dir=None):
     """OPAC lognormal parameters of a component: dict with r_min, r_max, r_mod [um], density [g cm-3], sigma [1]."""
     if component not in COMPONENT_NUMBER:
         raise ValueError(f"component={component!r}: valid components are {tuple(COMPONENT_NUMBER)}")
-    rh = _humidity_tag(component, relative_humidity)
+    rh = humidity_tag(component, relative_humidity)
     rows = np.loadtxt(data_file("aerosol_opac/size_distr.cfg", data_dir), comments="#")
     sel = rows[(rows[:, 0] == COMPONENT_NUMBER[component]) & (rows[:, 1] == rh)]
     if len(sel) != 1:
         raise ValueError(f"no size distribution for {component} at RH {rh} % in size_distr.cfg")
     _, _, rmin, rmax, rmod, rho, sigma = sel[0]
     return {"r_min": rmin, "r_max": rmax, "r_mod": rmod, "density": rho, "sigma": sigma}
-
-
-@functools.lru_cache(maxsize=32)
-def _refr_table(component, rh, data_dir):
-    a = np.loadtxt(data_file(f"aerosol_opac/refractive_indices/{component}{rh:02d}_refr.dat", data_dir))
-    return a[:, 0] * 1000.0, a[:, 1], np.abs(a[:, 2])
-
-
-def refractive_index(component: str, wavelength_nm, relative_humidity: int = 50, data_dir=None) -> np.ndarray:
-    """Complex refractive index n - i k [1] of an OPAC component at wavelengths [nm] (linear interpolation)."""
-    rh = _humidity_tag(component, relative_humidity)
-    wl, n, k = _refr_table(component, rh, None if data_dir is None else str(data_dir))
-    w = np.asarray(wavelength_nm, float)
-    return np.interp(w, wl, n) - 1j * np.exp(np.interp(w, wl, np.log(np.maximum(k, 1e-12))))
 
 
 def _legendre_matrix(mu, lmax):
@@ -209,7 +189,7 @@ def component_optics(component: str, relative_humidity: int = 50, data_dir=None,
         phase (W, len(PHASE_MU)) the phase function itself at :data:`PHASE_MU` (normalised to 4 pi over the sphere) [1];
         quadrature_error (W,) relative difference of the angular integral vs the series Csca [1].
     """
-    rh = _humidity_tag(component, relative_humidity)
+    rh = humidity_tag(component, relative_humidity)
     sd = size_distribution(component, rh, data_dir)
     m_tab = refractive_index(component, MIE_WAVELENGTHS_NM, rh, data_dir)
     key = hashlib.sha1(json.dumps([component, rh, sd, MIE_WAVELENGTHS_NM.tolist(), N_MU, MAX_MOMENTS, N_RADII, AREA_CUTOFF,
@@ -237,9 +217,8 @@ def component_optics(component: str, relative_humidity: int = 50, data_dir=None,
            "quadrature_error": np.array([r["csca_quad_um2"] / r["csca_um2"] - 1 for r in res])}
     out["ssa"] = out["csca"] / out["cext"]
     out["g"] = out["moments"][:, 1]
-    tmp = path.with_name(f"{path.stem}.tmp-{os.getpid()}.npz")     # workers may race to fill the cache
-    np.savez(tmp, **out)
-    tmp.replace(path)
+    with atomic_write(path) as tmp:     # workers may race to fill the cache: each writes its own file
+        np.savez(tmp, **out)
     return out
 
 

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from widesky.core.atomic import atomic_write
+
 
 def cache_root(config) -> Path:
     """Cache folder of the solved states of ``config`` (``$WIDESKY_CACHE_DIR`` or ``~/.cache/widesky``)."""
@@ -30,9 +32,8 @@ def save_state(path: Path, d: dict):
                 flat[f"{k}__{i}"] = np.asarray(x)
         else:
             flat[k] = np.asarray(v)
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, **flat)
-    tmp.replace(path)
+    with atomic_write(path) as tmp:
+        np.savez(tmp, **flat)
 
 
 def load_state(path: Path) -> dict:

@@ -12,8 +12,11 @@ Workers should run one thread each (``dask worker ADDRESS --nthreads 1``) with `
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
 import re
+
+from tqdm import tqdm
 
 SCHEDULER_ENV = "WIDESKY_DASK_SCHEDULER"
 _ADDRESS = re.compile(r"^(tcp|tls|inproc|ucx|ws|wss)://[^\s/]+$|^[A-Za-z0-9_.\-\[\]:]+:\d+$")
@@ -47,3 +50,33 @@ def dask_map(fn, jobs, address: str, timeout_s: float = 30.0):
         futures = client.map(fn, list(jobs), pure=False)
         for f in futures:  # in submission order; the workers run them as they can
             yield f.result()
+
+
+def pool_map(fn, jobs, processes, progress, desc):
+    """Map ``fn`` over ``jobs`` on a spawn process pool (one BLAS/OpenMP thread per worker), or on a Dask cluster
+    when one is configured (:func:`scheduler_address`); yields results."""
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ[var] = "1"
+    bar = None
+    if progress:
+        bar = tqdm(total=len(jobs), desc=desc)
+    address = scheduler_address()
+    if address and jobs:
+        for r in dask_map(fn, jobs, address):
+            if bar is not None:
+                bar.update()
+            yield r
+    elif processes <= 1 or len(jobs) <= 1:
+        for j in jobs:
+            r = fn(j)
+            if bar is not None:
+                bar.update()
+            yield r
+    else:
+        with mp.get_context("spawn").Pool(processes) as pool:
+            for r in pool.imap_unordered(fn, jobs):
+                if bar is not None:
+                    bar.update()
+                yield r
+    if bar is not None:
+        bar.close()

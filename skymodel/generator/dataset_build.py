@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -40,6 +39,11 @@ from pathlib import Path
 import numpy as np
 
 from .cache import cache_root, ground_file, load_state, save_state, state_file, validation_states
+from .dask_scheduler import pool_map
+from .dataset_grid import (AZIMUTHS_DEG, direction_samples, fit_directions, fit_weights, ground_directions, knots,
+                           validation_directions, with_midpoints)
+from .dataset_mc import validation_file
+from .dataset_solve import _problems, solve_ground, solve_split_validation, solve_state
 
 __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", "solve_state", "solve_ground",
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
@@ -54,8 +58,6 @@ ATMOSPHERE_TOP_M = 100000.0
 """Top of the format's atmosphere [m]."""
 DIST_TO_EDGE_M = 1571524.413613
 """Ground distance of the distance parameter 1 [m] (the format's constant)."""
-GROUND_RESPONSE_ELEVATION_DEG = 60.0
-"""Solar elevation of the albedo-0/1 pair of runs that measure the ground response [deg] (any value works)."""
 
 
 @dataclass(frozen=True)
@@ -264,32 +266,6 @@ def load_config(path) -> BuildConfig:
 
 # --------------------------------------------------------------------------------------------- directions
 
-AZIMUTHS_DEG = np.concatenate([[0.0, 0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0, 9.0, 12.5, 17.0, 22.0, 28.0, 35.0, 42.5],
-                               np.arange(50.0, 180.1, 5.0)])
-"""Relative azimuths of the fit grid [deg] (0 = toward the sun), refined near the sun; every 5 deg beyond 50 deg,
-finer than the sun-angle knots there (6-9 deg), so that no knot cell of the fit goes unsampled (with 10 deg steps the
-fit rang between the samples: docs/default-dataset.md, "Smoothness")."""
-SUN_OFFSETS_DEG = np.array([0.25, 0.5, 1.0, 1.5, 2.5, 4.0, 6.0])
-"""Offsets of extra view zeniths around the solar zenith [deg]."""
-
-
-def fit_directions(solar_elevation_deg: float, zenith_step_deg: float = 2.0):
-    """Product grid of the fit samples for one solar elevation.
-
-    Returns
-    -------
-    zenith (T,) [deg] ascending in [0, 89.95], relative azimuth (P,) [deg] ascending in [0, 180]: uniform
-    zeniths every ``zenith_step_deg`` plus the horizon band and zeniths around the sun; azimuths refined near
-    the sun (:data:`AZIMUTHS_DEG`).
-    """
-    from .solver import MAX_VIEW_ZENITH_DEG
-
-    zs = 90.0 - float(solar_elevation_deg)
-    th = np.concatenate([np.arange(0.0, 89.0, zenith_step_deg), [85.5, 87.0, 88.0, 89.0, MAX_VIEW_ZENITH_DEG],
-                         zs + SUN_OFFSETS_DEG, zs - SUN_OFFSETS_DEG, [zs]])
-    th = np.unique(np.round(np.clip(th, 0.0, MAX_VIEW_ZENITH_DEG), 6))
-    return th, AZIMUTHS_DEG.copy()
-
 
 FILL_AZIMUTHS_DEG = np.array([2.0, 3.25, 5.0, 7.5, 10.75])
 """Relative azimuths [deg] added to the fit samples of a configuration with ``sun_knot_midpoints_deg``
@@ -450,173 +426,7 @@ def band_samples(zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float, 
     return {"gamma": np.radians(np.array(rows_g)), "alpha": zero, "zero": zero, "values": values}
 
 
-def validation_directions(solar_elevation_deg: float):
-    """Held-out product grid (no zenith or azimuth of :func:`fit_directions` except the horizon limit):
-    zenith (T,) [deg], relative azimuth (P,) [deg]; fine enough for hemispherical integrals."""
-    from .solver import MAX_VIEW_ZENITH_DEG
-
-    zs = 90.0 - float(solar_elevation_deg)
-    off = np.array([0.375, 0.75, 1.25, 2.0, 3.25, 5.0, 7.5])
-    th = np.concatenate([np.arange(0.75, 89.0, 1.5), [86.25, 87.5, 88.5, 89.5, MAX_VIEW_ZENITH_DEG],
-                         zs + off, zs - off])
-    th = np.unique(np.round(np.clip(th, 0.1, MAX_VIEW_ZENITH_DEG), 6))
-    ph = np.concatenate([[0.125, 0.375, 0.75, 1.25, 2.0, 3.25, 5.0, 7.5, 10.75, 14.75, 19.5, 25.0, 31.5, 38.75, 46.25],
-                         np.arange(55.0, 180.0, 5.0), [179.5]])
-    return th, np.unique(ph)
-
-
-def ground_directions():
-    """Zeniths [deg] on which the ground response t_k(theta) is tabulated (interpolated elsewhere)."""
-    from .solver import MAX_VIEW_ZENITH_DEG
-
-    return np.unique(np.concatenate([np.arange(0.0, 89.6, 0.5), [89.75, MAX_VIEW_ZENITH_DEG]]))
-
-
 # --------------------------------------------------------------------------------------------- solving
-
-def _problems(visibility_km, config: BuildConfig, data_dir=None):
-    from .solver import SkyState, channel_problems
-
-    state = SkyState(45.0, visibility_km=float(visibility_km), ground_albedo=0.0)
-    probs, et_ch, atm = channel_problems(state, config.spec(), None, config.solver_config(), data_dir)
-    return probs, et_ch, atm
-
-
-def solve_state(visibility_km: float, solar_elevation_deg: float, config: BuildConfig, zenith_deg=None,
-                azimuth_deg=None, albedo: float = 0.0, data_dir=None, channels=None) -> dict:
-    """Solve one sky state (ground albedo ``albedo``) on a product grid of directions.
-
-    Parameters
-    ----------
-    visibility_km : [km]; solar_elevation_deg : [deg] in (0, 90];
-    zenith_deg, azimuth_deg : (T,), (P,) view zeniths [deg] and relative azimuths [deg]; default
-        :func:`fit_directions`.
-    albedo : [1] Lambertian ground albedo.
-    channels : channel indices (0..54) to solve (default all; the others stay 0).
-
-    Returns
-    -------
-    dict with zenith (T,), azimuth (P,) [deg]; radiance (T, P, 55) [W m-2 sr-1 nm-1];
-    e0 (list of 55 arrays, per sub-problem global horizontal irradiance at the ground per unit normal beam
-    flux [1]); et (55,) band-mean extraterrestrial irradiance [W m-2 nm-1]; dni, ghi_disort, dhi (55,)
-    [W m-2 nm-1] (dni along the spherical-shell path); seconds [s].
-    """
-    from .atmosphere import slant_path_factors
-    from .solver import run_disort
-
-    t0 = time.perf_counter()
-    cfg = config.solver_config()
-    probs, et_ch, atm = _problems(visibility_km, config, data_dir)
-    if zenith_deg is None:
-        zenith_deg, azimuth_deg = fit_directions(solar_elevation_deg, config.zenith_step_deg)
-    th = np.asarray(zenith_deg, float)
-    ph = np.asarray(azimuth_deg, float)
-    mu0 = np.cos(np.radians(90.0 - solar_elevation_deg))
-    f_sph = slant_path_factors(atm.levels_km, [90.0 - solar_elevation_deg])[0]
-    rad = np.zeros((len(th), len(ph), 55))
-    e0, dif = [], np.zeros(55)
-    for c in range(55):
-        ek = []
-        for p in (probs[c] if channels is None or c in set(int(x) for x in channels) else ()):
-            r, fd, fb = run_disort(p, mu0, albedo, th, ph, cfg)
-            rad[:, :, c] += p.weight * r
-            ek.append(fd + fb)
-            dif[c] += p.weight * fd
-        e0.append(np.array(ek))
-    tdir = _direct_transmittance(probs, f_sph)
-    return {"zenith": th, "azimuth": ph, "radiance": rad * et_ch, "e0": e0, "et": et_ch, "dni": et_ch * tdir,
-            "dhi": dif * et_ch, "seconds": time.perf_counter() - t0,
-            "weights": [np.array([p.weight for p in probs[c]]) for c in range(55)]}
-
-
-def _direct_transmittance(probs, path_factors) -> np.ndarray:
-    """Band transmittance of the direct beam per channel (55,) [1]: sum over the sub-problems of weight x
-    exp(-sum_l tau_l s_l / dz_l) for the spherical-shell path factors (L,) of the sun's direction."""
-    return np.array([sum(p.weight * np.exp(-(p.tau_total * path_factors).sum()) for p in probs[c])
-                     for c in range(55)])
-
-
-def solve_split_validation(visibility_km: float, elevation_deg: float, albedo: float, config: BuildConfig,
-                           data_dir=None) -> dict:
-    """Held-out reference of a validation state whose elevation takes the split Monte Carlo radiance
-    (:func:`widesky.skymodel.generator.dataset_mc.split_state`): the exact singly scattered light on the held-out grid
-    (:func:`validation_directions`) plus the rest from the Monte Carlo state at that elevation: at a grid state the
-    grid's own, smoothed across visibility as the fit's is
-    (:func:`widesky.skymodel.generator.dataset_mc.rest_across_visibility` on the held-out grid), elsewhere a run of its own
-    with :data:`widesky.skymodel.generator.dataset_mc.SPLIT_VALIDATION_SAMPLES_FACTOR` times the paths; the same keys as
-    :func:`solve_state` uses for validation (zenith, azimuth [deg], radiance (T, P, 55) [W m-2 sr-1 nm-1] at
-    ``albedo`` [1], dni, et (55,) [W m-2 nm-1], seconds)."""
-    from .atmosphere import slant_path_factors
-    from dataclasses import replace
-
-    from .dataset_mc import (SPLIT_VALIDATION_SAMPLES_FACTOR, mc_file, rest_across_visibility, single_scatter,
-                             solve_mc_state, split_radiance)
-
-    t0 = time.perf_counter()
-    th, ph = validation_directions(elevation_deg)
-    grid = mc_file(config, visibility_km, elevation_deg)
-    vis = [float(v) for v in config.visibilities_km]
-    if grid.exists() and float(visibility_km) in vis:
-        m = load_state(grid)
-        m.update(fine_zenith=th, fine_azimuth=ph,
-                 single_fine=single_scatter(visibility_km, elevation_deg, th, ph, config, data_dir))
-        rest = rest_across_visibility(config, elevation_deg, albedo, th, ph)[vis.index(float(visibility_km))]
-        radiance = split_radiance(m, albedo, rest=rest)
-    else:
-        longer = replace(config, mc_samples=int(config.mc_samples) * SPLIT_VALIDATION_SAMPLES_FACTOR)
-        m = solve_mc_state(visibility_km, elevation_deg, longer, data_dir, fine_directions=(th, ph))
-        radiance = split_radiance(m, albedo)
-    probs, et_ch, atm = _problems(visibility_km, config, data_dir)
-    tdir = _direct_transmittance(probs, slant_path_factors(atm.levels_km, [90.0 - elevation_deg])[0])
-    return {"zenith": th, "azimuth": ph, "radiance": radiance, "et": et_ch, "dni": et_ch * tdir,
-            "solved_elevation": float(elevation_deg), "albedo": float(albedo), "seconds": time.perf_counter() - t0}
-
-
-def validation_file(config: BuildConfig, kind: str, visibility_km: float, elevation_deg: float, albedo: float):
-    """Cache file of a validation state (``kind`` 'on' or 'off') [.npz]: the DISORT solve's, or where its elevation
-    takes the split Monte Carlo radiance, one named by the Monte Carlo key."""
-    from .dataset_mc import SPLIT_SMOOTHING, SPLIT_VALIDATION_SAMPLES_FACTOR, mc_key, split_state
-
-    if split_state(config, elevation_deg):  # the file holds the recombined radiance: named by the smoothing too
-        return cache_root(config) / (f"mcval_{mc_key(config)}_{SPLIT_SMOOTHING}_x{SPLIT_VALIDATION_SAMPLES_FACTOR}"
-                                     f"_{kind}_v{visibility_km:.4f}"
-                                     f"_e{elevation_deg:.4f}_a{albedo:.4f}.npz")
-    return state_file(config, visibility_km, elevation_deg, "val_" + kind, albedo)
-
-
-def solve_ground(visibility_km: float, config: BuildConfig, data_dir=None) -> dict:
-    """Ground response of the atmosphere per channel sub-problem (see module docstring).
-
-    Returns
-    -------
-    dict with zenith (T,) [deg]; t (list of 55 arrays (K_c, T)) diffuse transmittance for isotropic illumination
-    from below [1]; s (list of 55 arrays (K_c,)) spherical albedo [1]; weights (list of 55 (K_c,)); seconds.
-    """
-    from .solver import run_disort
-
-    t0 = time.perf_counter()
-    cfg = config.solver_config()
-    probs, _, _ = _problems(visibility_km, config, data_dir)
-    th = ground_directions()
-    ph = np.array([90.0, 135.0, 180.0])
-    mu0 = np.cos(np.radians(90.0 - GROUND_RESPONSE_ELEVATION_DEG))
-    ts, ss = [], []
-    for c in range(55):
-        tk, sk = [], []
-        for p in probs[c]:
-            r0, fd0, fb0 = run_disort(p, mu0, 0.0, th, ph, cfg)
-            r1, fd1, fb1 = run_disort(p, mu0, 1.0, th, ph, cfg)
-            e0, e1 = fd0 + fb0, fd1 + fb1
-            if e1 <= 1e-30 or e0 <= 1e-30:
-                tk.append(np.zeros(len(th)))
-                sk.append(0.0)
-                continue
-            tk.append(np.pi * (r1 - r0).mean(axis=1) / e1)
-            sk.append(1.0 - e0 / e1)
-        ts.append(np.array(tk).reshape(len(probs[c]), len(th)))
-        ss.append(np.array(sk))
-    return {"zenith": th, "t": ts, "s": ss, "weights": [np.array([p.weight for p in probs[c]]) for c in range(55)],
-            "seconds": time.perf_counter() - t0}
 
 
 def radiance_with_albedo(solved: dict, ground: dict, albedo: float) -> np.ndarray:
@@ -710,40 +520,6 @@ def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: flo
     return s["zenith"], s["azimuth"], radiance_with_albedo(s, g, albedo), float(s["solved_elevation"])
 
 
-def _pool_map(fn, jobs, processes, progress, desc):
-    """Map ``fn`` over ``jobs`` on a spawn process pool (one BLAS/OpenMP thread per worker), or on a Dask cluster
-    when one is configured (:mod:`widesky.skymodel.generator.dask_scheduler`); yields results."""
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ[var] = "1"
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(jobs), desc=desc)
-    from .dask_scheduler import dask_map, scheduler_address
-
-    address = scheduler_address()
-    if address and jobs:
-        for r in dask_map(fn, jobs, address):
-            if bar is not None:
-                bar.update()
-            yield r
-    elif processes <= 1 or len(jobs) <= 1:
-        for j in jobs:
-            r = fn(j)
-            if bar is not None:
-                bar.update()
-            yield r
-    else:
-        import multiprocessing as mp
-        with mp.get_context("spawn").Pool(processes) as pool:
-            for r in pool.imap_unordered(fn, jobs):
-                if bar is not None:
-                    bar.update()
-                yield r
-    if bar is not None:
-        bar.close()
-
-
 def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, validation: bool = True,
               log=None):
     """Solve (or find in the cache) every grid state, ground response and validation state of ``config``; the
@@ -774,7 +550,7 @@ def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, va
     phases = [[j for j in todo if j not in later], later]
     done = 0
     for phase in (ph for ph in phases if ph):
-        for r in _pool_map(_solve_job, phase, processes, progress, "solve"):
+        for r in pool_map(_solve_job, phase, processes, progress, "solve"):
             done += 1
             if log:
                 log(f"solved {r[0]} vis={r[1]} ele={r[2]} ({done}/{len(todo)}, {time.perf_counter() - t0:.0f} s)")
@@ -782,21 +558,6 @@ def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, va
 
 
 # --------------------------------------------------------------------------------------------- fitting
-
-def knots(n: int, lo: float, hi: float, power: float, dense_at: str = "lo") -> np.ndarray:
-    """``n`` ascending knots in [lo, hi] [rad], power-spaced: dense at ``lo`` (``dense_at='lo'``) or at ``hi``."""
-    t = np.linspace(0.0, 1.0, int(n))
-    if dense_at == "lo":
-        return lo + (hi - lo) * t ** power
-    return hi - (hi - lo) * (1.0 - t) ** power
-
-
-def with_midpoints(breaks, lo: float, hi: float) -> np.ndarray:
-    """``breaks`` (ascending) with the midpoint of every interval that lies inside [``lo``, ``hi``] inserted (same
-    unit as ``breaks``). Pure array function."""
-    b = np.asarray(breaks, float)
-    inside = (b[:-1] >= lo) & (b[1:] <= hi)
-    return np.sort(np.concatenate([b, 0.5 * (b[:-1] + b[1:])[inside]]))
 
 
 def config_knots(config: BuildConfig):
@@ -818,41 +579,6 @@ def config_knots(config: BuildConfig):
     if config.zenith_knot_midpoints_deg is not None:
         zb = with_midpoints(zb, *np.radians(np.asarray(config.zenith_knot_midpoints_deg, float)))
     return (sb, zb, knots(ne, 0.0, 0.5 * np.pi, pe, "hi"))
-
-
-def direction_samples(zenith_deg, azimuth_deg, solar_elevation_deg):
-    """Sample directions of a product grid and their fit angles.
-
-    Returns
-    -------
-    dict with directions (T*P, 3) east-north-up (sun toward the south), gamma, zero, shadow (T*P,) [rad] from
-    :func:`widesky.skymodel.reference_angles`, alpha (the zenith factor's angle: zero with the sun up, shadow below the
-    horizon) and solid-angle weights (T*P,) [sr] of the grid cells (whole circle: each half-circle azimuth counts
-    twice).
-    """
-    from ..evaluate import directions_from_angles, reference_angles
-
-    th = np.asarray(zenith_deg, float)
-    ph = np.asarray(azimuth_deg, float)
-    T, P = np.meshgrid(th, ph, indexing="ij")
-    dirs = directions_from_angles(T.ravel(), 180.0 + P.ravel())
-    ang = reference_angles(dirs, float(solar_elevation_deg), 180.0)
-    tr = np.radians(th)
-    edges = np.concatenate([[tr[0]], 0.5 * (tr[1:] + tr[:-1]), [max(tr[-1], 0.5 * np.pi)]])
-    band = np.cos(edges[:-1]) - np.cos(edges[1:])
-    pr = np.radians(ph)
-    pe = np.concatenate([[pr[0]], 0.5 * (pr[1:] + pr[:-1]), [pr[-1]]])
-    w = 2.0 * np.outer(band, np.diff(pe)).ravel()
-    alpha = ang["zero"] if float(solar_elevation_deg) >= 0 else ang["shadow"]
-    return {"directions": dirs, "gamma": ang["gamma"], "zero": ang["zero"], "shadow": ang["shadow"], "alpha": alpha,
-            "weights": w}
-
-
-def fit_weights(solid_angle):
-    """Fit weights from cell solid angles [sr]: the solid angle with a floor of a quarter of its median, so that
-    the densely sampled aureole still counts."""
-    w = np.asarray(solid_angle, float)
-    return np.maximum(w, 0.25 * np.median(w))
 
 
 def neighbour_pairs(n_zenith: int, n_azimuth: int) -> np.ndarray:
@@ -1052,7 +778,7 @@ def fit_all(config: BuildConfig, processes=2, progress=True, log=None):
     jobs = [(config, float(v), float(e)) for v in config.visibilities_km for e in fitted_ele]
     todo = [j for j in jobs if not fit_file(config, j[1], j[2]).exists()]
     t0 = time.perf_counter()
-    for i, r in enumerate(_pool_map(_fit_job, todo, processes, progress, "fit")):
+    for i, r in enumerate(pool_map(_fit_job, todo, processes, progress, "fit")):
         if log and (i % 10 == 0 or i == len(todo) - 1):
             log(f"fitted vis={r[0]} ele={r[1]} ({i + 1}/{len(todo)}, {time.perf_counter() - t0:.0f} s)")
     nv, na, ne = len(config.visibilities_km), len(config.albedos), len(config.elevations_deg)

@@ -1,7 +1,7 @@
 """Fitting error of a generated dataset against the reference solver on held-out skies (the paper's Fig. 10).
 
 For every validation state of a build configuration (:func:`widesky.skymodel.generator.dataset_build.validation_states`; solved on
-held-out directions, :func:`widesky.skymodel.generator.dataset_build.validation_directions`) the dataset is evaluated with widesky's
+held-out directions, :func:`widesky.skymodel.generator.dataset_grid.validation_directions`) the dataset is evaluated with widesky's
 evaluator at the same directions and sky state and compared per channel:
 
 - normalised mean absolute error of radiance, ``sum w |model - solver| / sum w solver`` with solid-angle weights
@@ -39,7 +39,8 @@ def evaluate_errors(config, dataset_path) -> list:
 
     from ..dataset import load_dataset
     from .cache import load_state, validation_states
-    from .dataset_build import direction_samples, validation_file
+    from .dataset_grid import direction_samples
+    from .dataset_mc import validation_file
     from ..evaluate import sky_radiance, solar_direct_normal
 
     model = load_dataset(dataset_path)

@@ -33,7 +33,9 @@ import time
 
 import numpy as np
 
-from .cache import cache_root
+from widesky.core.atomic import atomic_write
+
+from .cache import cache_root, state_file
 
 MC_AZIMUTHS_DEG = (0.0, 1.0, 2.5, 5.0, 10.0, 17.0, 25.0, 35.0, 47.5, 60.0, 75.0, 90.0, 105.0, 120.0, 135.0, 150.0,
                    165.0, 180.0)
@@ -153,7 +155,7 @@ def solve_mc_state(visibility_km: float, elevation_deg: float, config, data_dir=
     Parameters
     ----------
     fine_directions : (zenith (T2,), azimuth (P2,)) [deg], split states only: the grid of the exact singly scattered
-        light (default the DISORT fit grid, :func:`widesky.skymodel.generator.dataset_build.fit_directions`).
+        light (default the DISORT fit grid, :func:`widesky.skymodel.generator.dataset_grid.fit_directions`).
 
     Returns
     -------
@@ -177,7 +179,7 @@ def solve_mc_state(visibility_km: float, elevation_deg: float, config, data_dir=
            "solved_elevation": float(elevation_deg), "samples": r.samples}
     if split_state(config, elevation_deg):
         if fine_directions is None:
-            from .dataset_build import fit_directions
+            from .dataset_grid import fit_directions
             fine_directions = fit_directions(elevation_deg, config.zenith_step_deg)
         t2, p2 = (np.asarray(x, float) for x in fine_directions)
         out.update(single=single_scatter(visibility_km, elevation_deg, th, ph, config, data_dir),
@@ -322,16 +324,13 @@ def rest_across_visibility_file(config, elevation_deg: float, albedo: float):
 def cached_rest_across_visibility(config, elevation_deg: float, albedo: float) -> np.ndarray:
     """:func:`rest_across_visibility` on the fit grid, computed once per (elevation, albedo) and kept in the build
     cache (written atomically, so parallel fit workers can share it)."""
-    import os
-
     path = rest_across_visibility_file(config, elevation_deg, albedo)
     if path.exists():
         with np.load(path) as z:
             return z["rest"]
     rest = rest_across_visibility(config, elevation_deg, albedo)
-    tmp = path.with_name(path.name + f".{os.getpid()}.tmp.npz")
-    np.savez(tmp, rest=rest)
-    os.replace(tmp, path)
+    with atomic_write(path) as tmp:
+        np.savez(tmp, rest=rest)
     return rest
 
 
@@ -379,7 +378,7 @@ def fit_grid(state: dict, config):
     th, ph = np.asarray(state["zenith"], float), np.asarray(state["azimuth"], float)
     if not config.mc_fit_resample:
         return th, ph
-    from .dataset_build import AZIMUTHS_DEG
+    from .dataset_grid import AZIMUTHS_DEG
 
     t2 = np.arange(0.0, th[-1], float(config.zenith_step_deg))
     p2 = np.asarray(AZIMUTHS_DEG, float)
@@ -442,7 +441,7 @@ def polarisation_summary(state: dict, albedo: float) -> dict:
     """Figures of one state's polarisation for the sidecar: per channel (55,) the solid-angle mean of the degree of
     linear polarisation sqrt(Q^2 + U^2) / I, of abs(Q_s) / I, of the circular part abs(V) / I, and of the standard error of
     P [1]."""
-    from .dataset_build import direction_samples
+    from .dataset_grid import direction_samples
 
     s, _ = scattering_plane_stokes(state, albedo)
     p, se = stored_polarisation(state, albedo)
@@ -460,14 +459,14 @@ def fit_polarisation(values, samples, breaks, rank, smoothing=1e-5, refine=2):
 
     Parameters
     ----------
-    values : (T, P, C) [1] on the grid of ``samples`` (:func:`widesky.skymodel.generator.dataset_build.direction_samples`).
+    values : (T, P, C) [1] on the grid of ``samples`` (:func:`widesky.skymodel.generator.dataset_grid.direction_samples`).
     breaks : (sun, zenith) knots [rad]; rank : int.
 
     Returns
     -------
     psun (C, rank, nPSun), pzen (C, rank, nPZen), mae (C,) [1] solid-angle weighted mean absolute error on the samples.
     """
-    from .dataset_build import fit_weights
+    from .dataset_grid import fit_weights
     from .fit import fit_radiance
 
     y = np.asarray(values, float).reshape(-1, values.shape[-1])
@@ -493,7 +492,17 @@ def fit_polarisation(values, samples, breaks, rank, smoothing=1e-5, refine=2):
 def pol_knots(config):
     """(sun, zenith) knots [rad] of the polarisation section: gamma in [0, pi] dense near the sun, the
     altitude-corrected view zenith ``zero`` in [0, pi/2] dense near the horizon."""
-    from .dataset_build import knots
+    from .dataset_grid import knots
 
     ns, nz = (int(x) for x in config.pol_knots)
     return knots(ns, 0.0, np.pi, 1.3, "lo"), knots(nz, 0.0, 0.5 * np.pi, 1.3, "hi")
+
+
+def validation_file(config, kind: str, visibility_km: float, elevation_deg: float, albedo: float):
+    """Cache file of a validation state (``kind`` 'on' or 'off') [.npz]: the DISORT solve's, or where its elevation
+    takes the split Monte Carlo radiance, one named by the Monte Carlo key."""
+    if split_state(config, elevation_deg):  # the file holds the recombined radiance: named by the smoothing too
+        return cache_root(config) / (f"mcval_{mc_key(config)}_{SPLIT_SMOOTHING}_x{SPLIT_VALIDATION_SAMPLES_FACTOR}"
+                                     f"_{kind}_v{visibility_km:.4f}"
+                                     f"_e{elevation_deg:.4f}_a{albedo:.4f}.npz")
+    return state_file(config, visibility_km, elevation_deg, "val_" + kind, albedo)

@@ -58,7 +58,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .aerosol import HUMIDITIES, OPAC_TYPES
+from ..opac import HUMIDITIES
+from .aerosol import OPAC_TYPES
 from .atmosphere import EARTH_RADIUS_KM
 from ..channels import CHANNEL_CENTERS_NM
 from .montecarlo_mie import matrix_mu_grid, mixture_matrix

@@ -21,12 +21,13 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import os
 
 import numpy as np
 
-from .aerosol import (AREA_CUTOFF, MIE_WAVELENGTHS_NM, N_RADII, OPAC_TYPES, _pi_tau, refractive_index,
-                      size_distribution)
+from widesky.core.atomic import atomic_write
+
+from ..opac import refractive_index
+from .aerosol import AREA_CUTOFF, MIE_WAVELENGTHS_NM, N_RADII, OPAC_TYPES, _pi_tau, size_distribution
 from .paths import cache_dir
 
 N_MU_MATRIX = 2000
@@ -88,9 +89,8 @@ def component_matrix(component: str, relative_humidity: int, wavelength_nm: floa
         z = np.load(path)
         return z["matrix"], float(z["csca"])
     mat, csca = _component_matrix(component, rh, float(wavelength_nm), None if data_dir is None else str(data_dir))
-    tmp = path.with_name(f"{path.stem}.tmp-{os.getpid()}.npz")  # pool or Dask workers may race to fill the cache
-    np.savez(tmp, matrix=mat, csca=csca)
-    tmp.replace(path)
+    with atomic_write(path) as tmp:  # pool or Dask workers may race to fill the cache: each writes its own file
+        np.savez(tmp, matrix=mat, csca=csca)
     return mat, csca
 
 

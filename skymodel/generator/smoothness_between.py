@@ -8,7 +8,7 @@ does the sky itself in between (docs/default-dataset.md, "The check"). Every bet
 fails by that rule is therefore looked at again against the solver's sky solved at that state itself:
 
 - at elevations that the build solves with DISORT, a DISORT solve at the state (its visibility, elevation and
-  albedo) on the build's fit directions (:func:`widesky.skymodel.generator.dataset_build.fit_directions`);
+  albedo) on the build's fit directions (:func:`widesky.skymodel.generator.dataset_grid.fit_directions`);
 - at elevations that take the split Monte Carlo radiance, what the build itself would solve there: the exact single
   scattering at the state (:func:`widesky.skymodel.generator.dataset_mc.single_scatter`, noise-free) plus the smoothed rest
   (multiple scattering and ground light, a cosine series of order 2 in azimuth, :func:`split_rest`) of the grid's
@@ -23,6 +23,8 @@ solve. Results are cached in the build cache.
 from __future__ import annotations
 
 import numpy as np
+
+from widesky.core.atomic import atomic_write
 
 __all__ = ["solvable", "between_state_radiance", "between_reference"]
 
@@ -77,7 +79,8 @@ def between_state_radiance(config, visibility_km: float, elevation_deg: float, a
     -------
     zenith (T,) [deg], relative azimuth (P,) [deg], radiance (T, P, C) [W m-2 sr-1 nm-1].
     """
-    from .dataset_build import fit_directions, solve_state
+    from .dataset_grid import fit_directions
+    from .dataset_solve import solve_state
     from .dataset_mc import single_scatter
 
     ch = np.arange(55) if channels is None else np.asarray(channels, int)
@@ -117,8 +120,6 @@ def _reference_file(config, visibility_km, elevation_deg, albedo, channels):
 
 def _reference_job(job):
     """Turning points of the solver's own sky at one state for some channels: (state, channels, {kind: (C, n)})."""
-    import os
-
     config, state, channels = job
     from .smoothness import solver_turning_points
 
@@ -128,9 +129,8 @@ def _reference_job(job):
             return state, channels, {k: z[k] for k in ("almucantar", "vertical", "aureole")}
     th, ph, rad = between_state_radiance(config, *state, channels=channels)
     tp = solver_turning_points(th, ph, rad, state[1])
-    tmp = path.with_name(path.name + f".{os.getpid()}.tmp.npz")
-    np.savez(tmp, **tp)
-    os.replace(tmp, path)
+    with atomic_write(path) as tmp:
+        np.savez(tmp, **tp)
     return state, channels, tp
 
 
@@ -147,7 +147,7 @@ def between_reference(config, model, grid_reference, processes: int = 2, progres
     :func:`widesky.skymodel.generator.smoothness.reference_entries` rows), for
     :func:`widesky.skymodel.generator.smoothness.reference_from_entries`'s ``between``.
     """
-    from .dataset_build import _pool_map
+    from .dask_scheduler import pool_map
     from .smoothness import LIMITS, between_grid_states, check_states
 
     states = between_grid_states(model)
@@ -155,7 +155,7 @@ def between_reference(config, model, grid_reference, processes: int = 2, progres
     jobs = [(config, s, [int(c) for c in np.flatnonzero(r["fails"])]) for s, r in zip(states, rows)
             if r["fails"].any() and solvable(config, s[1]) is not None]
     examined, out = [], []
-    for state, channels, tp in _pool_map(_reference_job, jobs, processes, progress, "between-grid solves"):
+    for state, channels, tp in pool_map(_reference_job, jobs, processes, progress, "between-grid solves"):
         for q, c in enumerate(channels):
             examined.append([float(state[0]), float(state[1]), float(state[2]), int(c)])
             for k, lim in LIMITS.items():

@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .aerosol import HUMIDITIES, OPAC_TYPES, aerosol_layer_fractions, opac_mixture
+from ..opac import HUMIDITIES
+from .aerosol import OPAC_TYPES, aerosol_layer_fractions, opac_mixture
 from .atmosphere import PROFILES, slant_path_factors, standard_atmosphere
 from ..channels import CHANNEL_CENTERS_NM, N_CHANNELS, channel_index
 from .gases import load_kdistributions

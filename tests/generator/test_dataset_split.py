@@ -246,7 +246,7 @@ def test_split_validation_runs_after_the_grid_states(tmp_path, monkeypatch):
         phases.append([(j[0], j[3]) for j in jobs])
         return iter([(j[0], j[2], j[3], None) for j in jobs])
 
-    monkeypatch.setattr(dataset_build, "_pool_map", fake_pool)
+    monkeypatch.setattr(dataset_build, "pool_map", fake_pool)
     dataset_build.solve_all(cfg, processes=2, progress=False)
     assert len(phases) == 2
     first, second = phases

@@ -73,7 +73,7 @@ def _count(value, option, lo, hi):
 
 def _synthetic(args):
     from widesky.skymodel.dataset import SPECTRAL_RANGE, load_dataset
-    from widesky.skymodel.outputs import check_output_path
+    from widesky.core.atomic import check_output_path
     from widesky.skymodel.synthetic import write_synthetic_dataset
 
     # every option is checked before anything is written
@@ -131,7 +131,7 @@ def _compress(args):
     from widesky.skymodel.compress import greedy_omission, omission_errors, radiance_samples, write_channel_list
     from widesky.skymodel.dataset import load_dataset
 
-    from widesky.skymodel.outputs import check_output_path
+    from widesky.core.atomic import check_output_path
 
     out = args.output or str(args.dataset) + ".channels.json"
     check_output_path(out, "--output")

@@ -141,7 +141,7 @@ def _write_csv(res, path, group=None):
 
     import pandas as pd
 
-    from widesky.skymodel.outputs import plain_mode
+    from widesky.core.atomic import plain_mode
     agg = res.aggregate()
     groups = list(enumerate(res.group_names))
     if group is not None:

@@ -154,7 +154,7 @@ def _setup(args):
 
 
 def _run_yield(args, techs):
-    from widesky.pvsim.system import simulate
+    from widesky.pvsim.stream import simulate
     c = _setup(args)
     sim = c["sim"]
     res, y = simulate(sim.scene, sim.sky_source, technologies=techs, temp_air=c["temp_air"],

@@ -94,7 +94,7 @@ def _check_render_args(args):
 
 def _render(args):
     from widesky import skymodel
-    from widesky.skymodel.outputs import atomic_outputs, check_output_path
+    from widesky.core.atomic import atomic_outputs, check_output_path
     from widesky.skymodel.render import check_render_memory, render_sky, write_exr, write_png
 
     _check_render_args(args)

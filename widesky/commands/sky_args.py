@@ -19,7 +19,12 @@ D = SKY_DEFAULTS
 def add_sky_arguments(p, *, site=True) -> None:
     """Add the weather / site / period / sky options to the argparse parser ``p``."""
     p.add_argument("--weather", default=None,
-                   help="weather file (EPW, TMY3, CSV): site, steps, aerosol, albedo, measured DNI/DHI")
+                   help="weather file (EPW, TMY3, CSV; or data:weather/<file>, a year shipped with widesky, e.g. "
+                        "data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw): site, steps, aerosol, albedo, "
+                        "measured DNI/DHI")
+    p.add_argument("--coerce-year", type=int, default=None,
+                   help="with --weather: move the file's records to this year (typical years mix years; then "
+                        "--start/--end select dates of that year)")
     p.add_argument("--clear-sky", action="store_true",
                    help="with --weather: do not scale to the measured DNI/DHI (the clear sky of the file's "
                         "steps: an upper bound)")
@@ -97,7 +102,8 @@ def simulation(args, scene, settings, sky_source=None) -> Simulation:
     if args.weather is None:
         sim = Simulation(scene, site=site(args), start=args.start, end=args.end, step=args.step, **kw)
     else:
-        sim = Simulation(scene, weather=args.weather, start=args.start, end=args.end, **kw)
+        sim = Simulation(scene, weather=args.weather, start=args.start, end=args.end,
+                         coerce_year=args.coerce_year, **kw)
     for w in sim.warnings:
         print(f"widesky: warning: {w}", file=sys.stderr)
     return sim

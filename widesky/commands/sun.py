@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from widesky.irradiance.simulation import SKY_DEFAULTS
+
 SAMPLE_WEATHER = Path(str(resources.files("widesky.irradiance.data") / "sample_golden_june.epw"))
 
 
@@ -51,8 +53,13 @@ def register(subparsers) -> None:
     sky = sub.add_parser("skystates", help="summarise the sky state of every step of a weather file")
     sky.add_argument("weather", help="EPW, TMY3 or CSV weather file, or 'sample' for the shipped one")
     sky.add_argument("--coerce-year", type=int, default=None, help="replace the file's years")
-    sky.add_argument("--default-visibility", type=float, default=50.0, help="[km]")
-    sky.add_argument("--default-albedo", type=float, default=0.2, help="[1]")
+    sky.add_argument("--default-visibility", type=float, default=SKY_DEFAULTS.visibility,
+                     help=f"visibility where the file gives none [km] (default {SKY_DEFAULTS.visibility:g})")
+    sky.add_argument("--default-albedo", type=float, default=SKY_DEFAULTS.albedo,
+                     help=f"albedo where the file gives none [1] (default {SKY_DEFAULTS.albedo:g})")
+    sky.add_argument("--aerosol", default=SKY_DEFAULTS.aerosol, choices=("aod", "visibility"),
+                     help=f"each step's aerosol from the file's aerosol optical depth where valid, or from its "
+                          f"station visibility (default {SKY_DEFAULTS.aerosol}, as every command)")
     sky.add_argument("--elevation-step", type=float, default=0.25, help="grouping step [deg]")
     sky.add_argument("--azimuth-step", type=float, default=1.0,
                      help="grouping step [deg]; 0 leaves azimuth out of the key")
@@ -133,7 +140,7 @@ def _skystates(args) -> int:
     from widesky.irradiance.weather import read_weather
 
     if args.csv:
-        from widesky.skymodel.outputs import check_output_path
+        from widesky.core.atomic import check_output_path
 
         check_output_path(args.csv, "--csv", (".csv",))
     for name in ("elevation_step", "visibility_step", "albedo_step"):
@@ -151,7 +158,7 @@ def _skystates(args) -> int:
     sp = w.solar_position()
     altitude = w.site.altitude if args.site_altitude else 0.0
     states = sky_states(sp, w, altitude=altitude, default_visibility=args.default_visibility,
-                        default_albedo=args.default_albedo)
+                        default_albedo=args.default_albedo, prefer=args.aerosol)
     steps = GroupingSteps(elevation=args.elevation_step,
                           azimuth=args.azimuth_step if args.azimuth_step > 0 else None,
                           visibility=args.visibility_step, albedo=args.albedo_step)
@@ -169,7 +176,7 @@ def _skystates(args) -> int:
     print(f"grouping {steps}: {g.n_groups} distinct skies for {g.n_evaluated} steps "
           f"(reduction {g.reduction:.2f}x)")
     if args.csv:
-        from widesky.skymodel.outputs import atomic_outputs
+        from widesky.core.atomic import atomic_outputs
 
         with atomic_outputs(args.csv) as (tmp,):
             states.to_csv(tmp)

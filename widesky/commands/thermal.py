@@ -99,12 +99,11 @@ def _parse_gap(text):
 
 def _weather_file(text):
     """``--weather``: a file, or ``data:weather/<file>`` (shipped with widesky, else in the reference data folder)."""
-    from widesky.core.paths import DATA_PREFIX, data_reference
-    if text.startswith(DATA_PREFIX):
-        return data_reference(text)
-    if not Path(text).is_file():
-        raise ValueError(f"--weather {text!r} not found")
-    return Path(text)
+    from widesky.irradiance.simulation import weather_path
+    try:
+        return weather_path(text)
+    except FileNotFoundError as exc:
+        raise ValueError(f"--weather: {exc}") from None
 
 
 def _glazing(args) -> int:

@@ -21,9 +21,7 @@ the output folder, and ``/files/`` serves only plain names found there.
 from __future__ import annotations
 
 import json
-import os
 import re
-import tempfile
 import threading
 import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -32,6 +30,8 @@ from pathlib import Path
 from urllib.parse import parse_qsl, urlsplit
 
 import numpy as np
+
+from widesky.core.atomic import atomic_write
 
 from .compute import direction_at, plane_irradiance, png_bytes, render_view, spectrum_at
 from .params import ParameterError, channel_names, parse_pixel, parse_view
@@ -182,15 +182,10 @@ class Explorer:
 
 
 def _atomic(path, write):
-    """Run ``write(tmp)`` on a temporary file beside ``path``, then rename it into place."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
-    os.close(fd)
-    try:
+    """Run ``write(tmp)`` on a temporary file beside ``path``, then rename it into place
+    (:func:`widesky.core.atomic.atomic_write`)."""
+    with atomic_write(path) as tmp:
         write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

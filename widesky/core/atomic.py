@@ -1,9 +1,11 @@
-"""Output files written atomically, and output paths checked before any work is done.
+"""Output files written atomically, and output paths checked before any work is done: widesky's one helper.
 
 Every file widesky writes goes to a temporary file in the destination's folder first and is renamed
 over the destination (``os.replace``) only once it is complete, so a failure (a full disk, an error
 half-way, an interrupt) never leaves a half-written file; several files that belong together are
-renamed together at the end.
+renamed together at the end (:func:`atomic_outputs`; one file: :func:`atomic_write`). Caches that
+parallel workers fill at the same time use it too: each worker writes its own temporary file, and the
+last rename wins with a complete file.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["check_output_path", "atomic_outputs"]
+__all__ = ["check_output_path", "atomic_outputs", "atomic_write", "plain_mode"]
 
 
 def check_output_path(path, option="--output", suffixes=None) -> Path:
@@ -77,3 +79,17 @@ def atomic_outputs(*paths):
             with contextlib.suppress(OSError):
                 t.unlink()
         raise
+
+
+@contextlib.contextmanager
+def atomic_write(path):
+    """Context manager yielding the temporary path (a :class:`pathlib.Path` in ``path``'s folder, ending in
+    its suffix) to write instead of ``path``; renamed over ``path`` on a normal exit, removed on an exception.
+
+    Example::
+
+        with atomic_write("table.npz") as tmp:
+            np.savez(tmp, a=a)
+    """
+    with atomic_outputs(path) as (tmp,):
+        yield tmp

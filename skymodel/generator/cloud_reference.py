@@ -1,5 +1,8 @@
 """Reference spectra under a homogeneous water cloud: the dataset's DISORT chain with a cloud layer.
 
+Part of the generator (build and validation time only: it needs the ``[build]`` extra and the reference data);
+the validation of the all-sky model (tests/test_cloud_reference.py, benchmarks/bench_allsky_cloud_rt.py) calls it.
+
 An independent physical check of the all-sky parametrisation (:mod:`widesky.irradiance.allsky`, docs/all-sky.md): the
 same layered clear atmosphere the dataset is built from (AFGL profile, Rayleigh, ozone, the 6S k-distribution
 gas terms, OPAC aerosol; :mod:`widesky.skymodel.generator.optics`), plus a plane-parallel stratiform water cloud, solved
@@ -26,16 +29,17 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from widesky.skymodel.generator.aerosol import aerosol_layer_fractions, opac_mixture
-from widesky.skymodel.generator.atmosphere import AVOGADRO, DEFAULT_LEVELS_KM, H2O_MOLAR_MASS, standard_atmosphere
-from widesky.skymodel.channels import CHANNEL_CENTERS_NM, N_CHANNELS, channel_index
-from widesky.skymodel.generator.gases import load_kdistributions
-from widesky.skymodel.generator.optics import channel_subproblems
-from widesky.skymodel.generator.ozone import ozone_optical_depth
-from widesky.skymodel.generator.solar import extraterrestrial_spectrum
-from widesky.skymodel.generator.solver import AtmosphereSpec, SolverConfig, run_disort
+from widesky.irradiance.allsky import AllSkyOptions, allsky_factors
+from widesky.irradiance.cloud_optics import cloud_thickness_m, mie_droplet_optics, saturation_vapour_density
 
-from .cloud_optics import cloud_thickness_m, mie_droplet_optics, saturation_vapour_density
+from ..channels import CHANNEL_CENTERS_NM, CHANNEL_EDGES_NM, N_CHANNELS, channel_index
+from .aerosol import aerosol_layer_fractions, opac_mixture
+from .atmosphere import AVOGADRO, DEFAULT_LEVELS_KM, H2O_MOLAR_MASS, standard_atmosphere
+from .gases import load_kdistributions
+from .optics import channel_subproblems
+from .ozone import ozone_optical_depth
+from .solar import extraterrestrial_spectrum
+from .solver import AtmosphereSpec, SolverConfig, run_disort
 
 __all__ = ["cloudy_fluxes", "CloudyFluxes", "allsky_global_horizontal"]
 
@@ -175,8 +179,6 @@ def allsky_global_horizontal(clear: CloudyFluxes, cloudy: CloudyFluxes, solar_el
     cloud-free solve the clear sky (so only the cloud parametrisation is compared), the cloud layer's
     temperature the dew point (the model's in-cloud vapour is saturated at the surface dew point, the
     reference's at the layer's temperature). ``options``: :class:`widesky.irradiance.allsky.AllSkyOptions`."""
-    from widesky.skymodel.channels import CHANNEL_EDGES_NM
-    from .allsky import AllSkyOptions, allsky_factors
     options = AllSkyOptions() if options is None else options
     edges = CHANNEL_EDGES_NM[np.r_[clear.channels, clear.channels[-1] + 1]]
     if not np.array_equal(np.diff(clear.channels), np.ones(len(clear.channels) - 1)):
