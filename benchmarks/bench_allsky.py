@@ -26,7 +26,6 @@ cost milliseconds for a year, reported as a ratio to the plain scaling measured 
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
@@ -42,7 +41,13 @@ from widesky.irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
 from widesky.irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
 from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
 
-DATA = Path(os.environ.get("WIDESKY_DATA_DIR") or Path(__file__).resolve().parents[1].parent / "shared" / "data")
+
+def _site_file(name):
+    """The site's weather year: shipped with widesky (Denver), else in the reference data folder (WIDESKY_DATA_DIR or
+    ../shared/data; widesky.core.paths)."""
+    from widesky.core.paths import data_reference
+    return data_reference(f"data:weather/{SITES[name]}")
+
 
 SITES = {
     "amsterdam": "NLD_Amsterdam062400_IWEC.epw",
@@ -97,7 +102,7 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
              sedes2=None):
     wl, edges = sky.wavelengths, sky.channel_edges
     w = np.diff(edges)
-    wd, states, data, vis, kt, st = load_site(DATA / "weather" / SITES[name], sky, prefer, stride)
+    wd, states, data, vis, kt, st = load_site(_site_file(name), sky, prefer, stride)
     t0 = time.perf_counter()
     tilt, azimuth = abs(wd.site.latitude), 180.0 if wd.site.latitude >= 0 else 0.0
     cfile = None if cache is None else Path(cache) / f"allsky_clear_{name}_{prefer}_{stride}.npz"
@@ -189,7 +194,7 @@ def transposition_check(name, tilt, stride=1):
         import pvlib
     except ImportError:
         return {}
-    wd = ir.read_weather(DATA / "weather" / SITES[name])
+    wd = ir.read_weather(_site_file(name))
     d, sp = wd.data, wd.solar_position()
     st = ir.sky_states(sp, d)
     up = (st["solar_elevation"] > ir.PragueSky().min_sun_elevation) & (d["ghi"] > 0)

@@ -56,8 +56,8 @@ from .cloud_optics import (CLOUD_TOP_PRESSURE_RATIO, DEFAULT_ASYMMETRY, DEFAULT_
                            cloud_top_rayleigh_gain, cloud_vapour_path, droplet_coalbedo, liquid_water_k,
                            mie_droplet_optics, vapour_band_deepening)
 from .haze import haze_correction
-from .overcast_sky import SOLAR_CONSTANT, perez_circumsolar_fraction
 from .measured import MeasuredScaling, measured_scale_factors
+from .overcast_sky import SOLAR_CONSTANT, perez_circumsolar_fraction
 
 __all__ = ["AllSkyOptions", "AllSkyFactors", "allsky_factors", "cloud_index", "CLEAR_SHAPE"]
 

@@ -21,7 +21,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from widesky.core.paths import data_file, runtime_file
 from widesky.core.spectral import band_average
+from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
+
+from .allsky_plane import clear_plane_spectra, plane_poa
+from .ground import vegetation_albedo_shape
+from .skies import SkyStates
 
 __all__ = ["generic_eqe", "spectral_response", "ape", "g173_channels", "model_at_g173",
            "g173_decomposition", "sedes2_global_horizontal", "pvspec_fit", "pvspec_published",
@@ -29,12 +35,10 @@ __all__ = ["generic_eqe", "spectral_response", "ape", "g173_channels", "model_at
 
 
 def _data(rel, data_dir=None):
-    from widesky.core.paths import data_file
     return data_file(rel, data_dir)
 
 
 def _g173(data_dir=None):
-    from widesky.core.paths import runtime_file
     return np.genfromtxt(runtime_file("solar/ASTMG173.csv", data_dir), delimiter=",", skip_header=2)
 
 
@@ -89,17 +93,13 @@ def model_at_g173(sky, components=False, ground="grey"):
     1.3, albedo 0.2) [W m-2 nm-1] (C,): the reference that separates the weather's spectral effect from
     the dataset's own difference to G173 at the reference state (``components``: all of plane_poa's parts;
     ``ground``: "grey" or "vegetation", the all-sky model's ground of :mod:`widesky.irradiance.ground`)."""
-    from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
     vis = float(visibility_from_aod550(aod_at_wavelength(0.084, 500.0, 550.0, 1.3)))
-    from .allsky_plane import clear_plane_spectra, plane_poa
-    from .skies import SkyStates
     st = SkyStates.create([90.0 - 48.236], [180.0], vis, 0.2)
     c = clear_plane_spectra(sky, st, 37.0, 180.0)
     if ground not in ("grey", "vegetation"):
         raise ValueError(f"ground={ground!r} is not one of ('grey', 'vegetation')")
     kw = {}
     if ground == "vegetation":
-        from .ground import vegetation_albedo_shape
         kw = {"albedo_shape": vegetation_albedo_shape(sky.wavelengths), "channel_edges": sky.channel_edges}
     p = plane_poa(c, np.ones(1), np.ones(1), 0.2, **kw)
     return {k: v[0] for k, v in p.items()} if components else p["poa_global"][0]

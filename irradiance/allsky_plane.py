@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from .ground import ground_scales, step_spectral_albedo
 from .integrator import IntegratorSettings, patch_radiance
@@ -86,7 +87,6 @@ def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=Non
     lit = np.nonzero(states.sun_elevation > getattr(sky, "min_sun_elevation", 0.0))[0]
     blocks = range(0, lit.size, max(int(chunk), 1))
     if progress:
-        from tqdm.auto import tqdm
         blocks = tqdm(blocks, unit="chunk", desc="clear-sky spectra")
     for c0 in blocks:
         idx = lit[c0:c0 + chunk]

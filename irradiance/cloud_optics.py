@@ -29,10 +29,13 @@ Units: wavelength [nm], radius [um], optical depth [1].
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from widesky.core.atomic import atomic_write
+from widesky.core.paths import DataNotFoundError, cache_dir, data_file, runtime_file
 from widesky.core.rayleigh import rayleigh_cross_section
 from widesky.skymodel.opac import refractive_index
 
@@ -77,7 +80,6 @@ _OPAC_WATER = "aerosol_opac/refractive_indices/stco00_refr.dat"
 def _water_index(wavelength_nm, data_dir):
     """Complex refractive index of liquid water from the OPAC water-cloud table in the reference data folder;
     a missing table is a DataNotFoundError naming the file and where to get it."""
-    from widesky.core.paths import DataNotFoundError, data_file
     try:
         data_file(_OPAC_WATER, data_dir)
     except DataNotFoundError as exc:
@@ -150,7 +152,6 @@ def mie_droplet_table(radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANC
     area = np.pi * r ** 2 * r ** ((1.0 - 3.0 * variance) / variance) * np.exp(-r / (radius_um * variance))
     m = _water_index(lam, data_dir)
     rows = []
-    from tqdm import tqdm
     for li, mi in tqdm(list(zip(lam, m)), desc="droplet Mie table", unit="wavelength", disable=not progress,
                        leave=False):
         qe, qs, _, g = miepython.efficiencies_mx(complex(mi.real, -abs(mi.imag)), 2.0 * np.pi * r * 1000.0 / li)
@@ -163,10 +164,8 @@ def mie_droplet_table(radius_um=DEFAULT_DROPLET_RADIUS, variance=DROPLET_VARIANC
 def _mie_table(radius_um, variance, data_dir):
     """The (W, 4) table: the shipped one for the default droplets (``irradiance/data``, made by
     ``irradiance/data/make_droplet_table.py``), otherwise computed once and kept in the cache directory."""
-    from pathlib import Path
     if np.isclose(radius_um, DEFAULT_DROPLET_RADIUS) and np.isclose(variance, DROPLET_VARIANCE):
         return np.genfromtxt(Path(__file__).with_name("data") / _SHIPPED_TABLE, delimiter=",", skip_header=2)
-    from widesky.core.paths import cache_dir
     path = cache_dir() / f"droplet_mie_r{radius_um:.4g}_v{variance:.4g}.npy"
     if path.is_file():
         return np.load(path)
@@ -415,7 +414,6 @@ def vapour_band_deepening(channel_edges, delta_u, data_dir=None):
     numpy.ndarray
         (T, C) factors in (0, 1].
     """
-    from widesky.core.paths import runtime_file
     a = np.genfromtxt(runtime_file("gas/6S_band_gas_transmittance_USS62_55ch.csv", data_dir),
                       delimiter=",", names=True)
     e = np.asarray(channel_edges, dtype=float)

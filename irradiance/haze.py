@@ -34,6 +34,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from widesky.skymodel.visibility import aod550_from_visibility
+
 __all__ = ["HazeCorrection", "haze_correction", "relative_airmass"]
 
 
@@ -102,8 +104,6 @@ def haze_correction(wavelength, channel_width, dni_clear, dhi_clear, sun_elevati
     -------
     HazeCorrection
     """
-    from widesky.skymodel.visibility import aod550_from_visibility
-
     if not 0 < float(fog_visibility) < float(min_visibility):
         raise ValueError(f"need 0 < fog_visibility < min_visibility, got fog_visibility="
                          f"{fog_visibility!r} km, min_visibility={min_visibility!r} km")

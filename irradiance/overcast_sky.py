@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .haze import relative_airmass
+
 __all__ = ["cie_overcast_relative", "overcast_poa_ratio", "perez_circumsolar_fraction", "PEREZ_EPSILON_EDGES",
            "PEREZ_F1", "SOLAR_CONSTANT"]
 
@@ -85,8 +87,6 @@ def perez_circumsolar_fraction(dhi, dni, sun_elevation, dni_extra=SOLAR_CONSTANT
     numpy.ndarray
         (T,) F1 [1], >= 0.
     """
-    from .haze import relative_airmass
-
     d = np.nan_to_num(np.asarray(dhi, dtype=float))
     b = np.maximum(np.nan_to_num(np.asarray(dni, dtype=float)), 0.0)
     el = np.asarray(sun_elevation, dtype=float)

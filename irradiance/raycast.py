@@ -44,13 +44,14 @@ initializer) and tasks carry only its key, or any ``concurrent.futures.Executor`
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-import multiprocessing
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from .patches import reinhart
 from .rays import (SHADE_BANDS, SHADE_SECTORS, cast_rays, reflector_bins, shade_band, shade_cells,
@@ -272,7 +273,6 @@ class PendingCoefficients:
         self._futs, self._own, self._value = None, None, None
         self._bar = None
         if progress:
-            from tqdm.auto import tqdm
             self._bar = tqdm(total=bounds[-1][1] if bounds else 0, unit="point",
                              desc="ray casting")
         if executor is not None or (n_jobs > 1 and len(args) > 1):
@@ -316,7 +316,6 @@ class PendingCoefficients:
                     if self._bar is not None:
                         self._bar.update(bounds[i][1] - bounds[i][0])
             else:
-                from concurrent.futures import as_completed
                 for f in as_completed(self._futs):
                     i = self._futs[f]
                     results[i] = f.result()

@@ -6,6 +6,8 @@ deterministic secondary directions, sun-position bins and the reflector shading 
 from __future__ import annotations
 
 import numpy as np
+from embreex import rtcore_scene
+from embreex.mesh_construction import TriangleMesh
 
 from .patches import _TREGENZA_COUNTS, angles_from_direction, direction_from_angles, orthonormal_frame
 
@@ -119,8 +121,6 @@ def _embree_scene(geometry):
     key = geometry["key"]
     sc = _SCENE_CACHE.get(key)
     if sc is None:
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
         sc = rtcore_scene.EmbreeScene()
         TriangleMesh(scene=sc, vertices=np.ascontiguousarray(geometry["vertices"], dtype=np.float32),
                      indices=np.ascontiguousarray(geometry["triangles"], dtype=np.int32))

@@ -18,6 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .optics import optic_terms
 from .patches import cosine_weights
 from .rays import _clear_dni, _cosine_directions, _fbincount, cast_rays, reflector_points, shade_cells
 
@@ -141,7 +142,6 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
             ground_sky *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[:, None]
     sky_optic = reflect_optic = None
     if optics is not None and optics.n:
-        from .optics import optic_terms
         sky_optic, reflect_optic = optic_terms(optics, patches, normals, exact, w3, pr.flat,
                                                miss, r_pt, si[ri], r_share, kq=optic_kq)
         sky_optic[:, buried] = 0.0

@@ -31,14 +31,19 @@ pass ``PragueSky(..., elevation_quantum=0)`` for exact sky states.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
+import trimesh
+from tqdm.auto import tqdm
 
-from .patches import cosine_weights, orthonormal_frame, reinhart
+from .patches import cosine_weights, direction_from_angles, orthonormal_frame, reinhart
 from .rays import cast_rays, reflector_points
+from .scene import make_scene
 from .skies import SkyStates
 
 __all__ = ["reference_poa", "ReferenceResult"]
@@ -406,7 +411,6 @@ def reference_poa(scene, sky, states: SkyStates, *, points=None, weights=None, s
     res = {q: np.zeros((T, n)) for q in ("direct", "sky", "refl", "corr")}
     bar = None
     if progress:
-        from tqdm.auto import tqdm
         bar = tqdm(total=len(bounds), unit="chunk", desc="reference")
 
     def take(a, b, r):
@@ -421,8 +425,6 @@ def reference_poa(scene, sky, states: SkyStates, *, points=None, weights=None, s
     if n_jobs is None:
         n_jobs = os.cpu_count() or 1
     if n_jobs > 1 and len(bounds) > 1:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
         _CONTEXT.clear()
         _CONTEXT.update(ctx)
         try:
@@ -474,9 +476,6 @@ def validation_scenes():
     -------
     dict of str to Scene
     """
-    import trimesh
-    from .patches import direction_from_angles
-    from .scene import make_scene
     scenes = {}
     # tilted plane
     n = direction_from_angles(90.0 - 35.0, 180.0)

@@ -20,6 +20,7 @@ efficiency [1], converted to SR = qe lambda q / (h c)) give [A m-2]; ``"transmit
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -199,7 +200,6 @@ class Response:
         angular : optional
             Optic (see :class:`Response`).
         """
-        import os
         rows, lines_of = [], []
         try:
             with open(path, encoding="utf-8-sig") as f:

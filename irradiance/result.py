@@ -30,13 +30,20 @@ rest. They are stored uncompressed by default: LZF with shuffle halves the file 
 from __future__ import annotations
 
 import contextlib
+import datetime as dt
 import json
 import os
+import re
 from dataclasses import dataclass
 
+import h5py
 import numpy as np
+import pandas as pd
 
 from widesky.core.atomic import atomic_write
+
+from .measured import MeasuredScaling
+from .skies import SkyStates
 
 __all__ = ["FaceTable", "POAResult", "PARTS", "FORMAT", "FORMAT_VERSION"]
 
@@ -315,7 +322,6 @@ class POAResult:
         [1]; indexed by ``times``. Give ``face`` (index) or ``group`` (name or index); with neither,
         face 0 of a one-face result.
         """
-        import pandas as pd
         if face is not None and group is not None:
             raise ValueError("give face or group, not both")
         if face is None and group is None:
@@ -366,7 +372,6 @@ class POAResult:
         """Read a saved result; ``groups`` (names) and ``start``/``end`` (times, end exclusive) read
         only those faces and steps. Without either, arrays stay in the file and are read on access
         (keep the returned object alive while using them)."""
-        import h5py
         path = os.fspath(path)
         try:
             f = h5py.File(path, "r")
@@ -462,7 +467,6 @@ class POAResult:
 
 
 def _stamp(t, tz):
-    import pandas as pd
     s = pd.Timestamp(t)
     return s.tz_localize(tz) if s.tzinfo is None and tz is not None else s
 
@@ -472,7 +476,6 @@ def _stamp(t, tz):
 def atomic_h5(path):
     """Context manager: an h5py.File on a temporary file in the target's folder, moved onto the
     target on success and removed on failure (:func:`widesky.core.atomic.atomic_write`)."""
-    import h5py
     with atomic_write(path) as tmp, h5py.File(tmp, "w") as f:
         yield f
 
@@ -541,7 +544,6 @@ class H5Writer:
     def finish(self, times, states, scaling, provenance, wavelengths, channel_edges):
         f = self.f
         if times is not None:
-            import pandas as pd
             ti = pd.DatetimeIndex(times)
             f.create_dataset("times", data=ti.as_unit("ns").asi8)
             f["times"].attrs["tz"] = "" if ti.tz is None else str(ti.tz)
@@ -580,7 +582,6 @@ def _read_faces(g):
 def _read_times(f):
     if "times" not in f:
         return None
-    import pandas as pd
     tz = f["times"].attrs.get("tz", "")
     ti = pd.DatetimeIndex(pd.to_datetime(f["times"][:], unit="ns", utc=True))
     if not tz:
@@ -588,8 +589,6 @@ def _read_times(f):
     try:
         return ti.tz_convert(tz)
     except Exception:                       # a fixed offset written as "UTC+01:00"
-        import datetime as dt
-        import re
         m = re.match(r"UTC([+-])(\d\d):(\d\d)", tz)
         if not m:
             raise
@@ -599,7 +598,6 @@ def _read_times(f):
 
 
 def _read_states(g, times):
-    from .skies import SkyStates
     vals = {k: g[k][:] for k in SkyStates.FIELDS if k in g}
     clamped = {k: g["clamped"][k][:] for k in g["clamped"]} if "clamped" in g else {}
     return SkyStates(vals["sun_elevation"], vals["sun_azimuth"], vals["visibility"], vals["albedo"],
@@ -607,5 +605,4 @@ def _read_states(g, times):
 
 
 def _read_scaling(g):
-    from .measured import MeasuredScaling
     return MeasuredScaling(*(g[k][:] for k in MeasuredScaling._fields))

@@ -26,6 +26,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import trimesh
 
 __all__ = ["Scene", "make_scene", "load_mesh"]
 
@@ -38,7 +39,6 @@ def load_mesh(obj):
     obj : trimesh.Trimesh or str or os.PathLike or tuple
         The geometry; multi-mesh files (GLB, OBJ with groups) are concatenated.
     """
-    import trimesh
     if isinstance(obj, trimesh.Trimesh):
         return obj
     if isinstance(obj, (str, os.PathLike)):

@@ -18,7 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from widesky import skymodel
 from widesky.skymodel.channels import CHANNEL_EDGES_NM
+
+from .patches import direction_from_angles
 
 __all__ = ["SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "default_channel_edges"]
 
@@ -151,7 +154,6 @@ class SkyStates:
     @property
     def sun_direction(self):
         """(T, 3) ENU unit vectors towards the sun."""
-        from .patches import direction_from_angles
         return direction_from_angles(self.sun_elevation, self.sun_azimuth)
 
     @property
@@ -316,7 +318,6 @@ class PragueSky(_Channels):
     """
 
     def __init__(self, model=None, *, channels=None, elevation_quantum=0.2, threads=1):
-        from widesky import skymodel
         self._sm = skymodel
         if model is None or isinstance(model, (str, bytes)) or hasattr(model, "__fspath__"):
             model = skymodel.load_dataset(model)

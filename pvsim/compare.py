@@ -11,10 +11,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from widesky.core.atomic import atomic_write
 
+from .plots import save_figure
+from .stream import simulate
 from .system import WATERFALL_STAGES, YieldResult
+from .technologies import perovskite_silicon_tandem
 
 __all__ = ["summary_table", "monthly_spectral_factor", "visibility_spectral_factor", "hourly_spectral_factors",
            "waterfall_table", "summary_text", "plot_comparison", "write_comparison", "bandgap_sweep"]
@@ -44,7 +48,6 @@ def summary_table(y: YieldResult, group=None):
     ``spectral_factor`` [1], ``angle_loss``, ``spectral_gain``, ``bifacial_gain``, ``low_irradiance_loss``,
     ``temperature_loss``, ``current_mismatch_loss`` [1].
     """
-    import pandas as pd
     g = _group(y, group)
     rows = {}
     for name, ty in y.technologies.items():
@@ -69,7 +72,6 @@ def summary_table(y: YieldResult, group=None):
 
 def waterfall_table(y: YieldResult, group=None):
     """Reference yields [kWh/kWp] per waterfall stage (rows) and technology (columns)."""
-    import pandas as pd
     g = _group(y, group)
     df = pd.DataFrame({n: [ty.waterfall[g][s] for s in WATERFALL_STAGES] for n, ty in y.technologies.items()},
                       index=list(WATERFALL_STAGES))
@@ -79,7 +81,6 @@ def waterfall_table(y: YieldResult, group=None):
 
 def monthly_spectral_factor(y: YieldResult, group=None):
     """Energy-weighted spectral factor [1] per calendar month (rows) and technology (columns)."""
-    import pandas as pd
     g = _group(y, group)
     out = {}
     for name, ty in y.technologies.items():
@@ -107,7 +108,6 @@ def hourly_spectral_factors(y: YieldResult, group=None, min_poa=_MIN_POA):
 
 def visibility_spectral_factor(y: YieldResult, group=None, bins=(20, 30, 40, 60, 80, 132)):
     """Energy-weighted spectral factor [1] per visibility bin [km] (rows) and technology (columns)."""
-    import pandas as pd
     g = _group(y, group)
     vis = pd.Series(y.visibility, index=y.times)
     labels = [f"{a:g}-{b:g}" for a, b in zip(bins[:-1], bins[1:])]
@@ -152,7 +152,6 @@ def plot_comparison(y: YieldResult, path, group=None, title=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from .plots import save_figure
     g = _group(y, group)
     t = summary_table(y, g)
     mon = monthly_spectral_factor(y, g)
@@ -250,9 +249,6 @@ def bandgap_sweep(scene, sky, states, gaps_ev=None, terminals=2, group=None, cov
         module area, the quantity whose maximum is the best gap for the site), ``specific_yield``
         [kWh/kWp], ``current_mismatch_loss`` [1].
     """
-    import pandas as pd
-    from .stream import simulate
-    from .technologies import perovskite_silicon_tandem
     gaps = np.round(np.arange(1.5, 1.8001, 0.02), 3) if gaps_ev is None else np.asarray(gaps_ev, float)
     base = perovskite_silicon_tandem(terminals)
     techs = [base.with_top_bandgap(g).replace(name=f"{base.name}_{g:.3f}", label=f"{g:.2f} eV") for g in gaps]

@@ -11,8 +11,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from .spectra import qe_to_sr, sr_to_qe
+from .technologies import CellTechnology
 
 __all__ = ["validate_curve", "read_curve_csv", "TabulatedEQE", "cell_from_csv"]
 
@@ -63,7 +65,6 @@ def validate_curve(wavelength, values, unit="qe", where="curve"):
 def read_curve_csv(path, unit="qe"):
     """Read a curve from CSV: two columns (wavelength [nm], value), one header line or none; lines
     starting with ``#`` are comments. Returns ``(wavelength [nm], eqe [1])`` (SR converted)."""
-    import pandas as pd
     p = Path(path)
     try:
         df = pd.read_csv(p, comment="#", header=None)
@@ -114,7 +115,6 @@ def cell_from_csv(path, unit="qe", name=None, eta_stc=0.20, gamma_pdc=-0.0035, l
     eta_stc, gamma_pdc, low_irradiance_200, bifaciality :
         As :class:`~pvsim.technologies.CellTechnology` ([1], [1/K], [1], [1]).
     """
-    from .technologies import CellTechnology
     w, q = read_curve_csv(path, unit)
     nm = name or Path(path).stem
     return CellTechnology(nm, nm, TabulatedEQE(w, q), eta_stc=eta_stc, gamma_pdc=gamma_pdc,

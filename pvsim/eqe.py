@@ -24,7 +24,7 @@ cell) follows from the same absorption law: ``exp(-alpha L)``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -97,7 +97,6 @@ class EQEParameters:
 
     def replace(self, **changes):
         """A copy with some parameters changed (validated)."""
-        from dataclasses import replace
         return replace(self, **changes)
 
     def evaluate(self, wavelength):

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .spectra import am15g_channels, band_average, channel_edges
+from .spectra import am15g_channels, band_average, channel_edges, qe_to_sr
 from .technologies import CellTechnology, TandemTechnology, get_technology
 
 __all__ = ["channel_sr", "short_circuit_current", "reference_currents", "stack_power",
@@ -50,7 +50,6 @@ def channel_sr(technology, edges=None):
     tech = get_technology(technology)
     e = channel_edges() if edges is None else np.asarray(edges, dtype=float)
     w = np.arange(e[0], e[-1] + 0.5 * _FINE_STEP_NM, _FINE_STEP_NM)
-    from .spectra import qe_to_sr
     return {name: band_average(w, qe_to_sr(qe, w), e[:-1], e[1:])
             for name, qe in tech.subcell_qe(w).items()}
 

@@ -8,6 +8,8 @@ import numpy as np
 
 from widesky.core.atomic import atomic_write
 
+from .module import reference_currents
+from .spectra import am15g, channel_edges
 from .technologies import TECHNOLOGIES, TandemTechnology, get_technology
 
 __all__ = ["save_figure", "plot_technologies"]
@@ -46,8 +48,6 @@ def plot_technologies(path, technologies=None, reference_path=None, data_dir=Non
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from .module import reference_currents
-    from .spectra import am15g, channel_edges
 
     names = list(technologies or TECHNOLOGIES)
     w_ref, g_ref = am15g(reference_path, data_dir)

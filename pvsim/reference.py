@@ -10,6 +10,11 @@ on each technology's spectral factor).
 from __future__ import annotations
 
 import numpy as np
+import trimesh
+
+from widesky.irradiance import SkyStates, make_scene, poa_irradiance
+from widesky.irradiance.skies import PragueSky
+from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
 
 __all__ = ["G173_ZENITH_DEG", "G173_TILT_DEG", "widesky_am15g"]
 
@@ -39,10 +44,6 @@ def widesky_am15g(sky=None, albedo=0.2, angstrom=1.3):
         992.5 W m-2 over 280-2480 nm (widesky's spectral shape at the standard's irradiance: the
         reference pvsim uses for ``reference="widesky"``).
     """
-    import trimesh
-    from widesky.irradiance import SkyStates, make_scene, poa_irradiance
-    from widesky.irradiance.skies import PragueSky
-    from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
     sky = sky or PragueSky()
     vis = float(visibility_from_aod550(aod_at_wavelength(G173_AOD500, 500.0, 550.0, angstrom)))
     lo, hi = sky.model.visibility_range if hasattr(sky.model, "visibility_range") else (20.0, 131.8)

@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from widesky.core.paths import runtime_file
 from widesky.core.spectral import band_average
@@ -133,7 +134,6 @@ def read_astm_g173(path=None, data_dir=None):
     dict
         ``wavelength`` (K,) [nm]; ``extraterrestrial``, ``global``, ``direct`` (K,) [W m-2 nm-1].
     """
-    import pandas as pd
     p = Path(path) if path is not None else runtime_file("solar/ASTMG173.csv", data_dir)
     try:
         df = pd.read_csv(p, skiprows=1)

@@ -20,6 +20,7 @@ import numpy as np
 
 from widesky.irradiance import FaceTable, poa_irradiance
 
+from . import _kernel
 from .module import G_STC, stack_power
 from .reference import widesky_am15g
 from .system import (COVER_RESPONSE, _GroupAccumulator, _techs, _yield_finish, _yield_setup, technology_parts,
@@ -143,7 +144,6 @@ class YieldStream:
                 self._zeros = np.zeros(g.shape, np.float32)
             cover = (g, self._zeros, self._zeros)
         planes = tuple(block[k] for k in _BROADBAND) + cover + (block["aoi"], block["sun_visible"])
-        from . import _kernel
         _kernel.accumulate(planes, np.ascontiguousarray(rows, dtype=np.int64),
                            tuple(g[0] for g in gps), tuple(g[2] for g in gps),
                            np.ascontiguousarray(np.stack([g[1] for g in gps]), dtype=np.float32).reshape(-1)

@@ -28,9 +28,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
+from tqdm import tqdm
 
-from .module import (G_STC, current_mismatch_loss, effective_irradiance, low_irradiance_factor,
-                     pvwatts_inverter, reference_currents, temperature_factor)
+from widesky.irradiance import Response, SpectralAngularTable
+
+from .module import (G_STC, current_mismatch_loss, effective_irradiance, low_irradiance_factor, pvwatts_inverter,
+                     reference_currents, tandem_stc_efficiency, temperature_factor)
 from .optics import cover_iam, rubin_soda_lime_index, spectral_cover_iam
 from .spectra import am15g_channels, channel_edges
 from .technologies import TECHNOLOGIES, TandemTechnology, get_technology
@@ -74,7 +78,6 @@ class CoverOptics:
         if not self.spectral:
             cover_iam(0.0, self.n, self.K, self.L, self.n_ar)         # validates
             return _Iam(self.n, self.K, self.L, self.n_ar)
-        from widesky.irradiance import SpectralAngularTable
         ang = np.concatenate([np.arange(0.0, 80.0, 5.0), np.arange(80.0, 90.01, 1.0)])
         w = np.arange(280.0, 2480.5, 20.0)           # the PSM range (Rubin n extrapolated below 310 nm)
         k = self.K * w * 1e-9 / (4.0 * np.pi)          # the grey absorption coefficient as extinction k
@@ -161,7 +164,6 @@ def technology_responses(technologies, cover=None):
         sub-cell name -> (response name, factor): the sub-cell's current [A m-2] is the response's
         output times the factor (sub-cells proportional to an earlier one share its response).
     """
-    from widesky.irradiance import Response
     optic = None if cover is False else (cover or CoverOptics()).angular()
     resp, source, kept = [], {}, []
     for t in _techs(technologies):
@@ -342,7 +344,6 @@ def pv_yield(result, technologies, temp_air=20.0, wind_speed=1.0, *, sources=Non
     dni = _dni_estimate(result, face_chunk)
     bar = None
     if progress:
-        from tqdm import tqdm
         bar = tqdm(total=len(faces.group_names), desc="pv yield", unit="group")
     accs = {}
     for g, gname in enumerate(faces.group_names):
@@ -465,7 +466,6 @@ class _Chunk:
 
 def _eta_stc(tech, edges, g_ref):
     if isinstance(tech, TandemTechnology):
-        from .module import tandem_stc_efficiency
         return tandem_stc_efficiency(tech, edges, reference=g_ref)
     return tech.eta_stc
 
@@ -506,7 +506,6 @@ class _GroupAccumulator:
                 self.j_sum[k][r] += v
 
     def series(self, area, times, ta, ws):
-        import pandas as pd
         q, A = self.q, (area if area > 0 else 1.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             aoi = np.where(q["aoi_a"] > 0, q["aoi_w"] / q["aoi_a"], np.nan)

@@ -14,11 +14,15 @@ only the kept channels (less memory) and get the omitted ones back by interpolat
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from widesky.core.atomic import atomic_outputs
+
+from .dataset import load_dataset
+from .evaluate import sky_radiance
 
 __all__ = ["greedy_omission", "interpolate_channels", "omission_errors", "radiance_samples", "omission_curve",
            "write_channel_list", "read_channel_list", "load_compressed", "sky_radiance_all_channels"]
@@ -119,10 +123,6 @@ def radiance_samples(model, n_directions: int = 400, seed: int = 0, min_elevatio
     -------
     ndarray (N, C) [W m-2 sr-1 nm-1]
     """
-    import warnings
-
-    from .evaluate import sky_radiance
-
     rng = np.random.default_rng(seed)
     u = rng.uniform(0, 1, n_directions)
     phi = rng.uniform(0, 2 * np.pi, n_directions)
@@ -172,8 +172,6 @@ def load_compressed(path, channel_list, **kwargs):
     """Load only the kept channels of a dataset (less memory); the model remembers the file's channel centres
     (``model.full_wavelengths`` [nm]) so :func:`sky_radiance_all_channels` can interpolate the omitted ones.
     ``channel_list`` is a path or the dict of :func:`read_channel_list`; other keywords go to load_dataset."""
-    from .dataset import load_dataset
-
     cl = read_channel_list(channel_list) if not isinstance(channel_list, dict) else channel_list
     model = load_dataset(path, channels=cl["kept_channels"], **kwargs)
     if model.n_channels_file != int(cl.get("n_channels", model.n_channels_file)):
@@ -186,8 +184,6 @@ def load_compressed(path, channel_list, **kwargs):
 def sky_radiance_all_channels(model, *args, **kwargs):
     """:func:`widesky.skymodel.sky_radiance` on a model from :func:`load_compressed`, returned on every channel of the file
     (shape (..., n_channels_file) [W m-2 sr-1 nm-1]) with the omitted channels linearly interpolated."""
-    from .evaluate import sky_radiance
-
     if kwargs.get("channels") is not None or kwargs.get("wavelengths") is not None:
         raise ValueError("sky_radiance_all_channels returns every channel: do not pass channels or wavelengths")
     vals = sky_radiance(model, *args, **kwargs)

@@ -20,12 +20,15 @@ from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
+import OpenEXR
 
 from . import _core
 
 from .colour import channel_xyz_weights, srgb_encode, xyz_to_linear_srgb
 from .dataset import SkyModel
 from .evaluate import _evaluate_component, channel_indices, sun_radiance, transmittance
+from .exrfile import BLOCK_BYTES, NATIVE_COMPRESSIONS, write_scanline_exr
+from .pngfile import write_rgb_png
 
 __all__ = ["QUANTITIES", "Render", "fisheye_directions", "fisheye_disc", "render_sky", "write_exr", "write_png", "render_memory_bytes",
            "check_render_memory"]
@@ -199,8 +202,6 @@ def render_sky(model: SkyModel, *, sun_elevation=30.0, sun_azimuth=180.0, visibi
 
 def _render_memory_terms(n_channels, exr, exr_compression):
     """(bytes per pixel, fixed bytes) of a render and its files."""
-    from .exrfile import BLOCK_BYTES, NATIVE_COMPRESSIONS
-
     per_px = 4 * n_channels + 24 + 8 + 1 + 16 + 3 + 3
     if exr and exr_compression not in NATIVE_COMPRESSIONS:
         per_px += 4 * (n_channels + 3)
@@ -312,8 +313,6 @@ def write_png(path, r: Render, *, composite=None, exposure=0.0):
     the render has more than one channel), else the single channel in grey. ``exposure`` [EV] scales
     relative to the 99th percentile of the disc (polarisation: the signed degree times ``2**exposure`` on a diverging
     map, :func:`polarisation_colours`: grey 0, red +1, blue -1)."""
-    from .pngfile import write_rgb_png
-
     if composite is None:
         composite = r.values.shape[-1] > 1
     if not composite and r.values.shape[-1] != 1:
@@ -376,8 +375,6 @@ def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=
     threads : int
         Threads of the encoder, or of OpenEXR's compression (0: one per core).
     """
-    from .exrfile import NATIVE_COMPRESSIONS, write_scanline_exr
-
     if pixel_type not in ("auto", "half", "float"):
         raise ValueError(f"pixel_type={pixel_type!r}: expected 'auto', 'half' or 'float'")
     if compression not in EXR_COMPRESSIONS:
@@ -404,8 +401,6 @@ def write_exr(path, r: Render, *, pixel_type="auto", compression="rle", threads=
 
 def _write_exr_openexr(path, r, values, rgb, names, sources, pixel_type, compression, threads):
     """write_exr through the OpenEXR library (the compressions widesky does not encode itself)."""
-    import OpenEXR
-
     if rgb is not None:
         rgb = np.ascontiguousarray(rgb[..., :3])
     if pixel_type == "auto":

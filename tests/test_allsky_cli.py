@@ -43,7 +43,6 @@ def epw(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.reference
 def test_allsky_cli_keeps_measured_ghi_and_reddens_overcast(roof, epw, tmp_path, capsys):
     blue = tmp_path / "blue.csv"
     blue.write_text("wavelength_nm,value\n280,1\n500,1\n520,0\n3000,0\n")

@@ -3,8 +3,8 @@ acceptance limits (annual loads, 140-2020/2023 Addendum b Tables A3-1..4 as list
 Modelica Buildings User's Guide in ../shared/data/bestest) and the six reference programs' range
 (peak loads; the guide lists no peak limits). Weather: Denver Intl AP TMY3, the file the
 140-2020 cases and their published results use. Two irradiance routes: the weather file's
-Hay-Davies transposition (seconds) and widesky's integrator (the sky model scaled to the file's
-DNI and DHI; one 8760-step run shared by all cases, a few minutes).
+Hay-Davies transposition (seconds) and widesky's integrator (the default pipeline: the all-sky model at the
+file's DNI and DHI, as every command; one 8760-step run shared by all cases, a few minutes).
 
 Measured figures that fall outside are marked xfail (strict: a fix makes them fail loudly) with
 the measured value; docs/thermal.md discusses them.
@@ -46,6 +46,12 @@ OUTSIDE = {
     # (and its stored heat before the coldest night) is the most sensitive to it
     ("weather", "900", "annual_cooling"): "2.06 MWh < 2.35 (Hay-Davies south irradiance)",
     ("weather", "900", "peak_heating"): "2.83 kW > 2.78 (programs' max; Hay-Davies)",
+    # Since the one pipeline (issue 33) the integrator route runs the all-sky default: its vertical walls sit at
+    # Hay-Davies' level (no horizon brightening under cloud, issue 39), and case 900 misses as the weather route
+    # does. Its earlier pass (clear-sky shape scaled to the measured DHI, 8 % above Perez on the south wall) rested
+    # on that excess (issue 38); the thermal validation is re-done on the final default sky there.
+    ("integrator", "900", "annual_cooling"): "2.10 MWh < 2.35 (all-sky default: walls at Hay-Davies' level)",
+    ("integrator", "900", "peak_heating"): "2.82 kW > 2.78 (programs' max; all-sky default)",
 }
 
 

@@ -28,7 +28,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from widesky.core.paths import data_file
+from widesky.irradiance import (SKY_DEFAULTS, PragueSky, Simulation, dni_extra, fixed_offset_tz, read_epw,
+                                solar_position, sun_times)
+
+from .building import box_building
 from .exterior import exterior_coefficients, hourly_u_value, wind_at_height
+from .gains import building_scene, group_weights, irradiance_by_surface, rated_glazing_response
 from .glazing import Gap, GlazingUnit, layer_from_broadband
 from .loads import R_SE, glazing_g_table, opaque_gains, sky_losses, window_gains
 from .surface import sky_temperature, surface_irradiance
@@ -50,7 +56,6 @@ EXTERIOR_MODELS = ("hourly", "constant")
 
 
 def _data_file(relative, data_dir):
-    from widesky.core.paths import data_file
     return data_file(relative, data_dir)
 
 
@@ -92,7 +97,6 @@ def read_mos(path):
     if loc is None or not rows:
         raise ValueError(f"{path}: no #LOCATION header or no data rows")
     a = np.array(rows)
-    from widesky.irradiance import fixed_offset_tz
     start = pd.Timestamp("2001-01-01", tz=fixed_offset_tz(loc["tz"]))
     idx = start + pd.to_timedelta(a[:, 0], unit="s")
     cols = ["temp_air", "temp_dew", "relative_humidity", "pressure", "ghi_infrared", "ghi", "dni",
@@ -351,7 +355,6 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     if poa is not None:
         irr = poa
     else:
-        from widesky.irradiance import dni_extra, solar_position, sun_times
         times = sun_times(weather.index, label="right")
         sp = solar_position(times, site["latitude"], site["longitude"], site["altitude"])
         irr = surface_irradiance([s[0] for s in surf], [s[1] for s in surf],
@@ -414,7 +417,6 @@ def load_weather(weather="tmy3", data_dir=None):
     path = _data_file(WEATHER_FILES[weather], data_dir)
     if weather == "drycold":
         return read_mos(path)
-    from widesky.irradiance import read_epw
     w = read_epw(path)
     site = {"name": w.site.name, "latitude": w.site.latitude, "longitude": w.site.longitude,
             "altitude": w.site.altitude, "tz": w.site.tz.utcoffset(None).total_seconds() / 3600}
@@ -436,9 +438,6 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
         and ``aoi`` [deg] for the N, E, S, W walls and the roof; ``window_gain``: dict window name
         -> (T,) [W m-2 of glass]; ``result``: the POAResult.
     """
-    from widesky.irradiance import SKY_DEFAULTS, PragueSky, Simulation, read_epw
-    from .building import box_building
-    from .gains import building_scene, group_weights, irradiance_by_surface, rated_glazing_response
     if weather not in WEATHER_FILES or weather == "drycold":
         raise ValueError(f"weather={weather!r}: the integrator route reads the EPW ('tmy3')")
     w = read_epw(_data_file(WEATHER_FILES[weather], data_dir))

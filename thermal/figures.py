@@ -9,12 +9,19 @@ and ASHRAE 140 figures always; the integrator-route BESTEST markers from a JSON 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
+import trimesh
 
 from widesky.core.atomic import atomic_write
+
+from .bestest import CASES, reference_results, run_case
+from .glazing import ANGLES, GlazingUnit, read_solar_spectrum
+from .study import standard_units
 
 
 def _save(fig, path):
@@ -27,8 +34,6 @@ def fig_glazing(outdir, data_dir=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from .glazing import ANGLES, GlazingUnit, read_solar_spectrum
-    from .study import standard_units
     units = standard_units(data_dir, solar_control=True)
     sw, se = read_solar_spectrum(data_dir)
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
@@ -40,7 +45,6 @@ def fig_glazing(outdir, data_dir=None):
         ax[1].plot(sw[keep], o["transmittance"][0][keep], color=col, lw=1, label=f"{name} T")
         ax[1].plot(sw[keep], o["shgc"][0][keep], color=col, lw=1, ls="--", label=f"{name} g")
     # the low-e unit with its coated layer traced by the equivalent-slab route instead
-    import dataclasses
     le = units["low-e"]
     alt = GlazingUnit("alt", [le.layers[0], dataclasses.replace(le.layers[1],
                                                                 angular_model="equivalent")], le.gaps)
@@ -67,7 +71,6 @@ def fig_bestest(outdir, integrator=None, data_dir=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from .bestest import CASES, reference_results, run_case
     refs = reference_results(data_dir)
     ours = {c: run_case(c, data_dir) for c in CASES}
     qs = (("annual_heating", "annual heating [MWh]"), ("annual_cooling", "annual cooling [MWh]"),
@@ -112,7 +115,6 @@ def fig_study(outdir, study_dirs):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import pandas as pd
     fig, axs = plt.subplots(2, len(study_dirs), figsize=(4.2 * len(study_dirs), 6.5), sharey="row",
                             squeeze=False)
     for j, d in enumerate(study_dirs):
@@ -142,7 +144,6 @@ def fig_facade(outdir, ply_path, title=""):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import trimesh
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
     m = trimesh.load(ply_path, process=False)
     tri = m.vertices[m.faces]
@@ -159,7 +160,6 @@ def fig_facade(outdir, ply_path, title=""):
         ax.set_title(("from south-west" if k == 0 else "from north-east"), fontsize=9)
     vals = None
     try:
-        import pandas as pd
         vals = pd.read_csv(Path(ply_path).with_suffix(".csv"))["incident_kWh_m2"]
     except (OSError, KeyError):
         pass
@@ -176,7 +176,6 @@ def fig_facade(outdir, ply_path, title=""):
 def study_table(study_dirs):
     """Markdown rows: per climate and unit, annual window gain, heating and cooling by route and
     their relative difference (spectral / rated - 1)."""
-    import pandas as pd
     lines = ["| climate | unit | window gain spectral / rated [MWh] | diff | cooling spectral / "
              "rated [MWh] | diff | heating spectral / rated [MWh] | diff |",
              "|---|---|---|---|---|---|---|---|"]

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from widesky.irradiance import AngularTable, Response, SpectralAngularTable, make_scene
+
 from .glazing import ANGLES, WAVELENGTHS, GlazingUnit
 from .loads import glazing_g_table
 
@@ -38,7 +40,6 @@ def glazing_response(unit: GlazingUnit, name=None, quantity="shgc"):
     irradiance.Response
         Unit weight over 280-2500 nm with a SpectralAngularTable (A angles x K wavelengths) [1].
     """
-    from widesky.irradiance import Response, SpectralAngularTable
     if quantity not in ("shgc", "transmittance"):
         raise ValueError(f"quantity={quantity!r} not one of ('shgc', 'transmittance')")
     o = unit.optics(ANGLES, WAVELENGTHS)
@@ -55,7 +56,6 @@ def rated_glazing_response(unit: GlazingUnit, spectrum_wavelength, spectrum, nam
     irradiance.Response
         Unit weight with an AngularTable of the spectrum-weighted g by angle [1].
     """
-    from widesky.irradiance import AngularTable, Response
     ang, g, _, _ = glazing_g_table(unit, spectrum_wavelength, spectrum)
     return Response(name or f"{unit.name}:rated", np.array([280.0, 2500.0]), np.ones(2),
                     unit="weight", angular=AngularTable(ang, g))
@@ -72,7 +72,6 @@ def building_scene(building, context=(), *, ground_albedo=None, samples_per_face
     labels : list of str
         The group names, in the order of the building's non-shading surfaces.
     """
-    from widesky.irradiance import make_scene
     meshes, labels, shade = building.analysis_meshes()
     ctx = list(context) if isinstance(context, (list, tuple)) else [context]
     if shade is not None:

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from widesky.core.fresnel import invert_slab, slab
+from widesky.core.paths import runtime_file
 
 from .optics import coated_angular, equivalent_slab, hemispherical
 
@@ -485,7 +486,6 @@ def read_solar_spectrum(data_dir=None, column="global"):
     wavelength_nm, irradiance : numpy.ndarray
         280-4000 nm [nm], [W m-2 nm-1].
     """
-    from widesky.core.paths import runtime_file
     cols = ("extraterrestrial", "global", "direct")
     if column not in cols:
         raise ValueError(f"column={column!r} not one of {cols}")

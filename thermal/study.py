@@ -19,6 +19,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from widesky.core.paths import runtime_file
+from widesky.irradiance import PragueSky, Simulation, read_weather
+
+from .building import ZoneSpec, box_building
+from .gains import (building_scene, glazing_response, irradiance_by_surface, rated_glazing_response,
+                    window_gain_by_surface)
+from .glazing import Gap, GlazingUnit, read_igdb, read_solar_spectrum
+from .loads import Construction, building_loads
+from .surface import sky_temperature
+from .thinfilm import solar_control_layer
+
 __all__ = ["standard_units", "glazing_study", "office_box"]
 
 
@@ -34,8 +45,6 @@ def standard_units(data_dir=None, solar_control=False):
     ``solar-control``: 6 mm clear with the double-silver stack of :mod:`widesky.thermal.thinfilm` on
     surface 2 / 12.7 mm argon / 6 mm clear (a documented construction, not a product).
     """
-    from widesky.core.paths import runtime_file
-    from .glazing import Gap, GlazingUnit, read_igdb
     c3 = read_igdb(runtime_file("glazing/CLEAR_3.DAT", data_dir))
     c5 = read_igdb(runtime_file("glazing/CLEAR5.LOF", data_dir))
     le = read_igdb(runtime_file("glazing/LOW-E_5.LOF", data_dir))
@@ -43,7 +52,6 @@ def standard_units(data_dir=None, solar_control=False):
              "low-e": GlazingUnit("low-e", [c5, le], [Gap(12.7, "argon")]),
              "low-e #2": GlazingUnit("low-e #2", [le.flipped(), c5], [Gap(12.7, "argon")])}
     if solar_control:
-        from .thinfilm import solar_control_layer
         c6 = read_igdb(runtime_file("glazing/CLEAR_6.DAT", data_dir))
         units["solar-control"] = GlazingUnit("solar-control", [solar_control_layer(c6).flipped(), c6],
                                              [Gap(12.7, "argon")])
@@ -53,7 +61,6 @@ def standard_units(data_dir=None, solar_control=False):
 def office_box():
     """The worked case's building: 20 m x 12 m x 3.5 m, WWR 0.4 all round, four perimeter zones,
     each 0.7 h-1, 10 W m-2 internal gains, 20 / 26 degC."""
-    from .building import ZoneSpec, box_building
     return box_building(20.0, 12.0, 3.5, wwr=0.4, perimeter_zones=True,
                         zone_use=ZoneSpec("use", air_changes=0.7, internal_gains=600.0,
                                           heating_setpoint=20.0, cooling_setpoint=26.0))
@@ -61,7 +68,6 @@ def office_box():
 
 def _constructions(name, unit):
     """Office constructions; the window construction is named like its responses' prefix."""
-    from .loads import Construction
     return {"wall": Construction("wall", 0.35), "roof": Construction("roof", 0.25),
             "floor": Construction("floor", 0.35, b=0.5),
             "window": Construction(name, glazing=unit)}
@@ -96,13 +102,6 @@ def glazing_study(weather_path, units=None, building=None, *, sky=None, n_jobs=1
         ``window_gain_kWh``, ``heating_kWh``, ``cooling_kWh``, ``peak_cooling_W``;
         ``incident``: (T, W) global on each window [W m-2]; ``times``; ``site``.
     """
-    from widesky.irradiance import PragueSky, Simulation, read_weather
-    from .gains import (building_scene, glazing_response, irradiance_by_surface,
-                        rated_glazing_response, window_gain_by_surface)
-    from .glazing import read_solar_spectrum
-    from .loads import building_loads
-    from .surface import sky_temperature
-
     units = units or standard_units(data_dir)
     building = building or office_box()
     w = read_weather(weather_path)

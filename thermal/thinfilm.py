@@ -33,6 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .glazing import GlazingLayer
+
 __all__ = ["drude_index", "SILVER_ORDAL", "Film", "stack_optics", "coated_layer_from_stack",
            "DOUBLE_SILVER", "solar_control_layer"]
 
@@ -129,7 +131,6 @@ def coated_layer_from_stack(name, films, substrate, n_substrate_ir=1.5):
     GlazingLayer
         Coated, on the substrate's wavelength grid [nm]; front = film side.
     """
-    from .glazing import GlazingLayer
     if substrate.coated:
         raise ValueError(f"substrate={substrate.name!r} must be an uncoated layer")
     wl = substrate.wavelength

@@ -25,9 +25,11 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import multiprocessing as mp
 from dataclasses import dataclass
 
 import numpy as np
+from tqdm import tqdm
 
 from widesky.core.atomic import atomic_write
 
@@ -201,7 +203,6 @@ def component_optics(component: str, relative_humidity: int = 50, data_dir=None,
         z = np.load(path)
         return {k: z[k] for k in z.files}
     args = [(component, rh, float(w), None if data_dir is None else str(data_dir)) for w in MIE_WAVELENGTHS_NM]
-    import multiprocessing as mp
     # inside a pool worker (a dataset build's solve job meeting an empty Mie cache) a nested pool is not
     # allowed: compute serially there
     if processes > 1 and not mp.current_process().daemon:
@@ -225,7 +226,6 @@ def component_optics(component: str, relative_humidity: int = 50, data_dir=None,
 def _progress(it, total, enabled, desc):
     if not enabled:
         return it
-    from tqdm import tqdm
     return tqdm(it, total=total, desc=desc, leave=False)
 
 

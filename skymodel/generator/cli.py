@@ -4,6 +4,12 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
+from . import report
+from .gases import SHIPPED_FILE, fit_gas_kdistributions
+from .solver import AtmosphereSpec, SkyState, SolverConfig, solve_sky
+
 
 def register(subparsers):
     """Add the ``build`` command group to the ``widesky`` parser."""
@@ -44,10 +50,6 @@ def register(subparsers):
 
 
 def _solve(args):
-    import numpy as np
-
-    from .solver import AtmosphereSpec, SkyState, SolverConfig, solve_sky
-
     state = SkyState(solar_elevation_deg=args.elevation, visibility_km=args.visibility, aod550=args.aod550,
                      aod500=args.aod500, ground_albedo=args.albedo)
     spec = AtmosphereSpec(profile=args.profile, precipitable_water=args.water, ozone_du=args.ozone,
@@ -67,8 +69,6 @@ def _solve(args):
 
 
 def _validate(args):
-    from . import report
-
     res = report.run(args.which.split(","), figures=args.figures, data_dir=args.data_dir)
     print(json.dumps(res, indent=1))
     if args.json:
@@ -78,8 +78,6 @@ def _validate(args):
 
 
 def _fit(args):
-    from .gases import SHIPPED_FILE, fit_gas_kdistributions
-
     out = fit_gas_kdistributions(args.tolerance, output=args.output or SHIPPED_FILE)
     print(f"fitted {len(out['channels'])} channels -> {args.output or SHIPPED_FILE}")
     return 0

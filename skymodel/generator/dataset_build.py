@@ -31,19 +31,38 @@ section, and the radiance of low-sun and twilight elevations.
 from __future__ import annotations
 
 import hashlib
+import importlib.metadata as md
 import json
 import time
+import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
+from ..channels import FINE_WAVELENGTHS_NM
+from ..dataset import load_dataset
+from ..evaluate import directions_from_angles, reference_angles
+from ..writer import DatasetContents, write_dataset
 from .cache import cache_root, ground_file, load_state, save_state, state_file, validation_states
 from .dask_scheduler import pool_map
+from .dataset_errors import evaluate_errors
 from .dataset_grid import (AZIMUTHS_DEG, direction_samples, fit_directions, fit_weights, ground_directions, knots,
                            validation_directions, with_midpoints)
-from .dataset_mc import validation_file
+from .dataset_mc import (MC_FIRST_ORDER, SPLIT_SMOOTHING, cached_rest_across_visibility, fit_grid, fit_polarisation,
+                         mc_file, mc_key, mc_stokes, needs_mc_state, pol_knots, polarisation_summary, radiance_by_mc,
+                         resample_radiance, solve_mc_state, split_radiance, split_state, stored_polarisation, uses_mc,
+                         validation_file)
 from .dataset_solve import _problems, solve_ground, solve_split_validation, solve_state
+from .fit import fit_radiance, fit_transmittance
+from .montecarlo import STREAM_MODES
+from .smoothness import (AUREOLE_REFERENCE_READ_ON_DEG, REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL,
+                         VERTICAL_REFERENCE_HORIZON_DEG, check_dataset, reference_entries, reference_from_entries,
+                         solver_turning_points, summarise)
+from .smoothness_between import between_reference
+from .solar import extraterrestrial_spectrum
+from .solver import AtmosphereSpec, SolverConfig
 
 __all__ = ["BuildConfig", "load_config", "fit_directions", "ground_directions", "solve_state", "solve_ground",
            "radiance_with_albedo", "state_radiance", "solve_all", "validation_states", "validation_directions",
@@ -194,7 +213,6 @@ class BuildConfig:
                              "must be >= 1")
         if not 1 <= int(self.mc_ground_orders) <= 16:
             raise ValueError(f"mc_ground_orders={self.mc_ground_orders} outside [1, 16]")
-        from .montecarlo import STREAM_MODES
         if self.mc_streams not in STREAM_MODES:
             raise ValueError(f"mc_streams={self.mc_streams!r}: valid values are {STREAM_MODES}")
         if not 0.5 <= float(self.mc_zenith_step_deg) <= 30.0:
@@ -203,11 +221,9 @@ class BuildConfig:
             raise ValueError(f"pol_knots={self.pol_knots} must be two counts >= 2 and pol_rank={self.pol_rank} >= 1")
 
     def solver_config(self):
-        from .solver import SolverConfig
         return SolverConfig(n_streams=int(self.n_streams), n_moments=int(self.n_moments))
 
     def spec(self):
-        from .solver import AtmosphereSpec
         return AtmosphereSpec(**self.atmosphere)
 
     def solver_key(self) -> str:
@@ -220,8 +236,6 @@ class BuildConfig:
     def to_dict(self) -> dict:
         """The configuration as JSON-ready values; the Monte Carlo keys only where the configuration uses the Monte
         Carlo solver and ``sun_knot_midpoints_deg`` only where set (so earlier builds' sidecars are unchanged)."""
-        from .dataset_mc import uses_mc
-
         d = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
         if not uses_mc(self):
             for k in MC_KEYS:
@@ -252,7 +266,6 @@ def load_config(path) -> BuildConfig:
     p = Path(path)
     text = p.read_text()
     if p.suffix == ".toml":
-        import tomllib
         d = tomllib.loads(text)
     else:
         d = json.loads(text)
@@ -331,7 +344,6 @@ def fit_samples(config: BuildConfig, zenith_deg, azimuth_deg, radiance, solar_el
     zm = config.zenith_knot_midpoints_deg
     if config.sun_knot_midpoints_deg is None and zm is None:
         return np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float), radiance
-    from .dataset_mc import resample_radiance
 
     if config.sun_knot_midpoints_deg is not None:
         t2, p2 = fill_grid(zenith_deg, azimuth_deg, solar_elevation_deg, refine_fill_deg(config))
@@ -395,8 +407,6 @@ def band_samples(zenith_deg, azimuth_deg, radiance, solar_elevation_deg: float, 
     """
     from scipy.interpolate import PchipInterpolator
 
-    from ..evaluate import directions_from_angles, reference_angles
-
     th = np.asarray(zenith_deg, float)
     ph = np.asarray(azimuth_deg, float)
     rad = np.asarray(radiance, float)
@@ -459,7 +469,6 @@ def _job_file(job) -> Path:
     if kind == "ground":
         return ground_file(config, vis)
     if kind == "mc":
-        from .dataset_mc import mc_file
         return mc_file(config, vis, ele)
     if kind.startswith("val_"):
         return validation_file(config, kind[4:], vis, ele, extra)
@@ -469,7 +478,6 @@ def _job_file(job) -> Path:
 def _solve_job(job):
     kind, config, vis, ele, extra = job
     if kind == "mc":
-        from .dataset_mc import solve_mc_state
         path = _job_file(job)
         if not path.exists():
             save_state(path, solve_mc_state(vis, ele, config))
@@ -499,15 +507,10 @@ def state_radiance(config: BuildConfig, visibility_km: float, elevation_deg: flo
     """Cached solver radiance of a grid state at ``albedo`` [1]: (zenith (T,) [deg], azimuth (P,) [deg],
     radiance (T, P, 55) [W m-2 sr-1 nm-1], solved elevation [deg]); from the Monte Carlo state where the configuration
     takes that elevation's radiance from it."""
-    from .dataset_mc import mc_file, mc_stokes, radiance_by_mc
-
     if radiance_by_mc(config, elevation_deg):
-        from .dataset_mc import fit_grid, resample_radiance
-
         m = load_state(mc_file(config, visibility_km, elevation_deg))
         th, ph = fit_grid(m, config)
         if "single_fine" in m:  # split: the rest smoothed across the elevation's visibilities
-            from .dataset_mc import cached_rest_across_visibility, split_radiance
             i = [float(v) for v in config.visibilities_km].index(float(visibility_km))
             rest = cached_rest_across_visibility(config, elevation_deg, albedo)[i]
             return th, ph, split_radiance(m, albedo, rest=rest), float(m["solved_elevation"])
@@ -525,8 +528,6 @@ def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, va
     """Solve (or find in the cache) every grid state, ground response and validation state of ``config``; the
     Monte Carlo states (:mod:`widesky.skymodel.generator.dataset_mc`), the longest tasks, go first; the split validation
     states, which read every visibility's Monte Carlo state of their elevation, run after all of them."""
-    from .dataset_mc import needs_mc_state, radiance_by_mc
-
     fitted = _fitted_elevations(config)
     jobs = [("mc", config, float(v), float(e), None) for e in fitted if needs_mc_state(config, e)
             for v in config.visibilities_km]
@@ -545,7 +546,6 @@ def solve_all(config: BuildConfig, processes: int = 2, progress: bool = True, va
     t0 = time.perf_counter()
     # split validation states at grid points read every visibility's Monte Carlo state of their elevation
     # (rest_across_visibility): they run after the grid states have all been solved
-    from .dataset_mc import split_state
     later = [j for j in todo if j[0].startswith("val_") and split_state(config, j[3])]
     phases = [[j for j in todo if j not in later], later]
     done = 0
@@ -606,8 +606,6 @@ def fit_sky(radiance, samples, breaks, rank, smoothing=1e-6, iterations=4, refin
     -------
     sun (C, rank, nSun), zen (C, rank, nZen), emph (C, nEmph), nmae (C,) [1] on the samples (solid-angle weighted).
     """
-    from .fit import fit_radiance
-
     y = np.asarray(radiance, float).reshape(-1, radiance.shape[-1])
     C = y.shape[1]
     sb, zb, eb = breaks
@@ -691,7 +689,6 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         d["band"] = [float(config.band_max_gamma_deg), float(config.band_weight), BAND_GAMMAS_DEG.tolist(),
                      list(config.elevations_deg)]
     d.update(fit_options(config))  # likewise: only the options a configuration sets
-    from .dataset_mc import mc_key, needs_mc_state, uses_mc
 
     # only where the state uses the Monte Carlo solver: a scalar configuration keeps its fit-cache names, and so do the
     # DISORT states of a build whose low sun alone comes from the Monte Carlo (every state of a polarised build has one)
@@ -702,7 +699,6 @@ def fit_file(config: BuildConfig, visibility_km: float, elevation_deg: float) ->
         if config.mc_fit_resample:  # (absent otherwise: the earlier polarised fits keep their names)
             d["mc"]["resample"] = True
         if config.mc_single_scatter_exact:
-            from .dataset_mc import SPLIT_SMOOTHING
             d["mc"]["split"] = SPLIT_SMOOTHING
     key = hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
     return cache_root(config) / f"fitted_{key}_v{visibility_km:.4f}_e{elevation_deg:.4f}.npz"
@@ -713,13 +709,10 @@ def _fit_job(job):
     path = fit_file(config, vis, ele)
     if path.exists():
         return vis, ele, path
-    from .dataset_mc import mc_file, needs_mc_state, radiance_by_mc
 
     breaks = config_knots(config)
     m = load_state(mc_file(config, vis, ele)) if needs_mc_state(config, ele) else None
     if radiance_by_mc(config, ele):
-        from .dataset_mc import fit_grid
-
         (zen_deg, az_deg), solved = fit_grid(m, config), float(m["solved_elevation"])
 
         def radiance(a):
@@ -745,8 +738,6 @@ def _fit_job(job):
 def _fit_polarisation_state(config, m) -> dict:
     """Polarisation factors of one Monte Carlo state for every albedo of the grid, with the fit's error and the
     state's noise and polarisation figures (lists over albedos, each (C, ...))."""
-    from .dataset_mc import fit_polarisation, pol_knots, polarisation_summary, stored_polarisation
-
     samples = direction_samples(m["zenith"], m["azimuth"], float(m["solved_elevation"]))
     out = {k: [] for k in ("psun", "pzen", "pmae", "pse", "dolp", "abs_qs", "docp")}
     for a in config.albedos:
@@ -878,8 +869,6 @@ def fit_transmittance_bounded(sqrt_t, rank):
 
     Returns U (nAltT, dDim, aDim, rank + 1), V (nVisT, nAltT, nCh, rank + 1) float32 and the largest
     |U . V - sqrt(T)| [1]."""
-    from .fit import fit_transmittance
-
     x = np.asarray(sqrt_t, float)
     U, V, _ = fit_transmittance(x, rank)
     U = np.concatenate([U.astype(np.float64), np.ones(U.shape[:-1] + (1,))], axis=-1)
@@ -902,7 +891,6 @@ def fit_transmittance_bounded(sqrt_t, rank):
 # --------------------------------------------------------------------------------------------- assembly
 
 def _versions() -> dict:
-    import importlib.metadata as md
     out = {}
     for name in ("widesky", "numpy", "scipy", "disortpp", "miepython", "Py6S"):
         try:
@@ -915,9 +903,6 @@ def _versions() -> dict:
 def extraterrestrial_table(config: BuildConfig, data_dir=None):
     """The solver's extraterrestrial spectrum at 1 nm for the sidecar: wavelength (2202,) [nm] (bin centres
     280.5-2479.5 plus the edges 280 and 2480, holding the end bins' values) and irradiance [W m-2 nm-1]."""
-    from ..channels import FINE_WAVELENGTHS_NM
-    from .solar import extraterrestrial_spectrum
-
     _, et = extraterrestrial_spectrum(config.spec().et_source, data_dir)
     wl = np.concatenate([[280.0], FINE_WAVELENGTHS_NM, [2480.0]])
     e = np.concatenate([[et[0]], et, [et[-1]]])
@@ -942,8 +927,6 @@ def _low_sun_note(config: BuildConfig) -> str:
 def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, data_dir=None) -> dict:
     """Fit (cached) and write the dataset file ``output`` and its sidecar ``<output>.json``; the grid states must
     be solved already (:func:`solve_all`). Returns the sidecar dict."""
-    from ..writer import DatasetContents, write_dataset
-
     t0 = time.perf_counter()
     fitted = fit_all(config, processes, progress, log)
     ele = np.asarray(config.elevations_deg, float)
@@ -966,7 +949,6 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
     sun = fitted["sun"]
     pol = {}
     if config.polarisation:
-        from .dataset_mc import pol_knots
         psb, pzb = pol_knots(config)
         pol = dict(pol_sun_breaks=psb, pol_zenith_breaks=pzb, pol_sun=fitted["psun"], pol_zen=fitted["pzen"])
     c = DatasetContents(np.asarray(config.visibilities_km, float), np.asarray(config.albedos, float),
@@ -1001,7 +983,6 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
         "file_bytes": output.stat().st_size,
         "assemble_seconds": round(time.perf_counter() - t0, 1),
     }
-    from .dataset_mc import uses_mc
 
     if uses_mc(config):
         meta["monte_carlo"] = _mc_meta(config, fitted)
@@ -1012,10 +993,7 @@ def assemble(config: BuildConfig, output, processes=2, progress=True, log=None, 
 def _mc_meta(config: BuildConfig, fitted: dict) -> dict:
     """Sidecar section of a build that uses the Monte Carlo solver: its settings, which elevations it solved, and
     (polarised builds) the polarisation fit's error and the Monte Carlo noise per channel."""
-    from .dataset_mc import mc_key, pol_knots, radiance_by_mc
-
     ele = [float(e) for e in config.elevations_deg]
-    from .dataset_mc import MC_FIRST_ORDER, SPLIT_SMOOTHING
 
     split = bool(config.mc_single_scatter_exact)
     d = {"method": ("scalar" if split else "polarised")
@@ -1066,11 +1044,6 @@ def solver_reference(config: BuildConfig, progress: bool = False, rel_tol: float
     scattering, the noise only in the smooth rest), which are solved at their own elevation. The solver's turning
     points are counted with the guard band (:data:`widesky.skymodel.generator.smoothness.REFERENCE_REL_TOL` and
     ``REFERENCE_FLOOR_FRACTION``) unless ``rel_tol`` / ``floor_fraction`` [1] say otherwise."""
-    from .dataset_mc import radiance_by_mc, split_state
-    from tqdm import tqdm
-
-    from .smoothness import REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL, reference_entries, solver_turning_points
-
     tol = REFERENCE_REL_TOL if rel_tol is None else rel_tol
     floor = REFERENCE_FLOOR_FRACTION if floor_fraction is None else floor_fraction
     fitted = _fitted_elevations(config)
@@ -1093,9 +1066,6 @@ def smoothness_report(dataset_path, reference_rows=None, between=None) -> dict:
     the solver's own turning points there, and with ``between``
     (:func:`widesky.skymodel.generator.smoothness_between.between_reference`) the pairs between grid points solved at their
     own state are judged against that solve."""
-    from ..dataset import load_dataset
-    from .smoothness import check_dataset, reference_from_entries, summarise
-
     model = load_dataset(dataset_path)
     ref = None
     if reference_rows is not None:
@@ -1115,11 +1085,8 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
     meta = assemble(config, output, processes, progress, log, data_dir)
     meta["solve"] = {"states_solved_now": n, "solve_seconds_now": round(secs, 1)}
     if validation:
-        from .dataset_errors import evaluate_errors, summarise
         errs = evaluate_errors(config, output)
         meta["errors"] = summarise(errs)
-    from .smoothness import (AUREOLE_REFERENCE_READ_ON_DEG, REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL,
-                             VERTICAL_REFERENCE_HORIZON_DEG)
 
     rows = solver_reference(config, progress)
     meta["smoothness_reference"] = {
@@ -1134,9 +1101,6 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
         "rel_tol": REFERENCE_REL_TOL, "floor_fraction": REFERENCE_FLOOR_FRACTION,
         "vertical_read_on_deg": list(VERTICAL_REFERENCE_HORIZON_DEG), "aureole_read_on_deg": AUREOLE_REFERENCE_READ_ON_DEG,
         "rows": rows}
-    from ..dataset import load_dataset
-    from .smoothness import reference_from_entries
-    from .smoothness_between import between_reference
 
     model = load_dataset(output)
     between = between_reference(config, model, reference_from_entries(

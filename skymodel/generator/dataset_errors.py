@@ -19,6 +19,12 @@ import warnings
 
 import numpy as np
 
+from ..dataset import load_dataset
+from ..evaluate import sky_radiance, solar_direct_normal
+from .cache import load_state, validation_states
+from .dataset_grid import direction_samples
+from .dataset_mc import validation_file
+
 __all__ = ["evaluate_errors", "summarise", "TILT_DEG", "TARGET_CHANNELS_NM"]
 
 TILT_DEG = 37.0
@@ -36,12 +42,6 @@ def evaluate_errors(config, dataset_path) -> list:
     nmae [1], e_horizontal, e_tilted (relative sky-diffuse irradiance errors [1], signed), dni_error (relative
     [1], signed), e_global_horizontal, e_global_tilted (relative global irradiance errors [1], signed); solver sky-diffuse irradiances dhi, dti [W m-2 nm-1]. States whose solve is missing are skipped.
     """
-
-    from ..dataset import load_dataset
-    from .cache import load_state, validation_states
-    from .dataset_grid import direction_samples
-    from .dataset_mc import validation_file
-    from ..evaluate import sky_radiance, solar_direct_normal
 
     model = load_dataset(dataset_path)
     out = []

@@ -35,7 +35,11 @@ import numpy as np
 
 from widesky.core.atomic import atomic_write
 
-from .cache import cache_root, state_file
+from .cache import cache_root, load_state, state_file
+from .dataset_grid import AZIMUTHS_DEG, direction_samples, fit_directions, fit_weights, knots
+from .fit import fit_radiance
+from .montecarlo import MonteCarloConfig, _unit_views, solve_sky_mc, stokes_at_albedo
+from .solver import MAX_VIEW_ZENITH_DEG, SkyState
 
 MC_AZIMUTHS_DEG = (0.0, 1.0, 2.5, 5.0, 10.0, 17.0, 25.0, 35.0, 47.5, 60.0, 75.0, 90.0, 105.0, 120.0, 135.0, 150.0,
                    165.0, 180.0)
@@ -96,8 +100,6 @@ def needs_mc_state(config, elevation_deg: float) -> bool:
 
 def mc_config(config, visibility_km: float, elevation_deg: float):
     """The :class:`widesky.skymodel.generator.montecarlo.MonteCarloConfig` of one grid state (its own seed)."""
-    from .montecarlo import MonteCarloConfig
-
     h = hashlib.sha1(json.dumps([int(config.mc_seed), round(float(visibility_km), 4),
                                  round(float(elevation_deg), 4)]).encode()).hexdigest()
     return MonteCarloConfig(samples=int(config.mc_samples), seed=int(h[:15], 16),
@@ -136,8 +138,6 @@ def mc_directions(solar_elevation_deg: float, config):
     """Product grid of one Monte Carlo state: view zenith (T,) [deg] ascending in [0, 89.95] (every
     ``mc_zenith_step_deg`` plus a horizon band and, with the sun up, zeniths around the sun) and relative azimuth
     (P,) [deg] (:func:`mc_azimuths`)."""
-    from .solver import MAX_VIEW_ZENITH_DEG
-
     step = float(config.mc_zenith_step_deg)
     th = [np.arange(0.0, 89.0, step), [84.0, 87.0, 88.5, MAX_VIEW_ZENITH_DEG]]
     zs = 90.0 - float(solar_elevation_deg)
@@ -165,9 +165,6 @@ def solve_mc_state(visibility_km: float, elevation_deg: float, config, data_dir=
     singly scattered radiance on the Monte Carlo grid, and fine_zenith (T2,), fine_azimuth (P2,), single_fine
     (T2, P2, 55) [W m-2 sr-1 nm-1] on the fine grid.
     """
-    from .montecarlo import solve_sky_mc
-    from .solver import SkyState
-
     t0 = time.perf_counter()
     th, ph = mc_directions(elevation_deg, config)
     T, P = np.meshgrid(th, ph, indexing="ij")
@@ -179,7 +176,6 @@ def solve_mc_state(visibility_km: float, elevation_deg: float, config, data_dir=
            "solved_elevation": float(elevation_deg), "samples": r.samples}
     if split_state(config, elevation_deg):
         if fine_directions is None:
-            from .dataset_grid import fit_directions
             fine_directions = fit_directions(elevation_deg, config.zenith_step_deg)
         t2, p2 = (np.asarray(x, float) for x in fine_directions)
         out.update(single=single_scatter(visibility_km, elevation_deg, th, ph, config, data_dir),
@@ -195,9 +191,6 @@ def single_scatter(visibility_km: float, elevation_deg: float, zenith_deg, azimu
     zeniths (T,) and relative azimuths (P,) [deg]: (T, P, C) [W m-2 sr-1 nm-1], C = 55 or ``len(channels)`` (channel
     indices 0..54). Deterministic: the Monte Carlo solver's first-order quadrature along each view ray
     (``max_order=1``; no sampled path contributes), independent of the ground."""
-    from .montecarlo import MonteCarloConfig, solve_sky_mc
-    from .solver import SkyState
-
     th, ph = np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float)
     T, P = np.meshgrid(th, ph, indexing="ij")
     state = SkyState(45.0, visibility_km=float(visibility_km), ground_albedo=0.0)
@@ -305,8 +298,6 @@ def rest_across_visibility(config, elevation_deg: float, albedo: float, zenith_d
     multiple scattering is smooth in the aerosol amount, each state's Monte Carlo noise is not. Returns (V, T2, P2, 55)
     [W m-2 sr-1 nm-1] in the order of ``config.visibilities_km``. ``states``: the loaded Monte Carlo states (default:
     read from the build cache)."""
-    from .cache import load_state
-
     vis = [float(v) for v in config.visibilities_km]
     if states is None:
         states = [load_state(mc_file(config, v, elevation_deg)) for v in vis]
@@ -337,8 +328,6 @@ def cached_rest_across_visibility(config, elevation_deg: float, albedo: float) -
 def mc_stokes(state: dict, albedo: float):
     """Stokes vectors of a cached Monte Carlo state over a ground of albedo ``albedo`` [1]: (value, stderr bound),
     each (T, P, 55, 4) [W m-2 sr-1 nm-1]."""
-    from .montecarlo import stokes_at_albedo
-
     return stokes_at_albedo(state["stokes"], float(albedo), state["stderr"])
 
 
@@ -378,7 +367,6 @@ def fit_grid(state: dict, config):
     th, ph = np.asarray(state["zenith"], float), np.asarray(state["azimuth"], float)
     if not config.mc_fit_resample:
         return th, ph
-    from .dataset_grid import AZIMUTHS_DEG
 
     t2 = np.arange(0.0, th[-1], float(config.zenith_step_deg))
     p2 = np.asarray(AZIMUTHS_DEG, float)
@@ -391,8 +379,6 @@ def scattering_plane_rotation(zenith_deg, azimuth_deg, solar_elevation_deg: floa
     through the view) to the scattering plane (through the view and the sun), for view zenith (T,) and relative
     azimuth (P,) [deg] and the solar elevation [deg]; arrays (T, P). Where the view points at the sun or away from it
     the plane is undefined and chi = 0."""
-    from .montecarlo import _unit_views
-
     T, P = np.meshgrid(np.asarray(zenith_deg, float), np.asarray(azimuth_deg, float), indexing="ij")
     v, a = _unit_views(T.ravel(), P.ravel(), False)
     w = -v                        # propagation toward the observer
@@ -441,8 +427,6 @@ def polarisation_summary(state: dict, albedo: float) -> dict:
     """Figures of one state's polarisation for the sidecar: per channel (55,) the solid-angle mean of the degree of
     linear polarisation sqrt(Q^2 + U^2) / I, of abs(Q_s) / I, of the circular part abs(V) / I, and of the standard error of
     P [1]."""
-    from .dataset_grid import direction_samples
-
     s, _ = scattering_plane_stokes(state, albedo)
     p, se = stored_polarisation(state, albedo)
     w = direction_samples(state["zenith"], state["azimuth"], float(state["solved_elevation"]))["weights"]
@@ -466,9 +450,6 @@ def fit_polarisation(values, samples, breaks, rank, smoothing=1e-5, refine=2):
     -------
     psun (C, rank, nPSun), pzen (C, rank, nPZen), mae (C,) [1] solid-angle weighted mean absolute error on the samples.
     """
-    from .dataset_grid import fit_weights
-    from .fit import fit_radiance
-
     y = np.asarray(values, float).reshape(-1, values.shape[-1])
     C = y.shape[1]
     sb, zb = breaks
@@ -492,8 +473,6 @@ def fit_polarisation(values, samples, breaks, rank, smoothing=1e-5, refine=2):
 def pol_knots(config):
     """(sun, zenith) knots [rad] of the polarisation section: gamma in [0, pi] dense near the sun, the
     altitude-corrected view zenith ``zero`` in [0, pi/2] dense near the horizon."""
-    from .dataset_grid import knots
-
     ns, nz = (int(x) for x in config.pol_knots)
     return knots(ns, 0.0, np.pi, 1.3, "lo"), knots(nz, 0.0, 0.5 * np.pi, 1.3, "hi")
 

@@ -27,11 +27,13 @@ The fitted coefficients are a product of this project computed with 6S; they shi
 from __future__ import annotations
 
 import json
+import multiprocessing as mp
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from ..channels import CHANNEL_EDGES_NM, N_CHANNELS
 
@@ -161,7 +163,6 @@ def sixs_band_transmittances(channels=None, processes: int = 2, progress: bool =
         jobs += [(lo, hi, float(u), 0.3, 0.0) for u in WATER_U_GRID_CM]
         jobs += [(lo, hi, 1.0, 0.3, float(np.degrees(np.arccos(1.0 / m)))) for m in MIXED_AIRMASS_GRID]
     if processes > 1:
-        import multiprocessing as mp
         with mp.get_context("spawn").Pool(processes) as pool:
             it = pool.imap(_run6s, jobs, chunksize=8)
             res = list(_tqdm(it, len(jobs), progress))
@@ -177,7 +178,6 @@ def sixs_band_transmittances(channels=None, processes: int = 2, progress: bool =
 def _tqdm(it, total, enabled):
     if not enabled:
         return it
-    from tqdm import tqdm
     return tqdm(it, total=total, desc="6S band model", leave=False)
 
 

@@ -23,6 +23,9 @@ import warnings
 import numpy as np
 
 from ..channels import CHANNEL_CENTERS_NM, CHANNEL_EDGES_NM, N_CHANNELS
+from .atmosphere import slant_path_factors
+from .solar import extraterrestrial_spectrum
+from .solver import AtmosphereSpec, SkyState, _prepared, direct_transmittance
 
 __all__ = ["lowtran_transmittance", "lowtran_comparison"]
 
@@ -70,10 +73,6 @@ def lowtran_comparison(zeniths_deg=(0.0, 48.236, 60.0, 70.0), data_dir=None):
     transmittance [1], ``lowtran_gas`` and ``ours_gas`` (Z, 55) the gas part [1], and ``ratio_gas`` =
     lowtran_gas / ours_gas.
     """
-    from .solar import extraterrestrial_spectrum
-    from .atmosphere import slant_path_factors
-    from .solver import AtmosphereSpec, SkyState, _prepared, direct_transmittance
-
     spec = AtmosphereSpec()
     state = SkyState(45.0, aod550=0.0)
     z = np.asarray(zeniths_deg, float)

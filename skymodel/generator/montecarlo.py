@@ -57,12 +57,15 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from tqdm import tqdm
 
+from .. import _montecarlo
+from ..channels import CHANNEL_CENTERS_NM
 from ..opac import HUMIDITIES
 from .aerosol import OPAC_TYPES
 from .atmosphere import EARTH_RADIUS_KM
-from ..channels import CHANNEL_CENTERS_NM
 from .montecarlo_mie import matrix_mu_grid, mixture_matrix
+from .solver import AtmosphereSpec, channel_problems
 from widesky.core.rayleigh import depolarization_ratio
 
 MIN_SOLAR_ELEVATION_DEG = -10.0
@@ -281,8 +284,6 @@ def trace(components: Components, solar_zenith_deg: float, view_zenith_deg, rela
     StokesResult with radiance per unit solar irradiance normal to the beam [sr-1]; with ``config.ground_orders``
     B >= 1 its arrays have an extra axis of the B orders of ground reflection (N, C, B, 4).
     """
-    from .. import _montecarlo
-
     cp = components
     lv = np.asarray(cp.levels_km, float)
     sza = float(solar_zenith_deg)
@@ -434,8 +435,6 @@ def solve_sky_mc(state, spec=None, view_zenith_deg=(0.0,), relative_azimuth_deg=
     solar_elevation_deg : [deg] in [-10, 90]: overrides the state's (the sun may be below the horizon).
     progress : tqdm bar over channel batches.
     """
-    from .solver import AtmosphereSpec, channel_problems
-
     spec = AtmosphereSpec() if spec is None else spec
     el = float(state.solar_elevation_deg if solar_elevation_deg is None else solar_elevation_deg)
     if not (MIN_SOLAR_ELEVATION_DEG <= el <= 90.0):
@@ -453,7 +452,6 @@ def solve_sky_mc(state, spec=None, view_zenith_deg=(0.0,), relative_azimuth_deg=
     samples = 0
     it = batches
     if progress:
-        from tqdm import tqdm
         it = tqdm(batches, desc="Monte Carlo channel batches", leave=False)
     alb = state.albedo()
     for bi, b in enumerate(it):

@@ -23,6 +23,7 @@ import hashlib
 import json
 
 import numpy as np
+from numpy.polynomial import legendre
 
 from widesky.core.atomic import atomic_write
 
@@ -126,8 +127,6 @@ def mixture_matrix(opac_type: str, relative_humidity: int, wavelength_nm: float,
 
 def legendre_moment(table: np.ndarray, order: int) -> float:
     """Legendre moment chi_l = (1/2) int P11 P_l dmu [1] of a tabulated P11 (trapezoid rule), for checks."""
-    from numpy.polynomial import legendre
-
     mu = matrix_mu_grid()
     c = np.zeros(order + 1)
     c[order] = 1.0

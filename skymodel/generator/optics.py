@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..channels import FINE_WAVELENGTHS_NM, fine_slice
+from .aerosol import PHASE_MU
 from widesky.core.rayleigh import rayleigh_cross_section, rayleigh_moments
 
 GROUP_RATIO = 1.2
@@ -64,8 +65,6 @@ class SubProblem:
         """Per-layer phase function (L, len(PHASE_MU)) [1] at :data:`widesky.skymodel.generator.aerosol.PHASE_MU`, top of
         atmosphere first (DISORT's order): Rayleigh (1 + 5 chi_2 P_2(mu), exact for its two moments) and the
         aerosol's tabulated Mie phase function, weighted by their scattering optical depths; None without a table."""
-        from .aerosol import PHASE_MU
-
         if self.phase_aerosol is None:
             return None
         sca_r = self.tau_rayleigh

@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 
 from ..channels import CHANNEL_CENTERS_NM
+from . import validation as v
+from .gases import SHIPPED_FILE
+from .lowtran_check import lowtran_comparison, plot_lowtran
+from .solar import channel_extraterrestrial
+from .validation import spctrl2_reference
 
 
 def run(which=("rayleigh", "lowsun", "g173", "spctrl2", "6s", "lowtran"), figures=None, data_dir=None, processes=None):
     """Run the named validations; return a JSON-able dict of their results (and draw figures if asked)."""
-    from . import validation as v
-
     out = {}
     fig = Path(figures) if figures else None
     if fig:
@@ -54,9 +58,6 @@ def run(which=("rayleigh", "lowsun", "g173", "spctrl2", "6s", "lowtran"), figure
         if fig:
             _plot_6s(s6, fig / "build_6s.png")
     if "lowtran" in which:
-        from .lowtran_check import lowtran_comparison, plot_lowtran
-        from .solar import channel_extraterrestrial
-
         lt = lowtran_comparison(data_dir=data_dir)
         et = channel_extraterrestrial("tsis1", data_dir)
         weak = lt["ours_gas"] >= 0.95
@@ -128,8 +129,6 @@ def _plot_lowsun(ls, path):
 
 
 def _plot_spctrl2(s, path, data_dir):
-    from .validation import spctrl2_reference
-
     plt = _plt()
     ref = spctrl2_reference(data_dir)
     r = s["result"]
@@ -167,10 +166,6 @@ def _plot_6s(s6, path):
 
 
 def _plot_gasfit(path):
-    import json
-
-    from .gases import SHIPPED_FILE
-
     plt = _plt()
     d = json.loads(Path(SHIPPED_FILE).read_text())
     ew = [c["water"]["max_error"] for c in d["channels"]]

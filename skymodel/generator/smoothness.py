@@ -36,6 +36,8 @@ import warnings
 
 import numpy as np
 
+from ..evaluate import sky_radiance
+
 __all__ = ["ALMUCANTAR_ZENITHS_DEG", "VERTICAL_AZIMUTHS_DEG", "REL_TOL", "ZENITH_SPOT_TOL", "MAX_ALMUCANTAR_TP",
            "MAX_VERTICAL_TP", "MAX_AUREOLE_TP", "REFERENCE_REL_TOL", "REFERENCE_FLOOR_FRACTION", "VERTICAL_REFERENCE_HORIZON_DEG",
            "AUREOLE_REFERENCE_READ_ON_DEG", "AUREOLE_GAMMAS_DEG", "aureole_rays", "turning_points",
@@ -273,8 +275,6 @@ def check_states(model, states, rel_tol: float = REL_TOL, reference=None) -> lis
     measurable energy), the metrics of :func:`profile_metrics`, profile_tp (turning points of every profile), fails
     and fails_plain (C,) bool.
     """
-    from ..evaluate import sky_radiance
-
     keys = ("almucantar", "vertical", "aureole", "zenith")
     th = np.arange(2.5, 90.0, 5.0)  # the hemisphere for the energy criterion: 5 deg cells
     ph = np.arange(2.5, 360.0, 5.0)

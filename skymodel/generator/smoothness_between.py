@@ -22,9 +22,20 @@ solve. Results are cached in the build cache.
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from widesky.core.atomic import atomic_write
+
+from .cache import cache_root, load_state
+from .dask_scheduler import pool_map
+from .dataset_grid import fit_directions
+from .dataset_mc import (SPLIT_SMOOTHING, mc_file, mc_key, radiance_by_mc, single_scatter, smooth_across_visibility,
+                         split_rest, split_state)
+from .dataset_solve import solve_state
+from .smoothness import (AUREOLE_REFERENCE_READ_ON_DEG, LIMITS, REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL,
+                         VERTICAL_REFERENCE_HORIZON_DEG, between_grid_states, check_states, solver_turning_points)
 
 __all__ = ["solvable", "between_state_radiance", "between_reference"]
 
@@ -41,9 +52,6 @@ def _split_rest_at(config, elevation_deg: float, albedo: float, zenith_deg, azim
     """The grid's split rest at grid elevation ``elevation_deg`` [deg] and ``albedo`` [1] on the product grid
     ``zenith_deg`` x ``azimuth_deg`` [deg], smoothed across the grid visibilities and evaluated at ``visibility_km``
     [km]: (T, P, 55) [W m-2 sr-1 nm-1]."""
-    from .cache import load_state
-    from .dataset_mc import mc_file, smooth_across_visibility, split_rest
-
     vis = [float(v) for v in config.visibilities_km]
     rests = np.stack([split_rest(load_state(mc_file(config, v, elevation_deg)), albedo, zenith_deg, azimuth_deg)
                       for v in vis])
@@ -55,8 +63,6 @@ def solvable(config, elevation_deg: float) -> str | None:
     bracketing split states' rest), "disort", or None where the build has no noise-free reference there (a sky taken
     from an unsplit Monte Carlo solution, e.g. a polarised or twilight build, or below ``min_solve_elevation_deg`` in
     a plane-parallel one); such pairs keep the bracketing rule."""
-    from .dataset_mc import radiance_by_mc, split_state
-
     if split_state(config, elevation_deg):
         ok = all(split_state(config, e) for e, _ in _elevation_bracket(config.elevations_deg, elevation_deg))
         return "split" if ok else None
@@ -79,10 +85,6 @@ def between_state_radiance(config, visibility_km: float, elevation_deg: float, a
     -------
     zenith (T,) [deg], relative azimuth (P,) [deg], radiance (T, P, C) [W m-2 sr-1 nm-1].
     """
-    from .dataset_grid import fit_directions
-    from .dataset_solve import solve_state
-    from .dataset_mc import single_scatter
-
     ch = np.arange(55) if channels is None else np.asarray(channels, int)
     th, ph = fit_directions(elevation_deg, config.zenith_step_deg)
     bracket = _elevation_bracket(config.elevations_deg, elevation_deg)
@@ -101,13 +103,6 @@ def _reference_file(config, visibility_km, elevation_deg, albedo, channels):
     """Cache file of one state's turning points [.npz], named by what the solve depends on beyond the solver's key:
     the channels, the reference's hysteresis and how far its verticals and aureole rays are read on past the checked
     part, and for the split Monte Carlo states their key, smoothing and the grid they are blended from."""
-    import hashlib
-
-    from .cache import cache_root
-    from .dataset_mc import SPLIT_SMOOTHING, mc_key, split_state
-    from .smoothness import (AUREOLE_REFERENCE_READ_ON_DEG, REFERENCE_FLOOR_FRACTION, REFERENCE_REL_TOL,
-                             VERTICAL_REFERENCE_HORIZON_DEG)
-
     parts = [[int(c) for c in channels], REFERENCE_REL_TOL, REFERENCE_FLOOR_FRACTION,
              ["read on", list(VERTICAL_REFERENCE_HORIZON_DEG), AUREOLE_REFERENCE_READ_ON_DEG]]
     if split_state(config, elevation_deg):
@@ -121,7 +116,6 @@ def _reference_file(config, visibility_km, elevation_deg, albedo, channels):
 def _reference_job(job):
     """Turning points of the solver's own sky at one state for some channels: (state, channels, {kind: (C, n)})."""
     config, state, channels = job
-    from .smoothness import solver_turning_points
 
     path = _reference_file(config, *state, channels)
     if path.exists():
@@ -147,9 +141,6 @@ def between_reference(config, model, grid_reference, processes: int = 2, progres
     :func:`widesky.skymodel.generator.smoothness.reference_entries` rows), for
     :func:`widesky.skymodel.generator.smoothness.reference_from_entries`'s ``between``.
     """
-    from .dask_scheduler import pool_map
-    from .smoothness import LIMITS, between_grid_states, check_states
-
     states = between_grid_states(model)
     rows = check_states(model, states, reference=grid_reference)
     jobs = [(config, s, [int(c) for c in np.flatnonzero(r["fails"])]) for s, r in zip(states, rows)

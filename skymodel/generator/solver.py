@@ -27,15 +27,19 @@ relative to the sun's azimuth (0 = looking toward the sun), symmetric in sign.
 from __future__ import annotations
 
 import functools
+import multiprocessing as mp
 import os
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from tqdm import tqdm
 
-from ..opac import HUMIDITIES
-from .aerosol import OPAC_TYPES, aerosol_layer_fractions, opac_mixture
-from .atmosphere import PROFILES, slant_path_factors, standard_atmosphere
 from ..channels import CHANNEL_CENTERS_NM, N_CHANNELS, channel_index
+from ..opac import HUMIDITIES
+from ..visibility import aod550_from_visibility
+from .aerosol import OPAC_TYPES, PHASE_MU, aerosol_layer_fractions, opac_mixture
+from .atmosphere import PROFILES, slant_path_factors, standard_atmosphere
 from .gases import load_kdistributions
 from .optics import channel_subproblems
 from .ozone import ozone_optical_depth
@@ -166,8 +170,6 @@ def _prepared(spec: AtmosphereSpec, data_dir):
 
 def aod550_of(state: SkyState, spec: AtmosphereSpec, data_dir=None) -> float:
     """Aerosol optical depth at 550 nm [1] of a sky state."""
-    from ..visibility import aod550_from_visibility
-
     if state.aod550 is not None:
         return float(state.aod550)
     if state.visibility_km is not None:
@@ -275,7 +277,6 @@ def run_disort(problem, mu0, albedo, view_zenith_deg, rel_azimuth_deg, config: S
     cfg.flags.intensity_corr_buras = bool(config.intensity_correction)
     table = problem.phase_table() if (config.intensity_correction and config.tabulated_phase) else None
     if table is not None:
-        from .aerosol import PHASE_MU
         cfg.flags.intensity_corr_nakajima = False
         cfg.num_phase_func_angles = len(PHASE_MU)
     cfg.num_user_tau = 1
@@ -451,8 +452,6 @@ def solve_sky(state: SkyState, spec: AtmosphereSpec = AtmosphereSpec(), view_zen
     -------
     SkyResult
     """
-    import time
-
     t0 = time.perf_counter()
     ch = channel_index(channels)
     probs, et_ch, atm = channel_problems(state, spec, ch, config, data_dir)
@@ -479,7 +478,6 @@ def solve_sky(state: SkyState, spec: AtmosphereSpec = AtmosphereSpec(), view_zen
     nproc = min(os.cpu_count() or 1, len(jobs)) if processes is None else max(1, int(processes))
     results = {}
     if nproc > 1 and len(jobs) > 1:
-        import multiprocessing as mp
         with mp.get_context("spawn").Pool(nproc, initializer=_worker_init) as pool:
             it = pool.imap_unordered(_solve_channel, [jobs[i] for i in order])
             for r in _bar(it, len(jobs), progress):
@@ -520,7 +518,6 @@ def solve_sky(state: SkyState, spec: AtmosphereSpec = AtmosphereSpec(), view_zen
 def _bar(it, total, enabled):
     if not enabled:
         return it
-    from tqdm import tqdm
     return tqdm(it, total=total, desc="channels", leave=False)
 
 

@@ -9,12 +9,17 @@
 
 from __future__ import annotations
 
+import csv
+import multiprocessing as mp
+
 import numpy as np
 
 from widesky.core.spectral import band_average
 
-from ..channels import CHANNEL_EDGES_NM, N_CHANNELS
+from ..channels import CHANNEL_EDGES_NM, N_CHANNELS, channel_index
+from .gases import _sixs, load_kdistributions
 from .paths import data_file
+from .solar import channel_extraterrestrial
 from .solver import _trapezoid
 from .solver import AtmosphereSpec, SkyState, SolverConfig, direct_transmittance, solve_sky
 
@@ -73,8 +78,6 @@ def g173_comparison(result=None, processes=None, progress=False, data_dir=None, 
 
 
 def _gas_transmittance_g173():
-    from .gases import load_kdistributions
-
     kd = load_kdistributions()
     m = 1.0 / np.cos(np.radians(G173_ZENITH_DEG))
     return np.array([float(kd.transmittance(c, 1.4164, m)) for c in range(N_CHANNELS)])
@@ -88,8 +91,6 @@ albedo 0.2, day 75, horizontal surface."""
 
 def spctrl2_reference(data_dir=None):
     """SPCTRL2 example spectra: wavelength [nm], and dif, dir (normal), etr, glo [W m-2 nm-1]."""
-    import csv
-
     with open(data_file("validation/spectrl2_example_spectra.csv", data_dir)) as f:
         rows = list(csv.DictReader(f))
     col = {k: np.array([float(r[k]) for r in rows]) for k in ("wavelength", "specdif", "specdir", "specetr",
@@ -132,8 +133,6 @@ def sixs_comparison(result=None, channels=None, processes=2, data_dir=None):
     Returns dict with per-channel direct and diffuse (incl. 6S's environment term) horizontal fractions of both codes
     and the integrated ratios ours / 6S.
     """
-    from ..channels import channel_index
-
     ch = channel_index(channels)
     if result is None:
         state, spec = g173_case(et_source="tsis1")
@@ -141,7 +140,6 @@ def sixs_comparison(result=None, channels=None, processes=2, data_dir=None):
     aod550 = result.meta["aod550"]
     jobs = [(float(CHANNEL_EDGES_NM[c]), float(CHANNEL_EDGES_NM[c + 1]), aod550) for c in result.channels]
     if processes and processes > 1:
-        import multiprocessing as mp
         with mp.get_context("spawn").Pool(processes) as pool:
             res = pool.map(_sixs_aerosol_run, jobs)
     else:
@@ -160,8 +158,6 @@ def sixs_comparison(result=None, channels=None, processes=2, data_dir=None):
 
 def _sixs_aerosol_run(job):
     from Py6S import AeroProfile, GroundReflectance
-
-    from .gases import _sixs
 
     lo, hi, aod550 = job
     s = _sixs(lo, hi, 1.4164, 0.3438, G173_ZENITH_DEG)
@@ -228,8 +224,6 @@ def low_sun_comparison(elevations_deg=(0.5, 1, 2, 3, 5, 7.5, 10, 15), visibility
     Returns dict: elevation_deg (E,), t_spherical, t_plane_parallel (E, 55) [1], and the ratio of integrated
     DNI 280-2480 nm plane-parallel / spherical (E,) with the TSIS-1 ET.
     """
-    from .solar import channel_extraterrestrial
-
     el = np.asarray(elevations_deg, float)
     st = SkyState(solar_elevation_deg=45.0, visibility_km=visibility_km)
     ts = direct_transmittance(st, 90.0 - el, spec, spherical=True, data_dir=data_dir)

@@ -92,12 +92,9 @@ def _list(args) -> int:
     print(f"{'name':12s} {'label':30s} {'Eg [eV]':>9s} {'eta_stc':>8s} {'gamma [%/K]':>11s} "
           f"{'rel200':>7s} {'bifac':>6s} {'Jsc AM1.5G [mA cm-2]':>22s}")
     for n, t in TECHNOLOGIES.items():
-        try:
-            j = reference_currents(t)
-            js = "/".join(f"{v / 10:.1f}" for v in j.values())
-            eta = tandem_stc_efficiency(t)
-        except FileNotFoundError:
-            js, eta = "(no G173 file)", getattr(t, "eta_stc", float("nan"))
+        j = reference_currents(t)                       # under the shipped ASTM G173 spectrum
+        js = "/".join(f"{v / 10:.1f}" for v in j.values())
+        eta = tandem_stc_efficiency(t)
         eg = (f"{t.top.bandgap_ev:.2f}/{t.bottom.bandgap_ev:.2f}" if isinstance(t, TandemTechnology)
               else f"{t.eqe.bandgap_ev:.2f}")
         print(f"{n:12s} {t.label:30s} {eg:>9s} {eta:8.3f} {100 * t.gamma_pdc:11.2f} "
