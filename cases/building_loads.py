@@ -15,6 +15,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from widesky.thermal import (Construction, ZoneSpec, building_loads, glazing_response, irradiance_by_surface,
+                             window_gain_by_surface)
+
 __all__ = ["ThermalRun", "ORIENTATIONS", "orientation_name", "prepare_building", "glazing_responses",
            "design_day_temperature", "building_thermal", "surface_display_labels"]
 
@@ -41,8 +44,6 @@ def surface_display_labels(building):
 def prepare_building(building, tcfg):
     """The building with every zone's use from the ``[thermal]`` section (air changes, internal gains per m2
     of floor, set-points)."""
-    from widesky.thermal import ZoneSpec
-
     zones = {z: ZoneSpec(z, s.floor_area, s.volume, tcfg["air_changes"], tcfg["internal_gains"] * s.floor_area,
                          tcfg["heating_setpoint"], tcfg["cooling_setpoint"]) for z, s in building.zones.items()}
     return replace(building, zones=zones)
@@ -51,7 +52,6 @@ def prepare_building(building, tcfg):
 def glazing_responses(units):
     """One spectral-angular g response per unit, named ``"<unit>:spectral"`` (what
     :func:`widesky.thermal.window_gain_by_surface` reads)."""
-    from widesky.thermal import glazing_response
     return [glazing_response(u, f"{name}:spectral") for name, u in units.items()]
 
 
@@ -63,7 +63,6 @@ def design_day_temperature(times, step_hours, mean, daily_range):
 
 
 def _constructions(tcfg, name, unit):
-    from widesky.thermal import Construction
     return {"wall": Construction("wall", tcfg["wall_u"]), "roof": Construction("roof", tcfg["roof_u"]),
             "floor": Construction("floor", tcfg["floor_u"], b=0.5), "window": Construction(name, glazing=unit)}
 
@@ -139,8 +138,6 @@ def building_thermal(result, building, tcfg, units, rated, temp_air, temp_sky=No
     -------
     ThermalRun
     """
-    from widesky.thermal import building_loads, irradiance_by_surface, window_gain_by_surface
-
     surf = [s for s in building.surfaces if s.kind != "shading"]
     labels = [s.label for s in surf]
     irr = irradiance_by_surface(result, labels)

@@ -15,6 +15,14 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+import pandas as pd
+
+from widesky import pvsim
+from widesky.core.paths import DataNotFoundError, data_reference
+from widesky.irradiance.simulation import AEROSOL_SOURCES, GROUND_SPECTRA, SKY_DEFAULTS, SPECTRAL_MODELS
+
+from .glazing import GLAZING_CHOICES
+
 __all__ = ["ConfigError", "Field", "SCHEMA", "load_config", "validate"]
 
 
@@ -55,10 +63,6 @@ class Field:
 
 
 REQUIRED = object()
-from widesky.irradiance.simulation import (AEROSOL_SOURCES, GROUND_SPECTRA, SKY_DEFAULTS,  # noqa: E402
-                                           SPECTRAL_MODELS)
-
-from .glazing import GLAZING_CHOICES  # noqa: E402
 
 _STEP_CHOICES = ("10min", "15min", "30min", "1h")
 _VIEWS = ("south-east", "south-west", "north-east", "north-west", "top")
@@ -162,7 +166,6 @@ OPTIONAL_SECTIONS = ("pv", "compare", "thermal")
 
 
 def _technology_choices():
-    from widesky import pvsim
     return tuple(pvsim.technology_names())
 
 
@@ -268,7 +271,6 @@ def _value(where, f: Field, raw, folder: Path):
             raise ConfigError(f"{where} = {raw!r}: no such file {p}")
         return p
     if f.kind == "time":
-        import pandas as pd
         try:
             t = pd.Timestamp(raw)
         except (ValueError, TypeError):
@@ -289,7 +291,6 @@ def _weather_path(where, raw, folder):
     if not raw:
         return None
     if raw.startswith("data:"):
-        from widesky.core.paths import DataNotFoundError, data_reference
         try:
             return data_reference(raw)
         except DataNotFoundError as exc:

@@ -29,6 +29,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from widesky.core.fresnel import slab
+from widesky.pvsim import rubin_soda_lime_index
+from widesky.skymodel.colour import cie1931_xyz
+from widesky.thermal import Gap, GlazingLayer, GlazingUnit, layer_from_nk
+from widesky.thermal.study import standard_units
+
 __all__ = ["BUILTIN_UNITS", "IGDB_UNITS", "GLAZING_CHOICES", "glazing_units", "unit_summary"]
 
 BUILTIN_UNITS = ("clear", "low-e", "solar-control")
@@ -41,8 +47,6 @@ _GAP_MM = 16.0         # gap width [mm]
 
 def clear_glass_nk(wavelength):
     """(n, k) [1] of the modelled clear float glass at ``wavelength`` [nm] (see the module text)."""
-    from widesky.pvsim import rubin_soda_lime_index
-
     wl = np.asarray(wavelength, float)
     alpha = 4.0 + 76.0 * np.exp(-(((wl - 1050.0) / 250.0) ** 2))          # absorption coefficient [m-1]
     return rubin_soda_lime_index(wl), alpha * wl * 1e-9 / (4.0 * np.pi)
@@ -56,9 +60,6 @@ def _step(wl, t_vis, t_ir, cut, width):
 def _coated(name, wl, n, k, t_vis, t_ir, cut, width, absorptance, emissivity, coating_side):
     """A coated pane: the coating's normal T, the rest reflected apart from ``absorptance``; the clear glass
     substrate gives the angular shape (thermal's scaled-substrate rule). ``coating_side``: "front" or "back"."""
-    from widesky.thermal import GlazingLayer
-    from widesky.thermal.optics import slab
-
     T_sub, R_sub = (a[0] for a in slab(n, k, _GLASS_MM, wl, [0.0]))
     T = _step(wl, t_vis, t_ir, cut, width) * T_sub
     R_coat = np.clip(1.0 - T - absorptance, 0.0, 1.0)
@@ -77,8 +78,6 @@ def glazing_units(names, data_dir=None):
         For an unknown name (listing the valid ones); ``FileNotFoundError`` for an ``igdb:`` unit with a
         ``data_dir`` that lacks the sample.
     """
-    from widesky.thermal import Gap, GlazingUnit, layer_from_nk
-
     bad = [n for n in names if n not in GLAZING_CHOICES]
     if bad:
         raise ValueError(f"glazing {bad[0]!r} is not valid; expected items from {', '.join(GLAZING_CHOICES)}")
@@ -99,7 +98,6 @@ def glazing_units(names, data_dir=None):
             out[name] = GlazingUnit(name, [sc, clear], [gap])
         else:
             if igdb is None:
-                from widesky.thermal.study import standard_units
                 igdb = standard_units(data_dir)
             u = igdb[name.split(":", 1)[1]]
             out[name] = GlazingUnit(name, u.layers, u.gaps)
@@ -111,8 +109,6 @@ def unit_summary(unit, channel_edges, spectrum):
     [nm] (e.g. the sky model's AM1.5 global): ``u_value`` [W m-2 K-1] (EN 673), ``g_normal``, ``g_diffuse``,
     ``t_solar`` [1] and ``t_visible`` [1] (normal transmittance weighted by the CIE 1931 photopic curve under
     that spectrum), evaluated on a 10 nm grid."""
-    from widesky.skymodel.colour import cie1931_xyz
-
     edges = np.asarray(channel_edges, float)
     wl = np.arange(edges[0] + 5.0, edges[-1], 10.0)
     e = np.asarray(spectrum, float)[np.clip(np.searchsorted(edges, wl) - 1, 0, len(edges) - 2)]

@@ -9,6 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import trimesh
+from PIL import Image, ImageDraw, ImageFont
 
 __all__ = ["VIEWS", "colour_ramp", "render_scene", "write_ply", "write_glb"]
 
@@ -85,8 +87,6 @@ def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-we
     cull : ndarray (M,) of bool, optional  triangles not drawn when they face away from the camera (one-sided
         surfaces of closed solids)
     """
-    from PIL import Image, ImageDraw
-
     if view not in VIEWS:
         raise ValueError(f"view={view!r}: expected one of {', '.join(VIEWS)}")
     to_cam, right, up = _camera(view)
@@ -127,7 +127,6 @@ def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-we
         c = colour_ramp(1.0 - (y - y0) / max(y1 - y0 - 1, 1))
         draw.line([(x0, y), (x0 + int(0.22 * bar), y)], fill=tuple(int(255 * v) for v in c))
     try:
-        from PIL import ImageFont
         font = ImageFont.load_default(size=12 * ss)
     except TypeError:          # Pillow < 10.1
         font = None
@@ -139,8 +138,6 @@ def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-we
 
 def _coloured_mesh(vertices, triangles, face_values, vmin, vmax):
     """A trimesh mesh with per-face RGBA colours (the ramp of :func:`render_scene`; NaN grey)."""
-    import trimesh
-
     vals = np.asarray(face_values, float)
     rgb = colour_ramp((vals - vmin) / (vmax - vmin if vmax > vmin else 1.0))
     rgb[~np.isfinite(vals)] = 0.7
@@ -164,7 +161,6 @@ def write_glb(path, vertices, triangles, face_values, *, vmin, vmax):
     m = _coloured_mesh(vertices, triangles, face_values, vmin, vmax)
     colours = np.repeat(m.visual.face_colors, 3, axis=0)
     v = m.vertices[m.faces.reshape(-1)]
-    import trimesh
     yup = np.column_stack([v[:, 0], v[:, 2], -v[:, 1]])
     flat = trimesh.Trimesh(yup, np.arange(len(v)).reshape(-1, 3), vertex_colors=colours, process=False)
     Path(path).write_bytes(flat.export(file_type="glb"))

@@ -4,15 +4,21 @@ offline HTML page (inline CSS, inline SVG charts, images embedded as data URIs: 
 from __future__ import annotations
 
 import base64
-import io
 import shutil
 from html import escape
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from widesky.irradiance import PRESETS
+from widesky.pvsim import WATERFALL_STAGES
+from widesky.skymodel.render import render_sky, write_exr, write_png
 
 from .charts import bar_chart, line_chart
 from .render3d import render_scene, write_glb, write_ply
+from .report_thermal import thermal_columns, thermal_section
 from .runner import BANDS, CaseRun, dump_json
 
 __all__ = ["write_report", "label_means"]
@@ -52,8 +58,6 @@ def _table(header, rows):
 
 
 def _write_series(run: CaseRun, folder: Path):
-    import pandas as pd
-
     res, area = run.result, run.result.faces.area
     cols = {}
     for q in res.QUANTITIES:
@@ -67,7 +71,6 @@ def _write_series(run: CaseRun, folder: Path):
             for kind in ("dc", "ac"):
                 cols[f"plant:{name}:{kind} [W]"] = sum(ty.series[g][kind].to_numpy() for g in run.pv_groups)
     if run.thermal is not None:
-        from .report_thermal import thermal_columns
         cols.update(thermal_columns(run.thermal))
     df = pd.DataFrame(cols, index=res.times)
     df.index.name = "time (interval start)"
@@ -100,8 +103,6 @@ _STAGE_TEXT = {"unshaded": "unshaded POA", "poa": "POA (after shading)", "cover"
 
 def _pv_section(run: CaseRun):
     """HTML of the PV yield: per technology the plant's rating, energy, specific yield and loss waterfall."""
-    from widesky.pvsim import WATERFALL_STAGES
-
     y = run.pv
     groups = run.pv_groups
     rows, wf, monthly = [], {}, {}
@@ -167,8 +168,6 @@ def _site_name(run):
 def _compare_section(runs, folder: Path):
     """HTML (and ``sites.csv``) comparing the same case at several sites: per site the specific yield of each
     technology and its rank (with a [pv] section), else the insolation per group."""
-    import pandas as pd
-
     rows, table = [], {}
     if runs[0].pv is not None:
         names = list(runs[0].pv.technologies)
@@ -218,11 +217,6 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
     """Write every output of ``run`` into ``folder`` (an empty temporary folder); ``others``: the same case at
     more sites (a "Sites compared" section and ``sites.csv``); ``progress``: a tqdm bar over
     :data:`REPORT_STAGES`."""
-    import pandas as pd
-    from tqdm import tqdm
-
-    from widesky.skymodel.render import render_sky, write_exr, write_png
-
     folder = Path(folder)
     bar = tqdm(total=len(REPORT_STAGES), desc="report", unit="part", disable=not progress)
 
@@ -329,7 +323,6 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
     tm = run.timings
     thermal_html = ""
     if run.thermal is not None:
-        from .report_thermal import thermal_section
         thermal_html = thermal_section(run, folder)
         files.append("loads.csv")
     compare = _compare_section([run, *others], folder) if others else ""
@@ -396,8 +389,6 @@ SHA-1, settings, timings) in <code>provenance.json</code>.</p>
 
 
 def _settings_text(run: CaseRun):
-    from widesky.irradiance import PRESETS
-
     tol = run.config["accuracy"]["tolerance"]
     bound = next(t for t, s in PRESETS if s == run.settings)
     st = run.settings

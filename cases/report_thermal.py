@@ -9,6 +9,7 @@ from __future__ import annotations
 from html import escape
 
 import numpy as np
+import pandas as pd
 
 from .building_loads import ThermalRun
 from .charts import bar_chart, line_chart
@@ -56,8 +57,6 @@ def _table(header, rows):
 def thermal_section(run, folder):
     """HTML of the glazing and loads section; writes ``loads.csv`` (per unit and zone: heating, cooling, solar
     [kWh], peaks [W] and their times) into ``folder``."""
-    import pandas as pd
-
     th, tcfg = run.thermal, run.config["thermal"]
     summ = thermal_summary(th, run.step_hours)
     frames = []

@@ -49,10 +49,10 @@ from .raycast import Coefficients, start_coefficients
 from .scene import Scene
 from .skies import SkyStates
 
-__all__ = ["IntegratorSettings", "patch_radiance", "poa_irradiance", "POAResult",
-           "circumsolar_quadrature", "PRESETS", "model_irradiance", "measured_scaling"]
+__all__ = ["IntegratorSettings", "patch_radiance", "circumsolar_quadrature", "PRESETS", "model_irradiance",
+           "measured_scaling"]
 
-# poa_irradiance and POAResult live in irradiance.poa and irradiance.result (imported at the end)
+# poa_irradiance and POAResult live in irradiance.poa and irradiance.result
 
 
 @dataclass(frozen=True)

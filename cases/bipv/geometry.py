@@ -15,12 +15,11 @@ The window geometry follows ``box_building``: sill 0.9 m above the floor, head 0
 import numpy as np
 
 from widesky.cases.shapes import box, merge, quad_grid
+from widesky.thermal import box_building
 
 
 def build(parameters):
     """The building (its surfaces are analysis groups), the three PV groups, and the neighbour as context."""
-    from widesky.thermal import box_building
-
     w = float(parameters.get("width", 20.0))             # east-west [m]
     d = float(parameters.get("depth", 12.0))             # north-south [m]
     storeys = int(parameters.get("storeys", 3))

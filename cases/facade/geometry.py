@@ -7,13 +7,12 @@ z = 0.
 """
 
 from widesky.cases.shapes import box
+from widesky.thermal import box_building
 
 
 def build(parameters):
     """The office block as a ``building`` (its surfaces are the analysis groups) and the street's blocks as
     context."""
-    from widesky.thermal import box_building
-
     w = float(parameters.get("width", 30.0))             # east-west [m]
     d = float(parameters.get("depth", 14.0))             # north-south [m]
     storeys = int(parameters.get("storeys", 4))

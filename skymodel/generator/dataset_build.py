@@ -47,7 +47,7 @@ from ..evaluate import directions_from_angles, reference_angles
 from ..writer import DatasetContents, write_dataset
 from .cache import cache_root, ground_file, load_state, save_state, state_file, validation_states
 from .dask_scheduler import pool_map
-from .dataset_errors import evaluate_errors
+from .dataset_errors import evaluate_errors, summarise as summarise_errors
 from .dataset_grid import (AZIMUTHS_DEG, direction_samples, fit_directions, fit_weights, ground_directions, knots,
                            validation_directions, with_midpoints)
 from .dataset_mc import (MC_FIRST_ORDER, SPLIT_SMOOTHING, cached_rest_across_visibility, fit_grid, fit_polarisation,
@@ -1086,7 +1086,7 @@ def build_dataset(config: BuildConfig, output, processes: int = 2, progress: boo
     meta["solve"] = {"states_solved_now": n, "solve_seconds_now": round(secs, 1)}
     if validation:
         errs = evaluate_errors(config, output)
-        meta["errors"] = summarise(errs)
+        meta["errors"] = summarise_errors(errs)
 
     rows = solver_reference(config, progress)
     meta["smoothness_reference"] = {

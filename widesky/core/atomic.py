@@ -54,8 +54,9 @@ def plain_mode(path, folder=False):
 
 @contextlib.contextmanager
 def atomic_outputs(*paths):
-    """Context manager yielding one temporary path per destination (same folder, ending in the same suffix, so tools that go by the suffix still work); on a
-    normal exit every temporary file is renamed over its destination, on an exception all are removed.
+    """Context manager yielding one temporary path per destination (same folder, ending in the same suffix, so tools
+    that go by the suffix still work); on a normal exit every temporary file is renamed over its destination, on an
+    exception all are removed.
 
     Example::
 

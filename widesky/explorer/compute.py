@@ -14,7 +14,9 @@ import io
 import time
 
 import numpy as np
+from PIL import Image
 
+from widesky.irradiance import IntegratorSettings, PragueSky, SkyStates, cosine_weights, patch_radiance, reinhart
 from widesky.skymodel.colour import channel_xyz_weights
 from widesky.skymodel.evaluate import polarisation, sky_radiance, sun_direction, sun_radiance, transmittance
 from widesky.skymodel.render import QUANTITIES, Render, _display, fisheye_directions, render_sky
@@ -53,8 +55,6 @@ def render_view(model, view, threads=0):
 
 def png_bytes(r: Render, composite, exposure):
     """8-bit PNG of a render as bytes (fast zlib level: the image is for the screen)."""
-    from PIL import Image
-
     buf = io.BytesIO()
     if not np.any(r.mask):
         img = np.zeros(r.mask.shape + (3,), np.uint8)
@@ -119,7 +119,6 @@ _PATCH_CACHE = {}
 
 def _patches(mf):
     if mf not in _PATCH_CACHE:
-        from widesky.irradiance import cosine_weights, reinhart
         p = reinhart(mf)
         _PATCH_CACHE[mf] = (p, cosine_weights(p, np.array([[0.0, 0.0, 1.0]]))[0])
     return _PATCH_CACHE[mf]
@@ -147,8 +146,6 @@ def plane_irradiance(model, view, responses=None, mf=2):
         ``ground_diffuse``, ``global`` spectra [W m-2 nm-1] and ``integrated``: response name ->
         value of the global spectrum, ``broadband``: part -> [W m-2]; ``aoi_deg`` of the tilted plane [deg]; ``units`` per response.
     """
-    from widesky.irradiance import IntegratorSettings, PragueSky, SkyStates, cosine_weights, patch_radiance
-
     sky = PragueSky(model, elevation_quantum=0.0, threads=0)
     states = SkyStates.create(view.sun_elevation, view.sun_azimuth, view.visibility, view.albedo, view.altitude)
     patches, w_h = _patches(mf)

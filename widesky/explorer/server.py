@@ -24,17 +24,22 @@ import json
 import re
 import threading
 import time
+import webbrowser
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from pathlib import Path
 from urllib.parse import parse_qsl, urlsplit
 
 import numpy as np
+import pandas as pd
 
+from widesky import skymodel
 from widesky.core.atomic import atomic_write
+from widesky.irradiance import Site
+from widesky.skymodel.render import render_sky, write_exr, write_png
 
 from .compute import direction_at, plane_irradiance, png_bytes, render_view, spectrum_at
-from .params import ParameterError, channel_names, parse_pixel, parse_view
+from .params import ParameterError, _number, channel_names, parse_pixel, parse_view
 
 __all__ = ["Explorer", "make_server", "serve"]
 
@@ -66,8 +71,6 @@ class Explorer:
     """
 
     def __init__(self, datasets=None, output_dir=".", responses=None, threads=0, load_options=None):
-        from widesky import skymodel
-
         self.paths = [None] if not datasets else [Path(p) for p in datasets]
         self._models = [None] * len(self.paths)
         self._lock = threading.Lock()
@@ -156,8 +159,6 @@ class Explorer:
             return self._save(m, v, name, formats)
 
     def _save(self, m, v, name, formats):
-        from widesky.skymodel.render import render_sky, write_exr, write_png
-
         written = []
         if "png" in formats:
             r, composite, _ = render_view(m, v, self.threads)
@@ -192,11 +193,6 @@ def _atomic(path, write):
 def site_sun(query):
     """(apparent elevation, azimuth) [deg] of the sun for ``lat``, ``lon`` [deg], ``time`` (ISO 8601, local
     time of ``tz``) and ``tz`` (IANA name or hours east of UTC), by NREL SPA."""
-    import pandas as pd
-    from widesky.irradiance import Site
-
-    from .params import _number
-
     lat = _number(query, "lat", 50.08, -90.0, 90.0, "deg")
     lon = _number(query, "lon", 14.42, -180.0, 180.0, "deg")
     tz = query.get("tz", "UTC") or "UTC"
@@ -320,7 +316,6 @@ def serve(explorer: Explorer, port=8765, open_browser=True, quiet=True):
     url = f"http://127.0.0.1:{srv.server_address[1]}/"
     print(f"widesky sky explorer on {url} (Ctrl-C stops it); saving into {explorer.output_dir}", flush=True)
     if open_browser:
-        import webbrowser
         webbrowser.open(url)
     try:
         srv.serve_forever()
