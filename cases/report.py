@@ -19,7 +19,7 @@ from widesky.skymodel.render import render_sky, write_exr, write_png
 from .charts import bar_chart, line_chart
 from .render3d import render_scene, write_glb, write_ply
 from .report_thermal import thermal_columns, thermal_section
-from .runner import BANDS, CaseRun, dump_json
+from .run_result import BANDS, CaseRun, dump_json
 
 __all__ = ["write_report", "label_means"]
 

@@ -15,43 +15,25 @@ import shutil
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 
+import widesky.irradiance as ir
+from widesky import pvsim
 from widesky.core.atomic import plain_mode
+from widesky.irradiance import Response
+from widesky.thermal import sky_temperature
 
+from .building_loads import (building_thermal, design_day_temperature, glazing_responses, prepare_building,
+                             surface_display_labels)
 from .config import ConfigError, load_config
+from .glazing import glazing_units, unit_summary
+from .report import write_report
+from .run_result import BANDS, CaseRun, dump_json
 
 __all__ = ["BANDS", "CaseRun", "run_case", "build_geometry", "band_responses", "face_labels"]
-
-# broad spectral bands of the report's spectral split [nm]
-BANDS = {"UV 280-400 nm": (280.0, 400.0), "visible 400-700 nm": (400.0, 700.0),
-         "NIR 700-1100 nm": (700.0, 1100.0), "SWIR 1100-2480 nm": (1100.0, 2480.0)}
-
-
-@dataclass
-class CaseRun:
-    """Everything a case run computed (what the report shows)."""
-
-    folder: Path
-    config: dict
-    scene: object
-    result: object                 # irradiance.POAResult of the period
-    hour: object                   # irradiance.POAResult of report.sky_time with spectral parts
-    hour_index: int
-    hour_sun: tuple                # (apparent elevation, azimuth) [deg] of that hour (mid-interval)
-    labels: list                   # per analysis face: its group label ("roof", "row1 back" ...)
-    step_hours: float
-    dataset: object
-    settings: object
-    timings: dict = field(default_factory=dict)
-    pv: object = None              # pvsim.YieldResult when the case has a [pv] section
-    pv_groups: tuple = ()          # the analysis groups that are PV modules
-    thermal: object = None         # cases.building_loads.ThermalRun when the case has a [thermal] section
-    weather: str = "clear sky"     # how the sky was driven (a phrase for the report)
-    site: object = None            # irradiance.Site used (the weather file's with a weather file)
 
 
 def build_geometry(path: Path, parameters: dict):
@@ -90,7 +72,6 @@ def build_geometry(path: Path, parameters: dict):
 
 def band_responses():
     """:data:`BANDS` as unit-weight responses (no optics): 1 inside the band, 0 outside [1]."""
-    from widesky.irradiance import Response
     return [Response(name, [a, b], [1.0, 1.0], unit="weight") for name, (a, b) in BANDS.items()]
 
 
@@ -106,7 +87,6 @@ def face_labels(scene, rename=None):
 
 
 def _site(cfg):
-    import widesky.irradiance as ir
 
     s = cfg["site"]
     tz = s["tz"]
@@ -134,7 +114,6 @@ def _sha1(path, limit=1 << 26):
 
 def sky_options(cfg):
     """The case's [sky] table as :class:`widesky.irradiance.SkyOptions` (its defaults are SKY_DEFAULTS)."""
-    import widesky.irradiance as ir
 
     sk = cfg["sky"]
     return ir.SKY_DEFAULTS.replace(spectral_model=sk["spectral_model"], aerosol=sk["aerosol"],
@@ -146,7 +125,6 @@ def sky_options(cfg):
 def simulation(cfg, scene, settings, n_jobs=None, progress=False, sky_source=None):
     """The case's :class:`widesky.irradiance.Simulation`: the clear-sky period of [site], or the weather file's
     steps inside [period] (its records moved to period.start's year)."""
-    import widesky.irradiance as ir
 
     p, sk = cfg["period"], cfg["sky"]
     kw = dict(sky=sky_options(cfg), settings=settings, n_jobs=n_jobs, progress=progress, sky_source=sky_source)
@@ -164,7 +142,6 @@ def simulation(cfg, scene, settings, n_jobs=None, progress=False, sky_source=Non
 def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     """Validate the case in ``folder`` and compute its irradiance, yield and loads (no files written); ``cfg``:
     an already validated configuration (default: read ``folder/case.toml``)."""
-    import widesky.irradiance as ir
 
     folder = Path(folder).resolve()
     cfg = load_config(folder) if cfg is None else cfg
@@ -201,7 +178,6 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     pv = cfg.get("pv")
     pv_groups = ()
     if pv is not None:
-        from widesky import pvsim
         pv_resp, pv_sources = pvsim.technology_responses(pv["technologies"])
         responses = pv_resp + responses
         pv_groups = tuple(pv["groups"]) or tuple(g for g in geo["analysis"]
@@ -211,14 +187,11 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
             raise ConfigError(f"pv.groups: {bad[0]!r} is not an analysis group; groups: {', '.join(geo['analysis'])}")
     units = rated = None
     if tcfg is not None:
-        from .building_loads import glazing_responses, prepare_building
-        from .glazing import glazing_units, unit_summary
         try:
             units = glazing_units(tcfg["glazing"])
         except FileNotFoundError as exc:
             raise ConfigError(f"thermal.glazing: {exc}") from None
         building = prepare_building(building, tcfg)
-        from widesky import pvsim
         am15 = pvsim.widesky_am15g(sky)
         rated = {n: unit_summary(u, am15["channel_edges"], am15["scaled"]) for n, u in units.items()}
         responses = responses + glazing_responses(units)
@@ -238,8 +211,6 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         timings["pv_yield"] = time.perf_counter() - t3
     thermal_run = None
     if tcfg is not None:
-        from widesky.thermal import sky_temperature
-        from .building_loads import building_thermal, design_day_temperature
         t4 = time.perf_counter()
         design = design_day_temperature(times, step_h, tcfg["temp_air"], tcfg["temp_air_range"])
         temp_sky = None
@@ -254,7 +225,6 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     timings["spectral_hour"] = time.perf_counter() - t2
     rename = None
     if building is not None:
-        from .building_loads import surface_display_labels
         rename = surface_display_labels(building)
     return CaseRun(folder, cfg, scene, res, hour, hi,
                    (float(states.sun_elevation[hi]), float(states.sun_azimuth[hi])),
@@ -293,7 +263,6 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
     Returns the report folder. Raises :class:`widesky.cases.config.ConfigError` (a ``ValueError``) for an
     invalid configuration, naming the key and its valid values.
     """
-    from .report import write_report
 
     folder = Path(folder)
     if progress is None:
@@ -339,7 +308,6 @@ def _check_output(out: Path):
 
 
 def _versions():
-    from importlib.metadata import PackageNotFoundError, version
     out = {"python": sys.version.split()[0]}
     for pkg in ("widesky", "numpy", "pandas", "trimesh", "embreex"):
         try:
@@ -347,14 +315,3 @@ def _versions():
         except PackageNotFoundError:
             out[pkg] = None
     return out
-
-
-def dump_json(path, obj):
-    """Write JSON (numpy scalars converted)."""
-    def conv(o):
-        if isinstance(o, (np.integer, np.floating)):
-            return o.item()
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        return str(o)
-    Path(path).write_text(json.dumps(obj, indent=2, default=conv), encoding="utf-8")

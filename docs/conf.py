@@ -48,8 +48,8 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "examples/GALLERY_HEADER.rst", "**/README.md"]
-# The figures folder holds images the pages embed; it is not a page source.
-exclude_patterns += ["figures"]
+# The figures folder holds images the pages embed, example-data the inputs of the README's commands: not page sources.
+exclude_patterns += ["figures", "example-data"]
 
 # --- Markdown (myst-parser) ------------------------------------------------------------------------
 myst_enable_extensions = ["dollarmath", "amsmath", "deflist", "colon_fence", "attrs_inline"]

@@ -19,20 +19,25 @@ Stages (see :mod:`widesky.irradiance.integrator` for the method):
 from __future__ import annotations
 
 import hashlib
+import importlib.metadata as md
 import os
 import time
 from dataclasses import asdict
 from typing import NamedTuple
 
 import numpy as np
+from tqdm.auto import tqdm
 
+from .allsky import AllSkyOptions
+from .allsky_sky import AllSkyWeather, allsky_patch_radiance
+from .ground import vegetation_albedo_shape
 from .integrator import (IntegratorSettings, horizontal_diffuse, lazy_zeros, patch_radiance)
 from .measured import measured_scale_factors
 from .optics import DEFAULT_NODES, plan_optics
 from .patches import cosine_weights, reinhart
 from .raycast import Coefficients, start_coefficients
 from .response import Response
-from .result import ALL_PARTS, PARTS, FaceTable, H5Writer, POAResult, atomic_h5
+from .result import ALL_PARTS, PARTS, FaceTable, H5Writer, POAResult, atomic_h5, chunk_shape
 from .scene import Scene
 from .skies import SkyStates
 
@@ -170,7 +175,6 @@ _SHA1: dict = {}
 
 
 def _versions():
-    import importlib.metadata as md
     out = {}
     for pkg in ("widesky", "numpy", "embreex", "h5py"):
         try:
@@ -241,8 +245,6 @@ def _allsky_setup(spectral_model, measured, T, sky, options):
         return None
     if measured is None:
         raise ValueError("spectral_model='allsky' needs measured=(dni, dhi) or an AllSkyWeather")
-    from .allsky import AllSkyOptions
-    from .allsky_sky import AllSkyWeather
     wx = measured if isinstance(measured, AllSkyWeather) else AllSkyWeather(*tuple(measured)[:2])
     wx = AllSkyWeather(*(None if v is None else np.broadcast_to(np.asarray(v, float), (T,)) for v in wx))
     model = getattr(sky, "model", None)
@@ -373,7 +375,6 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     ground_shape, ground_steps = None, None
     if allsky_in is not None and allsky_in[1].ground == "vegetation" and ga is None:
         # the all-sky ground: a vegetation shape (albedo-weighted columns) and a grey part, per step
-        from .ground import vegetation_albedo_shape
         ground_shape = vegetation_albedo_shape(sky.wavelengths)
         ground_steps = (np.zeros(T), np.asarray(states.albedo, dtype=float).copy())
         spectral_ground = True
@@ -418,7 +419,6 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     block_steps = int(max(1, block_steps))
     if output is not None:
         # whole HDF5 chunks per block: a block edge inside a chunk makes HDF5 read it back
-        from .result import chunk_shape
         tc = chunk_shape(max(T, 1), max(F, 1))[0]
         block_steps = max(tc, block_steps // tc * tc)
     blocks = [(b0, min(T, b0 + block_steps)) for b0 in range(0, T, block_steps)] or [(0, 0)]
@@ -446,7 +446,6 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         t0 = time.perf_counter()
         st = states.take(idx)
         if allsky_in is not None:                  # all-sky model: factors per step and channel
-            from .allsky_sky import allsky_patch_radiance
             Lp, dni, f, (model_dni[idx], model_dhi[idx]), g = allsky_patch_radiance(
                 sky, patches, st, Wall, settings, allsky_in[0].take(idx), allsky_in[1], allsky_in[2],
                 ground_shape=ground_shape)
@@ -506,7 +505,6 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         ci = 0
         bar = None
         if progress:
-            from tqdm.auto import tqdm
             bar = tqdm(total=len(chunk_plan), unit="chunk", desc="time series")
         face_nT = np.ascontiguousarray(np.asarray(scene.face_normal, dtype=np.float32).T)
         sun_dir32 = states.sun_direction.astype(np.float32)

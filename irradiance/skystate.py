@@ -23,12 +23,17 @@ is evaluated once and the result is gathered back per step.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, fields
 
 import numpy as np
 import pandas as pd
 
 from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
+
+from .location import Site, time_range
+from .skies import SkyStates
+from .weather import WeatherData, read_weather
 
 __all__ = ["SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "sky_states_for", "GroupingSteps",
            "DEFAULT_GROUPING", "SkyGroups", "group_sky_states", "SKY_STATE_COLUMNS"]
@@ -430,11 +435,7 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
         ``earth_sun_distance`` [AU] (NREL SPA), and ``clamped`` flags for ``visibility``,
         ``albedo`` and ``altitude`` (values outside the model's ranges are clamped to them).
     """
-    import warnings
 
-    from .location import Site, time_range
-    from .skies import SkyStates
-    from .weather import WeatherData, read_weather
 
     if isinstance(source, Site):
         if start is None or end is None:

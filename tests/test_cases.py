@@ -204,11 +204,11 @@ def test_a_failed_run_leaves_the_previous_report_untouched(small_report, monkeyp
     rep, folder = small_report
     before = sorted(p.name for p in rep.iterdir())
     stamp = (rep / "index.html").stat().st_mtime_ns
-    import widesky.cases.report
+    import widesky.cases.runner
     def boom(run, tmp, provenance, others=None, progress=False):
         (Path(tmp) / "index.html").write_text("half")
         raise KeyboardInterrupt                           # as if interrupted while writing
-    monkeypatch.setattr(cases.report, "write_report", boom)
+    monkeypatch.setattr(cases.runner, "write_report", boom)
     with pytest.raises(KeyboardInterrupt):
         cases.run_case(folder, rep, n_jobs=1, progress=False, log=lambda m: None)
     assert sorted(p.name for p in rep.iterdir()) == before and (rep / "index.html").stat().st_mtime_ns == stamp

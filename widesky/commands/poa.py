@@ -136,12 +136,9 @@ def _refuse_huge(n_steps, n_faces, n_responses, what):
 
 def _write_csv(res, path, group=None):
     """Area-weighted mean of every response's parts per face group, written atomically."""
-    import os
-    import tempfile
-
     import pandas as pd
 
-    from widesky.core.atomic import plain_mode
+    from widesky.core.atomic import atomic_write
     agg = res.aggregate()
     groups = list(enumerate(res.group_names))
     if group is not None:
@@ -153,16 +150,8 @@ def _write_csv(res, path, group=None):
         for p in ("global", "direct", "sky_diffuse", "ground_diffuse"):
             for g, name in groups:
                 cols[f"{name}:{r}:poa_{p}"] = agg[f"{r}:{p}"][:, g]
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".csv", dir=folder)
-    os.close(fd)
-    plain_mode(tmp)
-    try:
+    with atomic_write(path) as tmp:
         pd.DataFrame(cols, index=res.times).to_csv(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
 
 
 def _run(args) -> int:
