@@ -44,7 +44,8 @@ __all__ = ["liquid_water_k", "droplet_coalbedo", "mie_droplet_optics", "cloud_sp
            "cloud_relative_transmittance", "DEFAULT_DROPLET_RADIUS", "DEFAULT_ASYMMETRY",
            "ADT_REFRACTION_FACTOR", "LIQUID_WATER_CONTENT", "saturation_vapour_density",
            "cloud_vapour_path", "vapour_band_deepening", "rayleigh_optical_depth", "rayleigh_spherical_albedo",
-           "cloud_top_rayleigh_gain", "CLOUD_TOP_PRESSURE_RATIO"]
+           "cloud_top_rayleigh_gain", "CLOUD_TOP_PRESSURE_RATIO", "exponential_integral_1",
+           "exponential_integral_3"]
 
 DEFAULT_DROPLET_RADIUS = 10.0
 """Effective droplet radius [um] of a typical continental stratiform water cloud (observed 5-15 um;
@@ -457,11 +458,50 @@ def rayleigh_spherical_albedo(tau):
     spherical albedo, Vermote et al. 1997; exact single scattering for thin layers, ``s -> tau``, and
     the two-stream limit for thick ones). Within 2 % of DISORT for tau 0.01-1
     (tests/test_allsky_optics.py)."""
-    from scipy.special import expn
     t = np.asarray(tau, dtype=float)
     if np.any(t < 0):
         raise ValueError("tau must be >= 0")
-    return (3.0 * t - (4.0 + 2.0 * t) * expn(3, t) + 2.0 * np.exp(-t)) / (4.0 + 3.0 * t)
+    return (3.0 * t - (4.0 + 2.0 * t) * exponential_integral_3(t) + 2.0 * np.exp(-t)) / (4.0 + 3.0 * t)
+
+
+_EULER_GAMMA = 0.5772156649015329
+# Abramowitz & Stegun (1964), eq. 5.1.56: x e^x E1(x) = (x^4 + a1 x^3 + a2 x^2 + a3 x + a4) /
+# (x^4 + b1 x^3 + b2 x^2 + b3 x + b4) for 1 <= x, absolute error below 2e-8
+_AS_E1_A = (8.5733287401, 18.0590169730, 8.6347608925, 0.2677737343)
+_AS_E1_B = (9.5733223454, 25.6329561486, 21.0996530827, 3.9584969228)
+
+
+def exponential_integral_1(x):
+    """Exponential integral ``E1(x) = int_1^inf exp(-x t) / t dt`` [1] for ``x > 0`` [1]: its power series
+    ``-gamma - ln x - sum_k (-x)^k / (k k!)`` up to x = 1 (to float rounding), Abramowitz & Stegun's rational
+    approximation 5.1.56 above (relative error below 2e-8)."""
+    x = np.asarray(x, dtype=float)
+    if np.any(~(x > 0)):
+        raise ValueError("x must be > 0")
+    out = np.empty_like(x)
+    small = x <= 1.0
+    xs = x[small]
+    term, total = np.ones_like(xs), np.zeros_like(xs)
+    for k in range(1, 40):                       # |x|^k / (k k!) < 1e-17 by k = 18 for x <= 1
+        term = term * (-xs) / k
+        total += term / k
+    out[small] = -_EULER_GAMMA - np.log(xs) - total
+    xl = x[~small]
+    a, b = _AS_E1_A, _AS_E1_B
+    num = (((xl + a[0]) * xl + a[1]) * xl + a[2]) * xl + a[3]
+    den = (((xl + b[0]) * xl + b[1]) * xl + b[2]) * xl + b[3]
+    out[~small] = num / den * np.exp(-xl) / xl
+    return out
+
+
+def exponential_integral_3(x):
+    """Exponential integral ``E3(x) = int_1^inf exp(-x t) / t^3 dt`` [1] for ``x >= 0`` [1], from E1 by the
+    recurrence ``E_{n+1} = (exp(-x) - x E_n) / n``: ``E3 = (exp(-x) (1 - x) + x^2 E1(x)) / 2``; E3(0) = 1/2."""
+    x = np.asarray(x, dtype=float)
+    if np.any(~(x >= 0)):
+        raise ValueError("x must be >= 0")
+    safe = np.where(x > 0, x, 1.0)
+    return np.where(x > 0, 0.5 * (np.exp(-x) * (1.0 - x) + x * x * exponential_integral_1(safe)), 0.5)
 
 
 def cloud_top_rayleigh_gain(wavelength_nm, tau, albedo=0.2, asymmetry=DEFAULT_ASYMMETRY,
