@@ -42,7 +42,9 @@ def main(argv=None):
     for model in ("clear", "allsky"):
         for _ in range(max(1, args.repeat)):
             t0 = time.perf_counter()
-            res = ir.poa_irradiance(scene, sky, states, measured=weather, spectral_model=model, n_jobs=1)
+            res = ir.poa_irradiance(scene, sky, states,
+                                    weather=ir.MeasuredSky(measured=weather, spectral_model=model),
+                                    run=ir.RunOptions(n_jobs=1))
             wall = time.perf_counter() - t0
             sky_t = res.timings["sky"]
             if model not in best or wall < best[model][0]:

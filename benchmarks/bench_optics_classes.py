@@ -75,8 +75,8 @@ def main(argv=None):
     for label, nodes in node_sets().items():
         nodes = DEFAULT_NODES if nodes is None else nodes
         for sname, scene in scenes.items():
-            res = ir.poa_irradiance(scene, sky, st, responses=[glz] + refs, optic_nodes=nodes,
-                                    n_jobs=1)
+            res = ir.poa_irradiance(scene, sky, st, responses=[glz] + refs,
+                                    run=ir.RunOptions(optic_nodes=nodes, n_jobs=1))
             g_ref = sum(res.get(r.name, "global") for r in refs)
             for p in parts:
                 got = res.get("glazing", p).astype(float)

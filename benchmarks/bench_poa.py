@@ -198,11 +198,11 @@ def _worker(mode, faces, jobs, output):
     if mode == "today":
         poa_irradiance = importlib.import_module(pkg + ".integrator").poa_irradiance
         res = poa_irradiance(scene, sky, states, responses=responses(sky.wavelengths),
-                             times=times, n_jobs=jobs)
+                             times=times, n_jobs=jobs)    # the baseline commit's keywords
     else:
-        from widesky.irradiance import poa_irradiance
-        res = poa_irradiance(scene, sky, states, responses=response_objects(
-            sky.wavelengths, mode == "optics"), times=times, n_jobs=jobs, output=output)
+        from widesky.irradiance import OutputOptions, RunOptions, poa_irradiance
+        res = poa_irradiance(scene, sky, states, responses=response_objects(sky.wavelengths, mode == "optics"),
+                             times=times, run=RunOptions(n_jobs=jobs), output=OutputOptions(path=output))
     sec = time.perf_counter() - t0
     ru1 = resource.getrusage(resource.RUSAGE_SELF)
     if mode == "today":
@@ -314,7 +314,7 @@ def main(argv=None):
     if args.compare:
         return compare(args)
     from widesky.irradiance.integrator import IntegratorSettings
-    from widesky.irradiance.poa import poa_irradiance
+    from widesky.irradiance.poa import RunOptions, poa_irradiance
     from widesky.irradiance.scene import make_scene
 
     t0 = time.perf_counter()
@@ -333,7 +333,7 @@ def main(argv=None):
     print(f"load average before the run: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores")
     t0 = time.perf_counter()
     res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times,
-                         n_jobs=args.jobs, progress=sys.stderr.isatty())
+                         run=RunOptions(n_jobs=args.jobs, progress=sys.stderr.isatty()))
     t_total = time.perf_counter() - t0
     tm = res.timings
     n_lit = tm["lit_steps"]
@@ -357,7 +357,7 @@ def main(argv=None):
     t0 = time.perf_counter()
     for t in pick:
         poa_irradiance(scene, sky, states.take([t]), responses=resp, settings=settings,
-                       n_jobs=args.jobs)
+                       run=RunOptions(n_jobs=args.jobs))
     t_hour = (time.perf_counter() - t0) / pick.size
     t_base = t_hour * n_lit
     print(f"baseline (sky ray-cast anew per hour): {t_hour:.2f} s/hour x {n_lit} lit hours = "

@@ -88,13 +88,13 @@ def hourly(scenes, states, args):
     """Per-step errors of the default settings against the reference, steps where the reference's
     poa_global exceeds 50 W m-2: relative error of poa_global, and errors of the sky-diffuse and
     reflected components as fractions of that step's poa_global (percentiles over steps and points)."""
-    from widesky.irradiance.poa import poa_irradiance
+    from widesky.irradiance.poa import RunOptions, poa_irradiance
     from widesky.irradiance.skies import PragueSky
 
     sky = PragueSky()
     for name, scene in scenes.items():
         ref, _ = reference(name, scene, states, args.cache, args.jobs, sky)
-        res = poa_irradiance(scene, sky, states, n_jobs=args.jobs)
+        res = poa_irradiance(scene, sky, states, run=RunOptions(n_jobs=args.jobs))
         g = ref["poa_global"]
         ok = g > 50.0
         rel = (res.poa_global - g)[ok] / g[ok]
@@ -129,7 +129,7 @@ def main(argv=None):
               for kw, errs, secs, load in saved["rows"]], args)
         return 0
     from widesky.irradiance.integrator import IntegratorSettings
-    from widesky.irradiance.poa import poa_irradiance
+    from widesky.irradiance.poa import RunOptions, poa_irradiance
     from widesky.irradiance.reference import validation_scenes
     from widesky.irradiance.skies import PragueSky
 
@@ -163,7 +163,7 @@ def main(argv=None):
         st = IntegratorSettings(**kw)
         errs = {}
         for name, scene in scenes.items():
-            a = poa_irradiance(scene, sky, states, settings=st, n_jobs=1)
+            a = poa_irradiance(scene, sky, states, settings=st, run=RunOptions(n_jobs=1))
             ref = refs[name]
             e = a.poa_global.sum(0, dtype=np.float64) / ref["poa_global"].sum(0) - 1
             area = scene.face_area
@@ -172,7 +172,7 @@ def main(argv=None):
         secs = np.nan
         if not args.no_timing:
             t = time.process_time()
-            poa_irradiance(tscene, sky, tstates, responses=resp, settings=st, n_jobs=1)
+            poa_irradiance(tscene, sky, tstates, responses=resp, settings=st, run=RunOptions(n_jobs=1))
             secs = time.process_time() - t
         rows.append((kw, errs, secs, os.getloadavg()[0]))
         print(f"{label(kw):45s} " + "  ".join(

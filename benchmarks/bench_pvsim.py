@@ -49,7 +49,7 @@ def main(argv=None):
                     help="fused: also write every sub-cell current (global) to the POA file")
     args = ap.parse_args(argv)
     from widesky import pvsim
-    from widesky.irradiance import IntegratorSettings, make_scene, poa_irradiance
+    from widesky.irradiance import IntegratorSettings, OutputOptions, RunOptions, make_scene, poa_irradiance
 
     analysis, groups, context = bench_poa.benchmark_scene(args.faces)
     scene = make_scene(analysis, context, groups=groups, ground_z=0.0)
@@ -73,8 +73,9 @@ def main(argv=None):
     def baseline():
         c0 = cpu()
         t0 = time.perf_counter()
-        r = poa_irradiance(scene, sky, states, responses=bench_poa.responses(sky.wavelengths), settings=settings,
-                           times=times, n_jobs=args.jobs, output=os.path.join(tmp, "base.h5"))
+        r = poa_irradiance(scene, sky, states, responses=bench_poa.responses(sky.wavelengths),
+                           settings=settings, times=times, run=RunOptions(n_jobs=args.jobs),
+                           output=OutputOptions(path=os.path.join(tmp, "base.h5")))
         cpu_s["baseline"] = cpu() - c0
         return time.perf_counter() - t0, r
 
@@ -84,13 +85,15 @@ def main(argv=None):
         out = os.path.join(tmp, "pv.h5")
         if args.unfused:                           # the POA file with the currents, then pv_yield reads it
             r = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times,
-                               n_jobs=args.jobs, output=out,
-                               **({} if args.all_parts else {"parts": pvsim.technology_parts(resp)}))
+                               run=RunOptions(n_jobs=args.jobs),
+                               output=OutputOptions(path=out, parts=None if args.all_parts
+                                                    else pvsim.technology_parts(resp)))
             t_poa = time.perf_counter() - t0
             y = pvsim.pv_yield(r, techs, 20.0, 1.0, sources=sources)
         else:                                      # the yield model fused into the stream
             r, y = pvsim.simulate(scene, sky, states, techs, 20.0, 1.0, settings=settings, times=times,
-                                  n_jobs=args.jobs, output=out, keep_currents=args.keep_currents)
+                                  output=out, keep_currents=args.keep_currents,
+                                  run=RunOptions(n_jobs=args.jobs))
             t_poa = time.perf_counter() - t0
         cpu_s["pvsim"] = cpu() - c0
         return time.perf_counter() - t0, t_poa, r, y

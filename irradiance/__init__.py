@@ -20,6 +20,7 @@ from .integrator import (PRESETS, IntegratorSettings, measured_scaling, model_ir
 from .response import AngularTable, Response, SpectralAngularTable
 from .result import FaceTable, POAResult
 from .poa import poa_irradiance
+from .poa_options import MeasuredSky, OutputOptions, RunOptions
 from .allsky import CLEAR_SHAPE, AllSkyFactors, AllSkyOptions, allsky_factors
 from .allsky_sky import AllSkyWeather
 from .simulation import DEFAULTS_TABLE, SKY_DEFAULTS, Simulation, SkyInput, SkyOptions, sky_input
@@ -44,6 +45,7 @@ __all__ = [
     "SkyStates", "UniformSky", "AnalyticSky", "PragueSky", "compute_coefficients", "Coefficients",
     "start_coefficients", "PendingCoefficients", "sun_bins",
     "IntegratorSettings", "PRESETS", "patch_radiance", "poa_irradiance", "POAResult",
+    "MeasuredSky", "OutputOptions", "RunOptions",
     "model_irradiance", "measured_scaling", "FaceTable",
     # responses and their optics
     "Response", "AngularTable", "SpectralAngularTable",

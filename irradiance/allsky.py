@@ -39,7 +39,7 @@ DHI exactly and give the spectral shape physics argues for (docs/all-sky.md):
 The factors multiply the clear-sky model spectra the integrator evaluates:
 ``dni_scale * dni_clear`` and ``diffuse_scale * sky_radiance`` (circumsolar light takes the diffuse
 factor, as in the integrator); :func:`widesky.irradiance.poa_irradiance` applies them with
-``measured=..., spectral_model="allsky"`` (:mod:`widesky.irradiance.allsky_sky`), and with
+``MeasuredSky(measured=..., spectral_model="allsky")`` (:mod:`widesky.irradiance.allsky_sky`), and with
 ``angular="clear"`` they are plain (T, C) ``dni_scale``/``diffuse_scale``. Every part can be
 switched off (:class:`AllSkyOptions`); :data:`CLEAR_SHAPE` gives back the plain measured scaling.
 """

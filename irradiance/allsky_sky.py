@@ -1,6 +1,6 @@
 """The all-sky model inside the integrator: one chunk of steps, from the clear sky to contracted all-sky light.
 
-:func:`widesky.irradiance.poa_irradiance` with ``measured=..., spectral_model="allsky"`` calls
+:func:`widesky.irradiance.poa_irradiance` with ``MeasuredSky(measured=..., spectral_model="allsky")`` calls
 :func:`allsky_patch_radiance` for each chunk of lit steps instead of scaling the contracted clear sky
 by broadband factors. The clear sky is evaluated once, contracted with a broadband column and the
 identity (so the model's spectral DNI and DHI of the step are known from the integrator's own
@@ -46,7 +46,7 @@ class AllSkyWeather(NamedTuple):
 
 
 def weather_measurements(data, spectral_model="clear", aerosol="visibility", clear_sky=False):
-    """What the integrator's ``measured=`` takes from a weather file's rows, and how to describe it.
+    """What the integrator's ``MeasuredSky(measured=...)`` takes from a weather file's rows, and how to describe it.
 
     Parameters
     ----------

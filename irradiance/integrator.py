@@ -359,7 +359,7 @@ def measured_scaling(sky, states: SkyStates, dni, dhi, settings=None, **kwargs):
 
     :func:`model_irradiance` gives the model's values, :func:`widesky.irradiance.measured_scale_factors`
     the factors (keyword arguments go to it: floors, cap, ``missing``). Pass ``sun_scale`` and
-    ``sky_scale`` to :func:`poa_irradiance` as ``dni_scale`` and ``diffuse_scale``.
+    ``sky_scale`` to :func:`poa_irradiance` as ``MeasuredSky(dni_scale=..., diffuse_scale=...)``.
 
     Parameters
     ----------

@@ -188,7 +188,7 @@ class POAResult:
         have = self.stored_parts[response]
         if part not in have and not (part == "global" and set(PARTS) <= set(have)):
             raise ValueError(f"response {response!r} was kept with parts {have} only "
-                             f"(poa_irradiance(parts=...)); part={part!r} is not available")
+                             f"(poa_irradiance(output=OutputOptions(parts=...))); part={part!r} is not available")
         if part == "global" and part not in have:
             out = self._read(self._data[(response, "direct")], sel, rows).astype(np.float32,
                                                                                  copy=True)

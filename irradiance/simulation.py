@@ -31,6 +31,7 @@ from .allsky_sky import AllSkyWeather, weather_measurements
 from .integrator import IntegratorSettings
 from .location import Site
 from .poa import poa_irradiance
+from .poa_options import MeasuredSky, OutputOptions, RunOptions
 from .skies import PragueSky, SkyStates
 from .skystate import sky_states_for
 from .weather import WeatherData, WeatherFileError, read_weather
@@ -123,7 +124,7 @@ class SkyInput:
     states : SkyStates
         (T,) states: times, mid-interval sun [deg], visibility [km], albedo [1], Earth-Sun distance [AU].
     measured : None, tuple of numpy.ndarray or AllSkyWeather
-        What ``poa_irradiance(measured=...)`` takes: None (clear sky), (dni, dhi) (T,) [W m-2], or the
+        What ``MeasuredSky(measured=...)`` takes: None (clear sky), (dni, dhi) (T,) [W m-2], or the
         all-sky model's weather.
     spectral_model : {"clear", "allsky"}
         What the integrator applies ("clear" whenever ``measured`` is not all-sky weather).
@@ -310,8 +311,10 @@ class Simulation:
 
     def integrator_arguments(self, steps=None) -> dict:
         """Keyword arguments of :func:`widesky.irradiance.poa_irradiance` for this simulation's sky (all steps, or
-        ``steps``, a slice or index array): ``states``, ``measured``, ``times``, ``spectral_model``,
-        ``allsky_options``, ``settings``, ``n_jobs``, ``progress``. pvsim and thermal pass them on."""
+        ``steps``, a slice or index array): ``states``, ``times``, ``settings``, ``weather``
+        (:class:`~widesky.irradiance.poa_options.MeasuredSky`: the measured weather, spectral model and all-sky
+        options) and ``run`` (:class:`~widesky.irradiance.poa_options.RunOptions`: ``n_jobs``, ``progress``).
+        pvsim and thermal pass them on."""
         st, measured = self.input.states, self.input.measured
         if steps is not None:
             st = st.take(steps)
@@ -319,9 +322,10 @@ class Simulation:
                 measured = measured.take(steps)
             elif measured is not None:
                 measured = tuple(np.asarray(m)[steps] for m in measured)
-        return dict(states=st, measured=measured, times=st.times, spectral_model=self.input.spectral_model,
-                    allsky_options=self.allsky_options, settings=self.settings, n_jobs=self.n_jobs,
-                    progress=self.progress)
+        weather = MeasuredSky(measured=measured, spectral_model=self.input.spectral_model,
+                              allsky_options=self.allsky_options)
+        return dict(states=st, times=st.times, settings=self.settings, weather=weather,
+                    run=RunOptions(n_jobs=self.n_jobs, progress=self.progress))
 
     def run(self, responses=None, *, steps=None, output=None, spectral=False, parts=None, consumer=None,
             provenance=None, **kwargs):
@@ -331,19 +335,23 @@ class Simulation:
         ----------
         responses : list of Response, or dict, optional
             Spectral responses (broadband [W m-2] is always computed); ``parts``, ``consumer``, ``output``
-            (HDF5 file), ``spectral`` as ``poa_irradiance``.
+            (HDF5 file: ``OutputOptions.path``), ``spectral`` as
+            :class:`~widesky.irradiance.poa_options.OutputOptions`.
         steps : slice or array_like, optional
             Run only these steps (e.g. one hour's spectra).
+        **kwargs
+            Fields of :class:`~widesky.irradiance.poa_options.RunOptions` for this run (e.g. ``progress=False``,
+            ``coefficients``).
 
         Returns
         -------
         POAResult
         """
         args = self.integrator_arguments(steps)
-        args.update(kwargs)
+        args["run"] = dataclasses.replace(args["run"], **kwargs)
         prov = {"sky": self.description, **(provenance or {})}
-        return poa_irradiance(self.scene, self.sky_source, responses=responses, output=output, spectral=spectral,
-                              parts=parts, consumer=consumer, provenance=prov, **args)
+        out = OutputOptions(path=output, spectral=spectral, parts=parts, consumer=consumer, provenance=prov)
+        return poa_irradiance(self.scene, self.sky_source, responses=responses, output=out, **args)
 
     def weather_series(self, column, fallback):
         """(T,) values [column's unit] of a weather column, gaps and a site's period filled by ``fallback``

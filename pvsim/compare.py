@@ -229,10 +229,9 @@ def write_comparison(y: YieldResult, outdir, group=None, note=""):
 
 
 def bandgap_sweep(scene, sky, states, gaps_ev=None, terminals=2, group=None, cover=None, settings=None,
-                  measured=None, times=None, temp_air=25.0, wind_speed=1.0, n_jobs=None, progress=False,
-                  spectral_model="clear", allsky_options=None):
+                  weather=None, times=None, temp_air=25.0, wind_speed=1.0, run=None):
     """Annual yield of a perovskite/Si tandem against the top-cell band gap, one integrator run
-    (``measured``, ``spectral_model`` and ``allsky_options`` as :func:`widesky.pvsim.stream.simulate`).
+    (``weather`` and ``run`` as :func:`widesky.pvsim.stream.simulate`).
 
     Parameters
     ----------
@@ -253,8 +252,7 @@ def bandgap_sweep(scene, sky, states, gaps_ev=None, terminals=2, group=None, cov
     base = perovskite_silicon_tandem(terminals)
     techs = [base.with_top_bandgap(g).replace(name=f"{base.name}_{g:.3f}", label=f"{g:.2f} eV") for g in gaps]
     _, y = simulate(scene, sky, states, techs, temp_air, wind_speed, cover=cover, settings=settings,
-                    spectral_model=spectral_model, allsky_options=allsky_options,
-                    measured=measured, times=times, n_jobs=n_jobs, progress=progress, keep_currents=False)
+                    weather=weather, times=times, run=run, keep_currents=False)
     g = _group(y, group)
     rows = []
     for gap, t in zip(gaps, techs):

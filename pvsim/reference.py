@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from widesky.irradiance import SkyStates, make_scene, poa_irradiance
+from widesky.irradiance import OutputOptions, RunOptions, SkyStates, make_scene, poa_irradiance
 from widesky.irradiance.skies import PragueSky
 from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
 
@@ -58,7 +58,7 @@ def widesky_am15g(sky=None, albedo=0.2, angstrom=1.3):
     plate = trimesh.Trimesh(pts, [[0, 1, 2], [0, 2, 3]], process=False)
     scene = make_scene([plate], ground_z=0.0)
     st = SkyStates.create(np.array([90.0 - G173_ZENITH_DEG]), np.array([180.0]), vis, albedo)
-    res = poa_irradiance(scene, sky, st, spectral=True, n_jobs=1)
+    res = poa_irradiance(scene, sky, st, output=OutputOptions(spectral=True), run=RunOptions(n_jobs=1))
     spec = np.asarray(res.spectral["global"] if "global" in res.spectral else
                       sum(res.spectral[p] for p in ("direct", "sky_diffuse", "ground_diffuse")))[0]
     a = res.faces.area

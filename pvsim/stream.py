@@ -1,6 +1,6 @@
 """The yield model fused into the integrator's output stream.
 
-:func:`widesky.pvsim.simulate` hands a :class:`YieldStream` to ``widesky.irradiance.poa_irradiance(consumer=...)``:
+:func:`widesky.pvsim.simulate` hands a :class:`YieldStream` to ``widesky.irradiance.poa_irradiance(output=OutputOptions(consumer=...))``:
 for every chunk of daylight steps the integrator has just assembled, the stream reduces the faces'
 broadband and cover parts, angles of incidence and sub-cell currents to the per-group, per-technology
 sums of the yield model (:mod:`widesky.pvsim.system`'s ``_GroupAccumulator``) in one pass of a small C kernel
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from widesky.irradiance import FaceTable, poa_irradiance
+from widesky.irradiance import FaceTable, OutputOptions, poa_irradiance
 
 from . import _kernel
 from .module import G_STC, stack_power
@@ -173,9 +173,8 @@ class YieldStream:
 
 
 def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *, cover=None, system=None,
-             measured=None, times=None, settings=None, output=None, n_jobs=None, progress=False,
-             reference=None, reference_path=None, spectral_model="clear", keep_currents=True,
-             allsky_options=None):
+             weather=None, times=None, settings=None, output=None, run=None, reference=None,
+             reference_path=None, keep_currents=True):
     """One integrator run for all ``technologies`` (shared geometry and sky) with the yield model
     fused into its output stream (:class:`YieldStream`: no current is read back).
 
@@ -186,14 +185,13 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     temp_air, wind_speed : float or (T,) [degC], [m s-1]
     cover : CoverOptics, optional
     system : SystemSpec, optional
-    measured : (dni, dhi) or irradiance.AllSkyWeather, optional
-        Measured irradiance (T,) [W m-2] the sky is scaled to (an ``AllSkyWeather`` with
-        ``spectral_model="allsky"``).
-    spectral_model : {"clear", "allsky"}
-        Spectral shape under measured weather (``widesky.irradiance.poa_irradiance``; docs/all-sky.md). The
-        ``widesky pv`` commands use "allsky" whenever a weather file gives DNI and DHI.
-    allsky_options : irradiance.AllSkyOptions, optional
-        The all-sky model's parts (default all on: cloud spectra, CIE overcast light, vegetated ground).
+    weather : irradiance.MeasuredSky, optional
+        Measured irradiance (T,) [W m-2] the sky is scaled to, the spectral shape under it ("clear" or
+        "allsky", docs/all-sky.md; the ``widesky pv`` commands use "allsky" whenever a weather file gives DNI
+        and DHI) and the all-sky model's parts; default the clear sky as modelled.
+    times, settings : as ``widesky.irradiance.poa_irradiance``.
+    run : irradiance.RunOptions, optional
+        Processes, progress bars, ... of the integrator run.
     output : str, optional
         HDF5 file for the POA result (streams; bounded memory).
     reference : None, "widesky" or array_like (C,)
@@ -221,8 +219,6 @@ def simulate(scene, sky, states, technologies, temp_air=20.0, wind_speed=1.0, *,
     parts = technology_parts(resp)
     if not keep_currents:
         parts = {**{k: () for k in parts}, COVER_RESPONSE: "global"}
-    res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, measured=measured,
-                         times=times, output=output, n_jobs=n_jobs, progress=progress,
-                         spectral_model=spectral_model, allsky_options=allsky_options, parts=parts,
-                         consumer=stream)
+    res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, weather=weather, times=times,
+                         output=OutputOptions(path=output, parts=parts, consumer=stream), run=run)
     return res, stream.result(times if times is not None else res.times)

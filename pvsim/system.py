@@ -183,8 +183,8 @@ def technology_responses(technologies, cover=None):
 
 
 def technology_parts(responses):
-    """``poa_irradiance(parts=...)`` for the responses of :func:`technology_responses`: the yield
-    model reads only each sub-cell current's global part, so only that is kept (a third of their
+    """``poa_irradiance(output=OutputOptions(parts=...))`` for the responses of
+    :func:`technology_responses`: the yield model reads only each sub-cell current's global part, so only that is kept (a third of their
     output; the numbers are those of a full run); the cover keeps its three parts (the angle loss
     per part)."""
     return {r.name: "global" for r in responses if r.name != COVER_RESPONSE}

@@ -23,7 +23,7 @@ from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors
 from widesky.irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
 from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
 from widesky.irradiance.integrator import IntegratorSettings
-from widesky.irradiance.poa import poa_irradiance
+from widesky.irradiance.poa import MeasuredSky, OutputOptions, RunOptions, poa_irradiance
 from widesky.irradiance.measured import measured_scale_factors
 from widesky.irradiance.scene import make_scene
 from widesky.irradiance.skies import AnalyticSky, SkyStates
@@ -156,7 +156,8 @@ def test_plane_path_matches_the_integrator_and_conserves_energy():
     clear = clear_plane_spectra(sky, states, 40.0, 180.0, settings)
     w = np.diff(sky.channel_edges)
     dni, dhi = (clear.dni @ w) * np.array([0.0, 0.5, 0.9]), (clear.dhi @ w) * np.array([3.0, 1.6, 1.0])
-    res = poa_irradiance(scene, sky, states, measured=(dni, dhi), settings=settings, n_jobs=1)
+    res = poa_irradiance(scene, sky, states, settings=settings, weather=MeasuredSky(measured=(dni, dhi)),
+                         run=RunOptions(n_jobs=1))
     ref = measured_scale_factors(clear.dni @ w, clear.dhi @ w, dni, dhi, missing="clear")
     plain = plane_poa(clear, ref.sun_scale, ref.sky_scale, states.albedo)
     np.testing.assert_allclose(plain["poa_direct"] @ w, res.poa_direct[:, 0], rtol=1e-5, atol=1e-3)
@@ -186,8 +187,10 @@ def test_integrator_allsky_matches_the_plane_path(angular):
                     channel_edges=sky.channel_edges, vegetated=vegetated_steps(states.albedo))
     assert (angular == "clear") == np.all(f.circumsolar_dhi == 0)
     scene = make_scene([_panel(40.0), _panel(0.0, z=150.0)], ground_z=0.0, analysis_reflectance=0.0)
-    res = poa_irradiance(scene, sky, states, measured=AllSkyWeather(dni, dhi), settings=settings,
-                         n_jobs=1, spectral_model="allsky", allsky_options=opt, spectral=True)
+    res = poa_irradiance(scene, sky, states, settings=settings,
+                         weather=MeasuredSky(measured=AllSkyWeather(dni, dhi), spectral_model="allsky",
+                                             allsky_options=opt),
+                         run=RunOptions(n_jobs=1), output=OutputOptions(spectral=True))
     np.testing.assert_allclose(res.poa_direct[:, 0], ref["poa_direct"] @ w, rtol=1e-4, atol=1e-3)
     np.testing.assert_allclose(res.poa_sky_diffuse[:, 0], ref["poa_sky_diffuse"] @ w, rtol=1e-2)
     np.testing.assert_allclose(res.poa_ground_diffuse[:, 0], ref["poa_ground_diffuse"] @ w, rtol=3e-2)
@@ -203,9 +206,9 @@ def test_integrator_allsky_matches_the_plane_path(angular):
     gr = res.spectral["ground_diffuse"][:, 0, :]             # the vegetated ground's reflected spectrum
     np.testing.assert_allclose(gr, ref["poa_ground_diffuse"], rtol=0.03, atol=1e-6)
     with pytest.raises(ValueError, match="spectral_model"):
-        poa_irradiance(scene, sky, states, spectral_model="cloudy")
+        poa_irradiance(scene, sky, states, weather=MeasuredSky(spectral_model="cloudy"))
     with pytest.raises(ValueError, match="needs measured"):
-        poa_irradiance(scene, sky, states, spectral_model="allsky")
+        poa_irradiance(scene, sky, states, weather=MeasuredSky(spectral_model="allsky"))
 
 
 @pytest.mark.reference
@@ -361,9 +364,11 @@ def test_integrator_vegetated_ground_conserves_the_reflected_broadband():
     runs = {}
     for ground in ("vegetation", "grey"):
         opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, ground=ground)
-        runs[ground] = poa_irradiance(scene, sky, states, settings=settings, n_jobs=1, spectral_model="allsky",
-                                      measured=AllSkyWeather(dni, dhi, snow_depth=np.array([np.nan, 0.0, 3.0])),
-                                      allsky_options=opt, spectral=True)
+        runs[ground] = poa_irradiance(scene, sky, states, settings=settings, run=RunOptions(n_jobs=1),
+                                      weather=MeasuredSky(measured=AllSkyWeather(
+                                          dni, dhi, snow_depth=np.array([np.nan, 0.0, 3.0])),
+                                          spectral_model="allsky", allsky_options=opt),
+                                      output=OutputOptions(spectral=True))
     veg, grey = runs["vegetation"], runs["grey"]
     # exact for the unshaded ground's light; the panel's own shadow on the ground removes more beam (redder
     # than the sky light, so reflected more by vegetation) than sky light: 4e-4 here

@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 from widesky.irradiance.integrator import IntegratorSettings, patch_radiance
-from widesky.irradiance.poa import poa_irradiance
+from widesky.irradiance.poa import MeasuredSky, OutputOptions, RunOptions, poa_irradiance
 from widesky.irradiance.patches import direction_from_angles, reinhart
 from widesky.irradiance.raycast import compute_coefficients
 from widesky.irradiance.scene import make_scene
@@ -38,7 +38,8 @@ def test_uniform_sky_furnace(tilt, mf):
     """Uniform sky L: sky pi L (1 + cos tilt) / 2, ground albedo * pi L (1 - cos tilt) / 2."""
     scene = make_scene(quad(tilt, 200.0), ground_z=-50.0, ground_albedo=0.4, analysis_reflectance=0)
     L = 0.7
-    res = poa_irradiance(scene, UniformSky(L), STATES, settings=IntegratorSettings(mf=mf), n_jobs=1)
+    res = poa_irradiance(scene, UniformSky(L), STATES, settings=IntegratorSettings(mf=mf),
+                         run=RunOptions(n_jobs=1))
     c = np.cos(np.radians(tilt))
     np.testing.assert_allclose(res.poa_sky_diffuse, np.pi * L * WIDTH * (1 + c) / 2,
                                rtol=1e-4, atol=1e-6 * WIDTH)
@@ -55,7 +56,7 @@ def test_sun_only_furnace(tilt, azimuth):
     scene = make_scene(quad(tilt, azimuth), ground_z=-50.0, ground_albedo=0.25,
                        analysis_reflectance=0)
     E = 1.3
-    res = poa_irradiance(scene, UniformSky(0.0, dni=E), STATES, n_jobs=1)
+    res = poa_irradiance(scene, UniformSky(0.0, dni=E), STATES, run=RunOptions(n_jobs=1))
     s = STATES.sun_direction
     cos_aoi = np.maximum(s @ scene.face_normal.T, 0.0)
     c = np.cos(np.radians(tilt))
@@ -72,7 +73,7 @@ def test_closed_box_is_dark():
     scene = make_scene([quad(30.0, 180.0, centre=(0, 0, 0)), quad(120.0, 0.0, centre=(1, 1, 1))],
                        context=box, context_reflectance=0.8, ground_z=-10.0, ground_albedo=0.5)
     sky = AnalyticSky()
-    res = poa_irradiance(scene, sky, STATES, n_jobs=1)
+    res = poa_irradiance(scene, sky, STATES, run=RunOptions(n_jobs=1))
     for q in res.QUANTITIES:
         assert np.all(getattr(res, q) == 0.0), q
 
@@ -87,7 +88,8 @@ def test_infinite_wall_view_factor():
     face = quad(0.0, 180.0, centre=(0.0, 0.0, 0.0), size=0.01)
     scene = make_scene(face, context=wall, context_reflectance=0.0, ground_z=0.0, ground_albedo=0.0)
     res = poa_irradiance(scene, UniformSky(1.0), STATES[:1] if False else STATES.take(slice(0, 1)),
-                         settings=IntegratorSettings(mf=2, rays_per_patch=4), n_jobs=1)
+                         settings=IntegratorSettings(mf=2, rays_per_patch=4),
+                         run=RunOptions(n_jobs=1))
     theta = np.arctan(h / d)
     np.testing.assert_allclose(res.poa_sky_diffuse / (np.pi * WIDTH), (1 + np.cos(theta)) / 2,
                                rtol=5e-3)
@@ -130,7 +132,7 @@ def test_responses_and_spectral_consistent():
     sky = AnalyticSky()
     sr = np.linspace(0.0, 1.0, 55)
     res = poa_irradiance(scene, sky, STATES, responses={"ramp": sr, "unit": np.ones(55)},
-                         spectral=True, n_jobs=1)
+                         output=OutputOptions(spectral=True), run=RunOptions(n_jobs=1))
     width = np.full(55, 40.0)
     np.testing.assert_allclose(res.weighted["unit"], res.poa_global, rtol=1e-5)
     for part in ("direct", "sky_diffuse", "ground_diffuse", "global"):
@@ -150,11 +152,12 @@ def test_responses_and_spectral_consistent():
 def test_scales_are_linear():
     scene = make_scene(quad(40.0, 160.0), ground_z=-1.0)
     sky = AnalyticSky()
-    a = poa_irradiance(scene, sky, STATES, n_jobs=1)
-    b = poa_irradiance(scene, sky, STATES, dni_scale=0.5, diffuse_scale=2.0, n_jobs=1)
+    a = poa_irradiance(scene, sky, STATES, run=RunOptions(n_jobs=1))
+    b = poa_irradiance(scene, sky, STATES, weather=MeasuredSky(dni_scale=0.5, diffuse_scale=2.0),
+                       run=RunOptions(n_jobs=1))
     # poa_direct holds the beam (dni_scale) and the circumsolar disc traced with it, which is sky
     # light (diffuse_scale): c, the direct part with no beam
-    c = poa_irradiance(scene, sky, STATES, dni_scale=0.0, n_jobs=1).poa_direct
+    c = poa_irradiance(scene, sky, STATES, weather=MeasuredSky(dni_scale=0.0), run=RunOptions(n_jobs=1)).poa_direct
     assert np.all(c >= 0) and np.any(c > 0)
     np.testing.assert_allclose(b.poa_direct, 0.5 * (a.poa_direct - c) + 2.0 * c, rtol=1e-5, atol=1e-4)
     np.testing.assert_allclose(b.poa_sky_diffuse, 2.0 * a.poa_sky_diffuse, rtol=1e-6)
@@ -179,7 +182,7 @@ def test_samples_per_face_and_two_sided():
     scene = make_scene(quad(0.0), ground_z=-500.0, ground_albedo=0.5, samples_per_face=4,
                        two_sided=True, analysis_reflectance=0)
     assert scene.n_faces == 4 and scene.n_points == 16
-    res = poa_irradiance(scene, UniformSky(1.0), STATES, n_jobs=1)
+    res = poa_irradiance(scene, UniformSky(1.0), STATES, run=RunOptions(n_jobs=1))
     np.testing.assert_allclose(res.poa_sky_diffuse[:, :2], np.pi * WIDTH, rtol=1e-4)
     np.testing.assert_allclose(res.poa_sky_diffuse[:, 2:], 0.0, atol=1e-9)
     np.testing.assert_allclose(res.poa_ground_diffuse[:, 2:], 0.5 * np.pi * WIDTH, rtol=1e-3)
@@ -194,7 +197,7 @@ def test_bad_input_messages():
         SkyStates.create([10.0], [0.0], visibility=-1.0)
     with pytest.raises(ValueError, match="response 'x'"):
         poa_irradiance(make_scene(quad()), UniformSky(), STATES, responses={"x": np.ones(3)},
-                       n_jobs=1)
+                       run=RunOptions(n_jobs=1))
     with pytest.raises(ValueError, match="tolerance"):
         IntegratorSettings.for_tolerance(1e-6)
 
@@ -209,11 +212,13 @@ def test_ground_albedo_paths_agree():
     st = SkyStates.create([12.0, 40.0, 65.0], [120.0, 180.0, 230.0], 40.0, [0.1, 0.3, 0.5])
     per_step = make_scene(rows, context=wall, ground_z=0.0)
     cf = compute_coefficients(per_step, sun_directions=st.sun_direction, n_jobs=1)
-    a = poa_irradiance(per_step, sky, st, coefficients=cf, n_jobs=1, spectral=True)
+    a = poa_irradiance(per_step, sky, st, run=RunOptions(coefficients=cf, n_jobs=1),
+                       output=OutputOptions(spectral=True))
     for t, alb in enumerate([0.1, 0.3, 0.5]):
         for ga in (alb, np.full(55, alb)):
             sc = make_scene(rows, context=wall, ground_z=0.0, ground_albedo=ga)
-            b = poa_irradiance(sc, sky, st, coefficients=cf, n_jobs=1, spectral=True)
+            b = poa_irradiance(sc, sky, st, run=RunOptions(coefficients=cf, n_jobs=1),
+                               output=OutputOptions(spectral=True))
             for q in a.QUANTITIES:
                 np.testing.assert_allclose(getattr(b, q)[t], getattr(a, q)[t], rtol=2e-5,
                                            atol=1e-4, err_msg=q)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from widesky.irradiance.poa import poa_irradiance
+from widesky.irradiance.poa import RunOptions, poa_irradiance
 from widesky.irradiance.patches import direction_from_angles
 from widesky.irradiance.raycast import compute_coefficients
 from widesky.irradiance.scene import make_scene
@@ -37,7 +37,7 @@ def test_dask_local_cluster_matches_serial():
     scene = make_scene(rows, context=box, ground_z=0.0)
     sun = STATES.sun_direction
     serial = compute_coefficients(scene, sun_directions=sun, n_jobs=1)
-    ref = poa_irradiance(scene, AnalyticSky(), STATES, n_jobs=1)
+    ref = poa_irradiance(scene, AnalyticSky(), STATES, run=RunOptions(n_jobs=1))
     with warnings.catch_warnings():
         # the cluster's own start-up and shutdown chatter is not under test
         warnings.simplefilter("ignore")
@@ -48,7 +48,7 @@ def test_dask_local_cluster_matches_serial():
         try:
             ex = client.get_executor()
             dist = compute_coefficients(scene, sun_directions=sun, executor=ex, chunk_size=4)
-            res = poa_irradiance(scene, AnalyticSky(), STATES, executor=ex)
+            res = poa_irradiance(scene, AnalyticSky(), STATES, run=RunOptions(executor=ex))
             workers = client.run(lambda: 1)
         finally:
             client.close()

@@ -21,7 +21,7 @@ import pytest
 import trimesh
 
 from widesky.irradiance.integrator import IntegratorSettings, measured_scaling, model_irradiance
-from widesky.irradiance.poa import poa_irradiance
+from widesky.irradiance.poa import MeasuredSky, RunOptions, poa_irradiance
 from widesky.irradiance.reference import reference_poa
 from widesky.irradiance.scene import make_scene
 from widesky.irradiance.skies import PragueSky, SkyStates, UniformSky
@@ -68,8 +68,9 @@ def test_measured_weather_reproduced_on_a_horizontal_face():
     assert not np.any(scaling.sun_guarded[:3]) and not np.any(scaling.sky_guarded[:3])
     assert scaling.sky_scale[3] == 1.0 and scaling.sky_guarded[3]
     scene = make_scene(horizontal_quad(z=2.0), ground_z=0.0, analysis_reflectance=0.0)
-    res = poa_irradiance(scene, sky, STATES, dni_scale=scaling.sun_scale,
-                         diffuse_scale=scaling.sky_scale, n_jobs=1)
+    res = poa_irradiance(scene, sky, STATES,
+                         weather=MeasuredSky(dni_scale=scaling.sun_scale, diffuse_scale=scaling.sky_scale),
+                         run=RunOptions(n_jobs=1))
     el = np.radians(STATES.sun_elevation)
     want_dhi = np.where(np.isfinite(dhi), dhi, mdhi)
     assert res.poa_global.shape == (T, 2)                               # two triangles
@@ -77,12 +78,14 @@ def test_measured_weather_reproduced_on_a_horizontal_face():
                                (dni * np.sin(el) + want_dhi)[:, None].repeat(2, 1), rtol=2e-3)
     assert np.all(res.poa_direct[0] < 0.05 * res.poa_sky_diffuse[0])   # overcast: circumsolar only
     # the same in one pass: the factors from the integrator's own sky evaluation
-    one = poa_irradiance(scene, sky, STATES, measured=(dni, dhi), n_jobs=1)
+    one = poa_irradiance(scene, sky, STATES, weather=MeasuredSky(measured=(dni, dhi)),
+                         run=RunOptions(n_jobs=1))
     np.testing.assert_allclose(one.scaling.sun_scale, scaling.sun_scale, rtol=1e-12)
     np.testing.assert_allclose(one.scaling.sky_scale, scaling.sky_scale, rtol=1e-12)
     np.testing.assert_allclose(one.poa_global, res.poa_global, rtol=1e-6)
     with pytest.raises(ValueError, match="not both"):
-        poa_irradiance(scene, sky, STATES, measured=(dni, dhi), dni_scale=1.0, n_jobs=1)
+        poa_irradiance(scene, sky, STATES, weather=MeasuredSky(measured=(dni, dhi), dni_scale=1.0),
+                       run=RunOptions(n_jobs=1))
 
 
 def test_measured_scaling_rejects_negative_irradiance():

@@ -18,7 +18,7 @@ import pandas as pd
 import pytest
 import trimesh
 
-from widesky.irradiance.poa import poa_irradiance
+from widesky.irradiance.poa import RunOptions, poa_irradiance
 from widesky.irradiance.patches import direction_from_angles
 from widesky.irradiance.raycast import sun_bins
 from widesky.irradiance.reference import reference_poa, validation_scenes
@@ -104,7 +104,7 @@ def test_default_settings_against_reference(name, tolerance):
     scene = validation_scenes()[name]
     sky = PragueSky()
     ref = reference_poa(scene, PragueSky(sky.model, elevation_quantum=0), states, n_jobs=2, **FAST)
-    res = poa_irradiance(scene, sky, states, n_jobs=1)
+    res = poa_irradiance(scene, sky, states, run=RunOptions(n_jobs=1))
     err = res.poa_global.sum(0, dtype=np.float64) / ref.poa_global.sum(0) - 1
     assert np.all(np.isfinite(err))
     assert np.abs(err).max() < tolerance, err
@@ -147,7 +147,7 @@ def test_optics_against_reference(name, tolerance):
                         angular=_cover, **FAST)
     ref0 = reference_poa(scene, PragueSky(sky.model, elevation_quantum=0), states, n_jobs=2, **FAST)
     cover = Response("cover", [280.0, 2480.0], [1.0, 1.0], angular=_cover)
-    res = poa_irradiance(scene, sky, states, responses=[cover], n_jobs=1)
+    res = poa_irradiance(scene, sky, states, responses=[cover], run=RunOptions(n_jobs=1))
     got = res.get("cover", "global").sum(0, dtype=np.float64)
     err = got / ref.poa_global.sum(0) - 1
     assert np.abs(err).max() < tolerance, err

@@ -9,7 +9,7 @@ import pytest
 import trimesh
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from widesky.irradiance.poa import poa_irradiance
+from widesky.irradiance.poa import RunOptions, poa_irradiance
 from widesky.irradiance.patches import direction_from_angles
 from widesky.irradiance.scene import make_scene
 from widesky.irradiance.skies import AnalyticSky, SkyStates
@@ -49,7 +49,7 @@ def test_awkward_orientations_and_sun_positions():
     faces = [quad(t, a, centre=(3.0 * i, 0, 1.0)) for i, (t, a) in
              enumerate([(0, 0), (90, 180), (90, 0), (180, 0), (179.9, 10), (89.99, 90), (45, 270)])]
     scene = make_scene(faces, ground_z=0.0, two_sided=True)
-    res = poa_irradiance(scene, SKY, STATES, n_jobs=1)
+    res = poa_irradiance(scene, SKY, STATES, run=RunOptions(n_jobs=1))
     check(res)
     night = STATES.sun_elevation <= 0
     assert np.all(res.poa_direct[night] == 0)
@@ -71,8 +71,8 @@ def test_tiny_triangles_and_huge_coordinates():
     w2 = wall.copy()
     w2.apply_translation(offset)
     b = make_scene(moved, context=w2, ground_z=offset[2])
-    ra = poa_irradiance(a, SKY, STATES, n_jobs=1)
-    rb = poa_irradiance(b, SKY, STATES, n_jobs=1)
+    ra = poa_irradiance(a, SKY, STATES, run=RunOptions(n_jobs=1))
+    rb = poa_irradiance(b, SKY, STATES, run=RunOptions(n_jobs=1))
     check(rb)
     for q in ra.QUANTITIES:
         np.testing.assert_allclose(getattr(rb, q), getattr(ra, q), rtol=1e-4, atol=1e-3)
@@ -88,7 +88,7 @@ def test_degenerate_and_enclosed_faces():
     with pytest.warns(UserWarning, match="1 degenerate"):
         scene = make_scene([degenerate, inside, buried], context=box, ground_z=0.0)
     assert list(scene.face_valid) == [False, True, True, True, True, True]
-    res = poa_irradiance(scene, SKY, STATES, n_jobs=1)
+    res = poa_irradiance(scene, SKY, STATES, run=RunOptions(n_jobs=1))
     check(res)
     assert np.all(res.poa_global[:, 0] == 0)                  # degenerate: 0 by policy
     assert np.all(res.poa_global[STATES.sun_elevation > 0, 1] > 0)
@@ -126,8 +126,8 @@ def test_black_occluder_never_adds_light(occ):
         warnings.simplefilter("error")
         more = make_scene(FACES, context=[far, box], context_reflectance=0.0, ground_z=0.0,
                           analysis_reflectance=0.0)
-    a = poa_irradiance(base, SKY, PROP_STATES, n_jobs=1)
-    b = poa_irradiance(more, SKY, PROP_STATES, n_jobs=1)
+    a = poa_irradiance(base, SKY, PROP_STATES, run=RunOptions(n_jobs=1))
+    b = poa_irradiance(more, SKY, PROP_STATES, run=RunOptions(n_jobs=1))
     # the two scenes are recentred differently: compare with a small tolerance for float32 origins
     for q in ("poa_global", "poa_direct", "poa_sky_diffuse", "poa_ground_diffuse"):
         assert np.all(getattr(b, q) <= getattr(a, q) * (1 + 1e-5) + 1e-3), q

@@ -18,8 +18,8 @@ import trimesh
 
 pvlib = pytest.importorskip("pvlib")
 
-from widesky.irradiance import (AngularTable, Response, SkyStates, SpectralAngularTable, make_scene,
-                        poa_irradiance)
+from widesky.irradiance import (AngularTable, Response, RunOptions, SkyStates, SpectralAngularTable, make_scene,
+                                poa_irradiance)
 from widesky.irradiance.optics import DEFAULT_NODES
 from widesky.irradiance.skies import UniformSky
 
@@ -47,7 +47,7 @@ def test_fresnel_cover_matches_marion_integrals(tilt):
     scene = make_scene(plane(tilt), ground_z=0.0)
     sky = UniformSky(radiance=0.05, dni=0.8)
     r = Response("cover", [280, 2480], [1, 1], angular=glass)
-    res = poa_irradiance(scene, sky, STATES, responses=[r], n_jobs=1)
+    res = poa_irradiance(scene, sky, STATES, responses=[r], run=RunOptions(n_jobs=1))
     want_sky = pvlib.iam.marion_integrate(glass, tilt, "sky")
     want_ground = pvlib.iam.marion_integrate(glass, tilt, "ground")
     sky_f = res.get("cover", "sky_diffuse")[:, 0] / res.poa_sky_diffuse[:, 0]
@@ -69,8 +69,8 @@ def test_separable_spectral_table_through_classes_is_exact():
     classed = Response("glazing", [280, 2480], [1, 1], unit="transmittance", angular=table)
     per_ray = Response("ref", wl, s, unit="transmittance", angular=AngularTable(nodes, g))
     scene = make_scene([plane(90.0), plane(35.0, 150.0, 3.0)], ground_z=0.0)
-    res = poa_irradiance(scene, UniformSky(radiance=0.05, dni=0.8), STATES,
-                         responses=[classed, per_ray], n_jobs=1)
+    res = poa_irradiance(scene, UniformSky(radiance=0.05, dni=0.8), STATES, responses=[classed, per_ray],
+                         run=RunOptions(n_jobs=1))
     for part in ("direct", "sky_diffuse", "ground_diffuse"):
         np.testing.assert_allclose(res.get("glazing", part), res.get("ref", part), rtol=1e-4,
                                    atol=1e-6, err_msg=part)

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from widesky.irradiance import POAResult, Response, SkyStates, SpectralAngularTable, make_scene, poa_irradiance
+from widesky.irradiance import (OutputOptions, POAResult, Response, RunOptions, SkyStates, SpectralAngularTable,
+                                make_scene, poa_irradiance)
 from widesky.irradiance.optics import DEFAULT_NODES
 from widesky.irradiance.skies import UniformSky
 
@@ -81,13 +82,14 @@ PARTS = {"a": "global", "b": ["global"], "c": "global", "d": "global", "e": ("di
 def runs(tmp_path_factory):
     scene = _scene()
     sky = UniformSky(radiance=0.05, dni=0.9)
-    full = poa_irradiance(scene, sky, STATES, responses=_responses(_fresnel), n_jobs=1)
+    full = poa_irradiance(scene, sky, STATES, responses=_responses(_fresnel), run=RunOptions(n_jobs=1))
     opt = Counting()
-    fast = poa_irradiance(scene, sky, STATES, responses=_responses(opt), n_jobs=1, parts=PARTS,
-                          coefficients=None)
+    fast = poa_irradiance(scene, sky, STATES, responses=_responses(opt),
+                          run=RunOptions(n_jobs=1, coefficients=None),
+                          output=OutputOptions(parts=PARTS))
     path = tmp_path_factory.mktemp("parts") / "fast.h5"
-    streamed = poa_irradiance(scene, sky, STATES, responses=_responses(_fresnel), n_jobs=1,
-                              parts=PARTS, output=path)
+    streamed = poa_irradiance(scene, sky, STATES, responses=_responses(_fresnel), run=RunOptions(n_jobs=1),
+                              output=OutputOptions(parts=PARTS, path=path))
     return full, fast, streamed, opt, path
 
 
@@ -152,7 +154,8 @@ def test_bad_parts():
                        ({"a": "total"}, "each part must be one of"), ({"a": []}, "no consumer reads them"),
                        ("global", "expected a dict")):
         with pytest.raises((ValueError, TypeError), match=msg):
-            poa_irradiance(scene, sky, STATES.take([1]), responses=r, n_jobs=1, parts=parts)
+            poa_irradiance(scene, sky, STATES.take([1]), responses=r, run=RunOptions(n_jobs=1),
+                           output=OutputOptions(parts=parts))
 
 
 # --- the fused product (one matrix per optic for global-only responses) ----------------------------
@@ -182,10 +185,11 @@ def fused_runs():
     rows = [_panel(30.0, 0.0), _panel(30.0, -4.0)]
     scene = make_scene(rows, [_wall(4.0)], ground_z=0.0, samples_per_face=4)
     sky = UniformSky(radiance=0.05, dni=0.9)
-    full = poa_irradiance(scene, sky, STATES_FOLD, responses=_responses(_fresnel), n_jobs=1)
+    full = poa_irradiance(scene, sky, STATES_FOLD, responses=_responses(_fresnel), run=RunOptions(n_jobs=1))
     col = Collect(len(STATES_FOLD), scene.n_faces)
-    fused = poa_irradiance(scene, sky, STATES_FOLD, responses=_responses(_fresnel), n_jobs=1,
-                           parts={"a": "global", "b": (), "c": "global", "d": "global"}, consumer=col)
+    fused = poa_irradiance(scene, sky, STATES_FOLD, responses=_responses(_fresnel), run=RunOptions(n_jobs=1),
+                           output=OutputOptions(parts={"a": "global", "b": (), "c": "global", "d": "global"},
+                                                consumer=col))
     return full, fused, col
 
 

@@ -14,7 +14,7 @@ import pytest
 import trimesh
 
 from widesky import pvsim
-from widesky.irradiance import SkyStates, make_scene, poa_irradiance
+from widesky.irradiance import RunOptions, SkyStates, make_scene, poa_irradiance
 from widesky.irradiance.skies import AnalyticSky
 from widesky.pvsim.stream import simulate
 from widesky.pvsim.system import SystemSpec, pv_yield, technology_responses
@@ -51,13 +51,13 @@ def runs():
     wind = np.linspace(0.3, 5, 12)
     sky = AnalyticSky()
     resp, src = technology_responses(TECHS)
-    full = poa_irradiance(scene, sky, states, responses=resp, n_jobs=1)
+    full = poa_irradiance(scene, sky, states, responses=resp, run=RunOptions(n_jobs=1))
     out = {}
     for model in ("faiman", "pvsyst"):
         spec = SystemSpec(temperature_model=model)
         ref = pv_yield(full, TECHS, temp, wind, sources=src, system=spec)
-        res, fused = simulate(scene, sky, states, TECHS, temp, wind, n_jobs=1, system=spec,
-                              keep_currents=model == "pvsyst")
+        res, fused = simulate(scene, sky, states, TECHS, temp, wind, system=spec,
+                              keep_currents=model == "pvsyst", run=RunOptions(n_jobs=1))
         out[model] = (ref, fused, res)
     return out
 

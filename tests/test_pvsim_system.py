@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 from widesky import pvsim
-from widesky.irradiance import SkyStates, make_scene, poa_irradiance
+from widesky.irradiance import OutputOptions, RunOptions, SkyStates, make_scene, poa_irradiance
 from widesky.irradiance.skies import AnalyticSky
 from widesky.pvsim.stream import simulate
 from widesky.pvsim.system import COVER_RESPONSE, CoverOptics, SystemSpec, pv_yield, technology_responses
@@ -51,7 +51,7 @@ def run(scene):
     times, st = _states()
     temp = np.linspace(15, 30, len(times))
     wind = np.linspace(0.5, 4, len(times))
-    res, y = simulate(scene, AnalyticSky(), st, TECHS, temp, wind, n_jobs=1)
+    res, y = simulate(scene, AnalyticSky(), st, TECHS, temp, wind, run=RunOptions(n_jobs=1))
     return res, y, temp, wind
 
 
@@ -69,7 +69,8 @@ def test_currents_equal_spectral_contraction(scene):
     """Without cover optics, a sub-cell's current is sum_c SR_c E_c dlambda_c of the spectral global."""
     times, st = _states()
     resp, _ = technology_responses(["perc", "a_si"], cover=False)
-    res = poa_irradiance(scene, AnalyticSky(), st, responses=resp, spectral=True, n_jobs=1)
+    res = poa_irradiance(scene, AnalyticSky(), st, responses=resp, output=OutputOptions(spectral=True),
+                         run=RunOptions(n_jobs=1))
     spec = sum(res.spectral[p] for p in ("direct", "sky_diffuse", "ground_diffuse")).astype(float)
     for name in ("perc", "a_si"):
         sr = pvsim.channel_sr(name)[name]
@@ -100,7 +101,7 @@ def test_reference_shaped_sky_has_spectral_factor_one(scene):
     times, st = _states(6)
     shape = pvsim.am15g_channels()
     sky = AnalyticSky(shape=shape / shape.max())
-    _, y = simulate(scene, sky, st, TECHS, 25.0, 1.0, n_jobs=1)
+    _, y = simulate(scene, sky, st, TECHS, 25.0, 1.0, run=RunOptions(n_jobs=1))
     for name, ty in y.technologies.items():
         s = ty.series["roof"]
         lit = s["poa_global"] > 10
@@ -142,11 +143,11 @@ def test_shading_loss_from_an_occluder():
     wall = trimesh.creation.box((3, 0.2, 3))
     wall.apply_translation((0, -1.5, 0.5))
     shaded = make_scene([roof], [wall], groups=["roof"], ground_z=-2.0)
-    _, y = simulate(shaded, AnalyticSky(), st, ["perc"], n_jobs=1)
+    _, y = simulate(shaded, AnalyticSky(), st, ["perc"], run=RunOptions(n_jobs=1))
     w = y.technologies["perc"].waterfall["roof"]
     assert 0.02 < 1 - w["poa"] / w["unshaded"] < 0.9
     free = make_scene([roof], groups=["roof"], ground_z=-2.0)
-    _, yf = simulate(free, AnalyticSky(), st, ["perc"], n_jobs=1)
+    _, yf = simulate(free, AnalyticSky(), st, ["perc"], run=RunOptions(n_jobs=1))
     wf = yf.technologies["perc"].waterfall["roof"]
     # the wall also takes sky light and adds reflections: compare the beam-only reconstruction loosely
     assert w["unshaded"] == pytest.approx(wf["unshaded"], rel=0.25)
@@ -263,7 +264,7 @@ def test_spectral_cover_iam_through_the_integrator(scene):
     soda-lime index is 1.51-1.53 over the sun's spectrum), and it falls with the angle."""
     times, st = _states()
     resp, _ = technology_responses(["perc"], cover=CoverOptics(spectral=True))
-    res = poa_irradiance(scene, AnalyticSky(), st, responses=resp, n_jobs=1)
+    res = poa_irradiance(scene, AnalyticSky(), st, responses=resp, run=RunOptions(n_jobs=1))
     bare = res.get("broadband", "direct").astype(float)
     cov = res.get(COVER_RESPONSE, "direct").astype(float)
     lit = bare > 1.0

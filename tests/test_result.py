@@ -6,7 +6,8 @@ import pandas as pd
 import pytest
 import trimesh
 
-from widesky.irradiance import AngularTable, POAResult, Response, SkyStates, make_scene, poa_irradiance
+from widesky.irradiance import (AngularTable, OutputOptions, POAResult, Response, RunOptions, SkyStates, make_scene,
+                                poa_irradiance)
 from widesky.irradiance.skies import AnalyticSky
 
 
@@ -32,10 +33,10 @@ def run(tmp_path_factory):
                        ground_z=-2.0)
     iam = AngularTable([0, 60, 80, 90], [1.0, 0.95, 0.6, 0.0])
     resp = [Response("cell", [280, 1200], [0.2, 0.7], unit="sr", angular=iam)]
-    mem = poa_irradiance(scene, AnalyticSky(), st, responses=resp, n_jobs=1)
+    mem = poa_irradiance(scene, AnalyticSky(), st, responses=resp, run=RunOptions(n_jobs=1))
     path = tmp_path_factory.mktemp("res") / "r.h5"
-    streamed = poa_irradiance(scene, AnalyticSky(), st, responses=resp, n_jobs=1, output=path,
-                              block_steps=5)
+    streamed = poa_irradiance(scene, AnalyticSky(), st, responses=resp, run=RunOptions(n_jobs=1),
+                              output=OutputOptions(path=path, block_steps=5))
     return mem, streamed, path
 
 

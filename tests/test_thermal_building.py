@@ -109,7 +109,7 @@ def test_glazing_response_through_integrator():
     states = irr.SkyStates.create([-10.0, -10.0], [180.0, 180.0], 50.0, 1.0)
     cons = {"window": Construction("window", glazing=UNIT)}
     res = irr.poa_irradiance(scene, sky, states, responses=[glazing_response(UNIT, "window:spectral")],
-                             n_jobs=1)
+                             run=irr.RunOptions(n_jobs=1))
     wg = window_gain_by_surface(res, labels, b, cons, "spectral")
     gd = UNIT.hemispherical("shgc", [1000.0])[0]
     j = labels.index(b.surfaces_of("window")[0].label)

@@ -1,0 +1,126 @@
+"""Where :func:`widesky.irradiance.poa_irradiance`'s blocks of output steps go, and the result's provenance.
+
+:class:`Sink` keeps the (T, F) arrays in memory or streams each block to the HDF5 result file (written
+atomically); :func:`run_provenance` records what produced a result.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata as md
+import os
+from dataclasses import asdict
+
+import numpy as np
+
+from .integrator import lazy_zeros
+from .result import PARTS, H5Writer, POAResult, atomic_h5
+
+__all__ = ["Sink", "run_provenance"]
+
+
+class Sink:
+    """Where the blocks of output steps go: arrays in memory, or the HDF5 file."""
+
+    def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral, compression=None,
+                 stored=None):
+        self.keys, self.T, self.F, self.C = keys, T, F, C
+        self.path, self.writer, self.ctx = path, None, None
+        self.spectral = spectral
+        self.resp_names, self.units, self.faces = resp_names, units, faces
+        if path is None:
+            self.full = {k: lazy_zeros((T, F), np.float32) for k in keys}
+            self.full["aoi"] = lazy_zeros((T, F), np.float32)
+            self.full["sun_visible"] = lazy_zeros((T, F), np.float32)
+            if spectral:
+                for p in PARTS + ("global",):
+                    self.full[("spectral", p)] = lazy_zeros((T, F, C), np.float32)
+        else:
+            self.ctx = atomic_h5(path)
+            f = self.ctx.__enter__()
+            self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None,
+                                   compression, parts=stored)
+
+    def block(self, b0, b1):
+        """dict key -> (b1 - b0, F) zeroed arrays (aoi NaN) to fill for steps b0:b1."""
+        n = b1 - b0
+        if self.writer is None:
+            out = {k: v[b0:b1] for k, v in self.full.items()}
+            out["aoi"][:] = np.nan
+            return out
+        # one set of block buffers, reused (fresh multi-100-MB arrays per block cost seconds of
+        # page faults)
+        if getattr(self, "_buf", None) is None or self._buf_n < n:
+            shape = {k: (n, self.F) for k in [*self.keys, "aoi", "sun_visible"]}
+            if self.spectral:
+                shape.update({("spectral", p): (n, self.F, self.C) for p in PARTS + ("global",)})
+            self._buf = {k: lazy_zeros(v, np.float32) for k, v in shape.items()}
+            self._buf_n = n
+        out = {k: v[:n] for k, v in self._buf.items()}
+        for k, v in out.items():
+            v.fill(np.nan if k == "aoi" else 0.0)
+        return out
+
+    def flush(self, b0, block):
+        if self.writer is not None:
+            self.writer.write(b0, block)
+
+    def close(self, failed, **finish):
+        if self.writer is None:
+            return
+        if not failed:
+            self.writer.finish(**finish)
+        self.ctx.__exit__(RuntimeError if failed else None, None, None)
+
+
+    def result(self, timings, times, states, scaling, provenance, wavelengths, channel_edges):
+        """The run's POAResult: read back from the file, or the arrays in memory."""
+        if self.path is not None:
+            res = POAResult.load(self.path)
+            res.timings = timings
+            return res
+        full = self.full
+        spec = ({p: full[("spectral", p)] for p in PARTS + ("global",)} if self.spectral else None)
+        return POAResult(responses=self.resp_names, units=self.units, data={k: full[k] for k in self.keys},
+                         aoi=full["aoi"], sun_visible=full["sun_visible"], faces=self.faces, times=times,
+                         states=states, scaling=scaling, provenance=provenance, spectral=spec,
+                         wavelengths=wavelengths, channel_edges=channel_edges, timings=timings)
+
+
+def run_provenance(settings, optic_nodes, sky, extra=None):
+    """``result.provenance``: the settings, the optic nodes [deg], package versions, the sky source and its
+    dataset file (with its SHA-1), and ``extra`` entries."""
+    return {"settings": asdict(settings), "optic_nodes": list(map(float, optic_nodes)),
+            "versions": _versions(), **_dataset_provenance(sky), **(extra or {})}
+
+
+def _dataset_provenance(sky):
+    model = getattr(sky, "model", None)
+    path = getattr(model, "path", None)
+    out = {"sky": type(sky).__name__}
+    if path and os.path.isfile(str(path)):
+        st = os.stat(str(path))
+        key = (str(path), st.st_size, st.st_mtime_ns)
+        if key not in _SHA1:
+            h = hashlib.sha1()
+            with open(str(path), "rb") as f:
+                for b in iter(lambda: f.read(1 << 22), b""):
+                    h.update(b)
+            _SHA1[key] = h.hexdigest()
+        out.update(dataset=str(path), dataset_sha1=_SHA1[key])
+    return out
+
+
+_SHA1: dict = {}
+
+
+def _versions():
+    out = {}
+    for pkg in ("widesky", "numpy", "embreex", "h5py"):
+        try:
+            out[pkg] = md.version(pkg)
+        except md.PackageNotFoundError:
+            pass
+    return out
+
+
