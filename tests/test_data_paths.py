@@ -15,7 +15,7 @@ from widesky.core.paths import (RUNTIME_DATA_DIR, DataNotFoundError, data_dir, d
                                 runtime_file, runtime_files)
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("widesky", "skymodel", "irradiance", "pvsim", "thermal", "cases")
+PACKAGES = ("src/widesky", "skymodel", "irradiance", "pvsim", "thermal", "cases")
 
 
 def test_a_missing_named_directory_is_an_error(tmp_path, monkeypatch):
@@ -113,7 +113,7 @@ def test_shipped_files_are_the_reference_files():
 
 def test_core_imports_no_other_widesky_package():
     """The core layer is the lowest: its modules import only the standard library and each other."""
-    for f in (ROOT / "widesky" / "core").glob("*.py"):
+    for f in (ROOT / "src" / "widesky" / "core").glob("*.py"):
         for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
             mods = ([a.name for a in node.names] if isinstance(node, ast.Import) else
                     [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else [])

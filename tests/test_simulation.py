@@ -148,7 +148,7 @@ def test_command_line_sky_options_default_to_none():
 def _calls(name):
     """(file, line) of every call of ``name`` in the installed runtime and front-end sources."""
     out = []
-    for folder in ("skymodel", "irradiance", "pvsim", "thermal", "cases", "widesky"):
+    for folder in ("skymodel", "irradiance", "pvsim", "thermal", "cases", "src/widesky"):
         for path in (ROOT / folder).rglob("*.py"):
             if "generator" in path.parts:
                 continue

@@ -33,7 +33,7 @@ __all__ = ["DataNotFoundError", "data_dir", "data_file", "has_data", "cache_dir"
 RUNTIME_DATA_DIR = Path(__file__).resolve().parents[1] / "data"
 """The package's own data folder (``widesky/data``)."""
 
-_CHECKOUT = Path(__file__).resolve().parents[2]
+_CHECKOUT = Path(__file__).resolve().parents[3]      # src/widesky/core/paths.py in a source checkout
 _REPO_SIBLING = (_CHECKOUT.parent / "shared" / "data") if (_CHECKOUT / "pyproject.toml").is_file() else None
 """``../shared/data`` beside a source checkout; None for an installed package (no checkout around it)."""
 
