@@ -205,9 +205,24 @@ def _hold_geometry(geometry):
     _WORKER_GEOMETRY[geometry["key"]] = geometry
 
 
+def _pool_context():
+    """The start method of the default pool: ``forkserver`` where the platform has it, else ``spawn``.
+
+    Not ``fork``: a process that has cast rays itself holds Embree's TBB worker threads, and a child forked from it
+    can inherit one of their locks held, so its first ray cast waits forever (seen on ``widesky run
+    cases/compare_sites``, which runs several sites in one process: 2 hangs in 8 runs). The fork server is a fresh
+    process that has imported this module (and Embree) but never cast a ray; workers are forked from it."""
+    methods = multiprocessing.get_all_start_methods()
+    if "forkserver" in methods:
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload([__name__])
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
 def _default_executor(n_jobs, geometry):
     """A local process pool whose workers each receive ``geometry`` once, at start."""
-    ctx = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
+    ctx = _pool_context()
     return ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx, initializer=_hold_geometry,
                                initargs=(geometry,))
 
