@@ -447,12 +447,16 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
         wd = source if isinstance(source, WeatherData) else read_weather(source)
         data = wd.data
         if start is not None or end is not None:
-            lo = data.index[0] if start is None else wd.site.localize([start])[0]
+            lo = data.index.min() if start is None else wd.site.localize([start])[0]
             hi = None if end is None else wd.site.localize([end])[0]
             keep = (data.index >= lo) & (True if hi is None else data.index < hi)
             data = data[keep]
             if data.empty:
-                raise ValueError(f"no steps of the weather file in the period {start} .. {end}")
+                years = sorted(set(wd.data.index.year))
+                mixed = (f"; its records carry the years {years[0]}..{years[-1]} (a typical year mixes years: move "
+                         f"them to one year with coerce_year, --coerce-year on the command line)"
+                         if len(years) > 1 else f"; its records are of {years[0]}")
+                raise ValueError(f"no steps of the weather file in the period {start} .. {end}{mixed}")
         times = data.index
         sp = wd.site.solar_position(times, wd.label, wd.step)
         weather = data

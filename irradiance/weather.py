@@ -101,8 +101,11 @@ class WeatherData:
     def summary(self) -> str:
         """A short human-readable description, including the missing-value report."""
         idx = self.data.index
-        lines = [f"{self.source or 'weather'}: {len(idx)} steps of {self.step}, label={self.label}, "
-                 f"{idx[0]} .. {idx[-1]}" if len(idx) else f"{self.source}: no steps",
+        mixed = len(idx) and not idx.is_monotonic_increasing
+        span = (f"{idx.min()} .. {idx.max()}" + (" (records of several years, as typical years mix them)"
+                                                  if mixed else "")) if len(idx) else ""
+        lines = [f"{self.source or 'weather'}: {len(idx)} steps of {self.step}, label={self.label}, {span}"
+                 if len(idx) else f"{self.source}: no steps",
                  f"site: lat {self.site.latitude:.4f} deg, lon {self.site.longitude:.4f} deg, "
                  f"alt {self.site.altitude:.1f} m, tz {self.site.tz}, name {self.site.name!r}"]
         miss = {k: v for k, v in self.missing.items() if v}

@@ -136,3 +136,30 @@ def test_mesh_indexing_a_missing_vertex(tmp_path, capsys):
     bad.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n")
     assert main(["poa", str(bad), *CLEAR, "-o", str(tmp_path / "x.h5")]) == 2
     assert "indexes a vertex" in capsys.readouterr().err
+
+
+def test_each_response_may_carry_its_unit(roof, tmp_path, capsys):
+    """``NAME:UNIT=FILE`` overrides --response-unit for that response: a flat transmittance of 1 is the broadband
+    irradiance [W m-2] (same contraction), while the sr default would read the same file as A W-1; an unknown unit
+    is refused, naming it."""
+    flat = tmp_path / "flat.csv"
+    flat.write_text("wavelength_nm,value\n200,1\n3000,1\n")
+    out = tmp_path / "u.h5"
+    assert main(["poa", str(roof), *CLEAR, "--response", f"glass:transmittance={flat}", "--response", f"cell={flat}",
+                 "-o", str(out)]) == 0
+    from widesky.irradiance import POAResult
+    res = POAResult.load(out)
+    assert res.units["glass"] == res.units["broadband"] and res.units["cell"] != res.units["glass"]
+    np.testing.assert_allclose(res.get("glass", "global"), res.get("broadband", "global"), rtol=1e-6, atol=1e-6)
+    res.close()
+    assert main(["poa", str(roof), *CLEAR, "--response", f"g:tvis={flat}", "-o", str(tmp_path / "v.h5")]) == 2
+    assert "unit 'tvis' is not one of sr, qe, transmittance, weight" in capsys.readouterr().err
+
+
+def test_a_typical_year_outside_the_period_suggests_coerce_year(roof, tmp_path, capsys):
+    from widesky.core.paths import runtime_file
+    tmy = runtime_file("weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")
+    args = ["poa", str(roof), "--weather", str(tmy), "--start", "2023-06-01", "--end", "2023-06-02"]
+    assert main([*args, "-o", str(tmp_path / "x.h5")]) == 2
+    assert "--coerce-year" in capsys.readouterr().err
+    assert main([*args, "--coerce-year", "2023", "-o", str(tmp_path / "x.h5")]) == 0

@@ -215,4 +215,9 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+    try:
+        main()
+    except (OSError, ValueError) as exc:         # e.g. the ASHRAE 140 files of the reference data folder missing
+        print(f"python -m widesky.thermal.figures: error: {exc}", file=sys.stderr)
+        sys.exit(2)

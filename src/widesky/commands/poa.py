@@ -38,8 +38,10 @@ def register(subparsers) -> None:
     p.add_argument("mesh", nargs="+", help="analysis mesh file(s) (OBJ, PLY, STL, GLB ...)")
     p.add_argument("--context", action="append", default=[], help="occluding mesh file (repeatable)")
     add_sky_arguments(p)
-    p.add_argument("--response", action="append", default=[], metavar="NAME=FILE",
-                   help="spectral response CSV (wavelength_nm,value); repeatable, unique names")
+    p.add_argument("--response", action="append", default=[], metavar="NAME[:UNIT]=FILE",
+                   help="spectral response CSV (wavelength_nm,value); repeatable, unique names; UNIT (sr, qe, "
+                        "transmittance or weight) overrides --response-unit for this one, e.g. "
+                        "glass:transmittance=tvis.csv")
     p.add_argument("--response-unit", default="sr", choices=("sr", "qe", "transmittance", "weight"),
                    help="unit of the --response values: sr [A W-1] (default), qe [1], "
                         "transmittance [1], weight [1]")
@@ -55,6 +57,8 @@ def register(subparsers) -> None:
                    help="output: .h5/.hdf5 (full result per face) or .csv (per face group)")
     p.set_defaults(func=_run)
 
+
+RESPONSE_UNITS = ("sr", "qe", "transmittance", "weight")
 
 #: Longest run the CLI starts [steps] (about 10 years of 5-minute steps); split longer periods.
 MAX_STEPS = 1_000_000
@@ -96,14 +100,18 @@ def _responses(args):
     from widesky.irradiance.response import Response
     out, names = [], set()
     for item in args.response:
-        name, sep, path = item.partition("=")
+        key, sep, path = item.partition("=")
+        name, _, unit = key.partition(":")
+        unit = unit or args.response_unit
         if not sep or not name or not path:
-            raise ValueError(f"--response {item!r}: expected NAME=FILE")
+            raise ValueError(f"--response {item!r}: expected NAME=FILE or NAME:UNIT=FILE")
+        if unit not in RESPONSE_UNITS:
+            raise ValueError(f"--response {item!r}: unit {unit!r} is not one of {', '.join(RESPONSE_UNITS)}")
         if name in names or name == "broadband":
             raise ValueError(f"--response {item!r}: the name {name!r} is "
                              + ("given twice" if name in names else "reserved (always computed)"))
         names.add(name)
-        out.append(Response.from_csv(path, name=name, unit=args.response_unit))
+        out.append(Response.from_csv(path, name=name, unit=unit))
     return out
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from widesky.irradiance.simulation import SKY_DEFAULTS
+from widesky.irradiance.simulation import SKY_DEFAULTS, weather_path
 
 SAMPLE_WEATHER = Path(str(resources.files("widesky.irradiance.data") / "sample_golden_june.epw"))
 
@@ -51,7 +51,8 @@ def register(subparsers) -> None:
     pos.set_defaults(func=_position)
 
     sky = sub.add_parser("skystates", help="summarise the sky state of every step of a weather file")
-    sky.add_argument("weather", help="EPW, TMY3 or CSV weather file, or 'sample' for the shipped one")
+    sky.add_argument("weather", help="EPW, TMY3 or CSV weather file, data:weather/<file> (a year shipped with "
+                                     "widesky), or 'sample' for the shipped sample")
     sky.add_argument("--coerce-year", type=int, default=None, help="replace the file's years")
     sky.add_argument("--default-visibility", type=float, default=SKY_DEFAULTS.visibility,
                      help=f"visibility where the file gives none [km] (default {SKY_DEFAULTS.visibility:g})")
@@ -152,7 +153,7 @@ def _skystates(args) -> int:
         raise ValueError(f"--default-visibility {args.default_visibility!r} km outside the valid range (0, 10000] km")
     if not 0 <= args.default_albedo <= 1:
         raise ValueError(f"--default-albedo {args.default_albedo!r} outside the valid range [0, 1]")
-    path = SAMPLE_WEATHER if args.weather == "sample" else Path(args.weather)
+    path = SAMPLE_WEATHER if args.weather == "sample" else weather_path(args.weather)
     kwargs = {} if args.coerce_year is None else {"coerce_year": args.coerce_year}
     w = read_weather(path, **kwargs)
     sp = w.solar_position()
