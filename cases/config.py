@@ -20,6 +20,7 @@ import pandas as pd
 from widesky import pvsim
 from widesky.core.paths import DataNotFoundError, data_reference
 from widesky.irradiance.simulation import AEROSOL_SOURCES, GROUND_SPECTRA, SKY_DEFAULTS, SPECTRAL_MODELS
+from widesky.pvsim.reference import DEFAULT_REFERENCE, REFERENCE_SPECTRA
 
 from .glazing import GLAZING_CHOICES
 
@@ -127,9 +128,10 @@ SCHEMA = {
         "wind_speed": Field("float", 1.0, "m s-1", 0.0, 30.0, help="wind speed (constant)"),
         "temperature_model": Field("str", "faiman", choices=("faiman", "pvsyst"), help="cell temperature model"),
         "dc_loss": Field("float", 0.02, "", 0.0, 0.5, help="DC losses (wiring, mismatch, soiling)"),
-        "reference": Field("str", "widesky", choices=("widesky", "astm_g173"),
-                           help="STC reference spectrum: the sky model's AM1.5G or ASTM G173 (the copy shipped in "
-                                "the package)"),
+        "reference": Field("str", DEFAULT_REFERENCE, choices=REFERENCE_SPECTRA,
+                           help="STC reference spectrum: ASTM G173-03 ('g173', shipped in the package; the default of "
+                                "every front end) or the sky model's own AM1.5G ('widesky', removes the dataset's "
+                                "spectral bias from the spectral gains)"),
         "groups": Field("names", [], help="the analysis groups that are PV modules (default: every group)"),
     },
     "thermal": {

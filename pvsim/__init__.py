@@ -24,11 +24,12 @@ from .stream import simulate
 from .compare import (bandgap_sweep, hourly_spectral_factors, monthly_spectral_factor, plot_comparison,
                       summary_table, summary_text, visibility_spectral_factor, waterfall_table,
                       write_comparison)
-from .reference import widesky_am15g
+from .reference import DEFAULT_REFERENCE, REFERENCE_SPECTRA, widesky_am15g
 from .plots import plot_technologies
 from . import compare, system
 
 __all__ = [
+    "DEFAULT_REFERENCE", "REFERENCE_SPECTRA",
     "HC_EV_NM", "am15g", "am15g_channels", "band_average", "channel_edges", "photon_flux", "qe_to_sr",
     "read_astm_g173", "sr_to_qe",
     "EQEParameters", "absorptance_edge", "parametric_eqe", "transmittance_below_gap",

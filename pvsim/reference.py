@@ -16,7 +16,15 @@ from widesky.irradiance import OutputOptions, RunOptions, SkyStates, make_scene,
 from widesky.irradiance.skies import PragueSky
 from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
 
-__all__ = ["G173_ZENITH_DEG", "G173_TILT_DEG", "widesky_am15g"]
+__all__ = ["G173_ZENITH_DEG", "G173_TILT_DEG", "widesky_am15g", "REFERENCE_SPECTRA", "DEFAULT_REFERENCE"]
+
+REFERENCE_SPECTRA = ("g173", "widesky")
+"""STC reference spectra of the yield model: ASTM G173-03 global tilted (shipped in the package) or the sky
+model's own AM1.5G (:func:`widesky_am15g`)."""
+
+DEFAULT_REFERENCE = "g173"
+"""The reference every front end uses unless told otherwise (``widesky pv --reference``, a case's
+``pv.reference``): ASTM G173-03, the standard test conditions' spectrum."""
 
 G173_ZENITH_DEG = 48.236     # ASTM G173-03 solar zenith angle [deg]
 G173_TILT_DEG = 37.0         # ASTM G173-03 receiver tilt [deg], facing the sun

@@ -22,6 +22,7 @@ import sys
 import numpy as np
 
 from widesky.commands.sky_args import add_sky_arguments, check_site_arguments, simulation, sky_options
+from widesky.pvsim.reference import DEFAULT_REFERENCE, REFERENCE_SPECTRA
 
 
 def _site_args(p):
@@ -40,11 +41,12 @@ def _site_args(p):
     p.add_argument("--temperature-model", choices=("faiman", "pvsyst"), default="faiman")
     p.add_argument("--dc-loss", type=float, default=0.02, help="DC losses [1]")
     p.add_argument("--dc-ac-ratio", type=float, default=1.2, help="DC rating / inverter input limit [1]")
-    p.add_argument("--reference", choices=("g173", "widesky"), default="g173",
-                   help="STC reference spectrum: ASTM G173 (from --g173 or the data directory) or the sky "
-                        "model's own AM1.5G (removes the dataset's spectral bias)")
+    p.add_argument("--reference", choices=REFERENCE_SPECTRA, default=DEFAULT_REFERENCE,
+                   help=f"STC reference spectrum (default {DEFAULT_REFERENCE}, as in a case file): ASTM G173-03 "
+                        "(shipped; --g173 names another copy) or the sky model's own AM1.5G (removes the dataset's "
+                        "spectral bias)")
     p.add_argument("--g173", default=None, help="ASTM G173-03 CSV file")
-    p.add_argument("--jobs", type=int, default=None, help="ray-casting processes")
+    p.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores)")
 
 
 def _tech_args(p, default_all=True):

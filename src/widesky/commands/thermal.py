@@ -38,7 +38,7 @@ def register(subparsers) -> None:
                    help="outside surface coefficients: hourly from wind and air temperature "
                         "(ISO 6946 Annex C, default) or ISO 13790's constant R_se = 0.04")
     b.add_argument("--json", help="also write the results here (for python -m widesky.thermal.figures)")
-    b.add_argument("--jobs", type=int, default=1, help="ray-casting processes (integrator)")
+    b.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     b.add_argument("--data-dir", default=None,
                    help="data directory (default WIDESKY_DATA_DIR or ../shared/data)")
     b.set_defaults(func=_bestest)
@@ -71,7 +71,7 @@ def register(subparsers) -> None:
     lo.add_argument("--context-box", action="append", default=[], metavar="X,Y,W,D,H",
                     help="a neighbouring block on the ground: south-west corner X,Y, width W "
                          "(east), depth D (north), height H [m] (repeatable; integrator sky)")
-    lo.add_argument("--jobs", type=int, default=1, help="ray-casting processes")
+    lo.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     lo.add_argument("--data-dir", default=None)
     lo.set_defaults(func=_loads)
 
@@ -81,7 +81,7 @@ def register(subparsers) -> None:
                    help="EPW or TMY3 file, or data:weather/<file> for a year shipped with widesky "
                         "(data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw)")
     s.add_argument("--output", required=True, help="folder for effective_g.csv and annual.csv")
-    s.add_argument("--jobs", type=int, default=1)
+    s.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     s.add_argument("--solar-control", action="store_true",
                    help="add the double-silver solar-control unit (thermal.thinfilm) to the three")
     s.add_argument("--data-dir", default=None)
