@@ -165,3 +165,19 @@ def _calls(name):
 def test_one_function_turns_weather_into_sky_states(name):
     """Only the pipeline (irradiance/simulation.py) turns a site or a weather file into sky states."""
     assert [c for c in _calls(name) if not c.startswith("irradiance/simulation.py")] == []
+
+
+def test_one_reference_spectrum_and_one_jobs_default():
+    """The STC reference spectrum defaults to pvsim.DEFAULT_REFERENCE in `widesky pv` and in a case file; every
+    simulating command's --jobs defaults to all cores (None)."""
+    from widesky import pvsim
+    from widesky.commands import run as run_cmd
+    from widesky.commands import thermal as thermal_cmd
+    b = _args(pv_cmd.register, ["pv", "compare", "x.obj", "-o", "out"])
+    assert b.reference == cases.SCHEMA["pv"]["reference"].default == pvsim.DEFAULT_REFERENCE == "g173"
+    assert b.jobs is None
+    assert _args(poa_cmd.register, ["poa", "x.obj", "-o", "x.h5"]).jobs is None
+    assert _args(run_cmd.register, ["run", "case"]).jobs is None
+    for argv in (["thermal", "loads", "--weather", "w.epw", "--output", "o.csv"],
+                 ["thermal", "study", "--weather", "w.epw", "--output", "o"], ["thermal", "bestest"]):
+        assert _args(thermal_cmd.register, argv).jobs is None, argv
