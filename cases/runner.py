@@ -236,14 +236,37 @@ def _surface_labels(building):
     return {s.label for s in building.surfaces if s.kind != "shading"}
 
 
+REPORT_MARKER = ".widesky-report"
+"""File in every report folder widesky writes: only a folder holding it (or nothing) is ever replaced."""
+
+
+def is_report_folder(path) -> bool:
+    """True for a report folder widesky wrote: it holds :data:`REPORT_MARKER`, or (reports written before the
+    marker) a ``provenance.json`` naming a case and its dataset's SHA-1 beside an ``index.html``."""
+    path = Path(path)
+    if (path / REPORT_MARKER).is_file():
+        return True
+    prov = path / "provenance.json"
+    if not (prov.is_file() and (path / "index.html").is_file()):
+        return False
+    try:
+        data = json.loads(prov.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and {"case", "dataset_sha1", "versions"} <= set(data)
+
+
 def _atomic_folder(dest: Path, fill):
-    """Call ``fill(tmp)`` on a fresh temporary folder beside ``dest``; rename it to ``dest`` when done."""
+    """Call ``fill(tmp)`` on a fresh temporary folder beside ``dest`` and mark it a report; then put it in place of
+    ``dest`` (absent, empty, or an earlier report: :func:`_check_output`), removing only that earlier report."""
     dest = Path(dest).resolve()
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=dest.parent, prefix=f".{dest.name}.tmp-"))
     plain_mode(tmp, folder=True)
     try:
         fill(tmp)
+        dump_json(tmp / REPORT_MARKER, {"written_by": "widesky run", "folder": dest.name})
+        _check_output(dest)                       # again: the folder may have changed during the computation
         old = None
         if dest.exists():
             old = dest.with_name(f".{dest.name}.old-{os.getpid()}")
@@ -295,10 +318,20 @@ def run_case(folder, output=None, *, n_jobs=None, progress=None, log=None) -> Pa
 
 
 def _check_output(out: Path):
-    """Refuse a report folder that cannot be written (a file in the way, an unwritable parent) up front."""
+    """Refuse, up front, a report folder that cannot be written (a file in the way, an unwritable parent) or whose
+    replacement would delete what widesky did not write: a non-empty folder that is not an earlier report, the
+    current directory or a folder above it."""
     out = Path(out).resolve()
     if out.exists() and not out.is_dir():
         raise ValueError(f"--output {str(out)!r} is a file, not a report folder")
+    cwd = Path.cwd().resolve()
+    if out == cwd or out in cwd.parents:
+        raise ValueError(f"--output {str(out)!r} is the current directory or holds it: the report replaces its "
+                         "folder, so give a new or report folder inside it (e.g. -o report)")
+    if out.is_dir() and any(out.iterdir()) and not is_report_folder(out):
+        raise ValueError(f"--output {str(out)!r} is not empty and holds no widesky report (no {REPORT_MARKER} "
+                         "file): a report replaces its whole folder, and widesky never deletes files it did not "
+                         "write; choose a new folder")
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         probe = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.probe-"))

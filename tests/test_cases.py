@@ -243,6 +243,36 @@ def test_unwritable_report_folder_is_refused_before_the_run(tmp_path, folder):
     assert sorted(x.name for x in tmp_path.iterdir()) == before
 
 
+def test_a_report_never_replaces_what_widesky_did_not_write(tmp_path, folder, small_report):
+    """Issue 34's data loss: a non-empty folder without a report marker, the current directory and a folder above it
+    are refused before the run, and the user's files stay; an earlier report (marker, or a pre-marker report's
+    provenance.json) is replaced."""
+    _write_case(folder, SMALL.format(extra=""))
+    mine = tmp_path / "myfolder"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("precious")
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "notes.txt").write_text("mine")
+    for out, cwd, words in ((mine, tmp_path, "holds no widesky report"), (".", work, "is the current directory"),
+                            (str(tmp_path), work, "is the current directory or holds it")):
+        p = subprocess.run([sys.executable, "-m", "widesky.cli", "run", str(folder), "-o", str(out)], cwd=cwd,
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 2, p.stderr
+        assert words in p.stderr and "computed in" not in p.stderr and p.stderr.strip().count("\n") == 0
+    assert (mine / "thesis.tex").read_text() == "precious" and (work / "notes.txt").read_text() == "mine"
+    rep, _ = small_report
+    assert cases.runner.is_report_folder(rep) and (rep / cases.runner.REPORT_MARKER).is_file()
+    legacy = tmp_path / "legacy"
+    legacy.mkdir()
+    (legacy / "index.html").write_text("<html></html>")
+    (legacy / "provenance.json").write_text('{"case": "x", "dataset_sha1": "0", "versions": {}}')
+    assert cases.runner.is_report_folder(legacy) and not cases.runner.is_report_folder(mine)
+    cases.runner._check_output(legacy)                  # an earlier report: accepted for replacement
+    with pytest.raises(ValueError, match="holds no widesky report"):
+        cases.runner._check_output(mine)
+
+
 PV = SMALL.split("[sky]")[0] + """
 [sky]
 visibility = 40
