@@ -115,8 +115,9 @@ def sky_source(path=None):
 
 
 def responses(wl):
-    """Three responses: broadband (implicit), c-Si-like SR and a glazing-like transmittance."""
-    csi = np.clip((wl - 300.0) / 800.0, 0, 1) * (wl < 1180)
+    """Three responses: broadband (implicit), c-Si-like SR [A W-1] (below q lambda / (h c) everywhere) and a
+    glazing-like transmittance [1]."""
+    csi = 0.65 * np.clip((wl - 300.0) / 800.0, 0, 1) * (wl < 1180)
     glazing = 0.85 * np.exp(-0.5 * ((wl - 650.0) / 600.0) ** 2)
     return {"c-Si": csi, "glazing": glazing}
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from widesky.core.spectral import band_average
+from widesky.core.spectral import band_average, check_response_limit
 
 __all__ = ["Response", "AngularTable", "SpectralAngularTable", "UNITS", "OUTPUT_UNITS",
            "band_average", "HC_OVER_Q"]
@@ -155,6 +155,7 @@ class Response:
         wl, v = _curve(f"response {name!r}", wavelength, values)
         if v.ndim != 1:
             raise ValueError(f"response {name!r}: values must be one-dimensional, got {v.shape}")
+        check_response_limit(wl, v, unit, f"response {name!r}")
         if not (angular is None or callable(angular) or isinstance(angular, SpectralAngularTable)):
             raise TypeError(f"response {name!r}: angular must be None, a callable, an AngularTable "
                             f"or a SpectralAngularTable, got {type(angular).__name__}")
@@ -211,7 +212,9 @@ class Response:
             line = line.split("#", 1)[0].strip()
             if not line:
                 continue
-            parts = [x.strip() for x in line.replace(";", ",").split(",")]
+            # ';' separates the columns of a table written with decimal commas ("400;0,52"): read those as points
+            parts = ([x.strip().replace(",", ".") for x in line.split(";")] if ";" in line
+                     else [x.strip() for x in line.split(",")])
             try:
                 if len(parts) < 2:
                     raise ValueError
@@ -242,6 +245,10 @@ class Response:
                              "negative (valid: >= 0)")
         if name is None:
             name = os.path.splitext(os.path.basename(os.fspath(path)))[0]
+        try:
+            check_response_limit(a[:, 0], a[:, 1], unit, f"response file {path} (unit {unit})")
+        except ValueError as exc:
+            raise ValueError(str(exc)) from None
         return cls(name, a[:, 0], a[:, 1], unit=unit, angular=angular)
 
     def channel_weights(self, lower_nm, upper_nm):

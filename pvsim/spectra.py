@@ -17,17 +17,13 @@ import numpy as np
 import pandas as pd
 
 from widesky.core.paths import runtime_file
-from widesky.core.spectral import band_average
+from widesky.core.spectral import ELEMENTARY_CHARGE, HC_EV_NM, PLANCK, SPEED_OF_LIGHT, band_average
 from widesky.skymodel.channels import CHANNEL_EDGES_NM
 
 __all__ = ["PLANCK", "SPEED_OF_LIGHT", "ELEMENTARY_CHARGE", "HC_EV_NM", "qe_to_sr", "sr_to_qe",
            "photon_flux", "band_average", "channel_edges", "read_astm_g173", "am15g",
            "am15g_channels"]
 
-PLANCK = 6.62607015e-34          # h [J s] (SI 2019, exact)
-SPEED_OF_LIGHT = 299792458.0     # c [m s-1] (exact)
-ELEMENTARY_CHARGE = 1.602176634e-19  # q [C] (exact)
-HC_EV_NM = PLANCK * SPEED_OF_LIGHT / ELEMENTARY_CHARGE * 1e9  # h c / q = 1239.84 [eV nm]
 
 _SR_PER_QE_PER_NM = ELEMENTARY_CHARGE / (PLANCK * SPEED_OF_LIGHT) * 1e-9   # [A W-1 nm-1]
 

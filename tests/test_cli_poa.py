@@ -50,7 +50,7 @@ def test_weather_file_reproduces_measured_irradiance(roof, epw, tmp_path, capsys
     flat = tmp_path / "flat.csv"
     flat.write_text("wavelength_nm,sr\n200,1\n3000,1\n")
     out = tmp_path / "poa.csv"
-    assert main(["poa", str(roof), "--weather", str(epw), "--response", f"flat={flat}",
+    assert main(["poa", str(roof), "--weather", str(epw), "--response", f"flat:weight={flat}",
                  "--jobs", "1", "-o", str(out)]) == 0
     assert "scaled to measured DNI/DHI" in capsys.readouterr().out
     res = pd.read_csv(out, index_col=0)
@@ -126,7 +126,7 @@ def test_weather_with_lat_lon_and_repeated_response(roof, epw, tmp_path, capsys)
     assert main(["poa", str(roof), "--weather", str(epw), "--lat", "48", "-o",
                  str(tmp_path / "x.h5")]) == 2
     assert "--weather gives the site: remove --lat" in capsys.readouterr().err
-    assert main(["poa", str(roof), *CLEAR, "--response", f"a={flat}", "--response", f"a={flat}",
+    assert main(["poa", str(roof), *CLEAR, "--response", f"a:weight={flat}", "--response", f"a:weight={flat}",
                  "-o", str(tmp_path / "x.h5")]) == 2
     assert "given twice" in capsys.readouterr().err
 
@@ -140,18 +140,20 @@ def test_mesh_indexing_a_missing_vertex(tmp_path, capsys):
 
 def test_each_response_may_carry_its_unit(roof, tmp_path, capsys):
     """``NAME:UNIT=FILE`` overrides --response-unit for that response: a flat transmittance of 1 is the broadband
-    irradiance [W m-2] (same contraction), while the sr default would read the same file as A W-1; an unknown unit
-    is refused, naming it."""
+    irradiance [W m-2] (same contraction), where the sr default refuses the same file (1 A W-1 is above the
+    physical limit below 1240 nm); an unknown unit is refused, naming it."""
     flat = tmp_path / "flat.csv"
     flat.write_text("wavelength_nm,value\n200,1\n3000,1\n")
     out = tmp_path / "u.h5"
-    assert main(["poa", str(roof), *CLEAR, "--response", f"glass:transmittance={flat}", "--response", f"cell={flat}",
-                 "-o", str(out)]) == 0
+    assert main(["poa", str(roof), *CLEAR, "--response", f"glass:transmittance={flat}", "--response",
+                 f"cell:weight={flat}", "-o", str(out)]) == 0
     from widesky.irradiance import POAResult
     res = POAResult.load(out)
-    assert res.units["glass"] == res.units["broadband"] and res.units["cell"] != res.units["glass"]
+    assert res.units["glass"] == res.units["broadband"] == res.units["cell"] == "W m-2"
     np.testing.assert_allclose(res.get("glass", "global"), res.get("broadband", "global"), rtol=1e-6, atol=1e-6)
     res.close()
+    assert main(["poa", str(roof), *CLEAR, "--response", f"cell={flat}", "-o", str(tmp_path / "w.h5")]) == 2
+    assert "above the physical limit" in capsys.readouterr().err
     assert main(["poa", str(roof), *CLEAR, "--response", f"g:tvis={flat}", "-o", str(tmp_path / "v.h5")]) == 2
     assert "unit 'tvis' is not one of sr, qe, transmittance, weight" in capsys.readouterr().err
 

@@ -68,7 +68,7 @@ def _responses(optic):
     nodes = np.asarray(DEFAULT_NODES)
     table = SpectralAngularTable(nodes, [280.0, 2480.0],
                                  np.stack([_fresnel(nodes), 0.8 * _fresnel(nodes)], 1))
-    return [Response("a", wl, np.clip((wl - 300) / 800, 0, 1), unit="sr", angular=optic),
+    return [Response("a", wl, 0.6 * np.clip((wl - 300) / 800, 0, 1), unit="sr", angular=optic),
             Response("b", wl, np.exp(-((wl - 700) / 300) ** 2), unit="qe", angular=optic),
             Response("c", wl, np.full(wl.size, 0.7), unit="weight"),
             Response("d", [280.0, 2480.0], [1.0, 1.0], unit="transmittance", angular=table),

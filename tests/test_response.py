@@ -35,9 +35,9 @@ def test_quantum_efficiency_converts_to_spectral_response():
 
 
 def test_outside_the_curve_is_zero_and_a_missed_range_is_an_error():
-    r = Response("si", [300, 1200], [0.5, 0.5], unit="sr")
+    r = Response("si", [300, 1200], [0.2, 0.2], unit="sr")      # below h c / (q lambda) = 0.242 A W-1 at 300 nm
     w = r.channel_weights(LO, HI)
-    assert w[0] == pytest.approx(0.5 * 20 / 40)             # 280-320 half covered
+    assert w[0] == pytest.approx(0.2 * 20 / 40)             # 280-320 half covered
     assert w[np.searchsorted(LO, 1200)] == 0.0
     with pytest.raises(ValueError, match="misses the channels"):
         Response("ir", [2500, 3000], [1, 1]).channel_weights(LO, HI)
@@ -90,3 +90,32 @@ def test_angular_factor_kinds():
         Response("d", [280, 2480], [1, 1], angular=3.0)
     with pytest.raises(ValueError, match="unit"):
         Response("e", [280, 2480], [1, 1], unit="A/W")
+
+
+@pytest.mark.parametrize("rows, unit, msg", [
+    ("400,52\n800,90\n", "qe", r"EQE 52 at 400 nm is above 1, the physical limit \(a table in percent\? divide by 100\)"),
+    ("400,0.5\n800,1.5\n", "qe", "EQE 1.5 at 800 nm is above 1"),
+    ("400,0.4\n800,0.6\n", "sr", r"spectral response 0.4 A W-1 at 400 nm is above the physical limit 0.3226 A W-1"),
+    ("400,0.5\n800,1.2\n", "transmittance", "transmittance 1.2 at 800 nm is above 1"),
+])
+def test_a_response_above_its_physical_limit_is_refused(tmp_path, rows, unit, msg):
+    """Issue 34: an EQE in percent, an EQE above 1, an SR above q lambda / (h c) (h c / q = 1239.84 eV nm, CODATA
+    2018 exact constants) or a transmittance above 1 is an error naming the file, wavelength and limit, on every path
+    (the CSV reader and the constructor)."""
+    f = tmp_path / "r.csv"
+    f.write_text("wavelength_nm,value\n" + rows)
+    with pytest.raises(ValueError, match=msg) as e:
+        Response.from_csv(f, unit=unit)
+    assert str(f) in str(e.value)
+    w, v = np.loadtxt(f, delimiter=",", skiprows=1).T
+    with pytest.raises(ValueError, match=msg):
+        Response("x", w, v, unit=unit)
+
+
+def test_semicolon_tables_with_decimal_commas(tmp_path):
+    """A ';'-separated table written with decimal commas reads as numbers (it read as all zeros before)."""
+    f = tmp_path / "eu.csv"
+    f.write_text("wavelength_nm;value\n400;0,52\n800,5;0,9\n")
+    r = Response.from_csv(f, unit="qe")
+    np.testing.assert_allclose(r.wavelength, [400.0, 800.5])
+    np.testing.assert_allclose(r.values, [0.52, 0.9])

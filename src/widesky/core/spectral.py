@@ -11,7 +11,46 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["band_average", "OUTSIDE"]
+__all__ = ["band_average", "OUTSIDE", "PLANCK", "SPEED_OF_LIGHT", "ELEMENTARY_CHARGE", "HC_EV_NM",
+           "check_response_limit"]
+
+PLANCK = 6.62607015e-34          # h [J s] (SI 2019, exact)
+SPEED_OF_LIGHT = 299792458.0     # c [m s-1] (exact)
+ELEMENTARY_CHARGE = 1.602176634e-19  # q [C] (exact)
+HC_EV_NM = PLANCK * SPEED_OF_LIGHT / ELEMENTARY_CHARGE * 1e9  # h c / q = 1239.84 [eV nm]
+
+_LIMIT_TOL = 1e-3                # relative slack on the physical limits (rounded tables)
+
+
+def check_response_limit(wavelength, values, unit, where):
+    """Refuse a response above its physical limit, naming ``where``, the wavelength and the limit: a quantum
+    efficiency or a transmittance above 1, a spectral response above ``lambda / 1239.84`` A W-1 (EQE 1,
+    ``q lambda / (h c)``). An EQE table in percent (maximum in (1, 100]) is named as such.
+
+    Parameters
+    ----------
+    wavelength : numpy.ndarray
+        (K,) [nm].
+    values : numpy.ndarray
+        (K,) in ``unit``: "qe" [1], "transmittance" [1], "sr" [A W-1]; "weight" has no limit.
+    """
+    w, v = np.asarray(wavelength, dtype=float), np.asarray(values, dtype=float)
+    if unit in ("qe", "transmittance"):
+        limit = np.ones_like(w)
+    elif unit == "sr":
+        limit = w / HC_EV_NM
+    else:
+        return
+    over = v > limit * (1.0 + _LIMIT_TOL)
+    if not over.any():
+        return
+    i = int(np.argmax(over))
+    if unit == "sr":
+        raise ValueError(f"{where}: spectral response {v[i]:g} A W-1 at {w[i]:g} nm is above the physical limit "
+                         f"{limit[i]:.4f} A W-1 (an EQE of 1, q lambda / (h c)); is it an EQE, or in mA W-1?")
+    hint = (" (a table in percent? divide by 100)" if unit == "qe" and 1.0 < v.max() <= 100.0 + 1e-9 else "")
+    raise ValueError(f"{where}: {'EQE' if unit == 'qe' else 'transmittance'} {v[i]:g} at {w[i]:g} nm is above 1, "
+                     f"the physical limit{hint}")
 
 OUTSIDE = ("zero", "hold", "raise")
 """What :func:`band_average` takes the curve to be beyond its table: 0, its end values, or an error."""
