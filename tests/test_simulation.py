@@ -181,3 +181,18 @@ def test_one_reference_spectrum_and_one_jobs_default():
     for argv in (["thermal", "loads", "--weather", "w.epw", "--output", "o.csv"],
                  ["thermal", "study", "--weather", "w.epw", "--output", "o"], ["thermal", "bestest"]):
         assert _args(thermal_cmd.register, argv).jobs is None, argv
+
+
+def test_ctrl_c_is_one_line_and_status_130(monkeypatch, capsys):
+    """Issue 34: an interrupt anywhere in a command prints one line and exits 130 (128 + SIGINT), no traceback."""
+    from widesky import cli
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(sky_args, "simulation", lambda *a, **k: interrupted(None))
+    monkeypatch.setattr(poa_cmd, "simulation", lambda *a, **k: interrupted(None))
+    code = cli.main(["poa", str(ROOT / "docs" / "example-data" / "roof.obj"), "--lat", "50", "--lon", "14",
+                     "--start", "2023-06-01", "--end", "2023-06-02", "-o", "/tmp/never-written.h5"])
+    err = capsys.readouterr().err
+    assert code == 130 and err == "widesky: interrupted\n"
+    assert not Path("/tmp/never-written.h5").exists()

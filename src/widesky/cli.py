@@ -103,6 +103,10 @@ def main(argv=None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except KeyboardInterrupt:
+        # Ctrl-C: outputs are written atomically, so nothing half-written is left; one line, the shell's status
+        print("widesky: interrupted", file=sys.stderr)
+        return 130
     except MemoryError:
         print("widesky: error: out of memory (reduce the problem size)", file=sys.stderr)
         return 2
