@@ -4,6 +4,11 @@
 holds the per-step factors that the sky chunks (:mod:`widesky.irradiance.sky_chunks`) fill in: measured
 DNI/DHI (the clear sky's shape scaled, or the all-sky model's per-channel factors) or explicit factors;
 :func:`result_scaling` gives ``result.scaling``.
+
+Measured DNI and DHI are broadband (the whole solar spectrum) while the sky covers its channels only
+(280-2480 nm for the Prague Sky Model): the sky is scaled so that its in-band DNI and DHI are the measured
+values times :func:`widesky.core.spectral.in_band_share` of its range (0.99248 for 280-2480 nm), widesky's one
+convention for broadband values (docs/pvsim.md, "Weather files and the 280-2480 nm band").
 """
 
 from __future__ import annotations
@@ -12,6 +17,8 @@ from dataclasses import dataclass
 from typing import Any, Optional
 
 import numpy as np
+
+from widesky.core.spectral import in_band_share
 
 from .allsky import AllSkyOptions
 from .allsky_sky import AllSkyWeather
@@ -31,9 +38,11 @@ class StepScaling:
     sun, sky : numpy.ndarray
         (T,) factors [1] on the sun's direct normal irradiance and on the sky radiance (measured weather).
     measured : tuple of numpy.ndarray or None
-        (dni, dhi) (T,) measured [W m-2].
+        (dni, dhi) (T,) the in-band values the sky is scaled to [W m-2]: measured (broadband) times ``share``.
     model : tuple of numpy.ndarray or None
-        (dni, dhi) (T,) the model's own [W m-2] (with ``measured``).
+        (dni, dhi) (T,) the model's own in-band values [W m-2] (with ``measured``).
+    share : float
+        :func:`widesky.core.spectral.in_band_share` of the sky's channel range [1].
     allsky : tuple or None
         (AllSkyWeather, AllSkyOptions, dataset min visibility [km]) for the all-sky model.
     ch_sun, ch_sky : numpy.ndarray or None
@@ -53,6 +62,7 @@ class StepScaling:
     ch_sky: Any = None
     ground_shape: Any = None
     ground_steps: Optional[tuple] = None
+    share: float = 1.0
 
 
 def _allsky_setup(spectral_model, measured, T, sky, options):
@@ -89,7 +99,9 @@ def step_scaling(weather: MeasuredSky, states, sky, ground_albedo=None) -> StepS
     if measured is not None:
         m_dni, m_dhi = (np.broadcast_to(np.asarray(a, dtype=float), (T,)) for a in tuple(measured)[:2])
         measured_scale_factors(np.ones(T), np.ones(T), m_dni, m_dhi)     # validates the inputs
-        out.measured, out.model = (m_dni, m_dhi), (np.zeros(T), np.zeros(T))
+        edges = np.asarray(sky.channel_edges, dtype=float)
+        out.share = in_band_share(edges[0], edges[-1])                   # broadband -> in-band [1]
+        out.measured, out.model = (m_dni * out.share, m_dhi * out.share), (np.zeros(T), np.zeros(T))
     out.allsky = _allsky_setup(weather.spectral_model, measured, T, sky, weather.allsky_options)
     if out.allsky is not None and out.allsky[1].ground == "vegetation" and ground_albedo is None:
         # the all-sky ground: a vegetation shape (albedo-weighted columns) and a grey part, per step
@@ -102,10 +114,12 @@ def step_scaling(weather: MeasuredSky, states, sky, ground_albedo=None) -> StepS
 
 def result_scaling(scaling: StepScaling, lit_mask):
     """``result.scaling``: the measured-weather factors of the run (None without measured weather); steps
-    outside ``lit_mask`` (T,) bool are not counted as guarded."""
+    outside ``lit_mask`` (T,) bool are not counted as guarded. The unmatched irradiance is broadband [W m-2]
+    (the in-band shortfall divided by ``share``), comparable with the measured values."""
     if scaling.measured is None:
         return None
     dark = ~lit_mask
     f = measured_scale_factors(*scaling.model, *scaling.measured, missing="clear")
     return f._replace(sun_scale=scaling.sun, sky_scale=scaling.sky,
-                      sun_guarded=f.sun_guarded & ~dark, sky_guarded=f.sky_guarded & ~dark)
+                      sun_guarded=f.sun_guarded & ~dark, sky_guarded=f.sky_guarded & ~dark,
+                      unmatched_dni=f.unmatched_dni / scaling.share, unmatched_dhi=f.unmatched_dhi / scaling.share)

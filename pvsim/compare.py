@@ -1,9 +1,9 @@
 """Technology comparison under the same sky and geometry: tables (pandas), plots (PNG), a text
 summary, and the tandem top-cell band-gap sweep.
 
-Spectral factor (per step or summed over a period) = front effective irradiance / (broadband
-irradiance after the cover x 1000 / G_ref): 1 under AM1.5G; > 1 a spectral gain. Annual and monthly
-factors are energy-weighted (ratios of sums).
+Spectral factor (per step or summed over a period) = front effective irradiance / broadband (whole
+spectrum) irradiance after the cover (the series' ``poa_global_cover`` [W m-2]): 1 under AM1.5G; > 1 a
+spectral gain. Annual and monthly factors are energy-weighted (ratios of sums).
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ def _group(y: YieldResult, group):
     return group
 
 
-def _sf(s, g_ref_band):
-    den = s["poa_global_cover"].sum() * 1000.0 / g_ref_band
+def _sf(s):
+    den = s["poa_global_cover"].sum()
     return float(s["effective_irradiance_front"].sum() / den) if den > 0 else float("nan")
 
 
@@ -59,7 +59,7 @@ def summary_table(y: YieldResult, group=None):
             "dc_kwh": ty.energy(g, "dc"), "ac_kwh": ty.energy(g, "ac"),
             "specific_yield": ty.specific_yield(g), "performance_ratio": w["ac"] / w["unshaded"]
             if w["unshaded"] > 0 else np.nan,
-            "spectral_factor": _sf(s, y.g_ref_band), "shading_loss": lo["poa"], "angle_loss": lo["cover"],
+            "spectral_factor": _sf(s), "shading_loss": lo["poa"], "angle_loss": lo["cover"],
             "spectral_gain": -lo["effective"], "bifacial_gain": -lo["bifacial"],
             "low_irradiance_loss": lo["low_irradiance"], "temperature_loss": lo["temperature"],
             "current_mismatch_loss": ty.current_mismatch_loss[g]}
@@ -87,7 +87,7 @@ def monthly_spectral_factor(y: YieldResult, group=None):
         s = ty.series[g]
         m = s.index.month
         num = s["effective_irradiance_front"].groupby(m).sum()
-        den = s["poa_global_cover"].groupby(m).sum() * 1000.0 / y.g_ref_band
+        den = s["poa_global_cover"].groupby(m).sum()
         out[name] = num / den.where(den > 0)
     df = pd.DataFrame(out)
     df.index.name = "month"
@@ -116,7 +116,7 @@ def visibility_spectral_factor(y: YieldResult, group=None, bins=(20, 30, 40, 60,
     for name, ty in y.technologies.items():
         s = ty.series[g]
         num = s["effective_irradiance_front"].groupby(cut.to_numpy(), observed=False).sum()
-        den = s["poa_global_cover"].groupby(cut.to_numpy(), observed=False).sum() * 1000.0 / y.g_ref_band
+        den = s["poa_global_cover"].groupby(cut.to_numpy(), observed=False).sum()
         out[name] = num / den.where(den > 0)
     df = pd.DataFrame(out)
     df.index = [str(i) for i in df.index]

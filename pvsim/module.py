@@ -165,6 +165,11 @@ def effective_irradiance(technology, currents, jref):
     """Effective irradiance [W m-2]: ``1000 P_cell(J) / P_cell(J_ref)`` (pvlib's meaning: after the
     optical and spectral losses that are in the currents).
 
+    ``J`` comes from the sky's in-band (280-2480 nm) spectrum and ``J_ref`` from AM1.5G over the same channels
+    (992.48 of its 1000 W m-2; cells collect nothing beyond 2480 nm): no broadband rescaling enters, and under a
+    weather file the sky carries the measured DNI/DHI times :func:`widesky.core.spectral.in_band_share`, so
+    nothing beyond 2480 nm is counted twice (docs/pvsim.md, "Weather files and the 280-2480 nm band").
+
     Parameters
     ----------
     technology : str, CellTechnology or TandemTechnology
@@ -192,7 +197,7 @@ def spectral_mismatch(effective, broadband, broadband_ref):
     broadband : array_like
         Broadband irradiance over the channels (280-2480 nm for the PSM) [W m-2].
     broadband_ref : float
-        Reference spectrum's irradiance over the same channels [W m-2] (AM1.5G 280-2480 nm: 992.5).
+        Reference spectrum's irradiance over the same channels [W m-2] (AM1.5G 280-2480 nm: 992.48).
 
     Returns
     -------

@@ -72,8 +72,9 @@ class YieldStream:
         self.currents = names
         self.tech_table = np.array([self._row(t, sources, names) for t in self.techs], dtype=np.float64)
         ws = st["ws"]
-        self.tcoef = np.array([st["system"].cell_temperature(1.0, 0.0, ws, st["prep"][t.name][0]) * np.ones(T)
-                               for t in self.techs], dtype=np.float64)
+        # the temperature models are linear in the POA irradiance; they take it broadband (in-band x kb)
+        self.tcoef = np.array([st["system"].cell_temperature(1.0, 0.0, ws, st["prep"][t.name][0]) * st["kb"]
+                               * np.ones(T) for t in self.techs], dtype=np.float64)
         self.runs = self._runs(any(t.bifaciality > 0 for t in self.techs))
         self.normals = np.ascontiguousarray(np.asarray(faces.normal, dtype=np.float32).T)
         self.area = np.ascontiguousarray(faces.area, dtype=np.float32)

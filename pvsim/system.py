@@ -16,8 +16,13 @@ Loss waterfall (per group, as reference yields [kWh/kWp] = irradiation at STC-eq
     effective     -> + bifacial rear gain
     total         -> low irradiance -> temperature -> DC losses -> inverter (AC)
 
-Broadband stages (280-2480 nm, the PSM's range) are multiplied by 1000 / G_ref, G_ref = the AM1.5G
-irradiance over the same channels (992.5 W m-2), so an AM1.5G spectrum has no spectral loss. The
+Broadband stages are the whole solar spectrum: the integrator's irradiance over the sky's channels
+(280-2480 nm for the PSM) divided by :func:`widesky.core.spectral.in_band_share` (992.48 / 1000 for 280-2480 nm,
+the AM1.5G irradiance over the channels per 1000 W m-2), widesky's one convention between band-limited spectra
+and broadband values (docs/pvsim.md, "Weather files and the 280-2480 nm band"): an AM1.5G spectrum has no
+spectral loss, and under a weather file, whose DNI and DHI the sky carries times the same share, the
+plane-of-array stage is the measured irradiance transposed. The series' ``poa_*`` columns and the cell
+temperature's irradiance are broadband the same way. The
 unshaded beam uses each step's direct normal irradiance recovered from the faces that see the sun
 (``direct / (sun_visible cos aoi)``, exact for planar faces); steps where no face sees the sun add
 no shading loss.
@@ -31,6 +36,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from widesky.core.spectral import in_band_share
 from widesky.irradiance import Response, SpectralAngularTable
 
 from .module import (G_STC, current_mismatch_loss, effective_irradiance, low_irradiance_factor, pvwatts_inverter,
@@ -203,7 +209,8 @@ class TechnologyYield:
         group -> DC rating [W] (front area x eta_stc x 1000 W m-2).
     series : dict
         group -> pandas.DataFrame indexed by time: ``poa_global``, ``poa_direct``,
-        ``poa_sky_diffuse``, ``poa_ground_diffuse`` (broadband, no optics) [W m-2], ``aoi`` [deg],
+        ``poa_sky_diffuse``, ``poa_ground_diffuse`` (broadband: the whole solar spectrum, the in-band
+        irradiance / in-band share; no optics) [W m-2], ``aoi`` [deg],
         ``effective_irradiance`` (front + bifaciality x rear), ``effective_irradiance_front``,
         ``poa_global_cover`` (broadband after the cover optics) [W m-2], ``spectral_factor``
         (front effective irradiance / STC-scaled cover irradiance) [1],
@@ -243,13 +250,16 @@ class TechnologyYield:
 @dataclass
 class YieldResult:
     """``technologies``: dict name -> TechnologyYield; ``groups``: tuple of group names;
-    ``times``; ``visibility`` (T,) [km] of the sky states; ``g_ref_band`` [W m-2]."""
+    ``times``; ``visibility`` (T,) [km] of the sky states; ``g_ref_band`` [W m-2] (the STC reference over the
+    channels); ``in_band_share`` [1] (:func:`widesky.core.spectral.in_band_share` of the channels: broadband =
+    in-band / share)."""
 
     technologies: dict
     groups: tuple
     times: object
     visibility: np.ndarray
     g_ref_band: float
+    in_band_share: float = 1.0
 
 
 def _step_hours(times, T):
@@ -382,8 +392,9 @@ def _yield_setup(techs, T, edges, temp_air, wind_speed, system, reference, refer
             raise ValueError(f"reference must be finite, >= 0 with shape ({edges.size - 1},), got {g_ref.shape}")
     g_ref_band = float(np.sum(g_ref * np.diff(edges)))
     prep = {t.name: (_eta_stc(t, edges, g_ref), reference_currents(t, edges, reference=g_ref)) for t in techs}
-    return {"system": system, "ta": ta, "ws": ws, "g_ref_band": g_ref_band, "kb": G_STC / g_ref_band,
-            "prep": prep, "T": T}
+    share = in_band_share(edges[0], edges[-1])     # in-band -> broadband (the whole spectrum) [1]
+    return {"system": system, "ta": ta, "ws": ws, "g_ref_band": g_ref_band, "kb": 1.0 / share,
+            "share": share, "prep": prep, "T": T}
 
 
 def _yield_finish(accs, faces, techs, setup, times, states):
@@ -412,7 +423,7 @@ def _yield_finish(accs, faces, techs, setup, times, states):
     out = {t.name: TechnologyYield(t, prep[t.name][0], *per[t.name]) for t in techs}
     vis = np.asarray(states.visibility, dtype=float) if states is not None else np.full(T, np.nan)
     return YieldResult(out, tuple(faces.group_names), times, np.broadcast_to(vis, (T,)).copy(),
-                       setup["g_ref_band"])
+                       setup["g_ref_band"], setup["share"])
 
 
 class _Chunk:
@@ -446,13 +457,14 @@ class _Chunk:
                        "cover": self.cover @ a, "unshaded": self.unshaded @ a}
         self._tc = {}
 
-    def cell_temperature(self, system, eta):
+    def cell_temperature(self, system, eta, kb):
         """(cell temperature (rows, F) [degC], its area-weighted sum (rows,)), shared by technologies
-        whose temperature model does not depend on their efficiency (Faiman)."""
+        whose temperature model does not depend on their efficiency (Faiman); from the broadband POA
+        irradiance (in-band times ``kb`` = 1 / in-band share [1]), what the models' pyranometers measured."""
         key = (system.temperature_model, tuple(sorted(system.temperature_params.items())),
-               eta if system.temperature_model == "pvsyst" else None)
+               eta if system.temperature_model == "pvsyst" else None, kb)
         if key not in self._tc:
-            tc = system.cell_temperature(self.g, self.ta, self.ws, eta)
+            tc = system.cell_temperature(self.g * kb, self.ta, self.ws, eta)
             self._tc[key] = (tc, tc @ self.area)
         return self._tc[key]
 
@@ -489,7 +501,7 @@ class _GroupAccumulator:
             curb = {sub: c.current(sources[sub][0], back=True) * sources[sub][1] for sub in tech.subcells}
             e_tot = e_front.copy()
             e_tot[:, c.has_back] += tech.bifaciality * effective_irradiance(tech, curb, jref)
-        tc, tc_sum = c.cell_temperature(system, eta)
+        tc, tc_sum = c.cell_temperature(system, eta, self.kb)
         low = e_tot * low_irradiance_factor(e_tot, tech.low_irradiance_200)
         dc = eta * low * temperature_factor(tc, tech.gamma_pdc)          # W m-2 of module
         q = self.q
@@ -507,15 +519,16 @@ class _GroupAccumulator:
 
     def series(self, area, times, ta, ws):
         q, A = self.q, (area if area > 0 else 1.0)
+        kb = self.kb / A                          # in-band sums -> broadband means [m-2]
         with np.errstate(invalid="ignore", divide="ignore"):
             aoi = np.where(q["aoi_a"] > 0, q["aoi_w"] / q["aoi_a"], np.nan)
             sf = np.where(q["cover"] > 0, (q["effective_front"] / G_STC) / (q["cover"] * self.kb / G_STC),
                           np.nan)
         return pd.DataFrame({
-            "poa_global": q["poa_global"] / A, "poa_direct": q["poa_direct"] / A,
-            "poa_sky_diffuse": q["poa_sky_diffuse"] / A, "poa_ground_diffuse": q["poa_ground_diffuse"] / A,
+            "poa_global": q["poa_global"] * kb, "poa_direct": q["poa_direct"] * kb,
+            "poa_sky_diffuse": q["poa_sky_diffuse"] * kb, "poa_ground_diffuse": q["poa_ground_diffuse"] * kb,
             "aoi": aoi, "effective_irradiance": q["effective"] / A,
-            "effective_irradiance_front": q["effective_front"] / A, "poa_global_cover": q["cover"] / A,
+            "effective_irradiance_front": q["effective_front"] / A, "poa_global_cover": q["cover"] * kb,
             "spectral_factor": sf,
             "temp_air": ta, "wind_speed": ws, "cell_temperature": np.where(q["poa_global"] > 0, q["tc"] / A, ta),
             "dc": q["dc"]}, index=times)

@@ -9,7 +9,8 @@ References and tolerances:
   (measured +1.0 to +1.7 %: the patch-mean radiance times the patch's exact cosine weight) and with
   ``mf=4, radiance_samples=4`` within 0.3 % (measured +0.1 to +0.2 %); a uniform sky: pi L exactly.
 * End to end: measured DNI and DHI imposed through ``measured_scaling`` reproduce, on an unobstructed
-  horizontal face, ``poa_direct + poa_sky_diffuse = DNI sin(elevation) + DHI`` within 2e-3 (the
+  horizontal face, ``poa_direct + poa_sky_diffuse = (DNI sin(elevation) + DHI) x 0.99248`` within 2e-3 (the
+  in-band share of the broadband values, ASTM G173-03 over 280-2480 nm per 1000 W m-2; the
   integrator uses the quadrature ``model_irradiance`` divides by; float32 products), for overcast
   (DNI 0), partly cloudy and clearer-than-model steps (the circumsolar disc, traced with the sun, is
   sky light and takes the sky's factor). Where the measured value is missing the clear sky is kept
@@ -20,6 +21,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from widesky.core.spectral import in_band_share
 from widesky.irradiance.integrator import IntegratorSettings, measured_scaling, model_irradiance
 from widesky.irradiance.poa import MeasuredSky, RunOptions, poa_irradiance
 from widesky.irradiance.reference import reference_poa
@@ -72,10 +74,14 @@ def test_measured_weather_reproduced_on_a_horizontal_face():
                          weather=MeasuredSky(dni_scale=scaling.sun_scale, diffuse_scale=scaling.sky_scale),
                          run=RunOptions(n_jobs=1))
     el = np.radians(STATES.sun_elevation)
-    want_dhi = np.where(np.isfinite(dhi), dhi, mdhi)
+    # measured values are broadband: the 280-2480 nm sky carries them times G173's in-band share
+    # (992.48 / 1000, widesky.core.spectral.in_band_share; issue 35); the clear sky kept where DHI is missing
+    share = in_band_share(280.0, 2480.0)
+    assert share == pytest.approx(0.99248, abs=1e-5)
+    want = dni * np.sin(el) * share + np.where(np.isfinite(dhi), dhi * share, mdhi)
     assert res.poa_global.shape == (T, 2)                               # two triangles
-    np.testing.assert_allclose(res.poa_direct + res.poa_sky_diffuse,
-                               (dni * np.sin(el) + want_dhi)[:, None].repeat(2, 1), rtol=2e-3)
+    np.testing.assert_allclose(res.poa_direct + res.poa_sky_diffuse, want[:, None].repeat(2, 1), rtol=2e-3)
+    np.testing.assert_allclose(scaling.unmatched_dni[:3], 0.0, atol=1e-9)   # broadband, exact match
     assert np.all(res.poa_direct[0] < 0.05 * res.poa_sky_diffuse[0])   # overcast: circumsolar only
     # the same in one pass: the factors from the integrator's own sky evaluation
     one = poa_irradiance(scene, sky, STATES, weather=MeasuredSky(measured=(dni, dhi)),

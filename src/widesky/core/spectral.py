@@ -9,10 +9,12 @@ Units: wavelength [nm]; the values in any unit, which the band means keep.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 __all__ = ["band_average", "OUTSIDE", "PLANCK", "SPEED_OF_LIGHT", "ELEMENTARY_CHARGE", "HC_EV_NM",
-           "check_response_limit"]
+           "check_response_limit", "in_band_share", "STC_IRRADIANCE"]
 
 PLANCK = 6.62607015e-34          # h [J s] (SI 2019, exact)
 SPEED_OF_LIGHT = 299792458.0     # c [m s-1] (exact)
@@ -110,3 +112,54 @@ def band_average(wavelength, values, lower_nm, upper_nm, *, axis=-1, outside="ze
         return f
 
     return np.moveaxis((integral_to(hi) - integral_to(lo)) / (hi - lo), -1, axis)
+
+
+STC_IRRADIANCE = 1000.0
+"""Irradiance of the standard AM1.5 global spectrum over its whole range [W m-2] (IEC 60904-3 normalises the
+ASTM G173-03 global tilted table, which integrates to 1000.37 W m-2, to this value)."""
+
+
+@functools.lru_cache(maxsize=64)
+def _g173_share(lower_nm, upper_nm):
+    from .paths import runtime_file
+    t = np.loadtxt(runtime_file("solar/ASTMG173.csv"), delimiter=",", skiprows=2, usecols=(0, 2))
+    band = float(band_average(t[:, 0], t[:, 1], lower_nm, upper_nm)[0]) * (upper_nm - lower_nm)
+    return band / STC_IRRADIANCE
+
+
+def in_band_share(lower_nm=280.0, upper_nm=2480.0):
+    """Share [1] of a broadband (whole solar spectrum) irradiance that a spectrum over ``lower_nm``-``upper_nm``
+    carries: widesky's one convention between weather files and its band-limited spectra.
+
+    A weather file's DNI, DHI and GHI [W m-2] are broadband: pyranometers and pyrheliometers see the whole
+    solar spectrum (about 285-3000 nm and beyond). widesky's sky covers ``lower_nm``-``upper_nm`` (the Prague
+    Sky Model: 280-2480 nm). Everywhere in widesky:
+
+    - a measured broadband value ``X`` [W m-2] is matched by the in-band irradiance ``X * share`` [W m-2]
+      (the integrator scales its sky so, :mod:`widesky.irradiance.step_scaling`);
+    - an in-band irradiance ``E`` [W m-2] stands for the broadband irradiance ``E / share`` [W m-2] (pvsim's
+      plane-of-array stages and cell temperature, thermal's total shortwave).
+
+    So a clear-sky run and a weather run give broadband values on the same footing, and a weather run's
+    broadband plane-of-array irradiance is the measured DNI/DHI transposed. ``share`` is one fixed number for
+    every step and part: the ASTM G173-03 global tilted (AM1.5G) irradiance over the band divided by the
+    1000 W m-2 that IEC 60904-3 takes the whole spectrum to be (280-2480 nm: 992.48 / 1000 = 0.99248, the
+    same quantity pvsim's STC reference uses, so an AM1.5G-shaped spectrum has effective irradiance equal to
+    its broadband irradiance). The real share varies: G173's direct beam carries 99.12 % of its irradiance
+    below 2480 nm, its diffuse light all of it, and water vapour moves the beyond-2480 nm part (docs/pvsim.md).
+
+    Parameters
+    ----------
+    lower_nm, upper_nm : float
+        The spectrum's range [nm], 0 <= lower_nm < upper_nm (ASTM G173-03 tabulates 280-4000 nm and is taken
+        as 0 outside).
+
+    Returns
+    -------
+    float
+        The share [1].
+    """
+    lo, hi = float(lower_nm), float(upper_nm)
+    if not (np.isfinite(hi) and 0.0 <= lo < hi):
+        raise ValueError(f"spectral range {lo:g}-{hi:g} nm: the in-band share needs 0 <= lower < upper [nm]")
+    return _g173_share(lo, hi)
