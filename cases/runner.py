@@ -24,6 +24,7 @@ import widesky.irradiance as ir
 from widesky import pvsim
 from widesky.core.atomic import plain_mode
 from widesky.irradiance import Response
+from widesky.irradiance.simulation import weather_path
 from widesky.thermal import sky_temperature
 
 from .building_loads import (building_thermal, design_day_temperature, glazing_responses, prepare_building,
@@ -47,12 +48,27 @@ def build_geometry(path: Path, parameters: dict):
     path = Path(path)
     if path.suffix != ".py":
         return {"analysis": {path.stem: str(path)}, "context": {}}
+    if not path.is_file():
+        raise ConfigError(f"scene.geometry: {str(path)!r} not found")
     spec = importlib.util.spec_from_file_location(f"widesky_case_geometry_{path.parent.name}", path)
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    try:
+        spec.loader.exec_module(module)
+    except SyntaxError as exc:
+        raise ConfigError(f"{exc.filename or path}:{exc.lineno}: the geometry script has a syntax error: "
+                          f"{exc.msg}" + (f" in {exc.text.strip()!r}" if exc.text else "")) from None
+    except Exception as exc:  # noqa: BLE001 - any error of the user's script, with its line
+        raise ConfigError(f"{_script_line(exc, path)}: the geometry script failed while loading: "
+                          f"{type(exc).__name__}: {exc}") from None
     if not hasattr(module, "build"):
         raise ConfigError(f"{path}: defines no build(parameters) function")
-    geo = module.build(dict(parameters))
+    try:
+        geo = module.build(dict(parameters))
+    except (KeyboardInterrupt, MemoryError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - the user's script: one line naming it and the failing line
+        raise ConfigError(f"{_script_line(exc, path)}: build(parameters) of the geometry script failed: "
+                          f"{type(exc).__name__}: {exc}") from None
     if not isinstance(geo, dict) or not isinstance(geo.setdefault("analysis", {}), dict) or not (
             geo["analysis"] or geo.get("building") is not None):
         raise ConfigError(f"{path}: build() must return {{'analysis': {{name: mesh}}, 'context': {{...}}}} "
@@ -68,6 +84,16 @@ def build_geometry(path: Path, parameters: dict):
         if shade is not None:
             geo["context"] = {**geo["context"], "building shading": shade}
     return geo
+
+
+def _script_line(exc, path):
+    """``path:line`` of the innermost frame of ``exc``'s traceback inside the script ``path`` (else ``path``)."""
+    import traceback
+    where = str(path)
+    for frame in traceback.extract_tb(exc.__traceback__):
+        if Path(frame.filename).resolve() == Path(path).resolve():
+            where = f"{path}:{frame.lineno}"
+    return where
 
 
 def band_responses():
@@ -133,10 +159,18 @@ def simulation(cfg, scene, settings, n_jobs=None, progress=False, sky_source=Non
                              **kw)
     path = sk["weather"]
     try:
-        return ir.Simulation(scene, weather=path, start=str(p["start"]), end=str(p["end"]),
-                             coerce_year=p["start"].year, **kw)
+        years = sorted(set(ir.read_weather(weather_path(path)).data.index.year))
+        sim = ir.Simulation(scene, weather=path, start=str(p["start"]), end=str(p["end"]),
+                            coerce_year=p["start"].year, **kw)
     except ValueError as exc:            # WeatherFileError is a ValueError; so is an empty period
         raise ConfigError(f"sky.weather = {str(path)!r}: {exc}") from None
+    if len(years) == 1 and years[0] != p["start"].year:
+        # one measured year (a typical year mixes years, and moving it is what it is for): say that it moves
+        sim.warnings.append(f"sky.weather = {str(path)!r}: its records are of {years[0]}, one measured year, and "
+                            f"the period is in {p['start'].year}: they are moved to {p['start'].year} (weekdays "
+                            f"and 29 February do not carry over); set period.start/end in {years[0]} to run the "
+                            "year as measured")
+    return sim
 
 
 def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
@@ -150,6 +184,8 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     sky = ir.PragueSky(cfg["sky"]["dataset"])
     settings = ir.IntegratorSettings.for_tolerance(cfg["accuracy"]["tolerance"])
     sim = simulation(cfg, None, settings, n_jobs=n_jobs, progress=progress, sky_source=sky)
+    for w in sim.warnings:
+        print(f"widesky: warning: {w}", file=sys.stderr)
     states, site, how = sim.states, sim.input.site, sim.description
     times = states.times
     # the report's hour: the step whose interval holds report.sky_time
@@ -332,9 +368,15 @@ def _check_output(out: Path):
         raise ValueError(f"--output {str(out)!r} is not empty and holds no widesky report (no {REPORT_MARKER} "
                          "file): a report replaces its whole folder, and widesky never deletes files it did not "
                          "write; choose a new folder")
+    # the report's parent folders are created only when the report is written (a failed run leaves none behind):
+    # here the nearest folder that exists must take a new entry
+    base = out.parent
+    while not base.exists():
+        base = base.parent
+    if not base.is_dir():
+        raise ValueError(f"--output {str(out)!r}: cannot write a report folder there ({str(base)!r} is a file)")
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        probe = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.probe-"))
+        probe = Path(tempfile.mkdtemp(dir=base, prefix=f".{out.name}.probe-"))
         probe.rmdir()
     except OSError as e:
         raise ValueError(f"--output {str(out)!r}: cannot write a report folder there ({e.strerror})") from None

@@ -42,13 +42,26 @@ def load_mesh(obj):
     if isinstance(obj, trimesh.Trimesh):
         return obj
     if isinstance(obj, (str, os.PathLike)):
+        path = os.fspath(obj)
+        if not os.path.isfile(path):
+            raise ValueError(f"mesh file {path!r} " + ("is a folder" if os.path.isdir(path) else "not found"))
+        suffix = os.path.splitext(path)[1].lower().lstrip(".")
+        formats = [f for f in sorted(trimesh.available_formats()) if f in _MESH_SUFFIXES]
+        if suffix not in formats:
+            raise ValueError(f"mesh file {path!r}: the suffix {'.' + suffix if suffix else '(none)'} is not a "
+                             "triangle-mesh format widesky reads; valid: " + ", ".join("." + f for f in formats))
         try:
-            loaded = trimesh.load(os.fspath(obj), force="mesh", process=False)
+            loaded = trimesh.load(path, force="mesh", process=False)
         except IndexError as e:           # trimesh's OBJ reader on a face indexing no vertex
-            raise ValueError(f"mesh {os.fspath(obj)!r}: a face indexes a vertex that the file does "
+            raise ValueError(f"mesh {path!r}: a face indexes a vertex that the file does "
                              f"not have ({e})") from None
+        except Exception as e:             # noqa: BLE001 - trimesh's readers raise anything on a bad file
+            msg = str(e).splitlines()[0] if str(e) else type(e).__name__
+            raise ValueError(f"mesh file {path!r}: not a readable .{suffix} mesh ({msg})") from None
         if not isinstance(loaded, trimesh.Trimesh):
-            raise ValueError(f"{os.fspath(obj)!r} holds no triangle mesh")
+            raise ValueError(f"mesh file {path!r} holds no triangle mesh")
+        if len(loaded.faces) == 0:
+            raise ValueError(f"mesh file {path!r} holds no triangles (an empty or unreadable .{suffix} file)")
         return loaded
     if isinstance(obj, trimesh.Scene):
         return obj.to_mesh() if hasattr(obj, "to_mesh") else obj.dump(concatenate=True)
@@ -56,6 +69,15 @@ def load_mesh(obj):
         return trimesh.Trimesh(vertices=np.asarray(obj[0], dtype=float),
                                faces=np.asarray(obj[1], dtype=np.int64), process=False)
     raise TypeError(f"cannot make a mesh from {type(obj).__name__}")
+
+
+# the mesh formats named in messages (trimesh reads a few more, e.g. point clouds, that are no use here)
+_MESH_SUFFIXES = ("obj", "ply", "stl", "glb", "gltf", "off", "dae", "3mf", "3dxml", "x3d", "xaml", "dxf", "svg")
+
+
+def _mesh_name(obj, name):
+    """``name`` with the file it came from, for messages (e.g. ``analysis[0] (roof.obj)``)."""
+    return f"{name} ({os.fspath(obj)!r})" if isinstance(obj, (str, os.PathLike)) else name
 
 
 def _mesh_arrays(mesh, name):
@@ -236,7 +258,7 @@ def make_scene(analysis, context=(), *, groups=None, analysis_reflectance=0.1,
     verts, tris, refl, tri_group = [], [], [], []
     base = 0
     for i, m in enumerate(analysis):
-        v, f = _mesh_arrays(load_mesh(m), f"analysis[{i}]")
+        v, f = _mesh_arrays(load_mesh(m), _mesh_name(m, f"analysis[{i}]"))
         verts.append(v)
         tris.append(f + base)
         refl.append(np.full(len(f), a_refl[i]))
@@ -244,7 +266,7 @@ def make_scene(analysis, context=(), *, groups=None, analysis_reflectance=0.1,
         base += len(v)
     n_analysis = sum(len(t) for t in tris)
     for i, m in enumerate(context):
-        v, f = _mesh_arrays(load_mesh(m), f"context[{i}]")
+        v, f = _mesh_arrays(load_mesh(m), _mesh_name(m, f"context[{i}]"))
         verts.append(v)
         tris.append(f + base)
         refl.append(np.full(len(f), c_refl[i]))

@@ -455,7 +455,8 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
                 years = sorted(set(wd.data.index.year))
                 mixed = (f"; its records carry the years {years[0]}..{years[-1]} (a typical year mixes years: move "
                          f"them to one year with coerce_year, --coerce-year on the command line)"
-                         if len(years) > 1 else f"; its records are of {years[0]}")
+                         if len(years) > 1 else f"; its records are of {years[0]}: choose a period in {years[0]}, "
+                         f"or move them to the period's year with coerce_year (--coerce-year on the command line)")
                 raise ValueError(f"no steps of the weather file in the period {start} .. {end}{mixed}")
         times = data.index
         sp = wd.site.solar_position(times, wd.label, wd.step)

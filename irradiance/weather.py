@@ -102,8 +102,13 @@ class WeatherData:
         """A short human-readable description, including the missing-value report."""
         idx = self.data.index
         mixed = len(idx) and not idx.is_monotonic_increasing
-        span = (f"{idx.min()} .. {idx.max()}" + (" (records of several years, as typical years mix them)"
-                                                  if mixed else "")) if len(idx) else ""
+        if mixed:          # a typical year: each month from its own year (IWEC, TMY): no span from min to max
+            years = pd.Series(idx.year, index=idx.month).groupby(level=0).agg(lambda y: y.mode().iloc[0])
+            span = (f"a typical year of months from {idx.year.min()}-{idx.year.max()} ("
+                    + ", ".join(f"{pd.Timestamp(2001, m, 1):%b} {y}" for m, y in years.items())
+                    + f"); in file order {idx[0]} .. {idx[-1]}")
+        else:
+            span = f"{idx[0]} .. {idx[-1]}" if len(idx) else ""
         lines = [f"{self.source or 'weather'}: {len(idx)} steps of {self.step}, label={self.label}, {span}"
                  if len(idx) else f"{self.source}: no steps",
                  f"site: lat {self.site.latitude:.4f} deg, lon {self.site.longitude:.4f} deg, "
@@ -199,6 +204,28 @@ def _check_epw_sequence(path, stamps, years, linenos, step):
     raise WeatherFileError(path, lb, f"record {problem}")
 
 
+# Physical ranges of weather fields that are not missing codes (EnergyPlus "Auxiliary Programs", Weather Converter:
+# radiation is >= 0, wind speed 0-40 m s-1, relative humidity 0-110 %); irradiances above 2000 W m-2 exceed any
+# measurement (the solar constant is 1361 W m-2; cloud enhancement stays below about 1900 W m-2 at the ground).
+_PHYSICAL_RANGES = {"ghi_extra": (0.0, None), "dni_extra": (0.0, None), "ghi_infrared": (0.0, None),
+               "ghi": (0.0, 2000.0), "dni": (0.0, 2000.0), "dhi": (0.0, 2000.0), "wind_speed": (0.0, None),
+               "relative_humidity": (0.0, 110.0), "visibility": (0.0, None)}
+
+
+def _check_range(path, name, v, missing, linenos, col=None):
+    """Refuse a value of ``name`` outside its physical range (:data:`_PHYSICAL_RANGES`) that is not a missing code,
+    naming the file, the line and the field."""
+    if name not in _PHYSICAL_RANGES:
+        return
+    lo, hi = _PHYSICAL_RANGES[name]
+    out = ~missing & ((v < lo) | (False if hi is None else v > hi))
+    if out.any():
+        k = int(np.flatnonzero(out)[0])
+        rng = f"[{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}"
+        where = f" (column {col + 1})" if col is not None else ""
+        raise WeatherFileError(path, int(linenos[k]), f"field {name!r}{where} = {v[k]:g} outside the valid range {rng}")
+
+
 def read_epw(path, coerce_year=None, zero_as_missing=_EPW_ZERO_AS_MISSING) -> WeatherData:
     """Read an EnergyPlus weather (EPW) file.
 
@@ -273,7 +300,7 @@ def read_epw(path, coerce_year=None, zero_as_missing=_EPW_ZERO_AS_MISSING) -> We
                 _float(path, lineno, name, fields[col])
         raise  # pragma: no cover (the loop above always finds the bad field)
     linenos = np.array([n for n, _ in recs])
-    for j, (name, lo, hi) in enumerate((("year", 1, 9999), ("month", 1, 12), ("day", 1, 31),
+    for j, (name, lo, hi) in enumerate((("year", 1678, 2261), ("month", 1, 12), ("day", 1, 31),
                                         ("hour", 1, 24), ("minute", 0, 60))):
         bad = (when[:, j] < lo) | (when[:, j] > hi) | (when[:, j] != np.round(when[:, j]))
         if bad.any():
@@ -299,6 +326,7 @@ def read_epw(path, coerce_year=None, zero_as_missing=_EPW_ZERO_AS_MISSING) -> We
     for j, (_, name, code, scale) in enumerate(_EPW_FIELDS):
         v = values[:, j]
         bad = v >= code - 1e-9 if code >= 1 else np.isclose(v, code) | (v >= 999.0)
+        _check_range(path, name, v, bad, linenos, _EPW_FIELDS[j][0])
         if name in zero_as_missing:
             bad |= v == 0.0
         missing[name] = int(bad.sum())
@@ -426,7 +454,7 @@ def read_tmy3(path, coerce_year=None) -> WeatherData:
     if len(names) < 2 or not names[0].startswith("Date") or not names[1].startswith("Time"):
         raise WeatherFileError(path, 2, f"column header starts {names[:2]}, expected Date, Time")
     wanted = [(j, *_TMY3_FIELDS[n]) for j, n in enumerate(names) if n in _TMY3_FIELDS]
-    stamps, rows = [], []
+    stamps, rows, linenos = [], [], []
     for i in range(2, len(lines)):
         if not lines[i].strip():
             continue
@@ -450,11 +478,13 @@ def read_tmy3(path, coerce_year=None) -> WeatherData:
             raise WeatherFileError(path, lineno, f"invalid date {fields[0]!r}: {exc}") from None
         stamps.append(date + pd.Timedelta(hours=hh, minutes=mm))
         rows.append([_float(path, lineno, names[j], fields[j]) for j, _, _ in wanted])
+        linenos.append(lineno)
     values = np.array(rows, dtype=float).reshape(len(rows), len(wanted))
     columns, missing = {}, {}
-    for k, (_, name, scale) in enumerate(wanted):
+    for k, (j, name, scale) in enumerate(wanted):
         v = values[:, k]
         bad = np.isin(v, _TMY3_MISSING)
+        _check_range(path, name, v * scale, bad, linenos, j)
         missing[name] = int(bad.sum())
         columns[name] = np.where(bad, np.nan, v * scale)
     tz = fixed_offset_tz(meta["tz_offset"])
@@ -580,4 +610,20 @@ def read_weather(path, **kwargs) -> WeatherData:
         return read_epw(path, **kwargs)
     if len(lines) > 1 and lines[1].startswith("Date (MM/DD/YYYY)"):
         return read_tmy3(path, **kwargs)
-    return read_weather_csv(path, **kwargs)
+    kinds = "EPW (first line LOCATION,...), TMY3 or CSV with pvlib column names"
+    with open(path, "rb") as fh:
+        head = fh.read(4096)
+    if b"\0" in head or (head and sum(b < 0x09 or 0x0d < b < 0x20 for b in head) > len(head) // 100):
+        raise WeatherFileError(path, None, f"not a weather file (binary data); expected {kinds}")
+    if Path(path).suffix.lower() in (".epw", ".tm3", ".tmy3"):
+        first = lines[0][:40] if lines else ""
+        raise WeatherFileError(path, 1, f"not a weather file: the first line {first!r} starts no LOCATION header "
+                                        f"(EPW) and the second no 'Date (MM/DD/YYYY)' header (TMY3); expected {kinds}")
+    try:
+        return read_weather_csv(path, **kwargs)
+    except WeatherFileError as exc:
+        if "no latitude" in str(exc) or "no header" in str(exc):
+            why = str(exc).split(": ", 1)[1]
+            raise WeatherFileError(path, None, f"not an EPW or TMY3 file, and as a CSV weather file {why} "
+                                               f"(expected {kinds})") from None
+        raise

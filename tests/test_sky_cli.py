@@ -97,12 +97,17 @@ def test_render_outputs_are_all_or_nothing(tmp_path, capsys, monkeypatch):
 
 def test_render_clamp_policy(tmp_path, capsys):
     """One policy: a physically valid value outside the dataset's grid is clamped to the dataset's range
-    with a warning (exit 0); a physically impossible one is an error (above)."""
+    with a warning (exit 0); a physically impossible one is an error (above). The sun elevation is the exception
+    (issue 34): below the dataset's lowest elevation it is an error naming the range, since a clamped sun would
+    be drawn where it is not."""
     model = skymodel.load_dataset()
     below = model.elevation_range[0] - 2.0
-    rc, out, err = run_cli(["sky", "render", *SMALL, "--elevation", str(below), "--visibility", "300",
-                            "-o", str(tmp_path / "a.png")], capsys)
+    rc, out, err = run_cli(["sky", "render", *SMALL, "--visibility", "300", "-o", str(tmp_path / "a.png")], capsys)
     assert rc == 0 and "warning:" in err and "clamped" in err and "visibility=300" in err
+    assert sorted(os.listdir(tmp_path)) == ["a.exr", "a.png"]
+    rc, out, err = run_cli(["sky", "render", *SMALL, "--elevation", str(below), "-o", str(tmp_path / "b.png")],
+                           capsys)
+    assert rc == 2 and "--elevation" in err and "outside the dataset's range" in err
     assert sorted(os.listdir(tmp_path)) == ["a.exr", "a.png"]
 
 

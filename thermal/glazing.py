@@ -387,15 +387,32 @@ def read_igdb(path, substrate=None) -> GlazingLayer:
         try:
             vals = [float(p) for p in parts[:4]]
         except ValueError:
-            raise ValueError(f"{path}:{i}: expected 'wavelength T Rfront Rback', got {s!r}") from None
+            raise ValueError(f"{path}:{i}: expected 'wavelength T Rfront Rback' (an IGDB/Optics text file), got "
+                             f"{s[:60]!r}") from None
         if len(vals) != 4:
             raise ValueError(f"{path}:{i}: expected 4 columns, got {len(parts)}")
-        rows.append(vals)
+        # a NaN or infinite value would pass every range check below and reach g as nan
+        if not all(np.isfinite(vals)):
+            raise ValueError(f"{path}:{i}: {s!r} is not finite: wavelength [um], T, Rfront and Rback must be "
+                             "numbers, T and R in [0, 1]")
+        if not all(0.0 <= v <= 1.0 for v in vals[1:]):
+            raise ValueError(f"{path}:{i}: {s!r}: T, Rfront and Rback must lie in [0, 1]")
+        # energy conservation: what a layer transmits and reflects cannot exceed what falls on it
+        for side, r in (("Rfront", vals[2]), ("Rback", vals[3])):
+            if vals[1] + r > 1.0 + 1e-9:
+                raise ValueError(f"{path}:{i}: T + {side} = {vals[1] + r:.4g} at {vals[0]:g} um exceeds 1 "
+                                 "(T + R + absorptance = 1: T + R must be <= 1)")
+        rows.append(vals + [i])
     if len(rows) < 2:
         raise ValueError(f"{path}: no spectral data rows")
     data = np.array(rows)
-    if np.any(data[:, 1:] < 0) or np.any(data[:, 1:] > 1) or np.any(np.diff(data[:, 0]) <= 0):
-        raise ValueError(f"{path}: T, R must lie in [0, 1] and wavelengths increase")
+    lines, data = data[:, 4].astype(int), data[:, :4]
+    if data[0, 0] <= 0:
+        raise ValueError(f"{path}:{lines[0]}: wavelength {data[0, 0]:g} um must be > 0")
+    if np.any(np.diff(data[:, 0]) <= 0):
+        k = int(np.flatnonzero(np.diff(data[:, 0]) <= 0)[0]) + 1
+        raise ValueError(f"{path}:{lines[k]}: wavelength {data[k, 0]:g} um does not follow "
+                         f"{data[k - 1, 0]:g} um: wavelengths must increase")
     try:
         thickness = float(head["Thickness"].split()[0])
         emis = [float(v) for v in re.findall(r"[-+]?\d*\.?\d+(?:[eE][-+]?\d+)?",

@@ -1,4 +1,5 @@
-"""``widesky build ...``: solve a sky state, run the validations, refit the gas band model."""
+"""``widesky solver ...``: solve a sky state, run the validations, refit the gas band model (the reference
+solver's tools; ``widesky dataset build`` builds a dataset with it)."""
 
 from __future__ import annotations
 
@@ -12,8 +13,12 @@ from .solver import AtmosphereSpec, SkyState, SolverConfig, solve_sky
 
 
 def register(subparsers):
-    """Add the ``build`` command group to the ``widesky`` parser."""
-    p = subparsers.add_parser("build", help="physical atmosphere + reference solver (dataset generator)")
+    """Add the ``solver`` command group to the ``widesky`` parser."""
+    p = subparsers.add_parser("solver", help="the reference solver behind the datasets: solve a sky state, "
+                                             "validate, refit the gas model",
+                              description="The physical atmosphere and reference radiative-transfer solver that "
+                                          "datasets are built from: solve one sky state, run the validation cases, "
+                                          "refit the gas band model. To build a dataset: widesky dataset build.")
     sub = p.add_subparsers(dest="build_command", metavar="SUBCOMMAND")
     sub.required = True
 

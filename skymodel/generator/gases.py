@@ -21,7 +21,7 @@ optical depth k_i W_l into layer l (W_l the layer's water [cm]); term j of the m
 Ozone is not taken from 6S: see :mod:`widesky.skymodel.generator.ozone`. In the output of Py6S the field ``no2`` is N2O.
 
 The fitted coefficients are a product of this project computed with 6S; they ship with the package as
-``kdist_6s.json`` and are regenerated with ``widesky build fit-gases``.
+``kdist_6s.json`` and are regenerated with ``widesky solver fit-gases``.
 """
 
 from __future__ import annotations
@@ -225,7 +225,7 @@ def load_kdistributions(path=None) -> GasKDistribution:
     """Load fitted exponential sums (default: the ``kdist_6s.json`` shipped with the package)."""
     p = Path(path) if path is not None else SHIPPED_FILE
     if not p.exists():
-        raise FileNotFoundError(f"k-distribution file {p} not found; run `widesky build fit-gases`")
+        raise FileNotFoundError(f"k-distribution file {p} not found; run `widesky solver fit-gases`")
     d = json.loads(p.read_text())
     water = tuple(ExpSum(np.array(c["water"]["k"]), np.array(c["water"]["w"]), c["water"]["max_error"])
                   for c in d["channels"])

@@ -28,7 +28,7 @@ SUBCOMMAND_MODULES = (
 COMMAND_MODULES = {
     "sky": "widesky.commands.sky",
     "dataset": "widesky.commands.dataset",
-    "build": "widesky.skymodel.generator.cli",
+    "solver": "widesky.skymodel.generator.cli",
     "sun": "widesky.commands.sun",
     "poa": "widesky.commands.poa",
 }
@@ -65,7 +65,33 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
                 continue
             raise
         module.register(sub)
+    _tidy(parser)
     return parser
+
+
+def _plain(text):
+    """``text`` without reStructuredText literal markup (double backticks, ``:func:`` roles): --help is plain text."""
+    import re
+    if not text:
+        return text
+    text = re.sub(r":(?:func|class|meth|data|mod|attr):`~?([^`]+)`", r"\1", text)
+    return text.replace("``", "")
+
+
+def _tidy(parser):
+    """Every subcommand gets a description (its one-line help, where it has none) and every help text is plain
+    text (no documentation markup): one grammar, whoever registered the command."""
+    parser.description = _plain(parser.description)
+    for action in parser._actions:
+        if action.help not in (None, argparse.SUPPRESS):
+            action.help = _plain(action.help)
+        if isinstance(action, argparse._SubParsersAction):
+            helps = {c.dest: c.help for c in action._choices_actions}
+            for name, sub in action.choices.items():
+                if not sub.description and helps.get(name):
+                    h = _plain(helps[name])
+                    sub.description = h[0].upper() + h[1:] + ("" if h.endswith(".") else ".")
+                _tidy(sub)
 
 
 class _VersionAction(argparse.Action):
@@ -93,6 +119,10 @@ def _version() -> str:
 def main(argv=None) -> int:
     """Run the command line; returns the exit status (2 with a one-line message on bad input)."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    if _command(argv) == "build":
+        print("widesky: error: 'widesky build' is now 'widesky solver' (the reference solver's tools: solve, "
+              "validate, fit-gases); to build a dataset: widesky dataset build", file=sys.stderr)
+        return 2
     parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:

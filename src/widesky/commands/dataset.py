@@ -7,11 +7,14 @@ import numpy as np
 
 
 def register(sub):
-    ds = sub.add_parser("dataset", help="dataset tools")
+    ds = sub.add_parser("dataset", help="build, compress and synthesise sky-model datasets",
+                        description="Sky-model datasets: build one from the reference solver (widesky dataset build), "
+                                    "choose the channels to keep (compress), or write a synthetic one for tests "
+                                    "(synthetic).")
     dsub = ds.add_subparsers(dest="dataset_command", metavar="SUBCOMMAND")
     dsub.required = True
     s = dsub.add_parser("synthetic", help="write a synthetic dataset (for tests and benchmarks; not a physical sky)")
-    s.add_argument("output")
+    s.add_argument("output", help="dataset file to write (its folder must exist)")
     s.add_argument("--visibilities", default="20,60,131.8", help="comma-separated [km]")
     s.add_argument("--albedos", default="0,0.5,1", help="comma-separated [1]")
     s.add_argument("--altitudes", default="0", help="comma-separated [m]")
@@ -19,8 +22,8 @@ def register(sub):
     s.add_argument("--channels", type=int, default=55, help="40 nm channels from 280 nm (1..55)")
     s.add_argument("--rank", type=int, default=4, help="radiance rank (1..64)")
     s.add_argument("--knots", default="24,24,16", help="sun,zenith,emphasis knot counts")
-    s.add_argument("--polarisation", action="store_true")
-    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--polarisation", action="store_true", help="also write polarisation sections")
+    s.add_argument("--seed", type=int, default=0, help="random seed of the synthetic coefficients (default 0)")
     s.set_defaults(func=_synthetic)
 
     b = dsub.add_parser("build", help="build a PSM-format dataset from the reference solver (resumable; needs the "
@@ -43,7 +46,7 @@ def register(sub):
     c.add_argument("--quantile", type=float, default=1.0,
                    help="error statistic over samples: 1 = maximum (default), 0.99 = 99th percentile")
     c.add_argument("--directions", type=int, default=400, help="random sky directions per configuration")
-    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("--seed", type=int, default=0, help="random seed of the sampled directions (default 0)")
     c.add_argument("-o", "--output", default=None, help="channel list (JSON); default <dataset>.channels.json")
     c.set_defaults(func=_compress)
 
@@ -108,6 +111,12 @@ def _build(args):
     def log(msg):
         print(time.strftime("%H:%M:%S"), msg, flush=True)
 
+    from widesky.core.atomic import check_output_path
+
+    if not args.solve_only:
+        check_output_path(args.output, "--output")      # before hours of solving, not after
+    if args.processes < 1:
+        raise ValueError(f"--processes {args.processes}: must be >= 1")
     cfg = load_config(args.config)
     if args.scheduler is not None:
         from widesky.skymodel.generator.dask_scheduler import SCHEDULER_ENV, check_address

@@ -28,6 +28,7 @@ import sys
 
 import numpy as np
 
+from widesky.commands.scene_args import check_ground, check_samples, load_meshes
 from widesky.commands.sky_args import add_sky_arguments, check_site_arguments, simulation, sky_options
 
 
@@ -46,6 +47,9 @@ def register(subparsers) -> None:
                    help="unit of the --response values: sr [A W-1] (default), qe [1], "
                         "transmittance [1], weight [1]")
     p.add_argument("--ground-z", type=float, default=None, help="ground height [m] (default: lowest vertex)")
+    p.add_argument("--reflectance", action="append", default=[], metavar="GROUP=VALUE",
+                   help="diffuse (broadband) reflectance [1] of an analysis mesh's faces, GROUP its file as given "
+                        "(repeatable; default 0.1); CONTEXT=VALUE sets every --context mesh's (default 0.2)")
     p.add_argument("--tolerance", type=float, default=0.02,
                    help="target relative annual error per face [1]: picks the cheapest preset measured "
                         "below it (docs/irradiance-integrator.md); 0.02 = the default settings")
@@ -66,19 +70,17 @@ OUTPUT_SUFFIXES = (".h5", ".hdf5", ".csv")
 
 
 def _output_kind(path):
-    """"h5" or "csv" from the output's suffix; checks that its folder exists and is writable."""
-    import os
-    low = str(path).lower()
-    kind = "h5" if low.endswith((".h5", ".hdf5")) else "csv" if low.endswith(".csv") else None
-    if kind is None:
+    """"h5" or "csv" from the output's suffix; checks that it is not a folder and that its folder exists and is
+    writable (:func:`widesky.core.atomic.check_output_path`)."""
+    from widesky.core.atomic import check_output_path
+    try:
+        check_output_path(path, "--output", OUTPUT_SUFFIXES)
+    except ValueError as exc:
+        if "expected a file name" not in str(exc):
+            raise
         raise ValueError(f"--output {path!r}: unknown suffix; valid: {', '.join(OUTPUT_SUFFIXES)} "
-                         "(HDF5 result per face, or CSV per face group)")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise ValueError(f"--output {path!r}: folder {folder!r} does not exist")
-    if not os.access(folder, os.W_OK):
-        raise ValueError(f"--output {path!r}: folder {folder!r} is not writable")
-    return kind
+                         "(HDF5 result per face, or CSV per face group)") from None
+    return "h5" if str(path).lower().endswith((".h5", ".hdf5")) else "csv"
 
 
 def _check_args(args):
@@ -97,6 +99,7 @@ def _check_args(args):
 
 
 def _responses(args):
+    from widesky.commands.outputs import check_text_file
     from widesky.irradiance.response import Response
     out, names = [], set()
     for item in args.response:
@@ -111,8 +114,37 @@ def _responses(args):
             raise ValueError(f"--response {item!r}: the name {name!r} is "
                              + ("given twice" if name in names else "reserved (always computed)"))
         names.add(name)
-        out.append(Response.from_csv(path, name=name, unit=unit))
+        check_text_file(path, f"--response {item!r}", "CSV table wavelength_nm,value")
+        try:
+            out.append(Response.from_csv(path, name=name, unit=unit))
+        except ValueError as exc:
+            raise ValueError(f"--response {item!r}: {exc}") from None
     return out
+
+
+def _reflectances(items, groups, default=0.1, context_default=0.2):
+    """(per analysis mesh, context) diffuse reflectances [1] from ``--reflectance GROUP=VALUE`` items."""
+    import math
+    refl, ctx = {g: default for g in groups}, context_default
+    for item in items:
+        name, sep, value = item.rpartition("=")
+        try:
+            v = float(value)
+        except ValueError:
+            v = math.nan
+        if not sep or not name:
+            raise ValueError(f"--reflectance {item!r}: expected GROUP=VALUE (GROUP: {', '.join(groups)} or CONTEXT)")
+        if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+            raise ValueError(f"--reflectance {item!r}: the value must be a broadband reflectance in [0, 1] "
+                             "(a spectral reflectance file is not supported for scene surfaces)")
+        if name == "CONTEXT":
+            ctx = v
+        elif name in refl:
+            refl[name] = v
+        else:
+            raise ValueError(f"--reflectance {item!r}: no analysis mesh {name!r}; valid groups: "
+                             f"{', '.join(groups)}, CONTEXT")
+    return [refl[g] for g in groups], ctx
 
 
 def _period_steps(args):
@@ -172,9 +204,15 @@ def _run(args) -> int:
     if args.weather is None and args.start is not None and args.end is not None:
         _refuse_huge(_period_steps(args), 1, len(responses), f"--start {args.start} --end "
                      f"{args.end} --step {args.step}")
-    scene = make_scene(args.mesh, args.context, groups=[str(m) for m in args.mesh],
+    meshes = load_meshes(args.mesh, "mesh")
+    context = load_meshes(args.context, "--context")
+    check_samples(args.samples_per_face, sum(len(m.faces) for m in meshes), args.two_sided)
+    groups = [str(m) for m in args.mesh]
+    refl, ctx_refl = _reflectances(args.reflectance, groups)
+    scene = make_scene(meshes, context, groups=groups, analysis_reflectance=refl, context_reflectance=ctx_refl,
                        ground_z=args.ground_z, samples_per_face=args.samples_per_face,
                        two_sided=args.two_sided)
+    check_ground(scene, args.ground_z)
     sim = simulation(args, scene, IntegratorSettings.for_tolerance(args.tolerance))
     states, note = sim.states, sim.description
     _refuse_huge(len(states), scene.n_faces, len(responses), "the run")

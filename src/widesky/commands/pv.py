@@ -38,7 +38,8 @@ def _site_args(p):
     p.add_argument("--cover-ar", type=float, default=None, help="anti-reflection layer index [1]")
     p.add_argument("--spectral-cover", action="store_true",
                    help="wavelength-dependent cover index (Rubin soda-lime n(lambda))")
-    p.add_argument("--temperature-model", choices=("faiman", "pvsyst"), default="faiman")
+    p.add_argument("--temperature-model", choices=("faiman", "pvsyst"), default="faiman",
+                   help="cell temperature model (default faiman): Faiman (IEC 61853-2) or PVsyst's U-value model")
     p.add_argument("--dc-loss", type=float, default=0.02, help="DC losses [1]")
     p.add_argument("--dc-ac-ratio", type=float, default=1.2, help="DC rating / inverter input limit [1]")
     p.add_argument("--reference", choices=REFERENCE_SPECTRA, default=DEFAULT_REFERENCE,
@@ -52,8 +53,9 @@ def _site_args(p):
 def _tech_args(p, default_all=True):
     p.add_argument("--technology", action="append", default=[],
                    help="preset name (repeatable; default: " + ("all presets" if default_all else "perc") + ")")
-    p.add_argument("--cell", action="append", default=[], metavar="NAME=FILE[:qe|sr]",
-                   help="measured EQE (default) or SR [A W-1] CSV as an extra technology (repeatable)")
+    p.add_argument("--cell", action="append", default=[], metavar="NAME[:UNIT]=FILE",
+                   help="measured EQE or SR CSV (wavelength_nm,value) as an extra technology, repeatable; UNIT qe "
+                        "(EQE [1], the default) or sr [A W-1], as for poa --response, e.g. mine:sr=sr.csv")
 
 
 def register(subparsers) -> None:
@@ -81,9 +83,12 @@ def register(subparsers) -> None:
         s.set_defaults(func=func)
     s = sub.add_parser("sweep", help="2T/4T tandem annual yield against the top-cell band gap (CSV)")
     _site_args(s)
-    s.add_argument("--terminals", type=int, choices=(2, 4), default=2)
+    s.add_argument("--terminals", type=int, choices=(2, 4), default=2,
+                   help="tandem connection (default 2): 2-terminal (series, current-matched) or 4-terminal "
+                        "(independent sub-cells)")
     s.add_argument("--gaps", default="1.50:1.80:0.02", help="band gaps [eV] as start:stop:step")
-    s.add_argument("--group", default=None)
+    s.add_argument("--group", default=None,
+                   help="module group to sweep: a mesh file's stem (default the first mesh)")
     s.add_argument("-o", "--output", required=True, help="output CSV")
     s.set_defaults(func=_sweep)
 
@@ -105,7 +110,15 @@ def _list(args) -> int:
 
 
 def _plot_library(args) -> int:
+    from widesky.core.atomic import check_output_path
     from widesky.pvsim.plots import plot_technologies
+    from widesky.pvsim.technologies import get_technology
+    check_output_path(args.output, "output", (".png",))
+    for n in args.technology:
+        try:
+            get_technology(n)
+        except KeyError as exc:
+            raise ValueError(f"--technology {n!r}: {exc.args[0]}") from None
     print(plot_technologies(args.output, args.technology or None))
     return 0
 
@@ -119,33 +132,97 @@ def _technologies(args, default):
         try:
             techs.append(get_technology(n))
         except KeyError as exc:
-            raise ValueError(str(exc.args[0])) from None
+            raise ValueError(f"--technology {n!r}: {exc.args[0]}") from None
     for item in args.cell:
-        name, sep, rest = item.partition("=")
-        if not sep or not name or not rest:
-            raise ValueError(f"--cell {item!r}: expected NAME=FILE[:qe|sr]")
-        path, unit = rest, "qe"
-        if rest.endswith((":qe", ":sr")):
-            path, unit = rest[:-3], rest[-2:]
-        techs.append(cell_from_csv(path, unit=unit, name=name))
+        key, sep, path = item.partition("=")
+        name, _, unit = key.partition(":")
+        if not sep or not name or not path:
+            raise ValueError(f"--cell {item!r}: expected NAME=FILE or NAME:UNIT=FILE (UNIT qe or sr)")
+        if not unit and path.endswith((":qe", ":sr")):     # the earlier NAME=FILE:UNIT form
+            path, unit = path[:-3], path[-2:]
+        unit = unit or "qe"
+        if unit not in ("qe", "sr"):
+            raise ValueError(f"--cell {item!r}: unit {unit!r} is not one of qe, sr")
+        techs.append(_read_cell(item, path, unit, name))
     return techs
+
+
+def _read_cell(item, path, unit, name):
+    """``--cell`` read with :func:`widesky.pvsim.curves.cell_from_csv`; a file that is missing, binary or not a
+    two-column table is one line naming the option and the file."""
+    from widesky.commands.outputs import check_text_file
+    from widesky.pvsim.curves import cell_from_csv
+    check_text_file(path, f"--cell {item!r}", "CSV table wavelength_nm,value")
+    try:
+        return cell_from_csv(path, unit=unit, name=name)
+    except (ValueError, UnicodeDecodeError, IndexError, KeyError, TypeError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if "C error:" in msg:          # pandas' tokenizer: say what it means
+            msg = (f"cannot read curve file {path!r}: not a table of two comma-separated columns (wavelength_nm,value)"
+                   f" ({msg.split('C error:', 1)[1].strip()})")
+        if path in msg:
+            raise ValueError(f"--cell {item!r}: {msg}") from None
+        raise ValueError(f"--cell {item!r}: file {path!r} is not a response table (expected text columns "
+                         f"wavelength_nm,value with EQE in [0, 1] or SR in A W-1): {msg}") from None
+
+
+#: Valid ranges of the numeric options every pv subcommand shares: (lo, hi, unit, lo included).
+PV_RANGES = {"cover_n": (1.0, 3.0, "", False), "dc_ac_ratio": (0.1, 10.0, "", True),
+             "temp_air": (-90.0, 70.0, "degC", True), "wind_speed": (0.0, 100.0, "m s-1", True),
+             "tolerance": (0.0, 1.0, "", False)}
+
+
+def _groups(args):
+    """The module group of each mesh: its file's stem, or the path where two stems are the same."""
+    from pathlib import Path
+    stems = [Path(m).stem for m in args.mesh]
+    return stems if len(set(stems)) == len(stems) else [str(m) for m in args.mesh]
+
+
+def check_pv_args(args, output_kind):
+    """Every option and the output checked before the scene is built or anything computed: each message names
+    the option, its value and the valid range. ``output_kind`` is "folder" (pv compare) or "csv"."""
+    import math
+
+    from widesky.commands.outputs import check_output_folder
+    from widesky.core.atomic import check_output_path
+    for name, (lo, hi, unit, closed) in PV_RANGES.items():
+        v = getattr(args, name)
+        if not (math.isfinite(v) and (lo <= v if closed else lo < v) and v <= hi):
+            u = f" {unit}" if unit else ""
+            raise ValueError(f"--{name.replace('_', '-')} {v:g}: outside the valid range "
+                             f"{'[' if closed else '('}{lo:g}, {hi:g}]{u}")
+    if not (math.isfinite(args.dc_loss) and 0.0 <= args.dc_loss < 1.0):
+        raise ValueError(f"--dc-loss {args.dc_loss:g}: outside the valid range [0, 1)")
+    if args.cover_ar is not None and not (math.isfinite(args.cover_ar) and 1.0 <= args.cover_ar <= args.cover_n):
+        raise ValueError(f"--cover-ar {args.cover_ar:g}: outside the valid range [1, --cover-n {args.cover_n:g}]")
+    if args.ground_z is not None and not math.isfinite(args.ground_z):
+        raise ValueError(f"--ground-z {args.ground_z}: must be a finite height [m]")
+    if args.jobs is not None and args.jobs < 1:
+        raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
+    groups = _groups(args)
+    if args.group is not None and args.group not in groups:
+        raise ValueError(f"--group {args.group!r}: not a module group; valid: {', '.join(groups)} (a mesh "
+                         "file's stem)")
+    if output_kind == "folder":
+        check_output_folder(args.output, "--output")
+    else:
+        check_output_path(args.output, "--output", (".csv",))
+    check_site_arguments(args)
+    sky_options(args)
 
 
 def _setup(args):
     from widesky.irradiance.integrator import IntegratorSettings
     from widesky.irradiance.scene import make_scene
     from widesky.pvsim.system import CoverOptics, SystemSpec
-    check_site_arguments(args)
-    sky_options(args)
-    if args.cover_ar is not None and not 1.0 <= args.cover_ar <= args.cover_n:
-        raise ValueError(f"--cover-ar={args.cover_ar} outside the valid range [1, --cover-n={args.cover_n}]")
     cover = CoverOptics(n=args.cover_n, n_ar=args.cover_ar, spectral=args.spectral_cover)
     system = SystemSpec(temperature_model=args.temperature_model, dc_loss=args.dc_loss,
                         dc_ac_ratio=args.dc_ac_ratio)
-    from pathlib import Path
-    stems = [Path(m).stem for m in args.mesh]
-    groups = stems if len(set(stems)) == len(stems) else [str(m) for m in args.mesh]
-    scene = make_scene(args.mesh, args.context, groups=groups, ground_z=args.ground_z, two_sided=args.two_sided)
+    from widesky.commands.scene_args import check_ground, load_meshes
+    scene = make_scene(load_meshes(args.mesh, "mesh"), load_meshes(args.context, "--context"), groups=_groups(args),
+                       ground_z=args.ground_z, two_sided=args.two_sided)
+    check_ground(scene, args.ground_z)
     sim = simulation(args, scene, IntegratorSettings.for_tolerance(args.tolerance))
     return dict(sim=sim, note=sim.description, cover=cover, system=system,
                 temp_air=sim.weather_series("temp_air", args.temp_air),
@@ -166,6 +243,7 @@ def _run_yield(args, techs):
 def _compare(args) -> int:
     from widesky.pvsim.compare import summary_text, write_comparison
     from widesky.pvsim.technologies import TECHNOLOGIES
+    check_pv_args(args, "folder")
     techs = _technologies(args, list(TECHNOLOGIES))
     res, y, note = _run_yield(args, techs)
     paths = write_comparison(y, args.output, args.group, note)
@@ -177,6 +255,7 @@ def _compare(args) -> int:
 def _yield(args) -> int:
     import pandas as pd
     from widesky.pvsim.compare import _write_text, summary_table
+    check_pv_args(args, "csv")
     techs = _technologies(args, ["perc"])
     res, y, note = _run_yield(args, techs)
     g = args.group or y.groups[0]
@@ -202,6 +281,7 @@ def _sweep(args) -> int:
     if not (1.5 <= a <= b <= 1.8 and st > 0):
         raise ValueError(f"--gaps {args.gaps!r}: band gaps must lie in [1.5, 1.8] eV with a step > 0")
     gaps = np.round(np.arange(a, b + 1e-9, st), 4)
+    check_pv_args(args, "csv")
     c = _setup(args)
     sim = c["sim"]
     df = bandgap_sweep(sim.scene, sim.sky_source, gaps_ev=gaps, terminals=args.terminals, group=args.group,

@@ -8,7 +8,10 @@ import warnings
 
 
 def register(sub):
-    sky = sub.add_parser("sky", help="render the sky model, describe a dataset")
+    sky = sub.add_parser("sky", help="render the sky model, describe a dataset",
+                         description="The Prague Sky Model on its own: render a fisheye image of sky radiance, sun "
+                                     "radiance, polarisation or transmittance for one sky state (render), or "
+                                     "describe a dataset's grids, channels and sizes (info).")
     ssub = sky.add_subparsers(dest="sky_command", metavar="SUBCOMMAND")
     ssub.required = True
 
@@ -69,7 +72,8 @@ def _parse_channel(model, text):
 
 
 # Physically meaningful ranges of the render options. A value inside its range but outside the dataset's
-# grid is clamped to the dataset's range with a warning (as the reference does); outside it is an error.
+# grid is clamped to the dataset's range with a warning (as the reference does); outside it is an error. The sun
+# elevation is the exception: outside the dataset's elevations it is an error (a clamped sun is drawn elsewhere).
 RENDER_RANGES = {
     "elevation": (-90.0, 90.0, "deg"), "azimuth": (-360.0, 360.0, "deg"), "view_azimuth": (-360.0, 360.0, "deg"),
     "visibility": (1e-3, 1e4, "km"), "albedo": (0.0, 1.0, ""), "altitude": (0.0, 1e5, "m"),
@@ -103,6 +107,12 @@ def _render(args):
     if out.suffix.lower() == ".png" and not args.no_exr:
         targets.append(check_output_path(out.with_suffix(".exr"), "--output (its .exr)"))
     model = skymodel.load_dataset(args.dataset)
+    lo, hi = model.elevation_range
+    if not lo <= args.elevation <= hi:
+        # a clamped sun elevation would render another sun position than the one asked for: refuse it (the other
+        # sky-state values are clamped with a warning: they change the haze, not the geometry)
+        raise ValueError(f"--elevation {args.elevation:g} deg: outside the dataset's range [{lo:g}, {hi:g}] deg "
+                         f"({model.path.name}); the sky model has no data for a sun below {lo:g} deg")
     if model.is_synthetic:
         print(f"NOTE: {model.path.name} is a SYNTHETIC dataset (structure of the Prague Sky Model, not a physical "
               "sky); point --dataset at a real one for physical values.", file=sys.stderr)

@@ -83,6 +83,63 @@ def site(args):
     return Site(args.lat, args.lon, args.site_altitude, tz=tz)
 
 
+#: The times pandas represents (nanoseconds since 1970 in 64 bits), padded by a day for time zones.
+TIME_RANGE = ("1677-09-23", "2262-04-10")
+
+
+def check_time(option, text):
+    """``text`` as a Timestamp inside :data:`TIME_RANGE`, or one line naming ``option``, the value and the range."""
+    import pandas as pd
+    lo, hi = (pd.Timestamp(v) for v in TIME_RANGE)
+    valid = f"an ISO time from {lo.date()} to {hi.date()}, e.g. 2021-06-21 12:00 or 2021-06-21T12:00+02:00"
+    try:
+        t = pd.Timestamp(text)
+    except (ValueError, OverflowError, TypeError):
+        raise ValueError(f"{option} {text!r}: not a time; expected {valid}") from None
+    if t is pd.NaT:
+        raise ValueError(f"{option} {text!r}: not a time; expected {valid}")
+    naive = t.tz_convert(None) if t.tzinfo is not None else t
+    if not lo <= naive <= hi:
+        raise ValueError(f"{option} {text!r}: outside the supported years; expected {valid}")
+    return t.as_unit("ns")
+
+
+def local_time(option, t, site):
+    """The naive time ``t`` in the site's zone; a time skipped or repeated by a daylight-saving change is one
+    line naming ``option`` and the time."""
+    import pandas as pd
+    try:
+        return t.tz_localize(site.tz, nonexistent="raise", ambiguous="raise")
+    except Exception as exc:  # noqa: BLE001 - pytz / zoneinfo raise their own NonExistent / Ambiguous errors
+        kind = ("does not exist there (the clocks jump over it at the daylight-saving change)"
+                if "nonexistent" in type(exc).__name__.lower() or "nonexistent" in str(exc).lower()
+                else "occurs twice there (the clocks go back at the daylight-saving change)")
+        # the zone's UTC offset just before the change, for the example
+        before = t - pd.Timedelta(hours=3)
+        off = before.tz_localize(site.tz, ambiguous=True, nonexistent="shift_forward").strftime("%z")
+        raise ValueError(f"{option} {str(t)!r} in --tz {site.tz}: this local time {kind}; give it with its UTC "
+                         f"offset (e.g. {t.strftime('%Y-%m-%dT%H:%M')}{off[:3]}:{off[3:]}) or a fixed --tz in "
+                         "hours") from None
+
+
+def check_coerce_year(year) -> None:
+    """``--coerce-year`` inside the years pandas represents (whole years of :data:`TIME_RANGE`)."""
+    if year is not None and not 1678 <= year <= 2261:
+        raise ValueError(f"--coerce-year {year}: outside the valid range [1678, 2261]")
+
+
+def check_period(args) -> None:
+    """``--start``/``--end`` as times inside :data:`TIME_RANGE` that exist in ``--tz`` (naive ones)."""
+    for option in ("start", "end"):
+        text = getattr(args, option, None)
+        if text is None:
+            continue
+        t = check_time(f"--{option}", text)
+        if t.tzinfo is None and getattr(args, "weather", None) is None:
+            local_time(f"--{option}", t, site(args))
+    check_coerce_year(getattr(args, "coerce_year", None))
+
+
 def check_site_arguments(args) -> None:
     """A weather file gives the site: refuse ``--lat``/``--lon`` beside it."""
     if args.weather is not None:
@@ -91,6 +148,7 @@ def check_site_arguments(args) -> None:
             raise ValueError("--weather gives the site: remove " + ", ".join("--" + g for g in given))
     if not math.isfinite(args.site_altitude) or not -500.0 <= args.site_altitude <= 9000.0:
         raise ValueError(f"--site-altitude {args.site_altitude}: outside the valid range [-500, 9000]")
+    check_period(args)
 
 
 def simulation(args, scene, settings, sky_source=None) -> Simulation:

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from widesky.commands.sky_args import check_coerce_year, check_time, local_time
 from widesky.irradiance.simulation import SKY_DEFAULTS, weather_path
 
 SAMPLE_WEATHER = Path(str(resources.files("widesky.irradiance.data") / "sample_golden_june.epw"))
@@ -111,11 +112,20 @@ def _position(args) -> int:
     if args.time and args.start:
         raise ValueError("give either --time or --start/--end, not both")
     if args.time:
-        times = pd.DatetimeIndex([pd.Timestamp(t) for t in args.time])
+        stamps = [check_time("--time", t) for t in args.time]
+        if len({t.tzinfo is None for t in stamps}) > 1:
+            raise ValueError("--time: give every time with a UTC offset, or none with one (then --tz applies)")
         label = "center"
-        if times.tz is None and args.tz is None:
-            raise ValueError("--time values are naive: give --tz (e.g. --tz -7 or --tz Europe/Paris)")
+        if stamps[0].tzinfo is None:
+            if args.tz is None:
+                raise ValueError("--time values are naive: give --tz (e.g. --tz -7 or --tz Europe/Paris)")
+            stamps = [local_time("--time", t, site) for t in stamps]
+        times = pd.DatetimeIndex(stamps)
     elif args.start and args.end:
+        for option in ("start", "end"):
+            t = check_time(f"--{option}", getattr(args, option))
+            if t.tzinfo is None:
+                local_time(f"--{option}", t, site)
         _check_period_size(args.start, args.end, args.step)
         times = time_range(args.start, args.end, args.step, site.tz, args.label)
         label = args.label
@@ -129,8 +139,10 @@ def _position(args) -> int:
         sp = site.solar_position(times, label=label, step=args.step if label != "center" else None,
                                  pressure=args.pressure, temperature=args.temperature,
                                  delta_t=args.delta_t)
-    except ValueError as exc:
-        raise ValueError(f"--pressure/--temperature/--delta-t: {exc}") from None
+    except ValueError as exc:           # the times are checked above: name the refraction option at fault
+        named = [o for o, k in (("--pressure", "pressure"), ("--temperature", "temperature"), ("--delta-t", "delta"))
+                 if k in str(exc)]
+        raise ValueError(f"{'/'.join(named) or 'solar position'}: {exc}") from None
     sp.index.name = "time"
     sp.to_csv(sys.stdout, float_format="%.6f")
     return 0
@@ -153,6 +165,7 @@ def _skystates(args) -> int:
         raise ValueError(f"--default-visibility {args.default_visibility!r} km outside the valid range (0, 10000] km")
     if not 0 <= args.default_albedo <= 1:
         raise ValueError(f"--default-albedo {args.default_albedo!r} outside the valid range [0, 1]")
+    check_coerce_year(args.coerce_year)
     path = SAMPLE_WEATHER if args.weather == "sample" else weather_path(args.weather)
     kwargs = {} if args.coerce_year is None else {"coerce_year": args.coerce_year}
     w = read_weather(path, **kwargs)

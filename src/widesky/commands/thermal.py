@@ -27,8 +27,11 @@ def register(subparsers) -> None:
     g.add_argument("--csv", help="write g, T and absorbed per layer by angle [deg] (AM1.5) here")
     g.set_defaults(func=_glazing)
 
-    b = sub.add_parser("bestest", help="ASHRAE 140 Cases 600/660/670/900 against the reference programs")
-    b.add_argument("--case", nargs="+", default=["600", "660", "670", "900"])
+    b = sub.add_parser("bestest", help="ASHRAE 140 Cases 600-950 and 600FF-950FF against their ranges "
+                       "(exit status 1 when a figure leaves its range)")
+    b.add_argument("--case", nargs="+", default=None,
+                   help="cases to run (default all: 600 610 620 630 640 650 660 670 900 910 920 930 940 950 "
+                        "600FF 650FF 900FF 950FF)")
     b.add_argument("--weather", default="tmy3", choices=("tmy3", "drycold"),
                    help="tmy3: Denver Intl AP TMY3 (the 140-2020 weather, default); drycold: older")
     b.add_argument("--sky", default="weather", choices=("weather", "integrator"),
@@ -37,6 +40,9 @@ def register(subparsers) -> None:
     b.add_argument("--exterior", default="hourly", choices=("hourly", "constant"),
                    help="outside surface coefficients: hourly from wind and air temperature "
                         "(ISO 6946 Annex C, default) or ISO 13790's constant R_se = 0.04")
+    b.add_argument("--zone-model", default="5r1c", choices=("5r1c", "iso52016"),
+                   help="5r1c: ISO 13790's network (default); iso52016: ISO 52016-1's balance per element "
+                        "with the case files' layers")
     b.add_argument("--json", help="also write the results here (for python -m widesky.thermal.figures)")
     b.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     b.add_argument("--data-dir", default=None,
@@ -50,12 +56,13 @@ def register(subparsers) -> None:
     lo.add_argument("--width", type=float, default=20.0, help="[m] along x (east)")
     lo.add_argument("--depth", type=float, default=12.0, help="[m] along y (north)")
     lo.add_argument("--floor-height", type=float, default=3.5, help="[m]")
-    lo.add_argument("--floors", type=int, default=1)
+    lo.add_argument("--floors", type=int, default=1, help="storeys (default 1), each with four perimeter zones")
     lo.add_argument("--wwr", default="0.4", help="window-to-wall ratio: one value or S=0.4,N=0.2,E=..,W=..")
     lo.add_argument("--overhang", type=float, default=0.0, help="overhang depth [m]")
     lo.add_argument("--fins", type=float, default=0.0, help="fin depth [m]")
     lo.add_argument("--rotation", type=float, default=0.0, help="clockwise rotation [deg]")
-    lo.add_argument("--glazing", default="clear", choices=UNIT_NAMES)
+    lo.add_argument("--glazing", default="clear", choices=UNIT_NAMES,
+                    help="double-glazed unit of every window (default clear; the units of thermal study)")
     lo.add_argument("--sky", default="integrator", choices=("integrator", "weather"),
                     help="integrator: widesky's spectral sky (the all-sky model at the measured DNI/DHI, as "
                          "every command) with shading (default); weather: Hay-Davies from the file, no shading")
@@ -72,7 +79,9 @@ def register(subparsers) -> None:
                     help="a neighbouring block on the ground: south-west corner X,Y, width W "
                          "(east), depth D (north), height H [m] (repeatable; integrator sky)")
     lo.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
-    lo.add_argument("--data-dir", default=None)
+    lo.add_argument("--data-dir", default=None,
+                    help="reference data folder (default WIDESKY_DATA_DIR or ../shared/data; only for data the "
+                         "package does not ship)")
     lo.set_defaults(func=_loads)
 
     s = sub.add_parser("study", help="spectral vs rated glazing: effective g per orientation and "
@@ -84,7 +93,9 @@ def register(subparsers) -> None:
     s.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     s.add_argument("--solar-control", action="store_true",
                    help="add the double-silver solar-control unit (thermal.thinfilm) to the three")
-    s.add_argument("--data-dir", default=None)
+    s.add_argument("--data-dir", default=None,
+                   help="reference data folder (default WIDESKY_DATA_DIR or ../shared/data; only for data the "
+                        "package does not ship)")
     s.set_defaults(func=_study)
 
 
@@ -109,6 +120,18 @@ def _weather_file(text):
 def _glazing(args) -> int:
     from widesky.core.paths import runtime_file, runtime_files
     from widesky.thermal.glazing import GlazingUnit, read_igdb, read_solar_spectrum
+    from widesky.commands.outputs import check_text_file
+    from widesky.core.atomic import check_output_path
+    if args.csv:
+        check_output_path(args.csv, "--csv", (".csv",))
+    n = len(args.layers)
+    for i in args.flip:
+        if not 0 <= i < n:
+            raise ValueError(f"--flip {i}: no such layer; valid: 0 to {n - 1} (0-based, outside first) for "
+                             f"the {n} layer(s) given")
+    if args.gap and len(args.gap) != n - 1:
+        raise ValueError(f"--gap given {len(args.gap)} time(s): {n} layers need {n - 1} gap(s), one per "
+                         "pair of layers (or none: 12 mm of air each)")
     layers = []
     samples = [n for n in runtime_files("glazing") if n.upper().endswith((".DAT", ".LOF"))]
     for i, path in enumerate(args.layers):
@@ -116,6 +139,7 @@ def _glazing(args) -> int:
             if path not in samples:
                 raise ValueError(f"layer file {path!r} not found (nor a shipped sample: {', '.join(samples)})")
             path = runtime_file(f"glazing/{path}")
+        check_text_file(path, "layer", "IGDB/Optics text file (wavelength [um], T, Rfront, Rback)")
         layer = read_igdb(path)
         layers.append(layer.flipped() if i in args.flip else layer)
     gaps = [_parse_gap(t) for t in args.gap]
@@ -142,36 +166,68 @@ def _glazing(args) -> int:
 
 def _bestest(args) -> int:
     import json
-    from widesky.thermal.bestest import CASES, integrator_irradiance, reference_results, run_case
+    from widesky.thermal.bestest import (CASES, SOURCES, case_geometry, integrator_irradiance,
+                                         reference_results, run_case, verdicts)
     from widesky.thermal.facade import atomic_write
-    for c in args.case:
+    if args.json:
+        from widesky.core.atomic import check_output_path
+        check_output_path(args.json, "--json", (".json",))
+    if args.jobs is not None and args.jobs < 1:
+        raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
+    cases = list(CASES) if args.case is None else args.case
+    for c in cases:
         if c not in CASES:
-            raise ValueError(f"--case {c!r} not one of {CASES}")
+            raise ValueError(f"--case {c!r} not one of {' '.join(CASES)}")
     refs = reference_results(args.data_dir)
-    poa = None
-    if args.sky == "integrator":
-        poa = integrator_irradiance(args.weather, args.data_dir, n_jobs=args.jobs,
-                                    progress=sys.stderr.isatty())
-    print(f"ASHRAE 140 with the ISO 13790 5R1C model, weather {args.weather}, sky {args.sky}, "
-          f"exterior {args.exterior}")
-    print(f"{'case':5s} {'quantity':15s} {'widesky':>9s} {'limits':>15s} {'programs':>15s}")
-    saved = {}
-    for c in args.case:
-        r = run_case(c, args.data_dir, weather=args.weather, poa=poa, exterior=args.exterior)
+    poas = {}
+    if args.sky == "integrator":                  # one integrator run per room geometry
+        for geo in dict.fromkeys(case_geometry(c) for c in cases):
+            poas[geo] = integrator_irradiance(args.weather, args.data_dir, n_jobs=args.jobs,
+                                              progress=sys.stderr.isatty(), geometry=geo)
+    model = {"5r1c": "the ISO 13790 5R1C model", "iso52016": "the ISO 52016-1 hourly method"}[args.zone_model]
+    print(f"ASHRAE 140 with {model}, weather {args.weather}, sky {args.sky}, exterior {args.exterior}")
+    print(f"{'case':6s} {'quantity':16s} {'widesky':>12s} {'range':>15s} {'verdict':8s} source")
+    saved, outside = {}, []
+    for c in cases:
+        r = run_case(c, args.data_dir, weather=args.weather, poa=poas.get(case_geometry(c)),
+                     exterior=args.exterior, zone_model=args.zone_model)
         saved[c] = {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
                     if k not in ("hourly", "case")}
-        for q, unit, scale in (("annual_heating", "MWh", 1e-3), ("annual_cooling", "MWh", 1e-3),
-                               ("peak_heating", "kW", 1e-3), ("peak_cooling", "kW", 1e-3)):
-            ref = refs[c][q]
-            lim = ref.get("limits")
-            prog = list(ref["programs"].values())
-            lim_s = f"{lim[0] * scale:.2f}-{lim[1] * scale:.2f}" if lim else "-"
-            print(f"{c:5s} {q:15s} {r[q] * scale:7.2f} {unit:3s} {lim_s:>13s} "
-                  f"{min(prog) * scale:6.2f}-{max(prog) * scale:.2f}")
+        saved[c]["verdicts"] = {}
+        for v in verdicts(c, r, refs):
+            verdict = "inside" if v.inside else "OUTSIDE"
+            print(f"{c:6s} {v.quantity:16s} {v.value:7.2f} {v.unit:4s} {v.low:7.2f}-{v.high:<7.2f} "
+                  f"{verdict:8s} {v.source}")
+            saved[c]["verdicts"][v.quantity] = {"value": v.value, "low": v.low, "high": v.high,
+                                                "unit": v.unit, "source": SOURCES[v.source],
+                                                "inside": v.inside}
+            if not v.inside:
+                outside.append(f"{c} {v.quantity}")
+    print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items()))
     if args.json:
         text = json.dumps(saved, indent=1).encode()
         atomic_write(args.json, lambda fh: fh.write(text))
+    if outside:
+        print(f"{len(outside)} figure(s) outside their range: {', '.join(outside)}")
+        return 1
+    print("every figure inside its range")
     return 0
+
+
+def _parse_context_boxes(args):
+    """``--context-box X,Y,W,D,H`` values, checked: five finite numbers [m], W, D, H > 0."""
+    import math
+    args.context_boxes = []
+    for text in args.context_box:
+        try:
+            vals = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            vals = ()
+        if len(vals) != 5 or not all(math.isfinite(v) for v in vals):
+            raise ValueError(f"--context-box {text!r}: expected X,Y,W,D,H, five numbers in m")
+        if not min(vals[2:]) > 0:
+            raise ValueError(f"--context-box {text!r}: W, D and H must be > 0 m")
+        args.context_boxes.append(vals)
 
 
 def _context(args):
@@ -185,31 +241,87 @@ def _context(args):
         if not Path(p).is_file():
             raise ValueError(f"--context {p!r} not found")
         meshes.append(load_mesh(p))
-    for text in args.context_box:
-        try:
-            x, y, w, d, h = (float(v) for v in text.split(","))
-        except ValueError:
-            raise ValueError(f"--context-box {text!r}: expected X,Y,W,D,H in m") from None
-        if not (w > 0 and d > 0 and h > 0):
-            raise ValueError(f"--context-box {text!r}: W, D and H must be > 0 m")
-        meshes.append(trimesh.creation.box((w, d, h)).apply_translation((x + w / 2, y + d / 2,
-                                                                         h / 2)))
+    _parse_context_boxes(args)
+    for x, y, w, d, h in args.context_boxes:
+        meshes.append(trimesh.creation.box((w, d, h)).apply_translation((x + w / 2, y + d / 2, h / 2)))
     return meshes
 
 
 def _wwr(text):
+    """``--wwr``: one ratio for every facade, or one per orientation (each key at most once), in [0, 0.95]."""
     key = {"S": "south", "N": "north", "E": "east", "W": "west"}
+    valid = "one number in [0, 0.95] or S=0.4,N=0.2,E=..,W=.. (each of S, N, E, W at most once)"
     try:
-        return float(text)
+        out = float(text)
     except ValueError:
-        pass
-    out = {}
-    for item in text.split(","):
-        k, sep, v = item.partition("=")
-        if not sep or k.strip().upper() not in key:
-            raise ValueError(f"--wwr {text!r}: expected a number or S=0.4,N=0.2,E=..,W=..")
-        out[key[k.strip().upper()]] = float(v)
+        out = {}
+        for item in text.split(","):
+            k, sep, v = item.partition("=")
+            k = k.strip().upper()
+            if not sep or k not in key:
+                raise ValueError(f"--wwr {text!r}: {item!r} is not KEY=VALUE with KEY one of S, N, E, W; "
+                                 f"expected {valid}") from None
+            if key[k] in out:
+                raise ValueError(f"--wwr {text!r}: {k} is given twice; expected {valid}") from None
+            try:
+                out[key[k]] = float(v)
+            except ValueError:
+                raise ValueError(f"--wwr {text!r}: {k}={v!r} is not a number; expected {valid}") from None
+    for v in (out.values() if isinstance(out, dict) else [out]):
+        if not 0.0 <= v <= 0.95:
+            raise ValueError(f"--wwr {text!r}: {v!r} outside the valid range [0, 0.95]")
     return out
+
+
+#: The box building's options and their valid ranges (lo, hi, unit, lo included).
+LOADS_RANGES = {"width": (0.0, 1000.0, "m", False), "depth": (0.0, 1000.0, "m", False),
+                "floor_height": (2.0, 20.0, "m", True), "floors": (1, 200, "", True),
+                "overhang": (0.0, 20.0, "m", True), "fins": (0.0, 20.0, "m", True),
+                "rotation": (-360.0, 360.0, "deg", True)}
+
+
+def _check_loads_args(args):
+    """Every ``thermal loads`` option checked before any work, each message naming option, value and range."""
+    import math
+    for name, (lo, hi, unit, closed) in LOADS_RANGES.items():
+        v = getattr(args, name)
+        if not (math.isfinite(v) and (lo <= v if closed else lo < v) and v <= hi):
+            u = f" {unit}" if unit else ""
+            raise ValueError(f"--{name.replace('_', '-')} {v!r}: outside the valid range "
+                             f"{'[' if closed else '('}{lo:g}, {hi:g}]{u}")
+    if args.jobs is not None and args.jobs < 1:
+        raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
+
+
+def _overlap(a, b):
+    """True when the convex polygons ``a`` and ``b`` ((N, 2) vertices in order) share interior area (more than
+    1 mm of overlap along every axis: blocks that touch do not overlap); separating-axis test."""
+    for poly in (a, b):
+        edges = np.roll(poly, -1, axis=0) - poly
+        for nx, ny in np.column_stack([-edges[:, 1], edges[:, 0]]):
+            n = np.hypot(nx, ny)
+            if n == 0:
+                continue
+            pa, pb = a @ np.array([nx, ny]) / n, b @ np.array([nx, ny]) / n
+            if min(pa.max(), pb.max()) - max(pa.min(), pb.min()) <= 1e-3:
+                return False
+    return True
+
+
+def _check_context_boxes(args, building):
+    """Refuse a ``--context-box`` that overlaps the building's footprint (after ``--rotation``)."""
+    from scipy.spatial import ConvexHull
+    xy = np.asarray(building.vertices)[:, :2]
+    walls = np.unique(np.concatenate([s.faces for s in building.surfaces if s.kind != "shading"]))
+    pts = xy[np.unique(np.asarray(building.faces)[walls])]
+    foot = pts[ConvexHull(pts).vertices]
+    for text, (x, y, w, d, _h) in zip(args.context_box, args.context_boxes):
+        box = np.array([[x, y], [x + w, y], [x + w, y + d], [x, y + d]])
+        if _overlap(box, foot):
+            lo, hi = foot.min(axis=0), foot.max(axis=0)
+            raise ValueError(f"--context-box {text!r}: the block overlaps the building (its footprint spans x "
+                             f"{lo[0]:.1f} to {hi[0]:.1f} m, y {lo[1]:.1f} to {hi[1]:.1f} m): a neighbour must "
+                             "stand outside it")
 
 
 def _loads(args) -> int:
@@ -221,18 +333,31 @@ def _loads(args) -> int:
     from widesky.thermal.study import _constructions, standard_units
     from widesky.thermal.surface import sky_temperature, surface_irradiance
 
-    args.weather = _weather_file(args.weather)
-    context = _context(args)
-    if context and args.sky != "integrator":
+    from widesky.core.atomic import check_output_path
+    # every option and output path checked before the weather is read or anything computed
+    _check_loads_args(args)
+    wwr = _wwr(args.wwr)
+    _parse_context_boxes(args)
+    if (args.context or args.context_box) and args.sky != "integrator":
         raise ValueError("--context and --context-box need --sky integrator (the weather route "
                          "has no shading)")
-    w = read_weather(args.weather)
-    units = standard_units(args.data_dir, solar_control=True)
-    unit = units[args.glazing]
-    b = box_building(args.width, args.depth, args.floor_height, args.floors, _wwr(args.wwr),
+    if args.route == "spectral" and args.sky == "weather":
+        raise ValueError("--route spectral needs --sky integrator (the weather file has no spectra); "
+                         "with --sky weather give --route rated")
+    check_output_path(args.output, "--output", (".csv",))
+    if args.facade_map:
+        check_output_path(args.facade_map, "--facade-map", (".ply",))
+        check_output_path(Path(args.facade_map).with_suffix(".csv"), "--facade-map (its .csv beside it)")
+    args.weather = _weather_file(args.weather)
+    b = box_building(args.width, args.depth, args.floor_height, args.floors, wwr,
                      overhang=args.overhang, fins=args.fins, rotation=args.rotation,
                      zone_use=ZoneSpec("use", air_changes=0.7, internal_gains=10.0 * args.width
                                        * args.depth / 4, cooling_setpoint=26.0))
+    _check_context_boxes(args, b)
+    context = _context(args)
+    w = read_weather(args.weather)
+    units = standard_units(args.data_dir, solar_control=True)
+    unit = units[args.glazing]
     cons = _constructions(args.glazing, unit)
     data = w.data
     surf = [s for s in b.surfaces if s.kind != "shading"]
@@ -245,12 +370,10 @@ def _loads(args) -> int:
                                  data["dni"].fillna(0).to_numpy(), data["dhi"].fillna(0).to_numpy(),
                                  data["ghi"].fillna(0).to_numpy(),
                                  dni_extra(sp["earth_sun_distance"].to_numpy()))
-        if args.route == "spectral":
-            raise ValueError("--route spectral needs --sky integrator (the weather file has no spectra)")
     else:
         from widesky.irradiance import Simulation
         from widesky.thermal.gains import (building_scene, front_faces, glazing_response, irradiance_by_surface,
-                                           rated_glazing_response, window_gain_by_surface)
+                                           rated_glazing_response, result_in_band_share, window_gain_by_surface)
         from widesky.thermal.glazing import read_solar_spectrum
         scene, labels = building_scene(b, context)
         sim = Simulation(scene, weather=w, n_jobs=args.jobs, progress=sys.stderr.isatty())
@@ -280,7 +403,7 @@ def _loads(args) -> int:
                 incident[s.faces] = irr["poa_global"][:, j].sum() / 1000.0
         else:
             front = front_faces(res)
-            annual = res.get("broadband", "global").sum(axis=0) / 1000.0
+            annual = res.get("broadband", "global").sum(axis=0) / 1000.0 / result_in_band_share(res)   # broadband
             incident[order[np.asarray(res.faces.parent)[front]]] = annual[front]
         gain = lr.surface_gains.sum().to_numpy() / 1000.0 / np.array([s.area for s in surf])
         per_face_gain = np.full(len(b.faces), np.nan)
@@ -302,13 +425,16 @@ def _loads(args) -> int:
 def _study(args) -> int:
     from widesky.thermal.facade import write_face_csv
     from widesky.thermal.study import glazing_study
+    from widesky.commands.outputs import check_output_folder
+    if args.jobs is not None and args.jobs < 1:
+        raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
+    out = check_output_folder(args.output, "--output")    # created only once the results are ready
     args.weather = _weather_file(args.weather)
-    out = Path(args.output)
-    out.mkdir(parents=True, exist_ok=True)
     from widesky.thermal.study import standard_units
     units = standard_units(args.data_dir, solar_control=args.solar_control)
     r = glazing_study(args.weather, units, n_jobs=args.jobs, progress=sys.stderr.isatty(),
                       data_dir=args.data_dir)
+    out.mkdir(parents=True, exist_ok=True)
     write_face_csv(out / "effective_g.csv", r["effective_g"])
     write_face_csv(out / "annual.csv", r["annual"])
     print(r["annual"].round(1).to_string())
