@@ -1,97 +1,166 @@
-"""Small inline SVG charts for the offline HTML reports (no plotting library needed)."""
+"""The report's charts: drawn with matplotlib, embedded in the HTML page as SVG data URIs (the page opens offline
+and holds everything it shows), and their data kept for ``charts.json``.
+
+Every chart is registered in a :class:`ChartBook` with the numbers it plots and the result file and columns those
+numbers come from, so that a test (tests/test_cases.py, ``check_charts``) can recompute each chart from the result
+files and catch a chart that does not show its data.
+"""
 
 from __future__ import annotations
 
+import base64
+import io
+import json
 from html import escape
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["line_chart", "bar_chart", "PALETTE"]
+__all__ = ["ChartBook", "group_colours"]
 
-PALETTE = ("#1f5fa8", "#d9541e", "#2a9d4a", "#8e44ad", "#b8860b", "#17becf", "#e377c2", "#7f7f7f")
-_W, _H, _L, _R, _T, _B = 720, 300, 64, 170, 14, 44
-
-
-def _ticks(lo, hi, n=5):
-    if hi <= lo:
-        hi = lo + 1.0
-    raw = (hi - lo) / n
-    mag = 10 ** np.floor(np.log10(raw))
-    step = min((m * mag for m in (1, 2, 2.5, 5, 10) if m * mag >= raw), default=10 * mag)
-    start = np.ceil(lo / step) * step
-    return [float(v) for v in np.arange(start, hi + 0.5 * step, step)]
+_RC = {"font.size": 9.0, "axes.titlesize": 10.5, "axes.labelsize": 9.5, "legend.fontsize": 8.5,
+       "svg.fonttype": "none", "svg.hashsalt": "widesky-report", "axes.spines.top": False,
+       "axes.spines.right": False, "axes.grid": True, "grid.color": "#e4e4e4", "grid.linewidth": 0.7,
+       "axes.axisbelow": True}
 
 
-def _frame(title, xlabel, ylabel, y0, y1, xticks):
-    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {_W} {_H}" class="chart" role="img">',
-             f"<title>{escape(title)}</title>",
-             f'<rect x="{_L}" y="{_T}" width="{_W - _L - _R}" height="{_H - _T - _B}" fill="#fff" stroke="#999"/>']
-    ys = lambda v: _H - _B - (v - y0) / (y1 - y0) * (_H - _T - _B)  # noqa: E731
-    for v in _ticks(y0, y1):
-        if y0 <= v <= y1:
-            parts.append(f'<line x1="{_L}" x2="{_W - _R}" y1="{ys(v):.1f}" y2="{ys(v):.1f}" stroke="#eee"/>'
-                         f'<text x="{_L - 6}" y="{ys(v) + 4:.1f}" text-anchor="end">{v:g}</text>')
-    for x, text in xticks:
-        parts.append(f'<text x="{x:.1f}" y="{_H - _B + 16}" text-anchor="middle">{escape(text)}</text>')
-    parts.append(f'<text x="{(_L + _W - _R) / 2}" y="{_H - 6}" text-anchor="middle">{escape(xlabel)}</text>')
-    parts.append(f'<text transform="translate(14 {(_T + _H - _B) / 2}) rotate(-90)" text-anchor="middle">'
-                 f"{escape(ylabel)}</text>")
-    return parts, ys
+def group_colours(names):
+    """A colour per name (matplotlib colour specs), distinct for up to 20 names: tab10 for up to 10, tab20 for up
+    to 20 (front/back pairs of one group, ``"x front"`` and ``"x back"``, get tab20's dark and light shade of one
+    hue), then evenly spaced colours of the ``turbo`` map."""
+    import matplotlib
+
+    names = list(names)
+    n = len(names)
+    bases = [nm.rsplit(" ", 1)[0] for nm in names]
+    sides = [nm.rsplit(" ", 1)[-1] if " " in nm else "" for nm in names]
+    paired = n > 1 and all(s in ("front", "back") for s in sides) and len(set(bases)) <= 10
+    if paired:
+        tab20 = matplotlib.colormaps["tab20"].colors
+        order = list(dict.fromkeys(bases))
+        return {nm: tab20[2 * order.index(b) + (s == "back")] for nm, b, s in zip(names, bases, sides)}
+    if n <= 10:
+        cols = matplotlib.colormaps["tab10"].colors
+    elif n <= 20:
+        cols = matplotlib.colormaps["tab20"].colors
+    else:
+        cols = [matplotlib.colormaps["turbo"](v) for v in np.linspace(0.05, 0.95, n)]
+    return {nm: cols[i] for i, nm in enumerate(names)}
 
 
-def _legend(parts, names):
-    for i, name in enumerate(names):
-        y = _T + 14 + 16 * i
-        parts.append(f'<rect x="{_W - _R + 10}" y="{y - 9}" width="12" height="10" fill="{PALETTE[i % len(PALETTE)]}"/>'
-                     f'<text x="{_W - _R + 28}" y="{y}">{escape(name)}</text>')
+def _jsonable(v):
+    a = np.asarray(v)
+    if a.dtype.kind == "M":
+        return [str(t) for t in a.astype("datetime64[s]")]
+    if a.dtype.kind in "fc":
+        return [None if not np.isfinite(x) else float(x) for x in a.astype(float)]
+    return a.tolist()
 
 
-def line_chart(x, series, *, title, xlabel, ylabel, xticks=None):
-    """SVG text of a line chart: ``x`` (N,) numbers, ``series`` name -> (N,) values (NaN breaks a line),
-    ``xticks`` optional list of (x value, label)."""
-    x = np.asarray(x, float)
-    ally = np.concatenate([np.asarray(v, float) for v in series.values()]) if series else np.zeros(1)
-    ally = ally[np.isfinite(ally)]
-    y0, y1 = (min(0.0, float(ally.min())), float(ally.max())) if ally.size else (0.0, 1.0)
-    y1 = y1 if y1 > y0 else y0 + 1.0
-    x0, x1 = float(x.min()), float(x.max()) if x.size > 1 else float(x.min()) + 1.0
-    xs = lambda v: _L + (v - x0) / (x1 - x0 if x1 > x0 else 1.0) * (_W - _L - _R)  # noqa: E731
-    ticks = [(xs(v), lab) for v, lab in (xticks or [(v, f"{v:g}") for v in _ticks(x0, x1)])]
-    parts, ys = _frame(title, xlabel, ylabel, y0, y1, ticks)
-    for i, (name, vals) in enumerate(series.items()):
-        pts, segs = [], []
-        for xv, yv in zip(x, np.asarray(vals, float)):
-            if np.isfinite(yv):
-                pts.append(f"{xs(xv):.1f},{ys(yv):.1f}")
-            elif pts:
-                segs.append(pts)
-                pts = []
-        if pts:
-            segs.append(pts)
-        for s in segs:
-            parts.append(f'<polyline fill="none" stroke="{PALETTE[i % len(PALETTE)]}" stroke-width="1.6" '
-                         f'points="{" ".join(s)}"/>')
-    _legend(parts, list(series))
-    parts.append("</svg>")
-    return "\n".join(parts)
+class ChartBook:
+    """The charts of one report: :meth:`line` and :meth:`bars` draw a chart and return its HTML (an ``<img>`` with
+    an SVG data URI inside a ``<figure>``); :meth:`write` saves every chart's data as JSON.
 
+    Each chart records ``id`` (unique in the report), ``kind``, ``title``, axis labels with units, ``x`` or
+    ``categories``, ``series`` (name -> values, in the axis unit) and ``source``: the result file the values come
+    from and how (``file``, ``columns`` ...).
+    """
 
-def bar_chart(categories, series, *, title, xlabel, ylabel):
-    """SVG text of a grouped bar chart: ``categories`` (K,) labels, ``series`` name -> (K,) values (>= 0)."""
-    K, S = len(categories), max(len(series), 1)
-    ally = np.concatenate([np.asarray(v, float) for v in series.values()]) if series else np.zeros(1)
-    y1 = float(np.nanmax(ally)) if ally.size and np.nanmax(ally) > 0 else 1.0
-    slot = (_W - _L - _R) / max(K, 1)
-    ticks = [(_L + (k + 0.5) * slot, str(c)) for k, c in enumerate(categories)]
-    parts, ys = _frame(title, xlabel, ylabel, 0.0, y1 * 1.05, ticks)
-    bw = 0.8 * slot / S
-    for i, (name, vals) in enumerate(series.items()):
-        for k, v in enumerate(np.asarray(vals, float)):
-            if not np.isfinite(v):
-                continue
-            x = _L + k * slot + 0.1 * slot + i * bw
-            parts.append(f'<rect x="{x:.1f}" y="{ys(v):.1f}" width="{bw:.1f}" height="{ys(0) - ys(v):.1f}" '
-                         f'fill="{PALETTE[i % len(PALETTE)]}"><title>{escape(name)}: {v:.4g}</title></rect>')
-    _legend(parts, list(series))
-    parts.append("</svg>")
-    return "\n".join(parts)
+    def __init__(self):
+        self.charts = []
+
+    # -- drawing --------------------------------------------------------------------------------------------
+    def _figure(self, height=3.3):
+        import matplotlib as mpl
+        from matplotlib.figure import Figure
+
+        with mpl.rc_context(_RC):
+            fig = Figure(figsize=(8.6, height), dpi=100)
+            ax = fig.add_subplot()
+        return fig, ax
+
+    def _finish(self, fig, ax, rec, legend=True, ncols=1):
+        import matplotlib as mpl
+
+        with mpl.rc_context(_RC):
+            ax.set_title(rec["title"], loc="left")
+            ax.set_xlabel(rec["xlabel"])
+            ax.set_ylabel(rec["ylabel"])
+            if legend and len(rec["series"]) > 0:
+                ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, ncols=ncols,
+                          title=rec.get("legend_title"))
+            buf = io.StringIO()
+            fig.savefig(buf, format="svg", bbox_inches="tight", metadata={"Date": None})
+        data = base64.b64encode(buf.getvalue().encode("utf-8")).decode()
+        self.charts.append(rec)
+        return (f'<figure class="chart" id="chart-{escape(rec["id"])}"><img src="data:image/svg+xml;base64,{data}" '
+                f'alt="{escape(rec["title"])}"></figure>')
+
+    def _record(self, chart_id, kind, title, xlabel, ylabel, series, source, meta):
+        if any(c["id"] == chart_id for c in self.charts):
+            raise ValueError(f"chart id {chart_id!r} used twice")
+        return {"id": chart_id, "kind": kind, "title": title, "xlabel": xlabel, "ylabel": ylabel,
+                "series": {k: _jsonable(v) for k, v in series.items()}, "source": dict(source),
+                **({"meta": meta} if meta else {})}
+
+    def line(self, chart_id, x, series, *, title, xlabel, ylabel, source, meta=None, legend_title=None,
+             dates=False, ylim0=True):
+        """A line chart of ``series`` (name -> (N,) values; NaN breaks a line) over ``x`` (N,) numbers, or dates
+        (``dates=True``: numpy datetime64, naive local time; month ticks over long periods)."""
+        import matplotlib as mpl
+        import matplotlib.dates as mdates
+
+        x = np.asarray(x)
+        rec = self._record(chart_id, "line", title, xlabel, ylabel, series, source, meta)
+        rec["x"] = _jsonable(x)
+        if legend_title:
+            rec["legend_title"] = legend_title
+        colours = group_colours(series)
+        with mpl.rc_context(_RC):
+            fig, ax = self._figure()
+            for name, v in series.items():
+                ax.plot(x, np.asarray(v, float), color=colours[name], lw=1.3, label=name)
+            if dates and len(x) > 1:
+                span = (x.max() - x.min()) / np.timedelta64(1, "D")
+                if span > 62:
+                    ax.xaxis.set_major_locator(mdates.MonthLocator())
+                    ax.xaxis.set_major_formatter(mdates.DateFormatter("%b"))
+                    ax.xaxis.set_minor_locator(mdates.MonthLocator(bymonthday=15))
+                else:
+                    loc = mdates.AutoDateLocator(minticks=4, maxticks=10)
+                    ax.xaxis.set_major_locator(loc)
+                    ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(loc))
+                ax.set_xlim(x.min(), x.max())
+            elif len(x) > 1:
+                ax.set_xlim(float(np.min(x)), float(np.max(x)))
+            if ylim0:
+                ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]))
+            return self._finish(fig, ax, rec, ncols=2 if len(series) > 12 else 1)
+
+    def bars(self, chart_id, categories, series, *, title, xlabel, ylabel, source, meta=None, legend_title=None):
+        """A grouped bar chart: ``categories`` (K,) labels, ``series`` name -> (K,) values."""
+        import matplotlib as mpl
+
+        rec = self._record(chart_id, "bars", title, xlabel, ylabel, series, source, meta)
+        rec["categories"] = [str(c) for c in categories]
+        if legend_title:
+            rec["legend_title"] = legend_title
+        colours = group_colours(series)
+        K, S = len(categories), max(len(series), 1)
+        with mpl.rc_context(_RC):
+            fig, ax = self._figure()
+            width = 0.84 / S
+            xs = np.arange(K)
+            for i, (name, v) in enumerate(series.items()):
+                ax.bar(xs - 0.42 + (i + 0.5) * width, np.asarray(v, float), width=width, color=colours[name],
+                       label=name, linewidth=0)
+            ax.set_xticks(xs, [str(c) for c in categories])
+            ax.grid(False, axis="x")
+            ax.set_xlim(-0.6, K - 0.4)
+            return self._finish(fig, ax, rec, ncols=2 if len(series) > 12 else 1)
+
+    # -- output ---------------------------------------------------------------------------------------------
+    def write(self, path):
+        """Write ``charts.json``: {"charts": [...]} with every chart's data and source."""
+        Path(path).write_text(json.dumps({"charts": self.charts}, indent=1), encoding="utf-8")
+        return path

@@ -1,6 +1,7 @@
-"""Pictures of a scene coloured by a per-face value (Pillow only), and the coloured mesh as PLY.
+"""Pictures of a scene coloured by a per-face value (rasterised with numpy, colour bars by matplotlib), and the
+coloured mesh as PLY and GLB.
 
-Orthographic views drawn with the painter's algorithm (triangles sorted far to near, 2x supersampled):
+Orthographic views drawn with a depth buffer (2x supersampled):
 enough for the small case scenes; context geometry is grey, shaded by its orientation.
 """
 
@@ -10,29 +11,28 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-from PIL import Image, ImageDraw, ImageFont
+from PIL import Image
 
-__all__ = ["VIEWS", "colour_ramp", "render_scene", "write_ply", "write_glb"]
+__all__ = ["VIEWS", "FRONT_CMAP", "BACK_CMAP", "colour_ramp", "render_scene", "write_ply", "write_glb"]
 
 # camera azimuth [deg, clockwise from north] and elevation [deg] of the viewing position
 VIEWS = {"south-east": (135.0, 30.0), "south-west": (225.0, 30.0), "north-east": (45.0, 30.0),
          "north-west": (315.0, 30.0), "top": (180.0, 89.0)}
 
-# a monotone dark-blue -> teal -> yellow ramp (lightness increasing), anchors in sRGB
-_RAMP = np.array([[0.07, 0.06, 0.29], [0.18, 0.25, 0.55], [0.13, 0.47, 0.56], [0.20, 0.64, 0.47],
-                  [0.56, 0.78, 0.29], [0.99, 0.91, 0.15]])
+# colour maps of the renders (matplotlib's perceptually uniform maps): front faces, rear faces
+FRONT_CMAP, BACK_CMAP = "viridis", "magma"
 
 
-def colour_ramp(t):
-    """Colours (..., 3) in [0, 1] for values ``t`` in [0, 1] (clipped)."""
-    t = np.clip(np.nan_to_num(np.asarray(t, float)), 0.0, 1.0) * (len(_RAMP) - 1)
-    i = np.minimum(t.astype(int), len(_RAMP) - 2)
-    f = (t - i)[..., None]
-    return _RAMP[i] * (1 - f) + _RAMP[i + 1] * f
+def colour_ramp(t, cmap=FRONT_CMAP):
+    """Colours (..., 3) in [0, 1] for values ``t`` in [0, 1] (clipped; NaN -> 0) of the matplotlib map ``cmap``."""
+    import matplotlib
+
+    t = np.clip(np.nan_to_num(np.asarray(t, float)), 0.0, 1.0)
+    return np.asarray(matplotlib.colormaps[cmap](t))[..., :3]
 
 
 def _camera(view):
-    az, el = (np.radians(v) for v in VIEWS[view])
+    az, el = (np.radians(v) for v in (VIEWS[view] if isinstance(view, str) else view))
     to_cam = np.array([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)])
     right = np.cross([0.0, 0.0, 1.0], to_cam)
     if np.linalg.norm(right) < 1e-6:
@@ -72,68 +72,101 @@ def _zbuffer(pixels, px, height, colours, draw):
 
 
 def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-west", size=720,
-                 label="", unit="", cull=None):
-    """A PIL image of the scene.
+                 label="", unit="", cull=None, back_values=None, back_vmin=None, back_vmax=None,
+                 context=True, title=None):
+    """A PIL image of the scene with a colour bar (with ticks) per side of the faces it shows.
 
     Parameters
     ----------
     vertices : ndarray (V, 3)  [m], east-north-up
     triangles : ndarray (M, 3)  vertex indices
-    face_values : ndarray (M,)  value per triangle (NaN: context, drawn grey)
-    vmin, vmax : float  colour range (same unit as the values)
-    view : str  a key of :data:`VIEWS`
-    size : int  image width [pixels]
-    label, unit : str  caption of the colour bar
+    face_values : ndarray (M,)  value of each triangle's front side (NaN: context, drawn grey)
+    vmin, vmax : float  colour range of the front sides (same unit as the values)
+    view : str or (azimuth, elevation)  a key of :data:`VIEWS`, or the camera's direction [deg] (azimuth clockwise
+        from north; a negative elevation looks up from below)
+    size : int  width of the scene part of the image [pixels]
+    label, unit : str  caption of the colour bars
     cull : ndarray (M,) of bool, optional  triangles not drawn when they face away from the camera (one-sided
         surfaces of closed solids)
+    back_values : ndarray (M,), optional  value of each triangle's rear side (two-sided faces; NaN: none): a
+        triangle seen from behind takes it, on its own colour map (:data:`BACK_CMAP`) and range
+        ``back_vmin`` .. ``back_vmax``, with its own colour bar
+    context : bool  draw the context (NaN) triangles
+    title : str, optional  the picture's title (default: the view)
     """
-    if view not in VIEWS:
+    import matplotlib as mpl
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure
+
+    if isinstance(view, str) and view not in VIEWS:
         raise ValueError(f"view={view!r}: expected one of {', '.join(VIEWS)}")
     to_cam, right, up = _camera(view)
     tri = np.asarray(vertices, float)[np.asarray(triangles)]                    # (M, 3, 3)
     xy = np.stack([tri @ right, tri @ up], axis=-1)                            # (M, 3, 2)
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    vals = np.asarray(face_values, float)
+    seen_back = n @ to_cam < 0.0
+    hidden = np.zeros(len(tri), bool)
+    if isinstance(view, str):
+        # faces looking straight down (building floors) are seen from behind from every named view (all lie above
+        # the horizon): skip them
+        hidden |= n[:, 2] <= -0.99
+    if cull is not None:
+        hidden |= np.asarray(cull, bool) & seen_back
+    if not context:
+        hidden |= ~np.isfinite(vals)
     ss = 2
     W = int(size) * ss
-    bar = int(0.16 * W)
-    lo, hi = xy.reshape(-1, 2).min(axis=0), xy.reshape(-1, 2).max(axis=0)
-    scale = 0.92 * (W - bar) / max(hi[0] - lo[0], 1e-9)
-    H = int(min(max((hi[1] - lo[1]) * scale / 0.92, 0.5 * W), 1.2 * W))
-    scale = min(scale, 0.92 * H / max(hi[1] - lo[1], 1e-9))
-    centre = np.array([(W - bar) / 2, H / 2])
-    px = (xy - 0.5 * (lo + hi)) * scale * np.array([1.0, -1.0]) + centre
-    img = Image.new("RGB", (W, H), (246, 246, 244))
-    draw = ImageDraw.Draw(img)
-    vals = np.asarray(face_values, float)
-    t = (vals - vmin) / (vmax - vmin if vmax > vmin else 1.0)
-    rgb = colour_ramp(t)
+    keep = ~hidden if (~hidden).any() else np.ones(len(tri), bool)
+    lo, hi = xy[keep].reshape(-1, 2).min(axis=0), xy[keep].reshape(-1, 2).max(axis=0)
+    scale = 0.94 * W / max(hi[0] - lo[0], 1e-9)
+    H = int(min(max((hi[1] - lo[1]) * scale / 0.94, 0.5 * W), 1.2 * W))
+    scale = min(scale, 0.94 * H / max(hi[1] - lo[1], 1e-9))
+    px = (xy - 0.5 * (lo + hi)) * scale * np.array([1.0, -1.0]) + np.array([W / 2, H / 2])
+    rgb = colour_ramp((vals - vmin) / (vmax - vmin if vmax > vmin else 1.0), FRONT_CMAP)
     shade = 0.55 + 0.45 * np.abs(n @ np.array([0.3, -0.5, 0.81]))
     grey = np.repeat((0.78 * shade)[:, None], 3, axis=1)
     col = np.where(np.isfinite(vals)[:, None], rgb, grey)
-    # faces looking straight down (building floors) are seen from behind from every view (all lie above the
-    # horizon): skip them, and the back-facing triangles ``cull`` allows
-    hidden = n[:, 2] <= -0.99
-    if cull is not None:
-        hidden |= np.asarray(cull, bool) & (n @ to_cam < 0.0)
+    use_back = np.zeros(len(tri), bool)
+    if back_values is not None:
+        bv = np.asarray(back_values, float)
+        use_back = seen_back & np.isfinite(bv)
+        brgb = colour_ramp((bv - back_vmin) / (back_vmax - back_vmin if back_vmax > back_vmin else 1.0), BACK_CMAP)
+        col[use_back] = brgb[use_back]
+    pixels = np.full((H, W, 3), (246, 246, 244), np.uint8)
     rgb8 = np.round(255 * col).astype(np.uint8)
-    pixels = np.asarray(img).copy()
     _zbuffer(pixels, px, tri @ to_cam, rgb8, ~hidden)
-    img = Image.fromarray(pixels)
-    draw = ImageDraw.Draw(img)
-    # colour bar
-    x0, y0, y1 = W - bar + int(0.25 * bar), int(0.12 * H), int(0.88 * H)
-    for y in range(y0, y1):
-        c = colour_ramp(1.0 - (y - y0) / max(y1 - y0 - 1, 1))
-        draw.line([(x0, y), (x0 + int(0.22 * bar), y)], fill=tuple(int(255 * v) for v in c))
-    try:
-        font = ImageFont.load_default(size=12 * ss)
-    except TypeError:          # Pillow < 10.1
-        font = None
-    draw.text((x0 + int(0.26 * bar), y0 - 6 * ss), f"{vmax:.4g}", fill=(30, 30, 30), font=font)
-    draw.text((x0 + int(0.26 * bar), y1 - 6 * ss), f"{vmin:.4g}", fill=(30, 30, 30), font=font)
-    draw.text((int(0.02 * W), int(0.02 * H)), f"{label} [{unit}], view from the {view}", fill=(30, 30, 30), font=font)
-    return img.resize((W // ss, H // ss), Image.LANCZOS)
+    scene_img = Image.fromarray(pixels).resize((W // ss, H // ss), Image.LANCZOS)
+    # which sides show: a colour bar for each
+    drawn = ~hidden & np.isfinite(vals)
+    bars = []
+    if (drawn & ~use_back).any():
+        bars.append(("front" if use_back.any() or back_values is not None else "", FRONT_CMAP, vmin, vmax))
+    if (drawn & use_back).any():
+        bars.append(("rear", BACK_CMAP, back_vmin, back_vmax))
+    w_in, h_in = W / ss / 100.0, H / ss / 100.0
+    bar_in = 1.15 * max(len(bars), 1)
+    with mpl.rc_context({"font.size": 11.0}):
+        fig = Figure(figsize=(w_in + bar_in, h_in + 0.45), dpi=100)
+        fw = w_in + bar_in
+        ax = fig.add_axes((0.0, 0.0, w_in / fw, h_in / (h_in + 0.45)))
+        ax.imshow(np.asarray(scene_img), interpolation="none")
+        ax.set_axis_off()
+        name = view if isinstance(view, str) else f"azimuth {view[0]:.0f} deg, elevation {view[1]:.0f} deg"
+        fig.text(0.01, 1.0 - 0.08 / (h_in + 0.45), title or f"view from the {name}", va="top", fontsize=12)
+        for i, (side, cmap, a, b) in enumerate(bars):
+            x0 = (w_in + 0.18 + 1.15 * i) / fw
+            cax = fig.add_axes((x0, 0.1, 0.17 / fw, 0.72 * h_in / (h_in + 0.45)))
+            cb = fig.colorbar(ScalarMappable(Normalize(a, b if b > a else a + 1e-9), cmap), cax=cax)
+            cb.ax.tick_params(labelsize=11)
+            cb.ax.set_title("\n".join(t for t in (side, label, f"[{unit}]" if unit else "") if t), fontsize=10.5,
+                            loc="left")
+        buf = __import__("io").BytesIO()
+        fig.savefig(buf, format="png")
+    buf.seek(0)
+    return Image.open(buf).convert("RGB")
 
 
 def _coloured_mesh(vertices, triangles, face_values, vmin, vmax):

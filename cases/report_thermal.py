@@ -8,11 +8,10 @@ from __future__ import annotations
 
 from html import escape
 
-import numpy as np
 import pandas as pd
 
 from .building_loads import ThermalRun
-from .charts import bar_chart, line_chart
+from .charts import ChartBook
 
 __all__ = ["thermal_columns", "thermal_summary", "thermal_section"]
 
@@ -54,9 +53,9 @@ def _table(header, rows):
     return f"<table><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def thermal_section(run, folder):
-    """HTML of the glazing and loads section; writes ``loads.csv`` (per unit and zone: heating, cooling, solar
-    [kWh], peaks [W] and their times) into ``folder``."""
+def thermal_section(run, folder, book: ChartBook):
+    """HTML of the glazing and loads section (its charts registered in ``book``); writes ``loads.csv`` (per unit and
+    zone: heating, cooling, solar [kWh], peaks [W] and their times) into ``folder``."""
     th, tcfg = run.thermal, run.config["thermal"]
     summ = thermal_summary(th, run.step_hours)
     frames = []
@@ -84,17 +83,24 @@ def thermal_section(run, folder):
                   str(sm["peak_cooling_time"])[:16], f"{sm['heating_kwh'] / 1000:.2f}"] for name, sm in summ.items()]
     times = run.result.times
     days = (times[-1] - times[0]).total_seconds() / 86400.0
+    cols = {name: f"{name}:cooling [W]" for name in th.units}
     if days <= 15:
-        x = np.arange(len(times)) * run.step_hours / 24.0
         series = {name: th.loads[name].cooling.sum(axis=1).to_numpy() / 1000.0 for name in th.units}
-        chart = line_chart(x, series, title="building cooling load", xlabel=f"days from {times[0]:%d %b %Y}",
-                           ylabel="cooling [kW]")
+        chart = book.line("cooling-load", times.tz_localize(None).to_numpy(dtype="datetime64[ns]"), series,
+                          title="Building cooling load per glazing unit", xlabel="time (local, interval label)",
+                          ylabel="cooling [kW]", dates=True, legend_title="glazing",
+                          source={"file": "timeseries.csv", "columns": cols, "how": "each step's value / 1000"})
     else:
-        day = times.normalize()
+        day = times.tz_localize(None).normalize()
         series = {name: pd.Series(th.loads[name].cooling.sum(axis=1).to_numpy() * run.step_hours / 1000.0,
-                                  index=day).groupby(level=0).sum().to_numpy() for name in th.units}
-        dn = np.arange(len(next(iter(series.values()))))
-        chart = line_chart(dn, series, title="daily cooling energy", xlabel="day", ylabel="cooling [kWh day-1]")
+                                  index=day).groupby(level=0).sum() for name in th.units}
+        dn = next(iter(series.values())).index.to_numpy(dtype="datetime64[ns]")
+        chart = book.line("cooling-daily", dn, {k: v.to_numpy() for k, v in series.items()},
+                          title="Daily cooling energy per glazing unit", xlabel="date", ylabel="cooling [kWh day-1]",
+                          dates=True, legend_title="glazing",
+                          source={"file": "timeseries.csv", "columns": cols,
+                                  "how": "sum over the steps of each local day x step hours / 1000"},
+                          meta={"step_hours": run.step_hours})
     weather = run.config["sky"]["weather"] is not None
     temp_text = ("the weather file's air temperature" if weather else
                  f"a cosine design day repeated (mean {tcfg['temp_air']:g} degC, range {tcfg['temp_air_range']:g} K, "
@@ -110,8 +116,12 @@ modelled glass with idealised coatings (cases/glazing.py); <code>igdb:</code> un
 <h3>Window gains per orientation</h3>
 {_table(["unit", *(f"{o} [kWh m-2]" for o in orients), *(f"eff. g {o}" for o in orients), "all windows [MWh]"],
         gain_rows)}
-{bar_chart(orients, eff, title="solar gain per m2 of glass over the period", xlabel="facade",
-           ylabel="gain [kWh m-2]")}
+{book.bars("window-gain", orients, eff, title="Solar gain per m2 of glass over the period, per glazing unit",
+           xlabel="facade", ylabel="gain [kWh m-2 of glass]", legend_title="glazing",
+           source={"file": "timeseries.csv",
+                   "columns": {n: {o: f"{n}:window gain {o} [W]" for o in orients} for n in summ},
+                   "how": "sum over the period x step hours / 1000 / the facade's glass area"},
+           meta={"glass_area_m2": {o: inc[o]["area_m2"] for o in orients}, "step_hours": run.step_hours})}
 <p class="note">Gain: transmitted plus inward-flowing absorbed solar per m2 of glass, with each unit's g applied per
 wavelength and per incoming direction (the sun at its angle of incidence, every sky patch and reflected ray at its
 own; thermal's spectral route), shading and reflections by the scene included. Effective g: gain / global irradiance

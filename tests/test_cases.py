@@ -273,7 +273,8 @@ def test_a_report_never_replaces_what_widesky_did_not_write(tmp_path, folder, sm
         cases.runner._check_output(mine)
 
 
-PV = SMALL.split("[sky]")[0] + """
+PV = SMALL.split("[sky]")[0].replace('start = "2024-06-20"\nend = "2024-06-22"',
+                                     'start = "2024-06-30"\nend = "2024-07-02"') + """
 [sky]
 visibility = 40
 albedo = 0.25
@@ -288,7 +289,7 @@ cell = 4.0
 technologies = ["topcon", "cdte"]
 temp_air = "15 degC"
 [report]
-sky_time = "2024-06-21T10:00"
+sky_time = "2024-07-01T10:00"
 views = ["south-west"]
 render_size = 200
 """
@@ -395,3 +396,199 @@ render_size = 160
     m = re.search(rf"<tr><td>{re.escape(label)}</td>(?:<td>[^<]*</td>){{4}}<td>([\d.]+)</td>", html)
     assert m and float(m.group(1)) == pytest.approx(sites.loc[label, "50.08, 14.42"], abs=0.06)
     assert sites.loc[label, "50.08, 14.42"] != sites.loc[label, "Helsinki"]
+    assert "sites-compared" in check_charts(rep)
+    assert "60.170 N, 24.940 E" in html and "and 1 more site:" in html
+
+
+# --- every chart of a report against the result file it shows ------------------------------------------------------
+
+_MONTHS = ["Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"]
+
+
+def _step_hours(index):
+    t = pd.to_datetime(pd.Series(index), utc=True)
+    return float(t.diff().dropna().dt.total_seconds().median() / 3600.0) if len(t) > 1 else 1.0
+
+
+def check_charts(rep):
+    """Recompute every chart of report ``rep`` from the result files (``timeseries.csv``, ``spectral_hour.h5`` with
+    ``faces.csv``, ``sites.csv``) and compare it with the numbers the chart plots (``charts.json``, from which the
+    page's pictures are drawn). Tolerances: the CSV keeps 4 significant digits (sums to 0.2 %); the spectrum is read
+    from the HDF5 file itself (1e-6). Every chart on the page must be checked here: an unknown chart id fails.
+    Returns the ids checked."""
+    import json
+
+    import widesky.irradiance as ir
+    from widesky import pvsim
+
+    html = (rep / "index.html").read_text(encoding="utf-8")
+    charts = json.loads((rep / "charts.json").read_text(encoding="utf-8"))["charts"]
+    ids = [c["id"] for c in charts]
+    assert sorted(re.findall(r'<figure class="chart" id="chart-([^"]+)"', html)) == sorted(ids)
+    ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
+    stamps = ts.index.astype(str)
+    month = np.array([int(s[5:7]) for s in stamps])
+    local_day = np.array([s[:10] for s in stamps])
+    h = _step_hours(ts.index)
+    faces = pd.read_csv(rep / "faces.csv", index_col=0)
+
+    def close(got, want, rtol=2e-3, atol=None, what=""):
+        got, want = np.asarray(got, float), np.asarray(want, float)
+        scale = np.nanmax(np.abs(want)) if want.size else 1.0
+        np.testing.assert_allclose(got, want, rtol=rtol, atol=atol if atol is not None else 1e-3 * scale,
+                                   err_msg=f"{rep.name}: chart {what}")
+
+    for c in charts:
+        cid, series = c["id"], c["series"]
+        assert series, cid
+        if cid == "monthly-insolation":
+            months = [_MONTHS.index(m) + 1 for m in c["categories"]]
+            for lab, vals in series.items():
+                col = ts[f"{lab}:poa_global [W m-2]"].to_numpy()
+                close(vals, [col[month == m].sum() * h / 1000.0 for m in months], what=f"{cid} {lab}")
+        elif cid == "daily-insolation":
+            days = [d[:10] for d in c["x"]]
+            for lab, vals in series.items():
+                col = ts[f"{lab}:poa_global [W m-2]"].to_numpy()
+                close(vals, [col[local_day == d].sum() * h / 1000.0 for d in days], what=f"{cid} {lab}")
+        elif cid == "spectral-split":
+            for lab, vals in series.items():
+                total = ts[f"{lab}:poa_global [W m-2]"].sum()          # 0 for a floor: shares 0
+                close(vals, [100 * ts[f"{lab}:{b} [W m-2]"].sum() / total if total > 0 else 0.0
+                             for b in c["categories"]], rtol=3e-3,
+                      atol=0.02, what=f"{cid} {lab}")
+        elif cid == "hour-spectrum":
+            hour = ir.POAResult.load(rep / "spectral_hour.h5")
+            glob = np.asarray(hour.spectral["global"][0], float)             # (F, C) [W m-2 nm-1]
+            close(c["x"], hour.wavelengths, rtol=1e-9, what=cid)
+            area = faces["area_m2"].to_numpy()
+            for lab, vals in series.items():
+                sel = (faces["label"] == lab).to_numpy()
+                close(vals, area[sel] @ glob[sel] / area[sel].sum(), rtol=1e-6, atol=1e-9, what=f"{cid} {lab}")
+            assert str(hour.times[0])[:16].replace(" ", "T") in c["title"].replace(" ", "T"), c["title"]
+        elif cid == "pv-monthly-specific-yield":
+            months = [_MONTHS.index(m) + 1 for m in c["categories"]]
+            names = [k.split(":")[1] for k in ts.columns if k.startswith("plant:") and k.endswith(":ac [W]")]
+            by_label = {pvsim.get_technology(n).label: n for n in names}
+            for label, vals in series.items():
+                # the rating the page's yield table gives (2 decimals)
+                kwp = float(re.search(rf"<tr><td>{re.escape(label)}</td><td>[\d.]+</td><td>([\d.]+)</td>",
+                                      html).group(1))
+                col = ts[f"plant:{by_label[label]}:ac [W]"].to_numpy()
+                close(vals, [col[month == m].sum() * h / 1000.0 / kwp for m in months], rtol=6e-3,
+                      what=f"{cid} {label}")
+        elif cid == "sites-compared":
+            sites = pd.read_csv(rep / "sites.csv", index_col=0)
+            assert list(sites.index.astype(str)) == c["categories"] and list(sites.columns) == list(series)
+            for name, vals in series.items():
+                close(vals, sites[name].to_numpy(), rtol=1e-4, what=f"{cid} {name}")
+        elif cid == "window-gain":
+            for unit, vals in series.items():
+                want = []
+                for o in c["categories"]:
+                    glass = faces.loc[faces["label"] == f"window {o}", "area_m2"].sum()
+                    want.append(ts[f"{unit}:window gain {o} [W]"].sum() * h / 1000.0 / glass)
+                close(vals, want, what=f"{cid} {unit}")
+        elif cid == "cooling-load":
+            assert [x[:16] for x in c["x"]] == [s[:16].replace(" ", "T") for s in stamps]
+            for unit, vals in series.items():
+                close(vals, ts[f"{unit}:cooling [W]"].to_numpy() / 1000.0, what=f"{cid} {unit}")
+        elif cid == "cooling-daily":
+            days = [d[:10] for d in c["x"]]
+            for unit, vals in series.items():
+                col = ts[f"{unit}:cooling [W]"].to_numpy()
+                close(vals, [col[local_day == d].sum() * h / 1000.0 for d in days], what=f"{cid} {unit}")
+        else:
+            raise AssertionError(f"chart {cid!r} of {rep}: no check recomputes it from its result file")
+    return ids
+
+
+def test_every_chart_shows_its_result_file(small_report, pv_report):
+    """Issue 40: the spectrum chart plotted twice the spectral_hour.h5 global spectrum (the global added to its own
+    parts). Each chart of the irradiance and PV reports is recomputed from the files it claims to show."""
+    assert {"daily-insolation", "spectral-split", "hour-spectrum"} <= set(check_charts(small_report[0]))
+    assert {"monthly-insolation", "pv-monthly-specific-yield", "hour-spectrum"} <= set(check_charts(pv_report))
+
+
+def test_report_first_screen_and_labels(pv_report, small_report):
+    """The first screen names the site, the weather source, the sky model, the period and the energy and specific
+    yield per technology (from the yield table), and what the figures are not; positions carry hemisphere letters;
+    the inverter's clipping is its own waterfall stage."""
+    html = (pv_report / "index.html").read_text(encoding="utf-8")
+    glance = html[html.index('<div class="glance">'):html.index("</div>", html.index('<div class="glance">'))]
+    assert html.index('<div class="glance">') < html.index("<h2>Run</h2>")
+    for words in ("site", "weather source", "sky model", "period", "PV energy (AC)", "what it is not",
+                  "50.080 N, 14.420 E", "clear sky", "upper bound", "2024-06-30 to 2024-07-02"):
+        assert words in glance, words
+    from widesky import pvsim
+    for n in ("topcon", "cdte"):
+        label = pvsim.get_technology(n).label
+        row = re.search(rf"<tr><td>{re.escape(label)}</td>(?:<td>[^<]*</td>){{4}}<td>([\d.]+)</td>", html)
+        shown = re.search(rf"{re.escape(label)}: <b>[\d.]+ MWh</b>, <b>([\d.]+) kWh/kWp</b>", glance)
+        assert float(shown.group(1)) == pytest.approx(float(row.group(1)), abs=0.051)
+    assert "AC before clipping (inverter efficiency)" in html and "AC (after inverter clipping)" in html
+    assert " 1 groups" not in (small_report[0] / "index.html").read_text(encoding="utf-8")
+    from widesky.cases.report import format_position
+    assert format_position(40.42, -3.7) == "40.420 N, 3.700 W"
+    assert format_position(-33.9, 151.2) == "33.900 S, 151.200 E"
+
+
+def test_waterfall_splits_inverter_efficiency_and_clipping(pv_report):
+    """The waterfall's "AC before clipping" stage is the PVWatts inverter's efficiency curve (Dobos 2014,
+    NREL/TP-6A20-62641: eta = eta_nom / eta_ref (-0.0162 z - 0.0059 / z + 0.9858), z = P_dc / P_dc0, P_dc0 = rating /
+    DC-AC ratio 1.2; pvsim's defaults eta_nom 0.96, eta_ref 0.9637) applied to the plant's DC without the AC limit,
+    recomputed here from timeseries.csv (one inverter per module row of equal rating: the rows' DC taken equal, a
+    second-order difference); the "AC" stage is the time series' AC; clipping can only lose. Tolerance 1 %: the table's
+    one decimal on a two-day yield of about 14 kWh/kWp."""
+    html = (pv_report / "index.html").read_text(encoding="utf-8")
+    ts = pd.read_csv(pv_report / "timeseries.csv", index_col=0)
+    from widesky import pvsim
+    wf = html[html.index("Loss waterfall"):]
+
+    def stage(name):
+        m = re.search(rf"<tr><td>{re.escape(name)}</td>((?:<td>[^<]*</td>)+)</tr>", wf)
+        return [float(v) for v in re.findall(r"<td>([-+\d.]+)</td>", m.group(1))[::2]]
+
+    dc_row, inv_row, ac_row = (stage("DC (after DC losses)"), stage("AC before clipping (inverter efficiency)"),
+                               stage("AC (after inverter clipping)"))
+    for i, n in enumerate(("topcon", "cdte")):
+        label = pvsim.get_technology(n).label
+        kwp = float(re.search(rf"<tr><td>{re.escape(label)}</td><td>[\d.]+</td><td>([\d.]+)</td>", html).group(1))
+        rows = 2                                                           # PV's [scene.parameters] rows
+        p = ts[f"plant:{n}:dc [W]"].to_numpy() / rows                      # per row [W]
+        p0 = kwp * 1000.0 / rows / 1.2
+        z = np.where(p > 0, p / p0, 1.0)
+        eta = 0.96 / 0.9637 * (-0.0162 * z - 0.0059 / z + 0.9858)
+        unclipped = rows * np.where(p > 0, np.maximum(eta * p, 0.0), 0.0).sum() / 1000.0 / kwp     # 1 h steps
+        assert inv_row[i] == pytest.approx(unclipped, rel=1e-2)
+        assert ac_row[i] == pytest.approx(ts[f"plant:{n}:ac [W]"].sum() / 1000.0 / kwp, rel=1e-2)
+        assert dc_row[i] > inv_row[i] >= ac_row[i]
+
+
+def test_renders_scale_front_and_rear_apart(pv_report):
+    """Issue 40: front and rear sides have their own colour range, so the front sides span the whole front colour map
+    (the rear sides' much lower insolation no longer squeezes them into its top); a two-sided scene gets a render of
+    the rear sides; the sky picture is larger than 256 px."""
+    import base64
+    import io
+
+    import matplotlib
+    import trimesh
+    from PIL import Image
+
+    faces = pd.read_csv(pv_report / "faces.csv", index_col=0)
+    front = faces[faces.label.str.endswith(" front")].insolation_kwh_m2
+    ply = trimesh.load(pv_report / "scene.ply", process=False)
+    cols = ply.visual.face_colors[:, :3].astype(float) / 255.0
+    viridis = matplotlib.colormaps["viridis"]
+    coloured = cols[~np.all(np.isclose(cols, cols[:, :1], atol=0.01), axis=1)]          # not the grey context
+    # the darkest and brightest front colours are the map's ends: the front range is the front faces' own
+    for t in (0.0, 1.0):
+        assert np.min(np.abs(coloured - np.asarray(viridis(t)[:3])).sum(axis=1)) < 0.02, t
+    assert front.max() - front.min() < 0.5 * front.min()            # (the fronts' spread is small against the rears)
+    assert (pv_report / "scene_rear.png").is_file()
+    html = (pv_report / "index.html").read_text(encoding="utf-8")
+    sky = re.search(r'<img class="sky" src="data:image/png;base64,([^"]+)"', html).group(1)
+    assert Image.open(io.BytesIO(base64.b64decode(sky))).size[0] > 512
+    with Image.open(pv_report / "sky.png") as im:
+        assert im.size[0] > 256

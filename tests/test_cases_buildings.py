@@ -161,6 +161,28 @@ def test_facade_report_contents(facade_report):
     assert len(np.unique(vc[:, 0], axis=0)) > 3
 
 
+def _check_charts(rep):
+    """tests/test_cases.py's ``check_charts`` (every chart recomputed from the result file it shows)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("_widesky_test_cases", Path(__file__).with_name("test_cases.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.check_charts(rep)
+
+
+def test_thermal_and_bipv_charts_show_their_result_files(facade_report, bipv_report):
+    """Issue 40: the window-gain and cooling charts (and the bipv report's PV and irradiance charts) hold the
+    numbers of timeseries.csv and faces.csv; the first screen gives the building's loads."""
+    assert {"window-gain", "cooling-load", "hour-spectrum"} <= set(_check_charts(facade_report))
+    assert {"window-gain", "cooling-load", "hour-spectrum"} <= set(_check_charts(bipv_report))
+    html = (facade_report / "index.html").read_text()
+    glance = html[html.index('<div class="glance">'):html.index("<h2>Run</h2>")]
+    loads = pd.read_csv(facade_report / "loads.csv", index_col=0)
+    for unit in ("clear", "solar-control"):
+        total = loads[(loads.glazing == unit) & (loads.index == "total")]["cooling_kWh"].iloc[0]
+        assert f"{unit} glazing: cooling <b>{total / 1000:.2f} MWh</b>" in glance
+
+
 def test_thermal_section_needs_a_building(tmp_path):
     folder = _case(tmp_path, "solar_potential", FACADE.format(tz="Europe/Prague", weather="")
                    .replace("canyon = false", ""))
@@ -180,9 +202,11 @@ def test_thermal_glazing_is_validated(tmp_path):
 
 def _epw(path, run, factor, temp_air, dhi_factor=None):
     """An EPW on the steps of ``run`` carrying ``factor`` x the sky model's own DNI and ``dhi_factor`` (default
-    ``factor``) x its DHI."""
+    ``factor``) x its DHI, broadband: the model's 280-2480 nm values / the in-band share (issue 35)."""
     import widesky.irradiance as ir
+    from widesky.core.spectral import in_band_share
     dni, dhi = ir.model_irradiance(run.dataset, run.result.states, run.settings)
+    dni, dhi = dni / in_band_share(280.0, 2480.0), dhi / in_band_share(280.0, 2480.0)
     el = np.asarray(run.result.states.sun_elevation)
     fd = factor if dhi_factor is None else dhi_factor
     data = pd.DataFrame({"dni": factor * dni, "dhi": fd * dhi,

@@ -51,6 +51,10 @@ def test_amsterdam_missing_report_and_zero_policy(amsterdam):
     assert amsterdam.missing["albedo"] == 8760
     assert amsterdam.missing["ghi"] == 0 and amsterdam.missing["dni"] == 0
     assert "precipitable_water=8760" in amsterdam.summary()
+    # issue 40: a typical year mixes years; the summary names the months' years, not a backwards "1995 .. 1991" span
+    first = amsterdam.summary().splitlines()[0]
+    assert "a typical year of months from 1982-1999 (Jan 1995," in first and "Dec 1990)" in first
+    assert "in file order 1995-01-01 01:00:00+01:00 .. 1991-01-01 00:00:00+01:00" in first
     raw = read_epw(data_file(AMSTERDAM), zero_as_missing=())
     assert (raw.data["precipitable_water"] == 0).all()
     assert raw.missing["precipitable_water"] == 0
