@@ -42,16 +42,16 @@ def _refs():
 
 
 OUTSIDE = {
-    # Hay-Davies puts 9 % less on the south wall than the integrator; the heavy case's cooling
+    # Hay-Davies puts 3 % less on the south wall than the integrator and Perez; the heavy case's cooling
     # (and its stored heat before the coldest night) is the most sensitive to it
     ("weather", "900", "annual_cooling"): "2.06 MWh < 2.35 (Hay-Davies south irradiance)",
     ("weather", "900", "peak_heating"): "2.83 kW > 2.78 (programs' max; Hay-Davies)",
-    # Since the one pipeline (issue 33) the integrator route runs the all-sky default: its vertical walls sit at
-    # Hay-Davies' level (no horizon brightening under cloud, issue 39), and case 900 misses as the weather route
-    # does. Its earlier pass (clear-sky shape scaled to the measured DHI, 8 % above Perez on the south wall) rested
-    # on that excess (issue 38); the thermal validation is re-done on the final default sky there.
-    ("integrator", "900", "annual_cooling"): "2.10 MWh < 2.35 (all-sky default: walls at Hay-Davies' level)",
-    ("integrator", "900", "peak_heating"): "2.82 kW > 2.78 (programs' max; all-sky default)",
+    # Since the one pipeline (issue 33) the integrator route runs the all-sky default; with the room's real windows
+    # (issue 38: two 3 m x 2 m south windows, bestest_geometry) and the all-sky distribution of 2026-12-05 its south
+    # wall sits at Perez's level (1368 kWh m-2 against 1369), yet Case 900 still misses these two: the heavyweight
+    # misses are no longer a matter of the wall's light (docs/thermal.md, "The rest of the standard")
+    ("integrator", "900", "annual_cooling"): "2.27 MWh < 2.35 (all-sky default, 5R1C)",
+    ("integrator", "900", "peak_heating"): "2.80 kW > 2.78 (programs' max; all-sky default)",
 }
 
 
@@ -128,7 +128,7 @@ def test_case_inputs_from_files():
     assert c.walls[2][2] == 12.0                                   # the window faces south
     assert c.heating_setpoint == 20.0 and c.cooling_setpoint == 27.0 and c.internal_gains == 200.0
     with pytest.raises(ValueError, match="case="):
-        case_definition("610")
+        case_definition("611")
 
 
 def test_read_mos_drycold():

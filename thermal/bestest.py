@@ -1,4 +1,5 @@
-"""ASHRAE Standard 140 (BESTEST) Cases 600, 660, 670 and 900 with the 5R1C zone model.
+"""ASHRAE Standard 140 (BESTEST) Cases 600-670, 900-950 and the free-floating 600FF, 650FF,
+900FF and 950FF with the 5R1C zone model.
 
 Everything case-specific is read at run time from the public files in the data directory
 (``WIDESKY_DATA_DIR`` or ``../shared/data``, see docs/thermal.md): the weather year (Denver
@@ -17,6 +18,16 @@ ground reflectance 0.2 and the internal gains' 60 % radiative share (ANSI/ASHRAE
 section 7.2.1 (Case 600): "ground reflectance 0.2"; internal gains "200 W, 60 % radiative,
 40 % convective, 100 % sensible"), the interior solar absorptance 0.6 (same section, interior
 surface finish).
+
+The variants of Case 600 (ANSI/ASHRAE 140-2020 section 7.2.2; 140-2017 section 5.2.2 and 5.2.3)
+are scalar facts of the standard and stand in :data:`CASE_SPECS`, :data:`SETBACK`,
+:data:`VENT_SCHEDULE` and :mod:`widesky.thermal.bestest_geometry` (window placement, overhang and
+fin depth 1.0 m): the heavyweight 9xx cases take Case 900's constructions; 610 adds a south
+overhang, 620 moves the windows to the east and west walls, 630 adds overhangs and fins to those,
+640 sets the heating back at night, 650 ventilates at night without heating and cools only by day,
+and the FF cases float freely (no heating, no cooling). The annual mean zone temperatures of the
+free-floating cases, in none of the data files' tables, stand in :data:`MEAN_TEMPERATURE_RANGE`
+with their source.
 """
 
 from __future__ import annotations
@@ -32,20 +43,79 @@ from widesky.core.paths import data_file
 from widesky.irradiance import (SKY_DEFAULTS, PragueSky, Simulation, dni_extra, fixed_offset_tz, read_epw,
                                 solar_position, sun_times)
 
-from .building import box_building
+from .bestest_geometry import bestest_building, window_shading
 from .exterior import exterior_coefficients, hourly_u_value, wind_at_height
-from .gains import building_scene, group_weights, irradiance_by_surface, rated_glazing_response
+from .gains import building_scene, group_weights, irradiance_by_surface, rated_glazing_response, result_in_band_share
 from .glazing import Gap, GlazingUnit, layer_from_broadband
 from .loads import R_SE, glazing_g_table, opaque_gains, sky_losses, window_gains
 from .surface import sky_temperature, surface_irradiance
 from .zone import ZoneParameters, simulate_5r1c
+from .zone_iso52016 import Element, Layer, simulate_iso52016
 
 __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_modelica_record",
            "case_definition", "window_unit", "reference_results", "run_case", "BestestCase",
            "load_weather", "case_gains", "integrator_irradiance", "solar_escape_fraction",
-           "layer_resistance", "EXTERIOR_MODELS"]
+           "layer_resistance", "EXTERIOR_MODELS", "CASE_SPECS", "CaseSpec", "SETBACK", "VENT_SCHEDULE",
+           "MEAN_TEMPERATURE_RANGE", "LOAD_CASES", "SOURCES", "Verdict", "verdicts", "case_geometry",
+           "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS"]
 
-CASES = ("600", "660", "670", "900")
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """What an ASHRAE 140 case changes against Case 600 (140-2020 7.2.2; 2017 5.2.2, 5.2.3).
+
+    ``mass``: "600" (lightweight) or "900" (heavyweight constructions); ``window``: the glazing
+    records' case ("600", "660", "670"); ``layout``, ``shading``: see
+    :mod:`widesky.thermal.bestest_geometry`; ``control``: "constant" (20 / 27 degC), "setback"
+    (Case 640), "vent" (Case 650: night ventilation, no heating, cooling by day) or "free"
+    (free floating), "vent_free" (Case 650FF).
+    """
+
+    mass: str = "600"
+    window: str = "600"
+    layout: str = "south"
+    shading: object = None
+    control: str = "constant"
+
+    @property
+    def free_floating(self):
+        return self.control in ("free", "vent_free")
+
+
+CASE_SPECS = {
+    "600": CaseSpec(), "610": CaseSpec(shading="overhang"), "620": CaseSpec(layout="eastwest"),
+    "630": CaseSpec(layout="eastwest", shading="overhang_fins"), "640": CaseSpec(control="setback"),
+    "650": CaseSpec(control="vent"), "660": CaseSpec(window="660"), "670": CaseSpec(window="670"),
+    "900": CaseSpec("900"), "910": CaseSpec("900", shading="overhang"),
+    "920": CaseSpec("900", layout="eastwest"),
+    "930": CaseSpec("900", layout="eastwest", shading="overhang_fins"),
+    "940": CaseSpec("900", control="setback"), "950": CaseSpec("900", control="vent"),
+    "600FF": CaseSpec(control="free"), "650FF": CaseSpec(control="vent_free"),
+    "900FF": CaseSpec("900", control="free"), "950FF": CaseSpec("900", control="vent_free"),
+}
+"""ANSI/ASHRAE 140-2020 section 7.2.2 (Cases 610-650FF, 900-950FF; 2017 edition 5.2.2-5.2.3)."""
+
+CASES = tuple(CASE_SPECS)
+LOAD_CASES = tuple(c for c in CASES if not CASE_SPECS[c].free_floating)
+"""The cases with heating and cooling (annual loads and peaks); the others float freely."""
+SETBACK = {"night": 10.0, "day": 20.0, "night_start": 23, "ramp_start": 7, "ramp_end": 8}
+"""Case 640/940 heating set-point [degC] (140-2020 7.2.2.1.4): 10 degC from 23:00 to 07:00, a
+linear ramp to 20 degC from 07:00 to 08:00 (the hour's mean, 15 degC, in an hourly model), 20 degC
+from 08:00 to 23:00; cooling 27 degC all hours."""
+VENT_SCHEDULE = {"flow": 1700.0, "on": 18, "off": 7, "cooling_set_point": 27.0}
+"""Case 650/950 (140-2020 7.2.2.1.5): a vent fan of 1700 m3 h-1 [m3 h-1] on from 18:00 to 07:00
+(besides the infiltration; no fan heat), altitude-adjusted as the infiltration is (0.5 h-1 at sea
+level -> the case file's ``airRat``); heating off; cooling to 27 degC from 07:00 to 18:00 only.
+650FF and 950FF: the same fan, no heating and no cooling."""
+MEAN_TEMPERATURE_RANGE = {"600FF": (24.3, 26.1), "650FF": (17.6, 18.9), "900FF": (24.5, 25.7),
+                          "950FF": (14.4, 15.0)}
+"""Annual mean zone air temperature [degC], the reference programs' range (minimum, maximum)
+of the 140-2020/2023 results: ``staRes.meanT`` (Min, Max) of the Modelica Buildings library's
+case files (github lbl-srg/modelica-buildings, BSD-3,
+Buildings/ThermalZones/Detailed/Validation/BESTEST/Cases6xx/Case600FF.mo, Case650FF.mo and
+Cases9xx/Case900FF.mo, Case950FF.mo, the revisions with the 2020 weather and the 1409 m3 h-1
+altitude-adjusted fan). Their minima and maxima of the minimum and maximum temperatures agree with
+the User's Guide tables that :func:`reference_results` reads."""
 GROUND_REFLECTANCE = 0.2          # ASHRAE 140-2020 7.2.1
 INTERNAL_RADIATIVE_FRACTION = 0.6  # ASHRAE 140-2020 7.2.1: 200 W, 60 % radiative
 INTERIOR_SOLAR_ABSORPTANCE = 0.6   # ASHRAE 140-2020 7.2.1: interior surfaces
@@ -53,6 +123,7 @@ RHO_C_AIR = 1200.0                 # ISO 13790 9.3.1: rho_a c_a [J m-3 K-1]
 PROGRAMS = ("BSIMAC", "CSE", "DeST", "EnergyPlus", "ESP-r", "TRNSYS")
 R_SI = {"wall": 0.13, "roof": 0.10, "floor": 0.17}   # ISO 6946:2017 Table 7 [m2 K W-1]
 EXTERIOR_MODELS = ("hourly", "constant")
+ZONE_MODELS = ("5r1c", "iso52016")
 
 
 def _data_file(relative, data_dir):
@@ -158,6 +229,25 @@ def layer_resistance(path, block=None):
     return float(sum(float(x) / float(k) for x, k in layers))
 
 
+def construction_layers(path, block=None):
+    """The layers (outside first) of a Modelica construction record as
+    :class:`~widesky.thermal.zone_iso52016.Layer` (``Solids.Generic(x=, k=, c=, d=)``), in the whole
+    file or in the first ``block(...)``."""
+    text = Path(path).read_text(encoding="latin-1")
+    if block is not None:
+        m = re.search(r"\b" + re.escape(block) + r"\s*\(", text)
+        if not m:
+            raise ValueError(f"{path}: no construction {block!r}")
+        text = text[m.end():]
+        text = text[:text.find("roughness_a")] if "roughness_a" in text else text
+    num = r"([-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)"
+    found = re.findall(r"Generic\(\s*x\s*=\s*" + num + r"\s*,\s*k\s*=\s*" + num + r"\s*,\s*c\s*=\s*"
+                       + num + r"\s*,\s*d\s*=\s*" + num, text)
+    if not found:
+        raise ValueError(f"{path}: no layers (x=..., k=..., c=..., d=...) in {block or 'the file'}")
+    return tuple(Layer(*(float(v) for v in f)) for f in found)
+
+
 def _u_values(case, data_dir):
     """Nominal U-values [W m-2 K-1] of wall, roof and floor from the detailed models' layers,
     ISO 6946 inside resistances and R_se = 0.04."""
@@ -215,10 +305,12 @@ class BestestCase:
     interior_area: float
     u_floor: float = None
     height: float = 2.7
+    spec: CaseSpec = CaseSpec()
+    air_changes: float = 0.414     # infiltration [h-1] (the case file's altitude-adjusted airRat)
 
 
 def case_definition(case, data_dir=None) -> BestestCase:
-    """Inputs of ASHRAE 140 Case ``case`` ("600", "660", "670", "900") from the data files.
+    """Inputs of ASHRAE 140 Case ``case`` (a key of :data:`CASE_SPECS`) from the data files.
 
     Geometry, air change rate, internal gains and set-points are the Modelica ISO 13790 Case 600
     model's; the heat capacity and mass-area factor its Case600Mass (lightweight cases) or
@@ -230,22 +322,33 @@ def case_definition(case, data_dir=None) -> BestestCase:
     EN 410), not from the ISO model's fixed UWin and gFac. The 5R1C internal area A_t is the
     room's own (171.6 m2: floor, ceiling, walls and window), the definition of ISO 13790 7.2.2.2,
     rather than its default 4.5 A_f = 216 m2 that the low BESTEST room does not reach.
+
+    The variants (:data:`CASE_SPECS`) change the mass (9xx: Case 900's), the window layout
+    (620, 630: 6 m2 in each of the east and west walls instead of 12 m2 south), the shading
+    devices (610, 630) and the control (640, 650, FF); their set-point and ventilation schedules
+    come from :func:`setpoint_schedules`.
     """
     if case not in CASES:
         raise ValueError(f"case={case!r} not one of {CASES}")
+    spec = CASE_SPECS[case]
     base = read_modelica_record(_data_file("bestest/iso13790_Cases6xx_Case600.mo", data_dir),
                                 "zonHVAC")
     mass = read_modelica_record(_data_file(
-        f"bestest/iso13790_Data_Case{'900' if case == '900' else '600'}Mass.mo", data_dir))
+        f"bestest/iso13790_Data_Case{spec.mass}Mass.mo", data_dir))
     wall = read_modelica_record(_data_file("bestest/detailed_Data_ExteriorWallCase900.mo", data_dir))
-    unit = window_unit(case, data_dir)
+    unit = window_unit(spec.window, data_dir)
     u_win = unit.u_value()
     azi = [(180.0 + np.degrees(a)) % 360.0 for a in base["surAzi"]]   # Modelica: 0 = south
-    walls = tuple((az, aw, awin) for az, aw, awin in zip(azi, base["AWal"], base["AWin"]))
+    gross = [aw + awin for aw, awin in zip(base["AWal"], base["AWin"])]
     a_win = float(np.sum(base["AWin"]))
+    if spec.layout == "eastwest":                 # half the glazing in each of the east, west walls
+        win = [a_win / 2 if abs(az - 90) < 1 or abs(az - 270) < 1 else 0.0 for az in azi]
+    else:
+        win = list(base["AWin"])
+    walls = tuple((az, g - w, w) for az, g, w in zip(azi, gross, win))
     a_f = base["AFlo"]
-    u_wall, u_roof, u_floor = _u_values(case, data_dir)
-    h_op = (u_wall * np.sum(base["AWal"]) + u_roof * base["ARoo"] + base["b"] * u_floor * a_f)
+    u_wall, u_roof, u_floor = _u_values(spec.mass, data_dir)
+    h_op = (u_wall * sum(w[1] for w in walls) + u_roof * base["ARoo"] + base["b"] * u_floor * a_f)
     height = base["VRoo"] / a_f
     perim = sum(aw + awin for _, aw, awin in walls) / height
     interior = 2 * a_f + perim * height
@@ -261,7 +364,8 @@ def case_definition(case, data_dir=None) -> BestestCase:
         raise ValueError("iso13790_Cases6xx_Case600.mo: set-point tables or intGai not found")
     return BestestCase(case, zone, unit, a_win, walls, base["ARoo"], u_wall, u_roof,
                        u_win, wall["absSol_a"], wall["absIR_a"], float(gains.group(1)),
-                       float(heat.group(1)), float(cool.group(1)), interior, u_floor, height)
+                       float(heat.group(1)), float(cool.group(1)), interior, u_floor, height,
+                       spec, base["airRat"])
 
 
 # --------------------------------------------------------------------------- references
@@ -273,29 +377,33 @@ def reference_results(data_dir=None):
     -------
     dict
         ``case -> {"annual_heating" | "annual_cooling": {"limits": (lo, hi) [kWh],
-        "programs": {name: kWh}}, "peak_heating" | "peak_cooling": {"programs": {name: W}}}``.
+        "programs": {name: kWh}}, "peak_heating" | "peak_cooling": {"programs": {name: W}}}``;
+        free-floating cases ``"max_temperature" | "min_temperature": {"programs": {name: degC}}``.
         The six programs of Standard 140's results (BSIMAC, CSE, DeST, EnergyPlus, ESP-r, TRNSYS).
+        Limits are returned in order (the guide lists Case 910's cooling limits high, low).
     """
     text = _data_file("bestest/detailed_UsersGuide.mo", data_dir).read_text(encoding="latin-1")
     out = {}
     titles = {"Annual heating load (MWh)": "annual_heating", "Annual cooling load (MWh)":
               "annual_cooling", "Peak heating load (kW)": "peak_heating",
-              "Peak cooling load (kW)": "peak_cooling"}
+              "Peak cooling load (kW)": "peak_cooling", "Maximum temperature (&deg;C)": "max_temperature",
+              "Minimum temperature (&deg;C)": "min_temperature"}
     parts = re.split(r"<b>([^<]+)</b>", text)
     for title, body in zip(parts[1::2], parts[2::2]):
         key = titles.get(title.strip())
         if key is None:
             continue
         body = body.split("</table>")[0]
-        for row in re.findall(r"<tr>\s*<td>(Case\d+)</td>(.*?)</tr>", body, re.S):
+        for row in re.findall(r"<tr>\s*<td>(Case\d+(?:FF)?)</td>(.*?)</tr>", body, re.S):
             cells = re.findall(r"<td[^>]*>([^<]*)</td>", row[1])
             name = row[0][4:]
             if key.startswith("annual"):
                 vals = [float(c) * 1000.0 for c in cells]
-                entry = {"limits": (vals[0], vals[1]),
+                entry = {"limits": (min(vals[0], vals[1]), max(vals[0], vals[1])),
                          "programs": dict(zip(PROGRAMS, vals[2:2 + len(PROGRAMS)]))}
             else:
-                kw = [float(c) * 1000.0 for c in cells[0::2]]
+                scale = 1.0 if key.endswith("temperature") else 1000.0
+                kw = [float(c) * scale for c in cells[0::2]]
                 entry = {"programs": dict(zip(PROGRAMS, kw[:len(PROGRAMS)]))}
             out.setdefault(name, {})[key] = entry
     if not out:
@@ -303,7 +411,144 @@ def reference_results(data_dir=None):
     return out
 
 
+SOURCES = {
+    "acceptance": "acceptance range, ASHRAE 140-2023 Add. b Tables A3-1/A3-2 (Modelica Buildings "
+                  "User's Guide)",
+    "programs": "reference programs' range (6 programs of 140-2020/2023; Modelica Buildings "
+                "User's Guide)",
+    "programs_mean": "reference programs' range (140-2020/2023; staRes.meanT of the Modelica "
+                     "Buildings case file)",
+}
+"""Where each verdict's range comes from."""
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One figure of a case against its range: ``value``, ``low``, ``high`` in ``unit`` (MWh, kW,
+    degC); ``source`` a key of :data:`SOURCES`."""
+
+    case: str
+    quantity: str
+    value: float
+    low: float
+    high: float
+    unit: str
+    source: str
+
+    @property
+    def inside(self) -> bool:
+        return bool(self.low <= self.value <= self.high)
+
+
+def verdicts(case, result, refs=None, data_dir=None):
+    """Each figure of ``result`` (from :func:`run_case`) beside its range.
+
+    Annual heating and cooling [MWh] against the standard's acceptance range; peak heating and
+    cooling [kW] and the free-floating cases' minimum and maximum zone temperature [degC] against
+    the six reference programs' range (the standard gives no acceptance range for them); the
+    annual mean temperature [degC] against :data:`MEAN_TEMPERATURE_RANGE`. A value equal to a
+    limit is inside.
+
+    Returns
+    -------
+    list of Verdict
+    """
+    refs = reference_results(data_dir) if refs is None else refs
+    if case not in refs:
+        raise ValueError(f"case={case!r}: no reference results (have {sorted(refs)})")
+    out = []
+    if CASE_SPECS[case].free_floating:
+        for q, key in (("min_temperature", "temp_min"), ("max_temperature", "temp_max")):
+            prog = list(refs[case][q]["programs"].values())
+            out.append(Verdict(case, q, float(result[key]), min(prog), max(prog), "degC", "programs"))
+        lo, hi = MEAN_TEMPERATURE_RANGE[case]
+        out.append(Verdict(case, "mean_temperature", float(result["temp_mean"]), lo, hi, "degC",
+                           "programs_mean"))
+        return out
+    for q in ("annual_heating", "annual_cooling", "peak_heating", "peak_cooling"):
+        ref = refs[case][q]
+        if "limits" in ref:
+            lo, hi = ref["limits"]
+            src = "acceptance"
+        else:
+            prog = list(ref["programs"].values())
+            lo, hi, src = min(prog), max(prog), "programs"
+        unit = "MWh" if q.startswith("annual") else "kW"
+        out.append(Verdict(case, q, float(result[q]) / 1000.0, lo / 1000.0, hi / 1000.0, unit, src))
+    return out
+
+
 # --------------------------------------------------------------------------- run
+
+def case_geometry(case):
+    """(layout, shading) of a case name or :class:`BestestCase` (see
+    :mod:`widesky.thermal.bestest_geometry`)."""
+    spec = case.spec if isinstance(case, BestestCase) else CASE_SPECS[case]
+    return spec.layout, spec.shading
+
+
+def setpoint_schedules(case: BestestCase, index):
+    """Hourly heating and cooling set-points [degC] and ventilation conductance [W K-1] of a case.
+
+    Parameters
+    ----------
+    case : BestestCase
+    index : pandas.DatetimeIndex
+        The weather's hour ends (local standard time); an hour ending at 08:00 is the hour from
+        07:00 to 08:00.
+
+    Returns
+    -------
+    heating, cooling, h_ve : numpy.ndarray
+        (T,) each; -inf / inf where heating / cooling is off.
+    """
+    start = np.asarray((index - pd.Timedelta(hours=1)).hour)      # hour of day the step begins
+    T = len(start)
+    heat = np.full(T, case.heating_setpoint)
+    cool = np.full(T, case.cooling_setpoint)
+    h_ve = np.full(T, float(case.zone.h_ve))
+    control = case.spec.control
+    if control == "setback":
+        sb = SETBACK
+        heat = np.where((start >= sb["night_start"]) | (start < sb["ramp_start"]), sb["night"], heat)
+        ramp = (start >= sb["ramp_start"]) & (start < sb["ramp_end"])
+        heat = np.where(ramp, 0.5 * (sb["night"] + sb["day"]), heat)
+    if control in ("vent", "vent_free"):
+        v = VENT_SCHEDULE
+        on = (start >= v["on"]) | (start < v["off"])
+        fan = RHO_C_AIR * v["flow"] * (case.air_changes / 0.5) / 3600.0   # altitude-adjusted
+        h_ve = h_ve + np.where(on, fan, 0.0)
+        heat = np.full(T, -np.inf)
+        cool = np.where(on, np.inf, v["cooling_set_point"])
+    if control in ("free", "vent_free"):
+        heat, cool = np.full(T, -np.inf), np.full(T, np.inf)
+    return heat, cool, h_ve
+
+
+_SHADING_CACHE = {}
+
+
+def _shading_factors(case: BestestCase, zenith, azimuth):
+    """(T, S) sunlit share and (S,) sky and ground view shares per wall of the case (1 where the
+    wall has no shaded window), by ray casting its devices (:func:`window_shading`)."""
+    S = len(case.walls) + 1
+    layout, shading = case_geometry(case)
+    if shading is None:
+        return np.ones((len(zenith), S)), np.ones(S), np.ones(S)
+    key = (layout, shading, hash(np.asarray(zenith).tobytes()), hash(np.asarray(azimuth).tobytes()))
+    if key not in _SHADING_CACHE:
+        b = bestest_building(layout, shading)
+        f = window_shading(b, zenith, azimuth)
+        sunlit, sky, gnd = np.ones((len(zenith), S)), np.ones(S), np.ones(S)
+        az_win = {s.label: s.azimuth for s in b.surfaces if s.kind == "window"}
+        for j, lab in enumerate(f["labels"]):
+            i = int(np.argmin([abs((w[0] - az_win[lab] + 180) % 360 - 180) for w in case.walls]))
+            sunlit[:, i], sky[i], gnd[i] = f["sunlit"][:, j], f["sky_view"][j], f["ground_view"][j]
+        if len(_SHADING_CACHE) > 8:
+            _SHADING_CACHE.clear()
+        _SHADING_CACHE[key] = (sunlit, sky, gnd)
+    return _SHADING_CACHE[key]
+
 
 def _window_g(unit):
     """g(aoi) table of a flat-spectrum (broadband-record) unit: angles, g, g_diffuse, tau_diffuse."""
@@ -340,6 +585,13 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
         (:mod:`widesky.thermal.exterior`), with the U-values, sky loss and absorbed-solar share they give;
         ``"constant"``: ISO 13790's fixed R_se = 0.04 (EN 673's h_e = 23 for the window).
 
+    Shading devices (Cases 610, 630 ...): on the weather route the window's beam (with the
+    circumsolar part) is scaled by its sunlit share, its isotropic sky and ground-reflected light by
+    its view of the sky and of the ground that the devices leave, all by ray casting the devices
+    (:func:`widesky.thermal.bestest_geometry.window_shading`); the light the devices reflect and
+    their shade on the opaque walls are left out. On the integrator route they are in the scene
+    (``poa`` must be computed for the case's geometry, :func:`case_geometry`).
+
     Returns
     -------
     dict of numpy.ndarray
@@ -353,6 +605,9 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
         raise ValueError(f"exterior={exterior!r} not one of {EXTERIOR_MODELS}")
     surf = [(90.0, az) for az, _, _ in case.walls] + [(0.0, 180.0)]
     if poa is not None:
+        if poa.get("geometry", ("south", None)) != case_geometry(case):
+            raise ValueError(f"poa was computed for the geometry {poa.get('geometry')}, case "
+                             f"{case.name} needs {case_geometry(case)}")
         irr = poa
     else:
         times = sun_times(weather.index, label="right")
@@ -373,7 +628,11 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     if poa is not None:
         window = poa["window_gain"][case.window.name] * case.window_area * (1 - esc)
     else:
-        window = window_gains(win_area, irr["poa_direct"], diffuse, irr["aoi"], ang, g, g_d).sum(1)
+        sunlit, sky_v, gnd_v = _shading_factors(case, sp["zenith"].to_numpy(),
+                                                sp["azimuth"].to_numpy())
+        diffuse_w = irr["poa_sky_diffuse"] * sky_v + irr["poa_ground_diffuse"] * gnd_v
+        window = window_gains(win_area, irr["poa_direct"] * sunlit, diffuse_w, irr["aoi"], ang, g,
+                              g_d).sum(1)
         window *= 1 - esc
     t_sky = sky_temperature(np.maximum(weather["ghi_infrared"].to_numpy(), 1.0))
     ta = weather["temp_air"].to_numpy()
@@ -396,7 +655,7 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     sky_loss = (sky_losses(opq_area, u_opq, case.emissivity, tilt, ta, t_sky, r_opq).sum(1)
                 + sky_losses(win_area, u_win, eps_win, tilt, ta, t_sky, r_win).sum(1))
     south = int(np.argmin([abs(a - 180.0) for a, _, _ in case.walls]))
-    return {"window": window, "opaque": opaque, "sky_loss": sky_loss,
+    return {"window": window, "opaque": opaque, "sky_loss": sky_loss, "poa_global": irr["poa_global"],
             "incident_south": irr["poa_global"][:, south], "temp_sky": t_sky,
             "h_tr_w": h_w, "h_tr_op": h_op}
 
@@ -423,26 +682,32 @@ def load_weather(weather="tmy3", data_dir=None):
     return w.data, site
 
 
-def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, progress=False):
-    """Per-surface irradiance of the Case 600 box from widesky's integrator (the sky model's
+def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, progress=False,
+                          geometry=("south", None)):
+    """Per-surface irradiance of the test room from widesky's integrator (the sky model's
     angular and spectral distribution scaled to the weather's measured DNI and DHI).
 
-    The box (8 m x 6 m x 2.7 m, 12 m2 of south glazing, ASHRAE 140-2020 7.2.1) stands on a ground
-    of albedo 0.2; each case's window is a rated-g Response (its g by angle, flat spectrum, as the
-    records are broadband) applied per incoming direction.
+    The room (:func:`widesky.thermal.bestest_geometry.bestest_building`: 8 m x 6 m x 2.7 m, two
+    3 m x 2 m windows south or one in each of the east and west walls, ASHRAE 140-2020 7.2.1-7.2.2)
+    stands on a ground of albedo 0.2 with the shading devices of ``geometry`` = (layout, shading)
+    (:func:`case_geometry`) as context meshes, which occlude and reflect every ray; each case's
+    window is a rated-g Response (its g by angle, flat spectrum, as the records are broadband)
+    applied per incoming direction.
 
     Returns
     -------
     dict
         (T, 5) ``poa_direct``, ``poa_sky_diffuse``, ``poa_ground_diffuse``, ``poa_global`` [W m-2]
         and ``aoi`` [deg] for the N, E, S, W walls and the roof; ``window_gain``: dict window name
-        -> (T,) [W m-2 of glass]; ``result``: the POAResult.
+        -> (T,) [W m-2 of glass] (area-weighted over the windows); ``result``: the POAResult;
+        ``geometry``: the (layout, shading) computed.
     """
     if weather not in WEATHER_FILES or weather == "drycold":
         raise ValueError(f"weather={weather!r}: the integrator route reads the EPW ('tmy3')")
     w = read_epw(_data_file(WEATHER_FILES[weather], data_dir))
     sky = sky or PragueSky()
-    b = box_building(8.0, 6.0, 2.7, wwr={"south": 12.0 / 21.6}, sill=0.2, perimeter_zones=False)
+    layout, shading = geometry
+    b = bestest_building(layout, shading)
     scene, labels = building_scene(b, ground_albedo=GROUND_REFLECTANCE)
     sim = Simulation(scene, weather=w, sky=SKY_DEFAULTS.replace(albedo=GROUND_REFLECTANCE), sky_source=sky,
                      n_jobs=n_jobs, progress=progress)
@@ -457,26 +722,83 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
     order.append(next(i for i, lab in enumerate(labels) if lab.startswith("roof")))
     irr = irradiance_by_surface(res, [labels[i] for i in order])
     win = [lab for lab in labels if lab.startswith("window")]
-    M = group_weights(res, win)[:, 0]
+    area = np.array([next(s.area for s in b.surfaces if s.label == lab) for lab in win])
+    M = group_weights(res, win) @ (area / area.sum()) / result_in_band_share(res)         # rated g on broadband light
     irr["window_gain"] = {u.name: res.get(u.name, "global") @ M for u in units.values()}
     irr["result"] = res
+    irr["geometry"] = (layout, shading)
     return irr
 
 
+def iso52016_elements(case: BestestCase, data_dir=None):
+    """The case's construction elements for :func:`~widesky.thermal.zone_iso52016.simulate_iso52016`:
+    N, E, S, W walls (opaque areas), roof, floor (its outside facing outdoor air, no sun: the raised
+    floor of the detailed models), one window per glazed wall; layers from the detailed models' records
+    (Case 600FF's, or Case 900's wall and floor); the window's surface-to-surface resistance from its EN 673
+    gaps (:meth:`~widesky.thermal.glazing.GlazingUnit.gap_conductances`) and the panes' conduction."""
+    ff = _data_file("bestest/detailed_Cases6xx_Case600FF.mo", data_dir)
+    if case.spec.mass == "900":
+        wall = construction_layers(_data_file("bestest/detailed_Data_ExteriorWallCase900.mo", data_dir))
+        floor = construction_layers(_data_file("bestest/detailed_Data_FloorCase900.mo", data_dir))
+    else:
+        wall, floor = construction_layers(ff, "matExtWal"), construction_layers(ff, "matFlo")
+    roof = construction_layers(ff, "roof")
+    names = {0: "north", 90: "east", 180: "south", 270: "west"}
+    els = [Element(f"wall {names.get(round(az), az)}", "wall", a, 90.0, wall, absorptance=case.absorptance,
+                   emissivity=case.emissivity) for az, a, _ in case.walls]
+    els.append(Element("roof", "roof", case.roof_area, 0.0, roof, absorptance=case.absorptance,
+                       emissivity=case.emissivity))
+    els.append(Element("floor", "floor", case.zone.floor_area, 180.0, floor, exposed=False))
+    unit = case.window
+    r_win = (float(np.sum(1.0 / unit.gap_conductances()))
+             + sum(lay.thickness_mm * 1e-3 / lay.conductivity for lay in unit.layers))
+    eps = case.window.layers[0].emissivity_front
+    for az, _, aw in case.walls:
+        if aw > 0:
+            els.append(Element(f"window {names.get(round(az), az)}", "window", aw, 90.0, resistance=r_win,
+                               emissivity=eps))
+    return els
+
+
+def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir):
+    els = iso52016_elements(c, data_dir)
+    ta = weather["temp_air"].to_numpy()
+    v = weather["wind_speed"].to_numpy()
+    n_wall = len(c.walls)
+    h_ce, h_re, sol = [], [], []
+    for i, el in enumerate(els):
+        height = c.height if el.kind == "roof" else 0.5 * c.height
+        hc, hr = exterior_coefficients(wind_at_height(v, height), ta, el.emissivity)
+        h_ce.append(hc)
+        h_re.append(hr)
+        sol.append(gains["poa_global"][:, i] if i <= n_wall else np.zeros(len(ta)))
+    return simulate_iso52016(els, ta, gains["temp_sky"], np.stack(h_ce, 1), np.stack(h_re, 1),
+                             np.stack(sol, 1), gains["window"], c.internal_gains, h_ve, heat, cool,
+                             volume=c.zone.floor_area * c.height,
+                             internal_radiative_fraction=INTERNAL_RADIATIVE_FRACTION,
+                             air_capacity_per_volume=RHO_C_AIR, warmup_steps=warmup_steps,
+                             temp_start=20.0)
+
+
 def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None,
-             exterior="hourly"):
+             exterior="hourly", zone_model="5r1c"):
     """Simulate ASHRAE 140 Case ``case`` for a weather year (hourly, 8760 steps).
 
     ``weather``: a key of :data:`WEATHER_FILES`, or a (data, site) pair as :func:`load_weather`.
-    ``poa``: per-surface irradiance from :func:`integrator_irradiance` (same weather) instead of
-    the weather-only Hay-Davies route. ``exterior``: outside surface coefficients, see
-    :func:`case_gains`.
+    ``poa``: per-surface irradiance from :func:`integrator_irradiance` (same weather and the
+    case's :func:`case_geometry`) instead of the weather-only Hay-Davies route. ``exterior``:
+    outside surface coefficients, see :func:`case_gains`. Set-points and ventilation follow the
+    case's control (:func:`setpoint_schedules`). ``zone_model``: ``"5r1c"`` (ISO 13790, the default)
+    or ``"iso52016"`` (ISO 52016-1's balance per element, :mod:`widesky.thermal.zone_iso52016`, with the
+    layers of :func:`iso52016_elements` and hourly outside coefficients; ``exterior`` then does not apply).
 
     Returns
     -------
     dict
         ``annual_heating``, ``annual_cooling`` [kWh]; ``peak_heating``, ``peak_cooling`` [W] and
-        ``peak_heating_time``, ``peak_cooling_time`` (end of the hour); ``hourly``: DataFrame of
+        ``peak_heating_time``, ``peak_cooling_time`` (end of the hour); ``temp_min``,
+        ``temp_max``, ``temp_mean`` [degC] the zone air's hourly minimum, maximum and annual mean;
+        ``hourly``: DataFrame of
         ``heating``, ``cooling`` [W], ``temp_air`` [degC], ``solar_window``, ``solar_opaque``,
         ``sky_loss`` [W]; ``case``: the :class:`BestestCase`.
     """
@@ -484,11 +806,18 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
     weather, site = load_weather(weather, data_dir) if isinstance(weather, str) else weather
     gains = case_gains(c, weather, site, g_table, poa, exterior)
     phi_sol = gains["window"] + gains["opaque"] - gains["sky_loss"]
-    res = simulate_5r1c(c.zone, weather["temp_air"].to_numpy(), c.internal_gains, phi_sol,
-                        c.heating_setpoint, c.cooling_setpoint,
-                        internal_convective_fraction=1 - INTERNAL_RADIATIVE_FRACTION,
-                        warmup_steps=warmup_steps, h_tr_w=gains["h_tr_w"],
-                        h_tr_op=gains["h_tr_op"])
+    heat, cool, h_ve = setpoint_schedules(c, weather.index)
+    if zone_model not in ZONE_MODELS:
+        raise ValueError(f"zone_model={zone_model!r} not one of {ZONE_MODELS}")
+    if zone_model == "iso52016":
+        r = _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir)
+        res = {k: r[k][:, None] for k in ("heating", "cooling", "temp_air")}
+    else:
+        res = simulate_5r1c(c.zone, weather["temp_air"].to_numpy(), c.internal_gains, phi_sol,
+                            heat, cool, h_ve=h_ve,
+                            internal_convective_fraction=1 - INTERNAL_RADIATIVE_FRACTION,
+                            warmup_steps=warmup_steps, h_tr_w=gains["h_tr_w"],
+                            h_tr_op=gains["h_tr_op"])
     hourly = pd.DataFrame({"heating": res["heating"][:, 0], "cooling": res["cooling"][:, 0],
                            "temp_air": res["temp_air"][:, 0], "solar_window": gains["window"],
                            "solar_opaque": gains["opaque"], "sky_loss": gains["sky_loss"]},
@@ -499,4 +828,6 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
             "peak_heating_time": hourly["heating"].idxmax(),
             "peak_cooling_time": hourly["cooling"].idxmax(),
             "annual_incident_south": gains["incident_south"].sum() / 1000.0,
+            "temp_min": hourly["temp_air"].min(), "temp_max": hourly["temp_air"].max(),
+            "temp_mean": hourly["temp_air"].mean(),
             "hourly": hourly, "case": c}

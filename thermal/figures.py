@@ -19,7 +19,7 @@ import trimesh
 
 from widesky.core.atomic import atomic_write
 
-from .bestest import CASES, reference_results, run_case
+from .bestest import LOAD_CASES as CASES, reference_results, run_case
 from .glazing import ANGLES, GlazingUnit, read_solar_spectrum
 from .study import standard_units
 
@@ -67,7 +67,7 @@ def fig_glazing(outdir, data_dir=None):
 
 
 def fig_bestest(outdir, integrator=None, data_dir=None):
-    """Annual loads and peaks of the four cases against the limits and the programs' range."""
+    """Annual loads and peaks of the cases with heating and cooling against the limits and the programs' range."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -75,7 +75,7 @@ def fig_bestest(outdir, integrator=None, data_dir=None):
     ours = {c: run_case(c, data_dir) for c in CASES}
     qs = (("annual_heating", "annual heating [MWh]"), ("annual_cooling", "annual cooling [MWh]"),
           ("peak_heating", "peak heating [kW]"), ("peak_cooling", "peak cooling [kW]"))
-    fig, axs = plt.subplots(1, 4, figsize=(14, 3.6))
+    fig, axs = plt.subplots(4, 1, figsize=(12, 12), layout="constrained")
     table = {}
     for ax, (q, title) in zip(axs, qs):
         for i, c in enumerate(CASES):

@@ -97,7 +97,7 @@ class ZoneParameters:
 def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heating_setpoint=20.0,
                   cooling_setpoint=27.0, heating_max=np.inf, cooling_max=np.inf, *,
                   internal_convective_fraction=0.5, temp_supply=None, timestep=3600.0,
-                  temp_mass_start=None, warmup_steps=0, h_tr_w=None, h_tr_op=None):
+                  temp_mass_start=None, warmup_steps=0, h_tr_w=None, h_tr_op=None, h_ve=None):
     """Run the 5R1C zone model hour by hour.
 
     Parameters
@@ -131,6 +131,9 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
         the constants of ``params`` (e.g. U-values with an hourly, wind-dependent outside surface
         coefficient, :func:`widesky.thermal.exterior.hourly_u_value`). ``h_tr_op`` must stay below
         ``h_ms A_m`` at every step.
+    h_ve : array_like, optional
+        (T,) or (T, Z) ventilation conductance per step [W K-1] (> 0), replacing ``params.h_ve``
+        (e.g. a night-ventilation fan on a schedule, ASHRAE 140 Case 650).
 
     Returns
     -------
@@ -173,6 +176,7 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
     te = np.broadcast_to(te, (T, Z))
     tsup = np.broadcast_to(tsup, (T, Z))
 
+    h_ve_steps = h_ve
     h_ve, h_is, h_w, h_ms, h_em = (np.broadcast_to(g[k], (Z,)).astype(float) for k in
                                    ("h_ve", "h_tr_is", "h_tr_w", "h_tr_ms", "h_tr_em"))
     if h_tr_w is not None:
@@ -188,6 +192,11 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
         if not np.all((h_op > 0) & (h_op < h_ms)):
             raise ValueError(f"h_tr_op must lie in (0, h_ms A_m = {h_ms!r}) W K-1 at every step")
         h_em = 1.0 / (1.0 / h_op - 1.0 / h_ms)
+    if h_ve_steps is not None:
+        h_v = col(h_ve_steps, "h_ve")
+        if h_v.shape[0] != T or not np.all(np.isfinite(h_v) & (h_v > 0)):
+            raise ValueError(f"h_ve must be finite, > 0 W K-1 with {T} steps, got shape {h_v.shape}")
+        h_ve = np.broadcast_to(h_v, (T, Z))
     a_t = np.broadcast_to(np.asarray(params.total_area, float), (Z,))
     a_m = np.broadcast_to(np.asarray(params.mass_area, float), (Z,))
     cm = np.broadcast_to(np.asarray(params.heat_capacity, float), (Z,)) / timestep

@@ -1,0 +1,97 @@
+"""Every ASHRAE 140 case of ``widesky thermal bestest`` on both irradiance routes, as the tables of docs/thermal.md.
+
+One command regenerates the validation tables (section "The rest of the standard") after any change of the sky,
+the glazing or the zone model:
+
+    python benchmarks/bench_bestest_cases.py [--jobs N] [--json OUT.json] [--cases 600 610 ...] [--zone-models 5r1c]
+
+Runs, with both zone models (ISO 13790 5R1C and ISO 52016-1) unless ``--zone-models`` picks one, the integrator
+route (one integrator year per room geometry: south windows, south with overhang, east/west windows, east/west with
+overhangs and fins) and the weather-file Hay-Davies route for each case, and prints a
+Markdown table: each figure of each case on both routes, its range and the range's source (the acceptance range of
+the standard where it gives one, else the six reference programs' range), with the figures outside in bold, then
+the count outside per model and route and the time of each. ``--json`` writes the 5R1C integrator numbers (for
+``python -m widesky.thermal.figures --bestest-integrator``, whose figure the integrator column drives).
+
+Needs the reference data folder (../shared/data/bestest and weather). Timings are wall-clock on whatever else the
+machine runs: read them as rough.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+
+from widesky.thermal.facade import atomic_write
+from widesky.thermal.bestest import (CASES, SOURCES, ZONE_MODELS, case_geometry, integrator_irradiance,
+                                     reference_results, run_case, verdicts)
+
+SHORT = {"acceptance": "acceptance (140-2023 Add. b A3)", "programs": "6 programs",
+         "programs_mean": "programs (staRes.meanT)"}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python benchmarks/bench_bestest_cases.py")
+    ap.add_argument("--cases", nargs="+", default=list(CASES))
+    ap.add_argument("--jobs", type=int, default=1, help="ray-casting processes of the integrator (default 1)")
+    ap.add_argument("--data-dir", default=None)
+    ap.add_argument("--json", default=None, help="write the integrator route's 5R1C results here")
+    ap.add_argument("--zone-models", nargs="+", default=list(ZONE_MODELS), choices=ZONE_MODELS)
+    args = ap.parse_args(argv)
+    refs = reference_results(args.data_dir)
+
+    t0 = time.perf_counter()
+    poas = {}
+    with warnings.catch_warnings():          # TMY3 visibilities beyond the sky model's range: clamped
+        warnings.filterwarnings("ignore", ".*clamped to the sky model's ranges", UserWarning)
+        for geo in dict.fromkeys(case_geometry(c) for c in args.cases):
+            poas[geo] = integrator_irradiance("tmy3", args.data_dir, n_jobs=args.jobs, geometry=geo)
+    times = {"integrator years": time.perf_counter() - t0}
+    runs = [(m, route) for m in args.zone_models for route in ("integrator", "weather")]
+    results = {}
+    for m, route in runs:
+        t0 = time.perf_counter()
+        results[m, route] = {c: run_case(c, args.data_dir, poa=poas[case_geometry(c)] if route == "integrator"
+                                         else None, zone_model=m) for c in args.cases}
+        times[f"{m}, {route} route, {len(args.cases)} cases"] = time.perf_counter() - t0
+
+    names = {"integrator": "integrator", "weather": "Hay-Davies"}
+    head = " | ".join(f"{m.upper().replace('ISO52016', 'ISO 52016-1')} {names[r]}" for m, r in runs)
+    print(f"| case | figure | {head} | range | range source |")
+    print("|---|---|" + "---|" * len(runs) + "---|---|")
+    outside = {k: [] for k in runs}
+    for c in args.cases:
+        vs = [verdicts(c, results[k][c], refs) for k in runs]
+        for row in zip(*vs):
+            cells = []
+            for k, v in zip(runs, row):
+                text = f"{v.value:.2f}"
+                if not v.inside:
+                    text = f"**{text}**"
+                    outside[k].append(f"{c} {v.quantity}")
+                cells.append(text)
+            a = row[0]
+            print(f"| {c} | {a.quantity.replace('_', ' ')} [{a.unit}] | {' | '.join(cells)} | "
+                  f"{a.low:.2f}-{a.high:.2f} | {SHORT[a.source]} |")
+    print()
+    for (m, route), out in outside.items():
+        print(f"{m}, {names[route]}: {len(out)} figure(s) outside: {', '.join(out) or '-'}")
+    first = args.cases[0]
+    m0 = args.zone_models[0]
+    print(f"south wall, annual incident: integrator {results[m0, 'integrator'][first]['annual_incident_south']:.0f} "
+          f"kWh m-2, Hay-Davies {results[m0, 'weather'][first]['annual_incident_south']:.0f} (case {first})")
+    print("time [s]: " + "; ".join(f"{k} {v:.1f}" for k, v in times.items())
+          + f" ({len(poas)} geometries, {args.jobs} process(es))")
+    print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items()))
+    if args.json and ("5r1c", "integrator") in results:
+        saved = {c: {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
+                     if k not in ("hourly", "case")} for c, r in results["5r1c", "integrator"].items()}
+        text = json.dumps(saved, indent=1).encode()
+        atomic_write(args.json, lambda fh: fh.write(text))
+    return 0
+
+if __name__ == "__main__":
+    sys.exit(main())
