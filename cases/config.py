@@ -141,7 +141,20 @@ SCHEMA = {
         "temp_air": Field("float", 24.0, "degC", -40.0, 50.0, help="daily mean air temperature without a weather "
                           "file (a cosine day, warmest at 15:00 local time)"),
         "temp_air_range": Field("float", 10.0, "K", 0.0, 30.0, help="daily range of that air temperature"),
-        "internal_gains": Field("float", 10.0, "W m-2", 0.0, 100.0, help="internal gains per m2 of floor (constant)"),
+        "internal_gains": Field("float", 10.0, "W m-2", 0.0, 100.0, help="internal gains per m2 of floor (constant; "
+                                "schedule = 'constant' only)"),
+        "schedule": Field("str", "constant", choices=("constant", "office"),
+                          help="internal gains: 'constant' (internal_gains around the clock) or 'office' (people, "
+                               "lighting and equipment on the ASHRAE 90.1 User's Manual office profiles, "
+                               "thermal.schedules)"),
+        "frame_fraction": Field("float", 0.0, "", 0.0, 0.6, help="window frame share of the window area "
+                                "(ISO 10077-1: 0.3 typical)"),
+        "frame_u": Field("float", 2.0, "W m-2 K-1", 0.3, 8.0, help="frame U-value (ISO 10077-1: PVC with three "
+                         "chambers 2.0)"),
+        "shading_factor": Field("float", 1.0, "", 0.0, 1.0, help="g of glazing with the shading device deployed / g "
+                                "without it (1: no device; ISO 13790 Table 16, exterior white venetian blinds 0.15)"),
+        "shading_threshold": Field("float", 200.0, "W m-2", 0.0, 1500.0, help="the device is deployed in occupied "
+                                   "hours when the global irradiance on the window exceeds this"),
         "air_changes": Field("float", 0.7, "h-1", 0.0, 20.0, help="ventilation and infiltration air changes"),
         "heating_setpoint": Field("float", 20.0, "degC", 5.0, 25.0, help="heating set-point"),
         "cooling_setpoint": Field("float", 26.0, "degC", 18.0, 35.0, help="cooling set-point"),

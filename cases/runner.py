@@ -230,7 +230,7 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         building = prepare_building(building, tcfg)
         am15 = pvsim.widesky_am15g(sky)
         rated = {n: unit_summary(u, am15["channel_edges"], am15["scaled"]) for n, u in units.items()}
-        responses = responses + glazing_responses(units)
+        responses = responses + glazing_responses(units, am15)
     t1 = time.perf_counter()
     res = sim.run(responses)
     timings["integrator"] = time.perf_counter() - t1
@@ -254,7 +254,7 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         if rows is not None and "ghi_infrared" in rows and np.isfinite(rows["ghi_infrared"].to_numpy(float)).all():
             temp_sky = sky_temperature(np.maximum(rows["ghi_infrared"].to_numpy(float), 1.0))
         thermal_run = building_thermal(res, building, tcfg, units, rated, sim.weather_series("temp_air", design),
-                                       temp_sky)
+                                       temp_sky, label="left" if cfg["sky"]["weather"] is None else "right")
         timings["thermal"] = time.perf_counter() - t4
     t2 = time.perf_counter()
     hour = sim.run(steps=slice(hi, hi + 1), spectral=True, progress=False)

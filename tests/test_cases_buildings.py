@@ -307,6 +307,165 @@ def test_facade_runs_on_a_tmy3_file_of_the_data_directory(tmp_path):
     assert run.thermal.window_gain["clear"].sum() > 0
 
 
+# ---- the facade study: schedules, sky, frames, blinds, energy balance (issue 38) ------------------------------
+
+DENVER = 'weather = "data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"'
+FEATURES = """
+schedule = "office"
+frame_fraction = 0.3
+frame_u = 2.0
+shading_factor = 0.15
+shading_threshold = 200.0
+"""
+
+
+def _features_toml(start="2023-07-03", end="2023-07-10", sky_time="2023-07-04T12:00"):
+    toml = FACADE.format(tz="-7", weather=DENVER).replace('glazing = ["clear", "solar-control"]',
+                                                          'glazing = ["clear", "solar-control"]' + FEATURES)
+    return (toml.replace('start = "2024-06-20"', f'start = "{start}"').replace('end = "2024-06-22"', f'end = "{end}"')
+            .replace('sky_time = "2024-06-21T12:00"', f'sky_time = "{sky_time}"'))
+
+
+@pytest.fixture(scope="module")
+def facade_week(tmp_path_factory):
+    """A July week in Denver (TMY3) with office schedules, frames and blinds: a Monday to a Sunday."""
+    folder = _case(tmp_path_factory.mktemp("facade_week"), "facade", _features_toml())
+    return compute(folder, n_jobs=1, progress=False)
+
+
+def test_office_schedule_totals_against_the_published_profiles():
+    """The ASHRAE 90.1 User's Manual office profiles (DOE reference office BLDG_OCC_SCH, BLDG_LIGHT_SCH,
+    BLDG_EQUIP_SCH) summed by hand from their published hourly values: a weekday holds 10.2 h of full occupancy,
+    11.3 h of full lighting and 15.0 h of full equipment; a Saturday 3.5, 4.3 and 8.75; a Sunday 0, 1.2 and 7.2.
+    2023 has 260 weekdays, 52 Saturdays and 53 Sundays: 2834, 3225.2 and 4736.6 equivalent full-load hours; with the
+    stated densities (75 W per 18.58 m2, 6.89 and 8.07 W m-2) 71.89 kWh m-2 of internal gains; 2912 occupied hours
+    (occupancy >= 0.5: weekdays 08:00-18:00, Saturdays 08:00-14:00)."""
+    from widesky.thermal.schedules import office_gains, occupied_hours, profile_fractions
+    times = pd.date_range("2023-01-01", periods=8760, freq="h", tz="-07:00")
+    f = profile_fractions(times)
+    assert f["occupancy"].sum() == pytest.approx(2834.0, abs=1e-9)
+    assert f["lighting"].sum() == pytest.approx(3225.2, abs=1e-9)
+    assert f["equipment"].sum() == pytest.approx(4736.6, abs=1e-9)
+    g = office_gains(times)
+    assert g["people"].sum() / 1000 == pytest.approx(2834.0 * 75.0 / 18.58 / 1000, rel=1e-12)
+    assert g["total"].sum() / 1000 == pytest.approx(71.89, abs=0.01)
+    occ = occupied_hours(times)
+    assert occ.sum() == 2912
+    monday = np.asarray((times.day_of_week == 0) & (times.day_of_year == 2))
+    assert list(np.nonzero(occ & monday)[0] - 24) == list(range(8, 18))
+    # the same hours stamped at their end (an EPW's convention) give the same schedule one stamp later
+    np.testing.assert_array_equal(profile_fractions(times + pd.Timedelta(hours=1), label="right")["occupancy"],
+                                  f["occupancy"])
+    with pytest.raises(ValueError, match="people_m2"):
+        office_gains(times, densities={"people_m2": 0.0})
+
+
+def test_sky_temperature_from_the_weather_file():
+    """T_sky = (IR_h / sigma)^(1/4): 0 degC at sigma 273.15^4 = 315.66 W m-2. The Denver TMY3 file's horizontal
+    infrared is Clark & Allen's (1978) clear-and-cloudy sky emissivity from its dew point and opaque sky cover,
+    eps = (0.787 + 0.764 ln(T_dp / 273)) (1 + 0.0224 N - 0.0035 N^2 + 0.00028 N^3) (as in the EnergyPlus Engineering
+    Reference, "Sky radiation"): the sky temperature thermal takes from the file agrees with it within 0.3 K every
+    hour, and the sky is 12.9 K colder than the air on average."""
+    import widesky.irradiance as ir
+    from widesky.irradiance.simulation import weather_path
+    from widesky.thermal import sky_temperature
+    sigma = 5.670374419e-8
+    assert sky_temperature(sigma * 273.15 ** 4) == pytest.approx(0.0, abs=1e-9)
+    assert sigma * 273.15 ** 4 == pytest.approx(315.66, abs=0.01)
+    d = ir.read_weather(weather_path("data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")).data
+    n = d["opaque_sky_cover"].to_numpy(float)
+    eps = ((0.787 + 0.764 * np.log((d["temp_dew"].to_numpy(float) + 273.15) / 273.0))
+           * (1 + 0.0224 * n - 0.0035 * n ** 2 + 0.00028 * n ** 3))
+    t_ca = (eps * (d["temp_air"].to_numpy(float) + 273.15) ** 4) ** 0.25 - 273.15
+    t_sky = sky_temperature(d["ghi_infrared"].to_numpy(float))
+    assert np.max(np.abs(t_sky - t_ca)) < 0.3
+    assert np.mean(d["temp_air"].to_numpy(float) - t_sky) == pytest.approx(12.9, abs=0.1)
+
+
+def test_shading_rule_frames_and_sky_on_a_week(facade_week):
+    """The blinds are down exactly in the occupied hours whose global irradiance on that window exceeds 200 W m-2,
+    and then pass 0.15 of the bare gain; the glass is 70 % of the window area, the window U is the area-weighted
+    U_w = 0.7 U_g + 0.3 U_f, the frame's absorbed solar alpha R_se U_f A_f E; the sky loss uses the file's sky."""
+    from widesky.cases.building_loads import shading_factors
+    from widesky.thermal.loads import zone_parameters
+    from widesky.thermal.schedules import occupied_hours
+    th = facade_week.thermal
+    times = facade_week.result.times
+    occ = occupied_hours(times, label="right")          # an EPW's time stamps: the interval end
+    assert np.array_equal(th.occupied, occ) and 0 < occ.sum() < len(times)
+    stamp = times[np.argmax(occ)]                        # Monday 3 July: 08:00-09:00, stamped 09:00
+    assert str(stamp)[:16] == "2023-07-03 09:00"
+    want = occ[:, None] & (th.incident > 200.0)
+    assert np.array_equal(th.deployed, want) and want.any() and (~want & (th.incident > 200)).any()
+    for name in th.units:
+        np.testing.assert_allclose(th.window_gain[name], np.where(want, 0.15, 1.0) * th.bare_gain[name], rtol=1e-12)
+        lr = th.loads[name]
+        for j, w in enumerate(th.windows):
+            np.testing.assert_allclose(lr.parts["transmitted"][w.label], th.window_gain[name][:, j] * w.area * 0.7,
+                                       rtol=1e-12)
+            e = th.incident[:, j]
+            np.testing.assert_allclose(lr.parts["opaque"][w.label], 0.6 * 0.04 * 2.0 * 0.3 * w.area * e, rtol=1e-6)
+        assert lr.parts["sky_loss"].to_numpy().sum() > 0
+    np.testing.assert_allclose(th.window_area, [0.7 * w.area for w in th.windows])
+    d, e = shading_factors([[250.0, 150.0], [250.0, 201.0]], [False, True], 200.0, 0.15)
+    assert d.tolist() == [[False, False], [True, True]] and e.tolist() == [[1, 1], [0.15, 0.15]]
+    # the window's U: area-weighted glass and frame
+    from widesky.cases.building_loads import _constructions
+    tcfg = facade_week.config["thermal"]
+    unit = th.units["clear"]
+    cons = _constructions(tcfg, "clear", unit)
+    assert cons["window"].window_u == pytest.approx(0.7 * unit.u_value() + 0.3 * 2.0, rel=1e-12)
+    b = _building(facade_week)
+    hw = zone_parameters(b, cons).h_tr_w
+    assert hw.sum() == pytest.approx(cons["window"].window_u * sum(w.area for w in th.windows), rel=1e-12)
+    assert 5.0 < np.mean(th.temp_air - th.temp_sky) < 30.0          # a July week's sky, colder than the air
+
+
+def _building(run):
+    from widesky.cases.building_loads import prepare_building
+    from widesky.cases.runner import build_geometry
+    geo = build_geometry(run.config["scene"]["geometry"], run.config["scene"]["parameters"])
+    return prepare_building(geo["building"], run.config["thermal"])
+
+
+def _closure(th):
+    for name in th.units:
+        bal = th.loads[name].balance()
+        tot = bal.loc["total"]
+        scale = tot["heating"] + tot["cooling"] + tot["internal"]
+        assert abs(tot["residual"]) < 1e-6 * scale, (name, tot["residual"])
+        assert np.all(np.abs(bal["residual"]) < 1e-6 * scale)
+        s = th.loads[name].summary().loc["total"]
+        assert tot["heating"] == pytest.approx(s["heating_kWh"], rel=1e-12)
+    return bal
+
+
+def test_energy_balance_closes_on_a_week(facade_week):
+    bal = _closure(facade_week.thermal)
+    assert bal.loc["total", "sky_loss"] > 0 and bal.loc["total", "solar_opaque"] > 0
+
+
+@pytest.mark.slow
+def test_shipped_facade_case_is_an_annual_study(tmp_path):
+    """The shipped case: the Denver TMY3 year (8759 hourly steps), office schedules, frames, blinds and the sky's
+    long-wave loss; its energy balance closes (the sum of gains and losses equals heating minus cooling less the
+    storage, to 1e-6 of the throughput; the mass stores under 0.5 % of the heating over the year); every chart of
+    its report (the facade balance, spectral against rated per month, monthly loads) shows its result files."""
+    rep = cases.run_case(SHIPPED / "facade", tmp_path / "r", n_jobs=1, progress=False, log=lambda m: None)
+    ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
+    assert len(ts) == 8759 and "building:temp_sky [degC]" in ts
+    ids = set(_check_charts(rep))
+    assert {"facade-balance", "spectral-rated", "loads-monthly", "window-gain", "cooling-daily"} <= ids
+    html = (rep / "index.html").read_text()
+    for text in ("Peak loads per zone", "Gains and losses per facade", "Energy balance of the building",
+                 "Spectral against rated glazing, per month", "ASHRAE 90.1 User&#x27;s Manual office"):
+        assert text in html, text
+    run = compute(SHIPPED / "facade", n_jobs=1, progress=False)
+    bal = _closure(run.thermal)
+    assert abs(bal.loc["total", "storage"]) < 5e-3 * bal.loc["total", "heating"]
+    assert int(run.thermal.occupied.sum()) == 2912
+
+
 # ---- bipv -------------------------------------------------------------------------------------------------
 
 BIPV = """

@@ -3,13 +3,18 @@
 Per surface and step (ISO 13790:2008 section 11.3, with the window's own optics instead of the
 standard's F_w g_n):
 
-* window: ``A (1 - frame) (E_direct g(aoi) + (E_sky + E_ground) g_diffuse)`` [W], with ``g`` the
+* window: ``A (1 - frame) F_sh (E_direct g(aoi) + (E_sky + E_ground) g_diffuse)`` [W], with ``g`` the
   unit's solar heat gain coefficient by incidence angle (broadband route) -- or, on the spectral
   route, the integrator's irradiance weighted per channel and incoming direction by the unit's
-  spectral-angular g (see :mod:`widesky.thermal.gains`);
-* opaque: ``alpha R_se U A E_global`` (absorbed shortwave that reaches the zone, ``R_se = 0.04``);
+  spectral-angular g (see :mod:`widesky.thermal.gains`), and ``F_sh`` the shading device's reduction factor of
+  the step (1 when it is not deployed; ISO 13790 11.4.3);
+* opaque: ``alpha R_se U A E_global`` (absorbed shortwave that reaches the zone, ``R_se = 0.04``); a window's
+  frame (its share ``frame`` of the window area, ``U_f``) counts as opaque;
 * long-wave loss to the sky: ``R_se U A h_r F_r (theta_air - theta_sky)``, ``h_r = 4 eps sigma
   T_mean^3``, ``F_r = (1 + cos tilt) / 2``.
+
+A window's transmittance is area-weighted over glass and frame (ISO 10077-1 eq. 1 without the spacer's linear
+term): ``U_w = (1 - frame) U_g + frame U_f``.
 
 Zones are coupled to the outside only (walls between zones and intermediate floors are adiabatic).
 Ground floors: ``U`` times the construction's temperature-adjustment factor ``b`` to outdoor air
@@ -28,10 +33,10 @@ import pandas as pd
 
 from .glazing import ANGLES, GlazingUnit
 from .optics import hemispherical
-from .zone import ZoneParameters, simulate_5r1c
+from .zone import H_MS, ZoneParameters, simulate_5r1c
 
 __all__ = ["Construction", "MASS_CLASSES", "R_SE", "window_gains", "opaque_gains", "sky_losses",
-           "zone_parameters", "building_loads", "LoadsResult", "glazing_g_table"]
+           "zone_parameters", "building_loads", "LoadsResult", "BALANCE_TERMS", "glazing_g_table"]
 
 R_SE = 0.04
 """External surface resistance [m2 K W-1] (ISO 13790 11.3.4)."""
@@ -60,7 +65,9 @@ class Construction:
     glazing : GlazingUnit, optional
         For windows.
     frame_fraction : float
-        Opaque frame share of a window's area [1] (frame U taken equal to the glazing's).
+        Opaque frame share of a window's area [1].
+    frame_u : float, optional
+        Frame thermal transmittance U_f [W m-2 K-1]; default the glazing's U (no frame effect on U).
     b : float
         Temperature-adjustment factor to outdoor air [1] (1: outside air; ground floors < 1).
     """
@@ -72,17 +79,28 @@ class Construction:
     glazing: GlazingUnit = None
     frame_fraction: float = 0.0
     b: float = 1.0
+    frame_u: float = None
 
     def __post_init__(self):
         if self.u_value is None:
             if self.glazing is None:
                 raise ValueError(f"construction {self.name!r}: give u_value or glazing")
             object.__setattr__(self, "u_value", float(self.glazing.u_value()))
+        if self.frame_u is None:
+            object.__setattr__(self, "frame_u", float(self.u_value))
         for name, lo, hi in (("u_value", 0.0, 10.0), ("absorptance", 0, 1), ("emissivity", 0, 1),
-                             ("frame_fraction", 0, 0.99), ("b", 0, 1)):
+                             ("frame_fraction", 0, 0.99), ("b", 0, 1), ("frame_u", 0.0, 10.0)):
             v = getattr(self, name)
             if not lo <= v <= hi:
                 raise ValueError(f"construction {self.name!r}: {name}={v!r} outside [{lo}, {hi}]")
+
+    @property
+    def window_u(self):
+        """Whole-window U_w = (1 - frame_fraction) U_g + frame_fraction U_f [W m-2 K-1] (the element's
+        ``u_value`` for an opaque construction)."""
+        if self.glazing is None:
+            return float(self.u_value)
+        return (1.0 - self.frame_fraction) * self.u_value + self.frame_fraction * self.frame_u
 
 
 def glazing_g_table(unit: GlazingUnit, spectrum_wavelength, spectrum):
@@ -205,11 +223,16 @@ def zone_parameters(building, constructions, mass_class="medium"):
         for s in building.surfaces_of(zone=z):
             c = _cons(constructions, s)
             if s.kind == "window":
-                cols["hw"][i] += c.u_value * s.area
+                cols["hw"][i] += c.window_u * s.area
             elif s.kind in ("wall", "roof", "floor"):
                 cols["hop"][i] += c.b * c.u_value * s.area
     return ZoneParameters(cols["fa"], cols["hw"], np.maximum(cols["hop"], 1e-3),
                           np.maximum(cols["hve"], 1e-3), cols["cm"], cols["am"])
+
+
+BALANCE_TERMS = ("internal", "solar_transmitted", "solar_opaque", "sky_loss", "radiated_out", "ventilation",
+                 "transmission_windows", "transmission_opaque", "heating", "cooling", "storage")
+"""Terms of :meth:`LoadsResult.balance` [kWh]: gains positive as named, losses positive as named."""
 
 
 @dataclass
@@ -223,6 +246,17 @@ class LoadsResult:
         inward-flowing absorbed; opaque: ISO 13790 absorbed share), less its long-wave sky loss.
     zone_solar, heating, cooling, temp_air : pandas.DataFrame
         (T, Z) [W], [W], [W], [degC].
+    parts : dict of str to pandas.DataFrame, optional
+        (T, S) per surface [W]: ``transmitted`` (through the glass, after shading), ``opaque`` (absorbed solar
+        that reaches the zone through walls, roofs and window frames) and ``sky_loss`` (long-wave loss to the sky,
+        >= 0 when the sky is colder than the air); ``surface_gains = transmitted + opaque - sky_loss``.
+    flows : dict of str to pandas.DataFrame, optional
+        (T, Z) per zone [W]: ``internal`` gains, and the 5R1C network's losses ``ventilation`` (H_ve (theta_air
+        - theta_e)), ``transmission_windows`` (H_tr_w (theta_s - theta_e)), ``transmission_opaque`` (H_tr_em
+        (theta_m - theta_e)) and ``radiated_out`` (the share H_tr_w / (h_ms A_t) of the radiative gains that ISO
+        13790 C.2 sends straight out through the glazing).
+    storage_kwh : pandas.Series, optional
+        (Z,) heat stored in each zone's mass over the period [kWh] (C_m times the change of theta_m).
     """
 
     surface_gains: pd.DataFrame
@@ -230,10 +264,16 @@ class LoadsResult:
     heating: pd.DataFrame
     cooling: pd.DataFrame
     temp_air: pd.DataFrame
+    parts: dict = None
+    flows: dict = None
+    storage_kwh: pd.Series = None
+
+    def _dt(self):
+        return (self.heating.index[1] - self.heating.index[0]).total_seconds() / 3600.0
 
     def summary(self):
         """Per zone and in total: annual heating/cooling/solar [kWh], peaks [W] and their times."""
-        dt = (self.heating.index[1] - self.heating.index[0]).total_seconds() / 3600.0
+        dt = self._dt()
         rows = {}
         for z in self.heating.columns:
             rows[z] = {"heating_kWh": self.heating[z].sum() * dt / 1000,
@@ -250,9 +290,38 @@ class LoadsResult:
                          "peak_cooling_W": tot_c.max(), "peak_cooling_time": tot_c.idxmax()}
         return pd.DataFrame(rows).T
 
+    def balance(self):
+        """The energy balance of each zone and the building over the period [kWh] (rows: zones and
+        ``total``; columns :data:`BALANCE_TERMS` and ``residual``).
+
+        ``internal + solar_transmitted + solar_opaque - sky_loss - radiated_out - ventilation -
+        transmission_windows - transmission_opaque + heating - cooling - storage = residual``, zero to rounding:
+        the network conserves energy exactly (tests/test_thermal_zone.py).
+        """
+        if self.parts is None or self.flows is None:
+            raise ValueError("this LoadsResult carries no balance terms (made without building_loads)")
+        dt = self._dt()
+        zones = list(self.heating.columns)
+        zone_of = {lab: lab.split(":")[1] for lab in self.surface_gains.columns}
+
+        def by_zone(df):
+            return df.T.groupby(lambda lab: zone_of[lab]).sum().T.reindex(columns=zones, fill_value=0.0)
+        cols = {"internal": self.flows["internal"], "solar_transmitted": by_zone(self.parts["transmitted"]),
+                "solar_opaque": by_zone(self.parts["opaque"]), "sky_loss": by_zone(self.parts["sky_loss"]),
+                **{k: self.flows[k] for k in ("radiated_out", "ventilation", "transmission_windows",
+                                              "transmission_opaque")},
+                "heating": self.heating, "cooling": self.cooling}
+        out = pd.DataFrame({k: v.sum() * dt / 1000.0 for k, v in cols.items()}).reindex(zones)
+        out["storage"] = self.storage_kwh.reindex(zones)
+        sign = {"internal": 1, "solar_transmitted": 1, "solar_opaque": 1, "heating": 1}
+        out["residual"] = sum(out[k] * sign.get(k, -1) for k in BALANCE_TERMS)
+        out.loc["total"] = out.sum()
+        return out
+
 
 def building_loads(building, constructions, times, temp_air, irradiance, temp_sky=None,
-                   window_gain=None, mass_class="medium", warmup_steps=24 * 14, g_spectrum=None):
+                   window_gain=None, mass_class="medium", warmup_steps=24 * 14, g_spectrum=None,
+                   shading=None, internal_gains=None):
     """Hourly solar gains and 5R1C loads for every zone.
 
     Parameters
@@ -279,6 +348,12 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
     g_spectrum : tuple, optional
         (wavelength [nm], spectrum [W m-2 nm-1]) weighting the broadband g; default a flat
         spectrum over each unit's own grid.
+    shading : array_like, optional
+        (T, W) the shading device's reduction factor of each window's transmitted gain per step [1]
+        (1: not deployed; ISO 13790 11.4.3 ``g_gl+sh / g_gl`` when deployed); default no shading.
+    internal_gains : array_like, optional
+        (T,) internal gains per m2 of floor [W m-2] (e.g. :func:`widesky.thermal.schedules.office_gains`),
+        replacing each zone's constant ``ZoneSpec.internal_gains``.
 
     Returns
     -------
@@ -292,20 +367,27 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
     for k, v in E.items():
         if v.shape != (T, S):
             raise ValueError(f"irradiance[{k!r}] has shape {v.shape}, expected ({T}, {S})")
-    gains = np.zeros((T, S))
     wins = [j for j, s in enumerate(surf) if s.kind == "window"]
     if window_gain is not None:
         wg = np.asarray(window_gain, float)
         if wg.shape != (T, len(wins)):
             raise ValueError(f"window_gain has shape {wg.shape}, expected ({T}, {len(wins)})")
+    trans, opaque, sky = np.zeros((T, S)), np.zeros((T, S)), np.zeros((T, S))
+    if shading is not None:
+        shading = np.asarray(shading, float)
+        if shading.shape != (T, len(wins)) or np.any(~np.isfinite(shading)) or np.any(shading < 0) \
+                or np.any(shading > 1):
+            raise ValueError(f"shading must be (T, W) = ({T}, {len(wins)}) factors in [0, 1], got shape "
+                             f"{shading.shape}")
     tables = {}
     for j, s in enumerate(surf):
         c = _cons(constructions, s)
+        glob = E["poa_direct"][:, j] + E["poa_sky_diffuse"][:, j] + E["poa_ground_diffuse"][:, j]
         if s.kind == "window":
             if c.glazing is None:
                 raise ValueError(f"window {s.label!r}: construction {c.name!r} has no glazing")
             if window_gain is not None:
-                gains[:, j] = wg[:, wins.index(j)] * s.area * (1 - c.frame_fraction)
+                trans[:, j] = wg[:, wins.index(j)] * s.area * (1 - c.frame_fraction)
             else:
                 if c.name not in tables:
                     wl = (g_spectrum[0] if g_spectrum is not None
@@ -313,16 +395,23 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
                     sp = g_spectrum[1] if g_spectrum is not None else np.ones_like(wl)
                     tables[c.name] = glazing_g_table(c.glazing, wl, sp)
                 ang, g, gd, _ = tables[c.name]
-                gains[:, j] = window_gains(s.area, E["poa_direct"][:, j],
+                trans[:, j] = window_gains(s.area, E["poa_direct"][:, j],
                                            E["poa_sky_diffuse"][:, j] + E["poa_ground_diffuse"][:, j],
                                            E["aoi"][:, j], ang, g, gd, c.frame_fraction)
+            if shading is not None:
+                trans[:, j] *= shading[:, wins.index(j)]
+            frame = s.area * c.frame_fraction
+            if frame > 0:
+                opaque[:, j] = opaque_gains(frame, c.frame_u, c.absorptance, glob)
+            if temp_sky is not None:
+                sky[:, j] = sky_losses([s.area * (1 - c.frame_fraction), frame], [c.u_value, c.frame_u],
+                                       [0.84, c.emissivity], [s.tilt, s.tilt], temp_air, temp_sky).sum(1)
         elif s.kind in ("wall", "roof"):
-            glob = E["poa_direct"][:, j] + E["poa_sky_diffuse"][:, j] + E["poa_ground_diffuse"][:, j]
-            gains[:, j] = opaque_gains(s.area, c.u_value, c.absorptance, glob)
-        if temp_sky is not None and s.kind in ("wall", "roof", "window"):
-            gains[:, j] -= sky_losses([s.area], [c.u_value], [c.emissivity if s.kind != "window"
-                                                               else 0.84], [s.tilt], temp_air,
-                                      temp_sky)[:, 0]
+            opaque[:, j] = opaque_gains(s.area, c.u_value, c.absorptance, glob)
+            if temp_sky is not None:
+                sky[:, j] = sky_losses([s.area], [c.u_value], [c.emissivity], [s.tilt], temp_air,
+                                       temp_sky)[:, 0]
+    gains = trans + opaque - sky
     zones = list(building.zones)
     M = np.zeros((S, len(zones)))
     for j, s in enumerate(surf):
@@ -330,14 +419,37 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
     zone_solar = gains @ M
     params = zone_parameters(building, constructions, mass_class)
     spec = [building.zones[z] for z in zones]
-    res = simulate_5r1c(params, np.asarray(temp_air, float),
-                        np.array([[z.internal_gains for z in spec]]), zone_solar,
+    if internal_gains is not None:
+        ig = np.asarray(internal_gains, float)
+        if ig.shape != (T,) or np.any(~np.isfinite(ig)) or np.any(ig < 0):
+            raise ValueError(f"internal_gains must be ({T},) finite values >= 0 W m-2, got shape {ig.shape}")
+        phi_int = ig[:, None] * np.array([[z.floor_area for z in spec]])
+    else:
+        phi_int = np.array([[z.internal_gains for z in spec]])
+    ta_out = np.asarray(temp_air, float)
+    res = simulate_5r1c(params, ta_out, phi_int, zone_solar,
                         np.array([[z.heating_setpoint for z in spec]]),
                         np.array([[z.cooling_setpoint for z in spec]]), warmup_steps=warmup_steps)
     idx = pd.DatetimeIndex(times)
 
     def frame(a, cols):
-        return pd.DataFrame(a, index=idx, columns=cols)
-    return LoadsResult(frame(gains, [s.label for s in surf]), frame(zone_solar, zones),
+        return pd.DataFrame(np.broadcast_to(a, (T, len(cols))), index=idx, columns=cols)
+    # the network's flows (ISO 13790 C.2-C.3; the same closure as tests/test_thermal_zone.py)
+    g = params.conductances()
+    te = ta_out[:, None] if ta_out.ndim == 1 else ta_out
+    h_w, a_t = g["h_tr_w"], params.total_area
+    p_rad = 0.5 * phi_int + zone_solar
+    flows = {"internal": phi_int, "ventilation": g["h_ve"] * (res["temp_air"] - te),
+             "transmission_windows": h_w * (res["temp_surface"] - te),
+             "transmission_opaque": g["h_tr_em"] * (res["temp_mass"] - te),
+             "radiated_out": h_w / (H_MS * np.asarray(a_t, float)) * p_rad}
+    tm_start = 2.0 * res["temp_mass"][0] - res["temp_mass_end"][0]
+    storage = np.asarray(params.heat_capacity, float) * (res["temp_mass_end"][-1] - tm_start) / 3.6e6
+    labels = [s.label for s in surf]
+    return LoadsResult(frame(gains, labels), frame(zone_solar, zones),
                        frame(res["heating"], zones), frame(res["cooling"], zones),
-                       frame(res["temp_air"], zones))
+                       frame(res["temp_air"], zones),
+                       {"transmitted": frame(trans, labels), "opaque": frame(opaque, labels),
+                        "sky_loss": frame(sky, labels)},
+                       {k: frame(v, zones) for k, v in flows.items()},
+                       pd.Series(storage, index=zones))
