@@ -10,8 +10,14 @@ def register(subparsers) -> None:
                               description=__doc__)
     p.add_argument("--dataset", action="append", default=[],
                    help="dataset file (repeatable; default the embedded dataset or $WIDESKY_DATASET)")
+    p.add_argument("--dataset-dir", action="append", default=[], metavar="DIR",
+                   help="folder whose *.dat dataset files the page may list and open while it runs (repeatable; "
+                        "nothing outside these folders can be opened from the page)")
     p.add_argument("--output-dir", default="widesky-explorer",
                    help="folder that 'save' writes PNG/EXR files into (default ./widesky-explorer)")
+    p.add_argument("--save-budget", type=float, default=2000.0, metavar="MB",
+                   help="most megabytes the page may write in this session (default 2000); a save beyond it "
+                        "is refused")
     p.add_argument("--response", action="append", default=[], metavar="NAME[:UNIT]=FILE",
                    help="spectral response CSV (wavelength_nm,value) to integrate the irradiance spectra against; "
                         "UNIT weight (default) or transmittance [1] -> W m-2, sr [A W-1] or qe [1] -> A m-2 "
@@ -24,7 +30,10 @@ def register(subparsers) -> None:
                    help="load only the albedo slabs bracketing LO-HI [1]")
     p.add_argument("--port", type=int, default=8765, help="TCP port on 127.0.0.1 (default 8765; 0 = any free)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser tab")
-    p.add_argument("--threads", type=int, default=0, help="evaluator threads (default 0: all cores)")
+    p.add_argument("--threads", type=int, default=0, help="evaluator threads of saves (default 0: all cores)")
+    p.add_argument("--view-threads", type=int, default=1,
+                   help="evaluator threads of the interactive image and readouts (default 1: the fastest on a "
+                        "busy 2-core machine; 0 = all cores)")
     p.set_defaults(func=_run)
 
 
@@ -52,10 +61,20 @@ def _run(args) -> int:
 
     if not 0 <= args.port <= 65535:
         raise ValueError(f"--port {args.port} outside [0, 65535]")
+    for opt, value in (("--threads", args.threads), ("--view-threads", args.view_threads)):
+        if value < 0:
+            raise ValueError(f"{opt} {value}: expected 0 (all cores) or a positive number of threads")
+    if not args.save_budget >= 0:
+        raise ValueError(f"--save-budget {args.save_budget}: expected megabytes >= 0")
+    for d in args.dataset_dir:
+        from pathlib import Path
+        if not Path(d).is_dir():
+            raise ValueError(f"--dataset-dir {d}: not a folder")
     part = {k: tuple(v) for k, v in (("wavelength_range", args.wavelength_range),
                                       ("visibility", args.visibility_range), ("albedo", args.albedo_range))
             if v is not None}
-    ex = Explorer(args.dataset or None, output_dir=args.output_dir, threads=args.threads, load_options=part)
+    ex = Explorer(args.dataset or None, output_dir=args.output_dir, threads=args.threads, load_options=part,
+                  dataset_dirs=args.dataset_dir, save_budget=int(args.save_budget * 1e6), view_threads=args.view_threads)
     for item in args.response:
         name, value = parse_response(item, ex.model(0))
         ex.responses[name] = value

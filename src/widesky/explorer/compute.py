@@ -19,10 +19,10 @@ from PIL import Image
 from widesky.irradiance import IntegratorSettings, PragueSky, SkyStates, cosine_weights, patch_radiance, reinhart
 from widesky.skymodel.colour import channel_xyz_weights
 from widesky.skymodel.evaluate import polarisation, sky_radiance, sun_direction, sun_radiance, transmittance
-from widesky.skymodel.render import QUANTITIES, Render, _display, fisheye_directions, render_sky
+from widesky.skymodel.render import QUANTITIES, Render, _display, _percentile99, fisheye_directions, render_sky
 
-__all__ = ["render_view", "png_bytes", "direction_at", "spectrum_at", "plane_irradiance", "LUMINOUS_EFFICACY",
-           "VISIBLE_NM"]
+__all__ = ["render_view", "png_bytes", "linear_payload", "direction_at", "spectrum_at", "sky_patches",
+           "plane_irradiance", "LUMINOUS_EFFICACY", "VISIBLE_NM"]
 
 LUMINOUS_EFFICACY = 683.0  # [lm W-1] at 555 nm (the SI definition of the candela, 540 THz)
 VISIBLE_NM = (380.0, 780.0)
@@ -62,6 +62,45 @@ def png_bytes(r: Render, composite, exposure):
         img = _display(r, composite, exposure)
     Image.fromarray(img).save(buf, format="PNG", compress_level=1)
     return buf.getvalue()
+
+
+def _reference(values, mask):
+    """The value exposure 0 maps to white: the 99th percentile of the disc's positive values (as
+    :func:`widesky.skymodel.render.write_png`), or None when there is none."""
+    v = values[mask]
+    v = v[np.isfinite(v) & (v > 0)]
+    return _percentile99(v) if v.size else None
+
+
+def linear_payload(r: Render, composite):
+    """The render before its display mapping, for the page to apply the exposure itself.
+
+    Returns ``(kind, reference, data)``: ``kind`` "rgb" (linear sRGB, 3 values per pixel), "grey" (the one
+    channel, 1 value per pixel) or "signed" (the signed degree of polarisation [1], NaN outside the disc);
+    ``reference`` the value that exposure 0 maps to white (the disc's 99th percentile of CIE Y, or of the
+    channel, as :func:`widesky.skymodel.render.write_png`; 1 for "signed") in the quantity's unit
+    (W m-2 sr-1 for "rgb"); ``data`` the values divided by ``reference`` as little-endian IEEE half floats
+    (2 bytes a value, row by row; values above 65504 x reference, 16 EV over white, become infinite, i.e. white).
+    The page maps a value ``x`` to the PNG's 8-bit value as the server does: ``float32(x * 2**EV)`` clipped to
+    [0, 1], rounded to 16 bits, then the sRGB table; the half float's rounding (at most 2^-11 relative)
+    changes an 8-bit value by at most one level.
+    """
+    if composite:
+        rgby = r._rgby
+        ref = _reference(rgby[..., 3], r.mask)
+        if ref is None or not rgby[..., :3].max(initial=0.0) > 0:
+            raise ValueError("the selected channels have no visible (380-780 nm) contribution: use a single channel")
+        values, kind = rgby[..., :3], "rgb"
+    elif r.quantity == "polarisation":
+        values, kind, ref = r.values[..., :1], "signed", 1.0
+    else:
+        values, kind = r.values[..., :1], "grey"
+        ref = _reference(r.values[..., 0], r.mask) or 1.0
+    with np.errstate(over="ignore"):
+        data = (values * np.float32(1.0 / ref)).astype("<f2")
+    if kind == "signed":
+        data[~r.mask] = np.nan
+    return kind, float(ref), data.tobytes()
 
 
 def direction_at(view, u, v):
@@ -124,7 +163,22 @@ def _patches(mf):
     return _PATCH_CACHE[mf]
 
 
-def plane_irradiance(model, view, responses=None, mf=2):
+def sky_patches(model, view, mf=2, threads=0):
+    """The sky state's radiance on the quadrature patches: ``(Lp (P, C) [W m-2 sr-1 nm-1], direct normal (C,)
+    [W m-2 nm-1], circumsolar excess (C,) [W m-2 nm-1])``; zeros with the sun below the model's range. A
+    tilted plane's irradiance is a weighted sum of these, so a change of plane needs no new sky evaluation."""
+    sky = PragueSky(model, elevation_quantum=0.0, threads=threads)
+    patches, _ = _patches(mf)
+    C = model.n_channels
+    if view.sun_elevation > sky.min_sun_elevation:
+        states = SkyStates.create(view.sun_elevation, view.sun_azimuth, view.visibility, view.albedo,
+                                  view.altitude)
+        Lp, dn, cs = patch_radiance(sky, patches, states, None, IntegratorSettings(mf=mf))
+        return Lp[0], dn[0], cs[0]                                        # (P, C), (C,), (C,)
+    return np.zeros((patches.n_patches, C)), np.zeros(C), np.zeros(C)
+
+
+def plane_irradiance(model, view, responses=None, mf=2, sky=None):
     """Spectral irradiance of an unobstructed horizontal plane and of the view's tilted plane.
 
     Parameters
@@ -138,6 +192,9 @@ def plane_irradiance(model, view, responses=None, mf=2):
         lx) are always included.
     mf : int
         Reinhart subdivision of the sky quadrature (2: 577 patches).
+    sky : tuple, optional
+        :func:`sky_patches` of this model, view and ``mf``, if already computed (the explorer keeps them per
+        sky state); computed here otherwise (with all cores).
 
     Returns
     -------
@@ -146,16 +203,9 @@ def plane_irradiance(model, view, responses=None, mf=2):
         ``ground_diffuse``, ``global`` spectra [W m-2 nm-1] and ``integrated``: response name ->
         value of the global spectrum, ``broadband``: part -> [W m-2]; ``aoi_deg`` of the tilted plane [deg]; ``units`` per response.
     """
-    sky = PragueSky(model, elevation_quantum=0.0, threads=0)
-    states = SkyStates.create(view.sun_elevation, view.sun_azimuth, view.visibility, view.albedo, view.altitude)
     patches, w_h = _patches(mf)
-    settings = IntegratorSettings(mf=mf)
     C = model.n_channels
-    if view.sun_elevation > sky.min_sun_elevation:
-        Lp, dn, cs = patch_radiance(sky, patches, states, None, settings)
-        Lp, dn, cs = Lp[0], dn[0], cs[0]                                  # (P, C), (C,), (C,)
-    else:
-        Lp, dn, cs = np.zeros((patches.n_patches, C)), np.zeros(C), np.zeros(C)
+    Lp, dn, cs = sky if sky is not None else sky_patches(model, view, mf)
     s = sun_direction(view.sun_elevation, view.sun_azimuth)
     n = _plane_normal(view.surface_tilt, view.surface_azimuth)
     cos_h = max(float(s[2]), 0.0)

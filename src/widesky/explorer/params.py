@@ -10,10 +10,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["ParameterError", "View", "parse_view", "QUANTITY_CHOICES", "VIEW_CHOICES"]
+__all__ = ["ParameterError", "View", "parse_view", "QUANTITY_CHOICES", "VIEW_CHOICES", "MAX_VIEW_RESOLUTION",
+           "MAX_SAVE_RESOLUTION", "EXPOSURE_EV"]
 
 QUANTITY_CHOICES = ("sky", "sun", "polarisation", "transmittance")
 VIEW_CHOICES = ("up", "side")
+MAX_VIEW_RESOLUTION = 1024     # [pixels] the interactive image (a slider move renders it)
+MAX_SAVE_RESOLUTION = 10000    # [pixels] a saved image (as the reference GUI's largest)
+EXPOSURE_EV = 20.0             # [EV] exposure range, +-: 2**20 ~ 1e6 (twilight to the sun's disc)
 
 
 class ParameterError(ValueError):
@@ -38,8 +42,9 @@ class View:
     channel : str  ``"rgb"`` (sRGB composite of the visible channels) or a channel centre such as ``"550nm"``
     view : str  ``"up"`` or ``"side"``
     view_azimuth : float  [deg] azimuth the side view looks towards
-    resolution : int  [pixels]
-    exposure : float  [EV]
+    resolution : int  [pixels] at most :data:`MAX_VIEW_RESOLUTION` (a save may ask for up to
+        :data:`MAX_SAVE_RESOLUTION`)
+    exposure : float  [EV] within +-:data:`EXPOSURE_EV`
     surface_tilt, surface_azimuth : float  [deg] the tilted plane of the irradiance readout
     """
 
@@ -125,8 +130,8 @@ def parse_view(query, models, n_datasets, site_sun=None) -> View:
         channel=_choice(query, "channel", "rgb", channel_names(m)),
         view=_choice(query, "view", "up", VIEW_CHOICES),
         view_azimuth=_number(query, "view_azimuth", 180.0, 0.0, 360.0, "deg"),
-        resolution=_number(query, "resolution", 512, 16, 1024, "pixels", integer=True),
-        exposure=_number(query, "exposure", 0.0, -12.0, 12.0, "EV"),
+        resolution=_number(query, "resolution", 512, 16, MAX_VIEW_RESOLUTION, "pixels", integer=True),
+        exposure=_number(query, "exposure", 0.0, -EXPOSURE_EV, EXPOSURE_EV, "EV"),
         surface_tilt=_number(query, "surface_tilt", 35.0, 0.0, 180.0, "deg"),
         surface_azimuth=_number(query, "surface_azimuth", 180.0, 0.0, 360.0, "deg"),
         **state)
