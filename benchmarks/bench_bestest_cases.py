@@ -4,6 +4,7 @@ One command regenerates the validation tables (section "The rest of the standard
 the glazing or the zone model:
 
     python benchmarks/bench_bestest_cases.py [--jobs N] [--json OUT.json] [--cases 600 610 ...] [--zone-models 5r1c]
+    python benchmarks/bench_bestest_cases.py --steps      # the ISO 52016-1 corrections one after another
 
 Runs, with both zone models (ISO 13790 5R1C and ISO 52016-1) unless ``--zone-models`` picks one, the integrator
 route (one integrator year per room geometry: south windows, south with overhang, east/west windows, east/west with
@@ -40,6 +41,8 @@ def main(argv=None):
     ap.add_argument("--data-dir", default=None)
     ap.add_argument("--json", default=None, help="write the integrator route's 5R1C results here")
     ap.add_argument("--zone-models", nargs="+", default=list(ZONE_MODELS), choices=ZONE_MODELS)
+    ap.add_argument("--steps", action="store_true",
+                    help="instead: the ISO 52016-1 corrections one after another (docs/thermal.md table)")
     args = ap.parse_args(argv)
     refs = reference_results(args.data_dir)
 
@@ -50,6 +53,8 @@ def main(argv=None):
         for geo in dict.fromkeys(case_geometry(c) for c in args.cases):
             poas[geo] = integrator_irradiance("tmy3", args.data_dir, n_jobs=args.jobs, geometry=geo)
     times = {"integrator years": time.perf_counter() - t0}
+    if args.steps:
+        return _steps(args, poas, refs)
     runs = [(m, route) for m in args.zone_models for route in ("integrator", "weather")]
     results = {}
     for m, route in runs:
@@ -92,6 +97,38 @@ def main(argv=None):
         text = json.dumps(saved, indent=1).encode()
         atomic_write(args.json, lambda fh: fh.write(text))
     return 0
+
+STEPS = [("before", dict(solar="area", convection="fixed", gaps="en673")),
+         ("1. solar distribution (ASHRAE 140)", dict(solar="ashrae140", convection="fixed", gaps="en673")),
+         ("2. + h_ci by heat-flow direction", dict(solar="ashrae140", convection="direction", gaps="en673")),
+         ("3. + window gap at its temperature", dict(solar="ashrae140", convection="direction", gaps="hourly")),
+         ("alternative: Walton (TARP) h_ci", dict(solar="ashrae140", convection="tarp", gaps="hourly"))]
+COLUMNS = [("600", "annual_heating"), ("600", "annual_cooling"), ("900", "annual_cooling"), ("900", "peak_heating"),
+           ("910", "annual_heating"), ("950", "peak_cooling"), ("900FF", "min_temperature"),
+           ("900FF", "mean_temperature"), ("950FF", "max_temperature"), ("950FF", "mean_temperature")]
+
+
+def _steps(args, poas, refs):
+    """Print, per route, the ISO 52016-1 run with the corrections of :data:`STEPS` added one after another."""
+    for route in ("weather", "integrator"):
+        print(f"| step ({route}) | " + " | ".join(f"{c} {q.replace('_', ' ')}" for c, q in COLUMNS) + " | outside |")
+        print("|---|" + "---|" * (len(COLUMNS) + 1))
+        for name, opt in STEPS:
+            vals, out = {}, 0
+            for c in args.cases:
+                r = run_case(c, args.data_dir, poa=poas[case_geometry(c)] if route == "integrator" else None,
+                             zone_model="iso52016", iso52016_options=opt)
+                for v in verdicts(c, r, refs):
+                    vals[c, v.quantity] = v
+                    out += not v.inside
+            cells = []
+            for key in COLUMNS:
+                v = vals.get(key)
+                cells.append("-" if v is None else (f"{v.value:.2f}" if v.inside else f"**{v.value:.2f}**"))
+            print(f"| {name} | " + " | ".join(cells) + f" | {out} |")
+        print()
+    return 0
+
 
 if __name__ == "__main__":
     sys.exit(main())

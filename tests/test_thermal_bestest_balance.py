@@ -96,11 +96,83 @@ def test_iso52016_bestest_room_agrees_with_5r1c_not_with_hand_ua():
     from widesky.thermal.bestest import case_definition, iso52016_elements
     from widesky.thermal.zone_iso52016 import simulate_iso52016
     c = case_definition("600")
-    els = iso52016_elements(c)
     T = 24 * 200
+    # with the window's gap at its own temperature (8 degC here, not EN 673's 10) the room loses 0.3 W K-1 less
+    els = iso52016_elements(c)
+    r = simulate_iso52016(els, np.zeros(T), np.zeros(T), 20.0, 5.0, np.zeros((T, len(els))), np.zeros(T), 0.0,
+                          c.zone.h_ve, 20.0, 27.0, volume=129.6, temp_start=20.0)
+    assert r["heating"][-1] / 20.0 == pytest.approx(92.2, abs=0.1)
+    els = iso52016_elements(c, hourly_gaps=False)
     r = simulate_iso52016(els, np.zeros(T), np.zeros(T), 20.0, 5.0, np.zeros((T, len(els))), np.zeros(T), 0.0,
                           c.zone.h_ve, 20.0, 27.0, volume=129.6, temp_start=20.0)
     iso = r["heating"][-1] / 20.0
     assert iso == pytest.approx(92.5, abs=0.1)
     assert iso == pytest.approx(_steady_conductance(c.zone), rel=0.01)
     assert 20.0 - r["temp_surface"][-1] == pytest.approx(3.5, abs=0.1)
+
+
+@pytest.mark.parametrize("convection,h_ci", [("direction", 5.0), ("fixed", 0.7)])
+def test_iso52016_floor_convection_by_heat_flow_direction(convection, h_ci):
+    """A zone closed by one floor whose underside sits at 40 degC, the air held at 20: the floor is warmer than
+    the air, the heat flows upward, and ISO 52016-1 Table 25 gives h_ci = 5.0 W m-2 K-1 (``"direction"``) where
+    the fixed floor value is the downward 0.7. Steady cooling = A / (1/h_ci + d/k + 1/h_e), to 1e-9."""
+    from widesky.thermal.zone_iso52016 import Element, Layer, simulate_iso52016
+    el = Element("f", "floor", 10.0, 180.0, (Layer(0.05, 0.5, 1000.0, 1000.0),), exposed=False)
+    T = 24 * 100
+    r = simulate_iso52016([el], np.full(T, 40.0), np.full(T, 40.0), 20.0, 0.0, np.zeros((T, 1)), np.zeros(T),
+                          0.0, 0.0, 20.0, 20.0, volume=30.0, temp_start=20.0, convection=convection)
+    hand = 10.0 * 20.0 / (1 / h_ci + 0.05 / 0.5 + 1 / 20.0)
+    assert r["cooling"][-1] == pytest.approx(hand, rel=1e-9)
+    with pytest.raises(ValueError, match="convection="):
+        simulate_iso52016([el], np.zeros(3), np.zeros(3), 20.0, 0.0, np.zeros((3, 1)), np.zeros(3), 0.0, 0.0,
+                          20.0, 20.0, volume=30.0, convection="churchill")
+
+
+def test_iso52016_window_gap_at_its_temperature():
+    """A window whose gap radiates as EN 673 (h_r = 4 sigma eps T_m^3) at the mean of its two surfaces'
+    temperatures rather than at 283 K: the steady heat flow solves the fixed point by hand (to 1e-9), and it is
+    below the EN 673 figure on a cold night (T_m near 0 degC)."""
+    from widesky.thermal.zone_iso52016 import H_CI, SIGMA, Element, simulate_iso52016, window_resistance
+    hg, eps, r_panes = 2.08, 0.724, 0.006
+    el = Element("w", "window", 2.0, 90.0, resistance=r_panes, gaps=((hg, eps),))
+    T = 24 * 10
+    r = simulate_iso52016([el], np.full(T, -20.0), np.full(T, -20.0), 10.0, 0.0, np.zeros((T, 1)), np.zeros(T),
+                          0.0, 0.0, 20.0, 27.0, volume=30.0, temp_start=20.0)
+    q = 0.0                           # per m2; the lone surface exchanges no long-wave with itself
+    for _ in range(100):
+        t_m = 273.15 + 0.5 * ((20.0 - q / H_CI["window"]) + (-20.0 + q / 10.0))
+        q = 40.0 / (1 / H_CI["window"] + r_panes + 1 / (hg + 4 * SIGMA * eps * t_m ** 3) + 1 / 10.0)
+    assert r["heating"][-1] / 2.0 == pytest.approx(q, rel=1e-9)
+    assert q < 40.0 / (1 / H_CI["window"] + window_resistance(el) + 0.1)
+
+
+@pytest.mark.reference
+def test_interior_solar_distribution_table():
+    """ASHRAE 140's interior solar distribution (Case 600: floor 0.642, ceiling 0.167, E/W 0.038, N 0.053,
+    S 0.027, lost 0.035) sums to 1 with the lost share; spread over the ISO 52016-1 elements it puts 66.5 % on the
+    floor and nothing on the windows."""
+    from widesky.thermal.bestest import (INTERIOR_SOLAR_DISTRIBUTION, case_definition, interior_solar_distribution,
+                                         iso52016_elements)
+    for table in INTERIOR_SOLAR_DISTRIBUTION.values():
+        assert sum(table.values()) == pytest.approx(1.0, abs=1e-9)
+    c = case_definition("900")
+    els = iso52016_elements(c)
+    share = interior_solar_distribution(c, els)
+    kinds = [e.kind for e in els]
+    assert share.sum() == pytest.approx(1.0)
+    assert share[kinds.index("floor")] == pytest.approx(0.642 / 0.965, rel=1e-12)
+    assert all(s == 0 for s, k in zip(share, kinds) if k == "window")
+
+
+def test_iso52016_tarp_convection_by_hand():
+    """``convection="tarp"`` (Walton's natural-convection correlations, EnergyPlus's default inside algorithm):
+    the warm floor of the test above, facing up, is unstable, h = 9.482 |dT|^(1/3) / (7.238 - 1); the steady
+    heat flow solves q = h(dT) dT = (40 - 20 - dT) / (d/k + 1/h_e) (to 1e-6)."""
+    from scipy.optimize import brentq
+    from widesky.thermal.zone_iso52016 import Element, Layer, simulate_iso52016
+    el = Element("f", "floor", 10.0, 180.0, (Layer(0.05, 0.5, 1000.0, 1000.0),), exposed=False)
+    T = 24 * 100
+    r = simulate_iso52016([el], np.full(T, 40.0), np.full(T, 40.0), 20.0, 0.0, np.zeros((T, 1)), np.zeros(T),
+                          0.0, 0.0, 20.0, 20.0, volume=30.0, temp_start=20.0, convection="tarp")
+    dt = brentq(lambda d: 9.482 * d ** (4 / 3) / 6.238 - (20.0 - d) / (0.05 / 0.5 + 1 / 20.0), 1e-9, 20.0)
+    assert r["cooling"][-1] == pytest.approx(10.0 * (20.0 - dt) / (0.05 / 0.5 + 1 / 20.0), rel=1e-6)

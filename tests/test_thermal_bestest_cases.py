@@ -8,6 +8,8 @@ results against their ranges on the weather (Hay-Davies) route, whose every figu
 (docs/thermal.md lists the routes' figures).
 """
 
+import functools
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -160,10 +162,10 @@ def test_reference_tables_new_cases():
 @pytest.mark.reference
 @pytest.mark.parametrize("case", ["610", "620", "630", "640", "650", "920", "930"])
 def test_new_cases_inside_their_ranges(case):
-    """Weather (Hay-Davies) route, shading by ray casting: every figure inside (annual loads: the
+    """5R1C, weather (Hay-Davies) route, shading by ray casting: every figure inside (annual loads: the
     acceptance range; peaks: the six programs' range)."""
     from widesky.thermal.bestest import run_case, verdicts
-    out = [v for v in verdicts(case, run_case(case)) if not v.inside]
+    out = [v for v in verdicts(case, run_case(case, zone_model="5r1c")) if not v.inside]
     assert not out, [(v.quantity, round(v.value, 3), v.low, v.high) for v in out]
 
 
@@ -176,8 +178,19 @@ def test_shading_cuts_cooling_as_the_programs_do(base, shaded):
     p = reference_results()
     a, b = p[base]["annual_cooling"]["programs"], p[shaded]["annual_cooling"]["programs"]
     ratios = [b[k] / a[k] for k in a]
-    ours = run_case(shaded)["annual_cooling"] / run_case(base)["annual_cooling"]
-    assert min(ratios) <= ours <= max(ratios), (ours, min(ratios), max(ratios))
+    ours = {m: run_case(shaded, zone_model=m)["annual_cooling"] / run_case(base, zone_model=m)["annual_cooling"]
+            for m in ("5r1c", "iso52016")}
+    assert all(min(ratios) <= v <= max(ratios) for v in ours.values()), (ours, min(ratios), max(ratios))
+
+
+@pytest.mark.reference
+def test_overhang_cut_of_the_window_gain_as_the_programs():
+    """The 610 overhang's cut of the year's window gain (weather route, ray-cast shading) against the six programs'
+    ratio of transmitted solar through the south windows, 610 over 600 (ASHRAE 140-2020 Tables B8-14, B8-15:
+    0.775-0.824)."""
+    from widesky.thermal.bestest import run_case
+    cut = run_case("610")["hourly"]["solar_window"].sum() / run_case("600")["hourly"]["solar_window"].sum()
+    assert 0.775 <= cut <= 0.824
 
 
 @pytest.mark.reference
@@ -186,9 +199,12 @@ def test_cli_verdicts_and_exit_status(capsys):
     assert main(["thermal", "bestest", "--case", "610", "650"]) == 0
     out = capsys.readouterr().out
     assert out.count("inside") >= 8 and "acceptance" in out and "every figure inside" in out
-    assert main(["thermal", "bestest", "--case", "900FF"]) == 1            # 900FF: peaks low (docs)
+    assert main(["thermal", "bestest", "--case", "900FF"]) == 1      # ISO 52016-1, weather route: minimum low
     out = capsys.readouterr().out
-    assert "OUTSIDE" in out and "900FF max_temperature" in out
+    assert "OUTSIDE" in out and "900FF min_temperature" in out and "ISO 52016-1" in out
+    assert main(["thermal", "bestest", "--case", "900FF", "--zone-model", "5r1c"]) == 1
+    out = capsys.readouterr().out
+    assert "5R1C" in out and "900FF max_temperature" in out
     assert main(["thermal", "bestest", "--case", "611"]) == 2
     assert "--case '611'" in capsys.readouterr().err
     assert main(["thermal", "bestest", "--case", "620", "--zone-model", "iso52016"]) == 0
@@ -199,8 +215,8 @@ def test_cli_verdicts_and_exit_status(capsys):
 @pytest.mark.slow
 def test_610_integrator_route_inside_its_ranges():
     """The integrator route with the overhang in the scene (one integrator year of the shaded room): every
-    figure of Case 610 inside, and the overhang cuts the year's window gain by a sixth (0.85 of the open
-    room's; the summer's, which the cooling sees, by more)."""
+    figure of Case 610 inside, and the overhang cuts the year's window gain to 0.82 of the open room's, inside the
+    six programs' ratio of transmitted solar, and October's noon gain as the analytic shadow does."""
     import warnings
     from widesky.thermal.bestest import integrator_irradiance, run_case, verdicts
     with warnings.catch_warnings():       # TMY3 visibilities beyond the sky model's range: clamped
@@ -210,8 +226,17 @@ def test_610_integrator_route_inside_its_ranges():
     r = run_case("610", poa=poa)
     out = [v for v in verdicts("610", r) if not v.inside]
     assert not out, [(v.quantity, round(v.value, 3), v.low, v.high) for v in out]
+    # the year's cut against the six programs' transmitted solar, 610 over 600 (ASHRAE 140-2020 Tables B8-14 and
+    # B8-15: BSIMAC 641/820, CSE 665/826, DeST 663/805, EnergyPlus 646/804, ESP-r 631/814, TRNSYS 662/823:
+    # 0.775-0.824); one sample per triangle gave 0.846
     cut = poa["window_gain"]["Win600"].sum() / open_room["window_gain"]["Win600"].sum()
-    assert 0.78 < cut < 0.9
+    assert 0.77 < cut < 0.83
+    # October's noon sun (41-47 degrees) shades the window's top 10-30 %: the analytic shadow and the ray-cast
+    # weather route cut the noon gain to 0.84; one sample per triangle (the centroid) saw 0.98 (docs/thermal.md)
+    idx = r["hourly"].index
+    noon = (idx.month == 10) & np.isin((idx - pd.Timedelta(hours=1)).hour, [11, 12, 13])
+    oct_cut = poa["window_gain"]["Win600"][noon].sum() / open_room["window_gain"]["Win600"][noon].sum()
+    assert 0.78 < oct_cut < 0.88
     with pytest.raises(ValueError, match="geometry"):
         run_case("610", poa=open_room)                   # a poa of another room is refused
 
@@ -223,10 +248,66 @@ def test_iso52016_heavyweight_against_5r1c():
     against 43.3-46.0), and swings further than 5R1C in free float (docs/thermal.md)."""
     from widesky.thermal.bestest import run_case, verdicts
     iso = {v.quantity: v for v in verdicts("900", run_case("900", zone_model="iso52016"))}
-    r5 = {v.quantity: v for v in verdicts("900", run_case("900"))}
+    r5 = {v.quantity: v for v in verdicts("900", run_case("900", zone_model="5r1c"))}
     assert iso["annual_cooling"].inside and not r5["annual_cooling"].inside
-    ff_iso, ff_5 = run_case("900FF", zone_model="iso52016"), run_case("900FF")
+    ff_iso, ff_5 = run_case("900FF", zone_model="iso52016"), run_case("900FF", zone_model="5r1c")
     assert 43.3 <= ff_iso["temp_max"] <= 46.0 < 43.3 + 3 and ff_5["temp_max"] < 43.3
     assert ff_iso["temp_max"] - ff_iso["temp_min"] > ff_5["temp_max"] - ff_5["temp_min"]
     with pytest.raises(ValueError, match="zone_model="):
         run_case("900", zone_model="iso13790")
+
+
+ISO_WEATHER_OUTSIDE = {
+    # ISO 52016-1 with the ASHRAE 140 solar distribution, h_ci by heat-flow direction and the window gap at its
+    # temperature (docs/thermal.md, "Three physical corrections"); the weather route's 3 % less light on the
+    # south wall keeps the heavy room 0.4 K cooler than the integrator route, where these are inside
+    ("640", "peak_heating"): "4.037 kW < 4.04 (on the programs' minimum)",
+    ("910", "annual_heating"): "2.41 MWh > 2.30 (isotropic sky under the overhang; heating bias, h_ci 2.5)",
+    ("950", "peak_cooling"): "2.43 kW > 2.39 (night-ventilated heavy room; fixed wall h_ci, hourly step)",
+    ("900FF", "min_temperature"): "0.55 degC < 0.60",
+    ("900FF", "mean_temperature"): "24.46 degC < 24.50",
+    ("950FF", "max_temperature"): "35.85 degC < 36.10",
+    ("950FF", "mean_temperature"): "14.35 degC < 14.40",
+}
+
+
+@functools.lru_cache(maxsize=None)
+def _iso_weather(case, **options):
+    from widesky.thermal.bestest import run_case
+    return run_case(case, zone_model="iso52016", iso52016_options=options or None)
+
+
+def _iso_params():
+    from widesky.thermal.bestest import CASE_SPECS, LOAD_CASES
+    for case in CASE_SPECS:
+        qs = (("annual_heating", "annual_cooling", "peak_heating", "peak_cooling") if case in LOAD_CASES
+              else ("min_temperature", "max_temperature", "mean_temperature"))
+        for q in qs:
+            why = ISO_WEATHER_OUTSIDE.get((case, q))
+            marks = [pytest.mark.xfail(strict=True, reason=why)] if why else []
+            yield pytest.param(case, q, marks=marks, id=f"{case}-{q}")
+
+
+@pytest.mark.reference
+@pytest.mark.parametrize("case,quantity", list(_iso_params()))
+def test_iso52016_weather_route_figures(case, quantity):
+    """Every figure of the 18 cases with ISO 52016-1 on the weather (Hay-Davies) route against its range: 61 of
+    68 inside (before the three corrections: 59, with 900 and 910 peak heating, 950FF maximum 38.0 degC against
+    37.1 among the misses); the 7 known misses are strict xfails with their values."""
+    from widesky.thermal.bestest import verdicts
+    (v,) = [v for v in verdicts(case, _iso_weather(case)) if v.quantity == quantity]
+    assert v.inside, (case, quantity, round(v.value, 3), v.low, v.high)
+
+
+@pytest.mark.reference
+def test_iso52016_corrections_move_the_heavy_cases_the_right_way():
+    """The ASHRAE 140 solar distribution with h_ci by heat-flow direction takes the night-ventilated 950FF's
+    maximum from 38.0 degC (outside 36.1-37.1) into its range and 900FF's minimum up by 0.8 K; the solar
+    distribution alone over-cools (900 cooling below its 2.35 MWh limit)."""
+    before = dict(solar="area", convection="fixed", gaps="en673")
+    only_solar = dict(solar="ashrae140", convection="fixed", gaps="en673")
+    assert _iso_weather("950FF", **before)["temp_max"] > 37.1 >= _iso_weather("950FF")["temp_max"]
+    assert _iso_weather("900FF")["temp_min"] - _iso_weather("900FF", **before)["temp_min"] > 0.7
+    assert _iso_weather("900", **only_solar)["annual_cooling"] < 2350.0 < _iso_weather("900")["annual_cooling"]
+    with pytest.raises(ValueError, match="iso52016 option"):
+        _iso_weather("600", solar="sideways")

@@ -1,5 +1,5 @@
 """ASHRAE Standard 140 (BESTEST) Cases 600-670, 900-950 and the free-floating 600FF, 650FF,
-900FF and 950FF with the 5R1C zone model.
+900FF and 950FF with the ISO 52016-1 zone model (default) or ISO 13790's 5R1C.
 
 Everything case-specific is read at run time from the public files in the data directory
 (``WIDESKY_DATA_DIR`` or ``../shared/data``, see docs/thermal.md): the weather year (Denver
@@ -50,14 +50,15 @@ from .glazing import Gap, GlazingUnit, layer_from_broadband
 from .loads import R_SE, glazing_g_table, opaque_gains, sky_losses, window_gains
 from .surface import sky_temperature, surface_irradiance
 from .zone import ZoneParameters, simulate_5r1c
-from .zone_iso52016 import Element, Layer, simulate_iso52016
+from .zone_iso52016 import EN673_MEAN_TEMPERATURE, SIGMA, Element, Layer, simulate_iso52016
 
 __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_modelica_record",
            "case_definition", "window_unit", "reference_results", "run_case", "BestestCase",
            "load_weather", "case_gains", "integrator_irradiance", "solar_escape_fraction",
            "layer_resistance", "EXTERIOR_MODELS", "CASE_SPECS", "CaseSpec", "SETBACK", "VENT_SCHEDULE",
            "MEAN_TEMPERATURE_RANGE", "LOAD_CASES", "SOURCES", "Verdict", "verdicts", "case_geometry",
-           "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS"]
+           "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS",
+           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS"]
 
 
 @dataclass(frozen=True)
@@ -119,10 +120,27 @@ the User's Guide tables that :func:`reference_results` reads."""
 GROUND_REFLECTANCE = 0.2          # ASHRAE 140-2020 7.2.1
 INTERNAL_RADIATIVE_FRACTION = 0.6  # ASHRAE 140-2020 7.2.1: 200 W, 60 % radiative
 INTERIOR_SOLAR_ABSORPTANCE = 0.6   # ASHRAE 140-2020 7.2.1: interior surfaces
+INTERIOR_SOLAR_DISTRIBUTION = {
+    "south": {"floor": 0.642, "ceiling": 0.167, "east": 0.038, "west": 0.038, "north": 0.053, "south": 0.027,
+              "lost": 0.035},
+    "eastwest": {"floor": 0.642, "ceiling": 0.167, "east": 0.025, "west": 0.025, "north": 0.053, "south": 0.053,
+                 "lost": 0.035},
+}
+"""Share of the transmitted solar absorbed by each inside surface, and lost back out through the windows [1], for
+programs that do not compute it: ANSI/ASHRAE 140-2017 section 5.2.1 (Case 600, south windows; 140-2020 7.2.1) and
+the Case 620 specification (east and west windows). The Standard derives them by its Informative Annex B7 method
+(every beam first lands on the floor, absorptance 0.6; the reflected part by view factors, then by area and
+absorptance). The 660 and 670 tables differ by less than 0.004 once the lost share is taken off; the 9xx cases
+have the same inside absorptance and geometry."""
 RHO_C_AIR = 1200.0                 # ISO 13790 9.3.1: rho_a c_a [J m-3 K-1]
 PROGRAMS = ("BSIMAC", "CSE", "DeST", "EnergyPlus", "ESP-r", "TRNSYS")
 R_SI = {"wall": 0.13, "roof": 0.10, "floor": 0.17}   # ISO 6946:2017 Table 7 [m2 K W-1]
 EXTERIOR_MODELS = ("hourly", "constant")
+SHADED_SAMPLES_PER_FACE = 16
+"""Points per triangle of the integrator's scene for a room with shading devices (a square number): one point
+(the centroid) per triangle samples a 3 m x 2 m window at two heights, 1.2 and 1.8 m below the 610 overhang, so
+the overhang's shadow on it was missed until the sun stood above 49 degrees (October's noon gain cut 2 %
+instead of the 16 % of the analytic shadow); 16 points per triangle sample it at 8 heights."""
 ZONE_MODELS = ("5r1c", "iso52016")
 
 
@@ -708,7 +726,8 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
     sky = sky or PragueSky()
     layout, shading = geometry
     b = bestest_building(layout, shading)
-    scene, labels = building_scene(b, ground_albedo=GROUND_REFLECTANCE)
+    scene, labels = building_scene(b, ground_albedo=GROUND_REFLECTANCE,
+                                   samples_per_face=SHADED_SAMPLES_PER_FACE if shading else 1)
     sim = Simulation(scene, weather=w, sky=SKY_DEFAULTS.replace(albedo=GROUND_REFLECTANCE), sky_source=sky,
                      n_jobs=n_jobs, progress=progress)
     units = {c: window_unit(c, data_dir) for c in ("600", "660", "670")}
@@ -730,7 +749,7 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
     return irr
 
 
-def iso52016_elements(case: BestestCase, data_dir=None):
+def iso52016_elements(case: BestestCase, data_dir=None, hourly_gaps=True):
     """The case's construction elements for :func:`~widesky.thermal.zone_iso52016.simulate_iso52016`:
     N, E, S, W walls (opaque areas), roof, floor (its outside facing outdoor air, no sun: the raised
     floor of the detailed models), one window per glazed wall; layers from the detailed models' records
@@ -750,18 +769,49 @@ def iso52016_elements(case: BestestCase, data_dir=None):
                        emissivity=case.emissivity))
     els.append(Element("floor", "floor", case.zone.floor_area, 180.0, floor, exposed=False))
     unit = case.window
-    r_win = (float(np.sum(1.0 / unit.gap_conductances()))
-             + sum(lay.thickness_mm * 1e-3 / lay.conductivity for lay in unit.layers))
+    r_panes = sum(lay.thickness_mm * 1e-3 / lay.conductivity for lay in unit.layers)
+    gaps = ()
+    if hourly_gaps:               # EN 673's gas conduction, its radiation at the hour's gap temperature
+        eff = [1.0 / (1.0 / a.emissivity_back + 1.0 / b.emissivity_front - 1.0)
+               for a, b in zip(unit.layers[:-1], unit.layers[1:])]
+        gaps = tuple((float(h - 4 * SIGMA * e * EN673_MEAN_TEMPERATURE ** 3), e)
+                     for h, e in zip(unit.gap_conductances(), eff))
+    else:
+        r_panes += float(np.sum(1.0 / unit.gap_conductances()))
     eps = case.window.layers[0].emissivity_front
     for az, _, aw in case.walls:
         if aw > 0:
-            els.append(Element(f"window {names.get(round(az), az)}", "window", aw, 90.0, resistance=r_win,
-                               emissivity=eps))
+            els.append(Element(f"window {names.get(round(az), az)}", "window", aw, 90.0, resistance=r_panes,
+                               gaps=gaps, emissivity=eps))
     return els
 
 
-def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir):
-    els = iso52016_elements(c, data_dir)
+def interior_solar_distribution(case: BestestCase, elements):
+    """(E,) share of the transmitted solar on each element's inside surface [1] from
+    :data:`INTERIOR_SOLAR_DISTRIBUTION` (the case's window layout), normalised over the surfaces (the share
+    that leaves through the windows is taken off by :func:`solar_escape_fraction`); windows get none."""
+    table = INTERIOR_SOLAR_DISTRIBUTION[case.spec.layout]
+    names = {"wall north": "north", "wall east": "east", "wall south": "south", "wall west": "west",
+             "roof": "ceiling", "floor": "floor"}
+    share = np.array([table.get(names.get(el.name, ""), 0.0) for el in elements])
+    return share / share.sum()
+
+
+ISO52016_OPTIONS = {"solar": ("ashrae140", "area"), "convection": ("direction", "fixed", "tarp"),
+                    "gaps": ("hourly", "en673")}
+"""Choices of the ISO 52016-1 run (first: the default): where the transmitted solar lands
+(:data:`INTERIOR_SOLAR_DISTRIBUTION` or by opaque area), the inside convection of floor and ceiling (by the heat
+flow's direction, or fixed by kind) and the windows' gap conductance (at the hour's temperature, or EN 673's)."""
+
+
+def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, options=None):
+    opt = {k: v[0] for k, v in ISO52016_OPTIONS.items()}
+    for k, v in (options or {}).items():
+        if k not in ISO52016_OPTIONS or v not in ISO52016_OPTIONS[k]:
+            raise ValueError(f"iso52016 option {k}={v!r} not one of {ISO52016_OPTIONS}")
+        opt[k] = v
+    els = iso52016_elements(c, data_dir, hourly_gaps=opt["gaps"] == "hourly")
+    dist = interior_solar_distribution(c, els) if opt["solar"] == "ashrae140" else None
     ta = weather["temp_air"].to_numpy()
     v = weather["wind_speed"].to_numpy()
     n_wall = len(c.walls)
@@ -777,20 +827,22 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir):
                              volume=c.zone.floor_area * c.height,
                              internal_radiative_fraction=INTERNAL_RADIATIVE_FRACTION,
                              air_capacity_per_volume=RHO_C_AIR, warmup_steps=warmup_steps,
-                             temp_start=20.0)
+                             temp_start=20.0, solar_distribution=dist, convection=opt["convection"])
 
 
 def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None,
-             exterior="hourly", zone_model="5r1c"):
+             exterior="hourly", zone_model="iso52016", iso52016_options=None):
     """Simulate ASHRAE 140 Case ``case`` for a weather year (hourly, 8760 steps).
 
     ``weather``: a key of :data:`WEATHER_FILES`, or a (data, site) pair as :func:`load_weather`.
     ``poa``: per-surface irradiance from :func:`integrator_irradiance` (same weather and the
     case's :func:`case_geometry`) instead of the weather-only Hay-Davies route. ``exterior``:
     outside surface coefficients, see :func:`case_gains`. Set-points and ventilation follow the
-    case's control (:func:`setpoint_schedules`). ``zone_model``: ``"5r1c"`` (ISO 13790, the default)
-    or ``"iso52016"`` (ISO 52016-1's balance per element, :mod:`widesky.thermal.zone_iso52016`, with the
-    layers of :func:`iso52016_elements` and hourly outside coefficients; ``exterior`` then does not apply).
+    case's control (:func:`setpoint_schedules`). ``zone_model``: ``"iso52016"`` (the default: ISO
+    52016-1's balance per element, :mod:`widesky.thermal.zone_iso52016`, with the
+    layers of :func:`iso52016_elements` and hourly outside coefficients; ``exterior`` then does not apply;
+    ``iso52016_options``: choices of :data:`ISO52016_OPTIONS`, by default the first of each; it misses fewer
+    figures than 5R1C, docs/thermal.md) or ``"5r1c"`` (ISO 13790's network).
 
     Returns
     -------
@@ -810,7 +862,7 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
     if zone_model not in ZONE_MODELS:
         raise ValueError(f"zone_model={zone_model!r} not one of {ZONE_MODELS}")
     if zone_model == "iso52016":
-        r = _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir)
+        r = _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, iso52016_options)
         res = {k: r[k][:, None] for k in ("heating", "cooling", "temp_air")}
     else:
         res = simulate_5r1c(c.zone, weather["temp_air"].to_numpy(), c.internal_gains, phi_sol,

@@ -9,16 +9,18 @@ ISO 52016-1 (section 6.5) instead keeps one set of nodes per construction elemen
 * on each outside surface, convection and long-wave exchange with the outdoor air and the sky
   (``h_ce``, ``h_re``, the sky's share ``F_sky = (1 + cos tilt) / 2``; sky temperature from the weather
   file's horizontal infrared) and the absorbed solar ``alpha I``;
-* on each inside surface, convection to the air (``h_ci``: 2.5 W m-2 K-1 walls and windows, 5.0 roofs
-  (heat upward), 0.7 floors (downward): ISO 52016-1 Table 25 / ISO 6946's R_si less its radiative part)
+* on each inside surface, convection to the air (``h_ci``: 2.5 W m-2 K-1 walls and windows; horizontal
+  surfaces 5.0 with the heat flowing upward, 0.7 downward: ISO 52016-1 Table 25 / ISO 6946's R_si less its
+  radiative part; ``convection="fixed"`` takes roofs as upward and floors as downward, ``"direction"`` the
+  direction of each step, ``"tarp"`` Walton's correlations instead, :data:`CONVECTION`)
   and long-wave exchange with the other surfaces through the area-weighted mean inside surface temperature
   (``h_ri = 5.13`` W m-2 K-1, 52016-1 6.5.6.3);
 * the air node: convection from the surfaces, ventilation, the convective share of the gains and the
   ideal heating or cooling that holds it at its set-point.
 
-The radiative share of the internal gains and the transmitted solar are spread over the inside surfaces by
-area (the solar over the opaque ones: the share that leaves through the glass again is taken off by the
-caller). Node layout: where an element's layers are known (ASHRAE 140: the detailed models' x, k, c, rho),
+The radiative share of the internal gains is spread over the inside surfaces by area, the transmitted solar by
+``solar_distribution`` (default: the opaque surfaces by area; the share that leaves through the glass again is
+taken off by the caller). A window's gaps may conduct at their own temperature (``Element.gaps``). Node layout: where an element's layers are known (ASHRAE 140: the detailed models' x, k, c, rho),
 nodes sit at the layer boundaries, with layers of more than 5 cm split; each sub-layer's capacity goes half to
 either node. This is the standard's structure with the nodes in the real layers; its five-node lumping with a
 mass-distribution class (Annex B) is what a user without layer data would enter. Windows are two massless
@@ -34,13 +36,29 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Layer", "Element", "H_RI", "H_CI", "simulate_iso52016", "element_nodes"]
+__all__ = ["Layer", "Element", "H_RI", "H_CI", "H_CI_UP", "H_CI_DOWN", "CONVECTION", "simulate_iso52016",
+           "element_nodes", "window_resistance"]
+
+SIGMA = 5.670374419e-8
 
 H_RI = 5.13
 """Inside radiative coefficient h_ri [W m-2 K-1] (ISO 52016-1 Table 25; ISO 6946 Annex C at 20 degC)."""
 H_CI = {"wall": 2.5, "window": 2.5, "roof": 5.0, "floor": 0.7}
 """Inside convective coefficient h_ci [W m-2 K-1] by element kind (ISO 52016-1 Table 25: horizontal, upward
 and downward heat flow; with H_RI they give ISO 6946's R_si 0.13, 0.10, 0.17)."""
+H_CI_UP, H_CI_DOWN = 5.0, 0.7
+"""Inside convective coefficient [W m-2 K-1] of a horizontal surface with the heat flowing upward (a floor warmer
+than the air, a ceiling colder than it) and downward (ISO 52016-1 Table 25; ISO 6946:2017 Table 7's R_si 0.10 and
+0.17 less the radiative part)."""
+CONVECTION = ("direction", "fixed", "tarp")
+"""Inside convection: ``"direction"`` takes h_ci of floors and ceilings by the direction of the heat flow each step
+(H_CI_UP / H_CI_DOWN; walls and windows H_CI), ``"fixed"`` the element kind's :data:`H_CI` (floor downward, roof
+upward), ``"tarp"`` Walton's (1983) natural-convection correlations of every surface from the previous step's
+surface-air difference dT [K] (TARP, EnergyPlus's default inside algorithm): vertical ``1.31 |dT|^(1/3)``,
+unstable horizontal ``9.482 |dT|^(1/3) / (7.238 - |cos tilt|)``, stable ``1.810 |dT|^(1/3) / (1.382 + |cos tilt|)``
+[W m-2 K-1]."""
+EN673_MEAN_TEMPERATURE = 283.0
+"""Mean gap temperature of EN 673's rating [K]."""
 MAX_SUBLAYER = 0.05
 """Thickest sub-layer between two nodes [m]."""
 
@@ -70,7 +88,12 @@ class Element:
     layers : tuple of Layer
         Outside first (opaque elements); empty for windows.
     resistance : float
-        Surface-to-surface resistance of a window [m2 K W-1] (``1/U - R_si - R_se`` of its rating).
+        Surface-to-surface resistance of a window [m2 K W-1] (``1/U - R_si - R_se`` of its rating); with
+        ``gaps``, only the part outside the gaps (the panes' conduction).
+    gaps : tuple of (float, float)
+        A window's gas gaps as (gas conductance ``h_g`` [W m-2 K-1], effective emissivity
+        ``1 / (1/eps_1 + 1/eps_2 - 1)`` [1]): the gap conducts ``h_g + 4 sigma eps T_m^3`` (EN 673 eq. 3-4) at the
+        mean of the window's two surface temperatures ``T_m`` of the previous step, rather than at EN 673's 283 K.
     absorptance : float
         Outside solar absorptance [1] (opaque elements; windows' absorbed solar is in their g).
     emissivity : float
@@ -85,6 +108,7 @@ class Element:
     tilt: float
     layers: tuple = field(default_factory=tuple)
     resistance: float = 0.0
+    gaps: tuple = field(default_factory=tuple)
     absorptance: float = 0.6
     emissivity: float = 0.9
     exposed: bool = True
@@ -94,10 +118,29 @@ class Element:
             raise ValueError(f"element {self.name!r}: kind={self.kind!r} not one of {tuple(H_CI)}")
         if not self.area > 0:
             raise ValueError(f"element {self.name!r}: area={self.area!r} m2 must be > 0")
-        if self.kind == "window" and not self.resistance > 0:
+        if self.kind == "window" and not (self.resistance > 0 or self.gaps):
             raise ValueError(f"window {self.name!r}: resistance={self.resistance!r} m2 K W-1 must be > 0")
         if self.kind != "window" and not self.layers:
             raise ValueError(f"element {self.name!r}: give its layers (outside first)")
+
+
+def _tarp(dt, tilt):
+    """Natural convection of an inside surface [W m-2 K-1] (Walton 1983, TARP; EnergyPlus's default inside
+    algorithm): ``dt`` surface minus air [K], ``tilt`` of the element's outward normal [deg] (the inside surface
+    faces the other way)."""
+    cos_s = -np.cos(np.radians(tilt))          # inside surface's normal, upward positive
+    a = abs(dt) ** (1.0 / 3.0)
+    if abs(cos_s) < 1e-6:
+        return max(1.31 * a, 0.1)
+    unstable = (dt > 0) == (cos_s > 0)         # a warm surface facing up or a cold one facing down
+    if unstable:
+        return max(9.482 * a / (7.238 - abs(cos_s)), 0.1)
+    return max(1.810 * a / (1.382 + abs(cos_s)), 0.1)
+
+
+def window_resistance(element: Element, mean_temperature=EN673_MEAN_TEMPERATURE):
+    """Surface-to-surface resistance of a window element [m2 K W-1] with its gaps at ``mean_temperature`` [K]."""
+    return element.resistance + sum(1.0 / (hg + 4 * SIGMA * eps * mean_temperature ** 3) for hg, eps in element.gaps)
 
 
 def element_nodes(element: Element):
@@ -111,7 +154,7 @@ def element_nodes(element: Element):
         (n,) heat capacity per m2 of each node [J m-2 K-1].
     """
     if element.kind == "window":
-        return np.array([1.0 / element.resistance]), np.zeros(2)
+        return np.array([1.0 / window_resistance(element)]), np.zeros(2)
     g, c = [], [0.0]
     for lay in element.layers:
         n = max(1, int(np.ceil(lay.thickness / MAX_SUBLAYER - 1e-9))) if lay.specific_heat * lay.density else 1
@@ -126,7 +169,8 @@ def element_nodes(element: Element):
 
 def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, solar_in, phi_int,
                       h_ve, heating_setpoint, cooling_setpoint, *, volume, internal_radiative_fraction=0.5,
-                      air_capacity_per_volume=1200.0, timestep=3600.0, warmup_steps=0, temp_start=20.0):
+                      air_capacity_per_volume=1200.0, timestep=3600.0, warmup_steps=0, temp_start=20.0,
+                      solar_distribution=None, convection="fixed"):
     """Run the ISO 52016-1 hourly balance of one zone (module doc).
 
     Parameters
@@ -141,8 +185,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         (T, E) solar irradiance on each element's outside [W m-2] (absorbed: times its absorptance;
         windows and unexposed elements ignore it).
     solar_in : array_like
-        (T,) solar heat gain through the windows that stays in the zone [W], spread over the opaque
-        inside surfaces by area.
+        (T,) solar heat gain through the windows that stays in the zone [W], spread over the inside
+        surfaces by ``solar_distribution``.
     phi_int : array_like
         (T,) or scalar internal sensible gains [W].
     h_ve : array_like
@@ -155,6 +199,12 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         Share of ``phi_int`` spread over the inside surfaces [1]; the rest reaches the air.
     warmup_steps : int
         Steps run once before the period (from its start), results discarded.
+    solar_distribution : array_like, optional
+        (E,) shares of ``solar_in`` landing on each element's inside surface [1] (normalised to sum 1;
+        e.g. ASHRAE 140's table, most on the floor); default: the opaque elements by area.
+    convection : str
+        A key of :data:`CONVECTION`: ``"fixed"`` (default), ``"direction"`` (h_ci of floors and roofs by the
+        heat flow's direction at the end of the previous step) or ``"tarp"`` (Walton's correlations).
 
     Returns
     -------
@@ -163,6 +213,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         ``cooling`` (>= 0) [W].
     """
     elements = list(elements)
+    if convection not in CONVECTION:
+        raise ValueError(f"convection={convection!r} not one of {CONVECTION}")
     te = np.asarray(temp_air_out, float)
     T, E = len(te), len(elements)
 
@@ -222,34 +274,73 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
 
     # per step: outside coefficients and ventilation on the diagonal; the right-hand side
     h_out = (hce + hre) * area                                          # (T, E) [W K-1]
-    M = np.broadcast_to(K + np.diag(cap / timestep), (T, N, N)).copy()
-    M[:, outside, outside] += h_out
-    M[:, 0, 0] += hve
     rhs = np.zeros((T, N))
     sky = np.where(exposed, f_sky, 0.0)
     rhs[:, outside] += (hce * area * te[:, None] + hre * area * (sky * ts[:, None] + (1 - sky) * te[:, None])
                         + alpha * area * sol_out)
     rhs[:, 0] += hve * te + (1 - internal_radiative_fraction) * pint
     rhs[:, inside] += (internal_radiative_fraction * pint)[:, None] * area / a_tot
-    a_op = np.where(opaque, area, 0.0)
-    rhs[:, inside] += sol_in[:, None] * a_op / a_op.sum()
-    Minv = np.linalg.inv(M)                                                 # (T, N, N)
-    unit = Minv[:, :, 0]                                                    # response to 1 W at the air
+    if solar_distribution is None:
+        share = np.where(opaque, area, 0.0) if opaque.any() else area
+    else:
+        share = np.asarray(solar_distribution, float)
+        if share.shape != (E,) or np.any(share < 0) or not share.sum() > 0:
+            raise ValueError(f"solar_distribution must be {E} shares >= 0 with a positive sum, got {share!r}")
+    rhs[:, inside] += sol_in[:, None] * share / share.sum()
     cdt = cap / timestep
-    base = np.einsum("tij,tj->ti", Minv, rhs)                               # (T, N)
-
+    base = K + np.diag(cdt)
     order = list(range(min(warmup_steps, T))) + list(range(T))
     n_warm = len(order) - T
     x = np.full(N, float(temp_start))
     ta, tsurf, need = np.empty(T), np.empty(T), np.empty(T)
+    e0 = np.zeros(N)
+    e0[0] = 1.0
+    kinds = [el.kind for el in elements]
+    horiz = [i for i, el in enumerate(elements) if convection == "direction" and el.kind in ("roof", "floor")]
+    tarp = list(range(E)) if convection == "tarp" else []
+    wins = [i for i, el in enumerate(elements) if el.kind == "window" and el.gaps]
     for i, t in enumerate(order):
-        free = base[t] + Minv[t] @ (cdt * x)
+        M = base.copy()
+        M[outside, outside] += h_out[t]
+        M[0, 0] += hve[t]
+        for j in horiz:
+            # ISO 52016-1 Table 25 by the direction of the heat flow at the end of the previous step: a
+            # ceiling (roof inside, facing down) colder than the air or a floor warmer than it: upward
+            hot = x[inside[j]] > x[0]
+            up = (not hot) if kinds[j] == "roof" else hot
+            dh = ((H_CI_UP if up else H_CI_DOWN) - H_CI[kinds[j]]) * area[j]
+            a, b = inside[j], 0
+            M[a, a] += dh
+            M[b, b] += dh
+            M[a, b] -= dh
+            M[b, a] -= dh
+        for j in tarp:
+            dt = x[inside[j]] - x[0]
+            h = _tarp(dt, elements[j].tilt)
+            dh = (h - H_CI[kinds[j]]) * area[j]
+            a, b = inside[j], 0
+            M[a, a] += dh
+            M[b, b] += dh
+            M[a, b] -= dh
+            M[b, a] -= dh
+        for j in wins:
+            el = elements[j]
+            tm = 0.5 * (x[outside[j]] + x[inside[j]]) + 273.15      # mean gap temperature [K]
+            r = el.resistance + sum(1.0 / (hg + 4 * SIGMA * eps * tm ** 3) for hg, eps in el.gaps)
+            dh = (1.0 / r - 1.0 / window_resistance(el)) * area[j]
+            a, b = outside[j], inside[j]
+            M[a, a] += dh
+            M[b, b] += dh
+            M[a, b] -= dh
+            M[b, a] -= dh
+        sol = np.linalg.solve(M, np.stack([rhs[t] + cdt * x, e0], 1))
+        free, unit = sol[:, 0], sol[:, 1]
         q = 0.0
         if free[0] < hs[t]:
-            q = (hs[t] - free[0]) / unit[t, 0]
+            q = (hs[t] - free[0]) / unit[0]
         elif free[0] > cs[t]:
-            q = (cs[t] - free[0]) / unit[t, 0]
-        x = free + q * unit[t]
+            q = (cs[t] - free[0]) / unit[0]
+        x = free + q * unit
         if i >= n_warm:
             ta[t], tsurf[t], need[t] = x[0], area @ x[inside] / a_tot, q
     return {"temp_air": ta, "temp_surface": tsurf, "heating": np.maximum(need, 0.0),

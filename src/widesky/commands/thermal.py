@@ -38,11 +38,11 @@ def register(subparsers) -> None:
                    help="weather: Hay-Davies from the file (default, seconds); integrator: widesky's "
                         "all-sky spectra at the file's DNI/DHI (minutes; tmy3 only)")
     b.add_argument("--exterior", default="hourly", choices=("hourly", "constant"),
-                   help="outside surface coefficients: hourly from wind and air temperature "
+                   help="outside surface coefficients of --zone-model 5r1c: hourly from wind and air temperature "
                         "(ISO 6946 Annex C, default) or ISO 13790's constant R_se = 0.04")
-    b.add_argument("--zone-model", default="5r1c", choices=("5r1c", "iso52016"),
-                   help="5r1c: ISO 13790's network (default); iso52016: ISO 52016-1's balance per element "
-                        "with the case files' layers")
+    b.add_argument("--zone-model", default="iso52016", choices=("5r1c", "iso52016"),
+                   help="iso52016: ISO 52016-1's balance per element with the case files' layers (default); "
+                        "5r1c: ISO 13790's network")
     b.add_argument("--json", help="also write the results here (for python -m widesky.thermal.figures)")
     b.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     b.add_argument("--data-dir", default=None,
