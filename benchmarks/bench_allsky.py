@@ -38,7 +38,8 @@ from widesky.irradiance.allsky_compare import (ape, ape_by_kc, g173_channels,
                                       g173_decomposition, generic_eqe, mismatch_by_airmass, mismatch_by_kc, model_at_g173,
                                       PVSPEC_TYPES, pvspec_annual, spctrl2_airmass_trend, pvspec_fit, pvspec_published, sedes2_global_horizontal,
                                       spectral_response)
-from widesky.irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
+from widesky.irradiance.allsky_plane import (ClearPlaneSpectra, clear_patch_broadband, clear_plane_spectra, cloud_poa_ratio,
+                                    plane_poa)
 from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
 
 
@@ -78,12 +79,13 @@ def load_site(path, sky, prefer="visibility", stride=1):
     return wd, states, data, raw_vis, kt, st
 
 
-G = {"ground": "grey"}
+G = {"ground": "grey", "angular": "cie_overcast"}     # the CIE overcast cloud light: the rows before issue 39
+C = {"angular": "cie_overcast"}
 VARIANTS = (
     ("plain (today)", CLEAR_SHAPE),
     ("+ cloud spectrum (Ernst)", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
-                                               partition="ernst", haze="clamp", angular="clear",
-                                               circumsolar="none", **G)),
+                                               partition="ernst", haze="clamp", circumsolar="none",
+                                               **{**G, "angular": "clear"})),
     ("+ CIE overcast angular", AllSkyOptions(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False,
                                              partition="ernst", haze="clamp", circumsolar="none", **G)),
     ("+ cloud droplets (Mie)", AllSkyOptions(cloud_vapour=False, cloud_rayleigh=False, partition="ernst",
@@ -94,7 +96,8 @@ VARIANTS = (
     ("+ sky-fraction partition", AllSkyOptions(haze="clamp", circumsolar="none", **G)),
     ("+ haze extension", AllSkyOptions(circumsolar="none", **G)),
     ("+ cloud circumsolar (Perez F1)", AllSkyOptions(**G)),
-    ("+ vegetated ground = all-sky", AllSkyOptions()),
+    ("+ vegetated ground", AllSkyOptions(**C)),
+    ("+ Perez all-weather cloud light = all-sky", AllSkyOptions()),
 )
 
 
@@ -115,6 +118,7 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
             cfile.parent.mkdir(parents=True, exist_ok=True)
             with atomic_write(cfile) as tmp:
                 np.savez(tmp, **clear._asdict())
+    patches = clear_patch_broadband(sky, states)      # the clear light's patches: the Perez cloud light's share
     t_sky = time.perf_counter() - t0
     dni, dhi, ghi = (data[c].to_numpy() for c in ("dni", "dhi", "ghi"))
     tdew = data["temp_dew"].to_numpy() if "temp_dew" in data else None
@@ -133,8 +137,9 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
         times[label] = time.perf_counter() - t1
         ground = {} if opt.ground == "grey" else {"albedo_shape": shape, "channel_edges": edges,
                                                   "vegetated": vegetated_steps(states.albedo, snow)}
+        ratio = cloud_poa_ratio(f, states.sun_direction, tilt, azimuth, clear=(*patches, clear.dhi, edges))
         poa = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
-                        circumsolar_dhi=f.circumsolar_dhi, **ground)
+                        circumsolar_dhi=f.circumsolar_dhi, overcast_ratio=ratio, **ground)
         E = poa["poa_global"]
         tot = (E * w).sum()
         se = {k: ((E * s * w).sum() / tot) / ref[k] - 1.0 for k, s in sr.items()}
@@ -145,7 +150,7 @@ def run_site(name, sky, sr, g173, g173_model, prefer="visibility", progress=True
                      float(ape(E.sum(0), wl, w)), float((E @ w).sum() / 1000.0), f))
         spectra[label] = (E, a, poa["ghi"])
     # the ground: grey (AllSkyOptions(ground="grey")) against the default vegetated ground
-    ground_rows = [("all-sky, grey ground", rows[-2][1]), ("all-sky, vegetated ground (default)", rows[-1][1]),
+    ground_rows = [("all-sky, grey ground", rows[-3][1]), ("all-sky, vegetated ground (default)", rows[-2][1]),
                    ("vegetated hours", float(np.mean(vegetated_steps(states.albedo, snow))))]
     sin_el = np.sin(np.radians(states.sun_elevation))
     g_clear = ((clear.dni * sin_el[:, None] + clear.dhi) * w).sum(1)

@@ -58,6 +58,7 @@ from .cloud_optics import (CLOUD_TOP_PRESSURE_RATIO, DEFAULT_ASYMMETRY, DEFAULT_
 from .haze import haze_correction
 from .measured import MeasuredScaling, measured_scale_factors
 from .overcast_sky import SOLAR_CONSTANT, perez_circumsolar_fraction
+from .perez_sky import perez_clearness_brightness
 
 __all__ = ["AllSkyOptions", "AllSkyFactors", "allsky_factors", "cloud_index", "CLEAR_SHAPE"]
 
@@ -100,10 +101,13 @@ class AllSkyOptions:
     haze : {"extrapolate", "clamp"}
         Below the dataset's visibility: extend the aerosol (:mod:`widesky.irradiance.haze`) or keep the
         clamped state (flagged by :func:`widesky.irradiance.sky_states`).
-    angular : {"cie_overcast", "clear"}
-        Angular distribution of the cloud-scattered light: the CIE overcast sky (returned apart as
-        ``overcast_dhi``, for the caller to distribute) or each channel's clear-sky distribution
-        (folded into ``diffuse_scale``: what (T, C) factors on the clear sky alone can express).
+    angular : {"perez", "cie_overcast", "clear"}
+        Angular distribution of the cloud-scattered light (returned apart as ``overcast_dhi``, for the caller
+        to distribute): ``"perez"`` the Perez, Seals & Michalsky (1993) all-weather sky of the step's measured
+        sky clearness and brightness (``sky_clearness``, ``sky_brightness``; :mod:`widesky.irradiance.perez_sky`:
+        horizon brightening and its own circumsolar region, so ``circumsolar`` does not apply), ``"cie_overcast"``
+        the CIE overcast sky (the default until 2026-12-05), or ``"clear"`` each channel's clear-sky
+        distribution (folded into ``diffuse_scale``: what (T, C) factors on the clear sky alone can express).
     circumsolar : {"perez", "none"}
         With ``angular="cie_overcast"``: the share of the cloud light that the Perez et al. (1990) all-weather
         model puts in the circumsolar region (its ``F1``, from the measured DNI and DHI) is traced with the
@@ -139,7 +143,7 @@ class AllSkyOptions:
     cloud_top_pressure: float = CLOUD_TOP_PRESSURE_RATIO
     partition: str = "sky_fraction"
     haze: str = "extrapolate"
-    angular: str = "cie_overcast"
+    angular: str = "perez"
     circumsolar: str = "perez"
     ground: str = "vegetation"
     droplet_radius: float = DEFAULT_DROPLET_RADIUS
@@ -151,8 +155,8 @@ class AllSkyOptions:
     def __post_init__(self):
         if self.haze not in ("extrapolate", "clamp"):
             raise ValueError(f"haze={self.haze!r} is not one of ('extrapolate', 'clamp')")
-        if self.angular not in ("cie_overcast", "clear"):
-            raise ValueError(f"angular={self.angular!r} is not one of ('cie_overcast', 'clear')")
+        if self.angular not in ("perez", "cie_overcast", "clear"):
+            raise ValueError(f"angular={self.angular!r} is not one of ('perez', 'cie_overcast', 'clear')")
         if self.circumsolar not in ("perez", "none"):
             raise ValueError(f"circumsolar={self.circumsolar!r} is not one of ('perez', 'none')")
         if self.droplet_optics not in ("mie", "adt"):
@@ -177,8 +181,10 @@ class AllSkyFactors(NamedTuple):
 
     - ``dni_scale``, ``diffuse_scale``: (T, C) factors [1] on the clear-sky sun spectrum and sky radiance;
     - ``overcast_dhi``: (T, C) diffuse horizontal spectrum [W m-2 nm-1] of the cloud-scattered light, to be
-      distributed as the CIE overcast sky (:mod:`widesky.irradiance.overcast_sky`); zero with ``angular="clear"``,
-      where it is folded into ``diffuse_scale`` instead (each channel's clear-sky angular distribution);
+      distributed as the Perez all-weather sky of ``sky_clearness`` and ``sky_brightness`` where they are given
+      (``angular="perez"``, :func:`widesky.irradiance.perez_sky.perez_patch_shape`), else as the CIE overcast
+      sky (:mod:`widesky.irradiance.overcast_sky`); zero with ``angular="clear"``, where it is folded into
+      ``diffuse_scale`` instead (each channel's clear-sky angular distribution);
     - ``circumsolar_dhi``: (T, C) diffuse horizontal spectrum [W m-2 nm-1] of cloud light in the circumsolar
       region, to be traced with the sun (normal irradiance ``circumsolar_dhi / sin(elevation)``); zero with
       ``circumsolar="none"`` or ``angular="clear"``;
@@ -186,7 +192,10 @@ class AllSkyFactors(NamedTuple):
     - ``cloud_tau``: (T,) cloud optical depth [1] used for the absorption (0 where none);
     - ``cloud_vapour``: (T,) extra water-vapour path in the cloud [cm];
     - ``haze``: HazeCorrection or None (the below-20 km visibility correction, when applied);
-    - ``scaling``: MeasuredScaling of the broadband factors (guards, unmatched irradiance).
+    - ``scaling``: MeasuredScaling of the broadband factors (guards, unmatched irradiance);
+    - ``sky_clearness``, ``sky_brightness``: (T,) the Perez sky clearness and brightness [1] of the measured
+      DHI and DNI (:func:`widesky.irradiance.perez_sky.perez_clearness_brightness`) with ``angular="perez"``,
+      NaN where the sun is down or DHI is 0 (CIE overcast there); None otherwise.
     """
 
     dni_scale: np.ndarray
@@ -198,6 +207,8 @@ class AllSkyFactors(NamedTuple):
     cloud_vapour: np.ndarray
     haze: object
     scaling: MeasuredScaling
+    sky_clearness: object = None
+    sky_brightness: object = None
 
 
 def cloud_index(dhi, ghi, clear_diffuse_fraction):
@@ -239,7 +250,7 @@ def _ratio(num, den):
 
 def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi, ghi=None,
                    visibility=None, temp_dew=None, min_visibility=20.0, options=AllSkyOptions(),
-                   albedo=0.2, earth_sun_distance=1.0, **guards) -> AllSkyFactors:
+                   albedo=0.2, earth_sun_distance=1.0, in_band_share=1.0, **guards) -> AllSkyFactors:
     """Per-step, per-channel factors that give the all-sky spectra and keep measured DNI and DHI.
 
     Parameters
@@ -254,7 +265,8 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     sun_elevation : array_like
         (T,) apparent sun elevation [deg].
     dni, dhi : array_like
-        (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN = missing).
+        (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN = missing); the channels
+        carry them times ``in_band_share``.
     ghi : array_like, optional
         (T,) measured global horizontal irradiance [W m-2]; default ``dni sin(elevation) + dhi``.
     visibility : array_like, optional
@@ -271,6 +283,11 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     earth_sun_distance : array_like
         (T,) or scalar Earth-Sun distance [AU], for the extraterrestrial irradiance of the Perez sky
         brightness (``circumsolar="perez"``).
+    in_band_share : float
+        The share [1] of ``dni``, ``dhi`` and ``ghi`` that the channels carry: 1 (default) as given; for a weather
+        file's broadband values :func:`widesky.core.spectral.in_band_share` of the channels' range (0.99248 for
+        280-2480 nm, as the integrator passes; docs/pvsim.md). The Perez sky clearness and brightness take the
+        values as given (broadband, as the model was fitted).
     **guards
         Passed to :func:`widesky.irradiance.measured_scale_factors` (``min_model_dni``, ``min_model_dhi``,
         ``max_scale``, ``missing``; default ``missing="clear"`` as the integrator: NaN input keeps
@@ -280,8 +297,9 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     -------
     AllSkyFactors
         ``sum_c dni_scale * dni_clear * width = scaling.sun_scale * sum_c dni_clear * width`` and the
-        same for the diffuse: the broadband totals are those of the plain measured path (the
-        measured values wherever its guards did not act).
+        same for the diffuse: the in-band totals are those of the plain measured path (the measured
+        values times the in-band share wherever its guards did not act; ``scaling``'s unmatched
+        irradiance is in-band).
     """
     edges = np.asarray(channel_edges, dtype=float)
     if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0):
@@ -295,8 +313,12 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     if bn.shape != (T, C) or dh.shape != (T, C):
         raise ValueError(f"dni_clear and dhi_clear must have shape ({T}, {C}), got {bn.shape}, "
                          f"{dh.shape}")
-    dni = np.broadcast_to(np.asarray(dni, dtype=float), (T,))
-    dhi = np.broadcast_to(np.asarray(dhi, dtype=float), (T,))
+    dni_bb = np.broadcast_to(np.asarray(dni, dtype=float), (T,))
+    dhi_bb = np.broadcast_to(np.asarray(dhi, dtype=float), (T,))
+    band_share = float(in_band_share)                    # given (broadband) -> in-band (docs/pvsim.md)
+    if not 0.0 < band_share <= 1.5:
+        raise ValueError(f"in_band_share={in_band_share!r} outside the valid range (0, 1.5]")
+    dni, dhi = dni_bb * band_share, dhi_bb * band_share
     model_dni, model_dhi = bn @ w, dh @ w
     guards.setdefault("missing", "clear")
     scaling = measured_scale_factors(model_dni, model_dhi, dni, dhi, **guards)
@@ -313,7 +335,7 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     gh = bh * sin_el[:, None] + dhh                       # clear global horizontal, hazy (T, C)
     g0 = bn * sin_el[:, None] + dh                        # the same at the dataset's state
     ghi_m = (np.nan_to_num(dni) * sin_el + np.nan_to_num(dhi)) if ghi is None else \
-        np.broadcast_to(np.asarray(ghi, dtype=float), (T,))
+        np.broadcast_to(np.asarray(ghi, dtype=float), (T,)) * band_share
     n = np.zeros(T)
     tau = np.zeros(T)
     du = np.zeros(T)
@@ -347,13 +369,17 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
         share = np.where(total > 0, 1.0 - _ratio(clear_light, total), 0.0)
     clear_part = (1.0 - share)[:, None] * _unit(np.where(keep, dhh, 0.0), w)
     cloud_part = share[:, None] * _unit(np.where(keep, g0 * trans, 0.0), w)
-    if options.angular == "cie_overcast":
+    eps = dlt = None
+    r = np.broadcast_to(np.asarray(earth_sun_distance, dtype=float), (T,))
+    if options.angular != "clear":
         diffuse_scale = scaling.sky_scale[:, None] * _ratio(clear_part * model_dhi[:, None], dh)
         overcast_dhi = total[:, None] * cloud_part
         circumsolar_dhi = np.zeros((T, C))
-        if options.circumsolar == "perez" and options.cloud_spectrum:
-            r = np.broadcast_to(np.asarray(earth_sun_distance, dtype=float), (T,))
-            f1 = perez_circumsolar_fraction(dhi, dni, el, SOLAR_CONSTANT / r ** 2)
+        if options.angular == "perez":
+            eps, dlt, ok = perez_clearness_brightness(dhi_bb, dni_bb, el, SOLAR_CONSTANT / r ** 2)
+            eps, dlt = np.where(ok, eps, np.nan), np.where(ok, dlt, np.nan)
+        elif options.circumsolar == "perez" and options.cloud_spectrum:
+            f1 = perez_circumsolar_fraction(dhi_bb, dni_bb, el, SOLAR_CONSTANT / r ** 2)
             f1 = np.minimum(f1, 1.0) * np.minimum(1.0, sin_el / np.sin(np.radians(5.0)))
             circumsolar_dhi = f1[:, None] * overcast_dhi
             overcast_dhi = overcast_dhi - circumsolar_dhi
@@ -367,4 +393,5 @@ def allsky_factors(channel_edges, dni_clear, dhi_clear, sun_elevation, dni, dhi,
     for f, s, m in ((dni_scale, scaling.sun_scale, model_dni), (diffuse_scale, scaling.sky_scale, model_dhi)):
         empty = ~(m > 0)
         f[empty] = np.asarray(s)[empty, None]
-    return AllSkyFactors(dni_scale, diffuse_scale, overcast_dhi, circumsolar_dhi, n, tau, du, haze, scaling)
+    return AllSkyFactors(dni_scale, diffuse_scale, overcast_dhi, circumsolar_dhi, n, tau, du, haze, scaling,
+                         eps, dlt)

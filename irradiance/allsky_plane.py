@@ -6,8 +6,10 @@ spectral effects): the sky is integrated with the integrator's own quadrature
 patch weights are the exact projected solid angles of :func:`widesky.irradiance.cosine_weights`, and the ground
 is an infinite Lambertian plane, ``albedo GHI (1 - cos tilt) / 2``. No ray casting: nothing shades the
 plane or the ground. Per-step, per-channel factors (:func:`widesky.irradiance.allsky.allsky_factors`) and the
-CIE overcast blend (:mod:`widesky.irradiance.overcast_sky`) apply exactly as in the integrator: the blend is
-linear in the patch radiance, so it needs only each plane's overcast ratio.
+cloud light's angular distribution (the Perez all-weather sky of :mod:`widesky.irradiance.perez_sky`, or the CIE
+overcast sky of :mod:`widesky.irradiance.overcast_sky`) apply exactly as in the integrator: the cloud light is
+linear in the patch radiance, so it needs only each plane's ratio of cloud light to its horizontal irradiance,
+per step for the Perez sky (:func:`cloud_poa_ratio`).
 """
 
 from __future__ import annotations
@@ -21,8 +23,9 @@ from .ground import ground_scales, step_spectral_albedo
 from .integrator import IntegratorSettings, patch_radiance
 from .overcast_sky import overcast_poa_ratio
 from .patches import cosine_weights, direction_from_angles, reinhart
+from .perez_sky import cloud_patch_shape
 
-__all__ = ["ClearPlaneSpectra", "clear_plane_spectra", "plane_poa"]
+__all__ = ["ClearPlaneSpectra", "clear_plane_spectra", "plane_poa", "cloud_poa_ratio", "clear_patch_broadband"]
 
 
 class ClearPlaneSpectra(NamedTuple):
@@ -100,8 +103,94 @@ def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=Non
     return ClearPlaneSpectra(dni, dhi, circ, psky, cos_aoi, sin_el, ratio, view_ground)
 
 
+def clear_patch_broadband(sky, states, settings=None, chunk=256):
+    """The clear sky's broadband patch radiance and circumsolar normal irradiance per step (unit scale).
+
+    What :func:`cloud_poa_ratio` needs to share the Perez sky between clear and cloud light as the
+    integrator does; one more evaluation of the sky (:func:`widesky.irradiance.patch_radiance`).
+
+    Returns
+    -------
+    (radiance, circumsolar) : (T, P) [W m-2 sr-1], (T,) [W m-2]
+    """
+    settings = settings or IntegratorSettings()
+    patches = reinhart(settings.mf)
+    w = np.asarray(sky.channel_widths, dtype=float)[:, None]
+    T = len(states)
+    rad, circ = np.zeros((T, patches.n_patches)), np.zeros(T)
+    lit = np.nonzero(states.sun_elevation > getattr(sky, "min_sun_elevation", 0.0))[0]
+    for c0 in range(0, lit.size, max(int(chunk), 1)):
+        idx = lit[c0:c0 + chunk]
+        Lp, _dn, cs = patch_radiance(sky, patches, states.take(idx), w, settings)
+        rad[idx], circ[idx] = Lp[..., 0], cs[:, 0]
+    return rad, circ
+
+
+def cloud_poa_ratio(factors, sun_direction, surface_tilt, surface_azimuth, settings=None, samples=4,
+                    clear=None):
+    """Per-step ratio of the cloud light on an unobstructed plane to its horizontal irradiance [1].
+
+    Parameters
+    ----------
+    factors : AllSkyFactors
+        From :func:`widesky.irradiance.allsky.allsky_factors`; where its ``sky_clearness`` is given
+        (``angular="perez"``) the Perez all-weather sky of each step, elsewhere (and on steps where it is NaN)
+        the CIE overcast sky.
+    sun_direction : array_like
+        (T, 3) unit vectors towards the sun (``SkyStates.sun_direction``).
+    surface_tilt, surface_azimuth : float
+        [deg] from horizontal; clockwise from north.
+    settings : IntegratorSettings, optional
+        The sky discretisation (``mf``).
+    samples : int
+        Sub-directions per patch side for the patch means.
+    clear : tuple, optional
+        ``(radiance, circumsolar, dhi, channel_edges)``: the clear sky's broadband patch radiance (T, P)
+        [W m-2 sr-1] and circumsolar normal irradiance (T,) [W m-2] at unit scale
+        (:func:`clear_patch_broadband`), its spectral diffuse horizontal irradiance (T, C) [W m-2 nm-1]
+        (``ClearPlaneSpectra.dhi``) and the channel edges (C+1,) [nm]. With it the cloud light fills what
+        the Perez sky has beyond the clear light (:func:`widesky.irradiance.perez_sky.cloud_patch_shape`), as
+        in the integrator; without it the cloud light is the Perez sky on its own.
+
+    Returns
+    -------
+    numpy.ndarray
+        (T,) [1]: 1 for a horizontal plane.
+    """
+    settings = settings or IntegratorSettings()
+    patches = reinhart(settings.mf)
+    normal = direction_from_angles(90.0 - float(surface_tilt), float(surface_azimuth)).reshape(1, 3)
+    w_p = cosine_weights(patches, normal)[0]
+    w_h = cosine_weights(patches, np.array([[0.0, 0.0, 1.0]]))[0]
+    sd = np.asarray(sun_direction, dtype=float)
+    cie = float(overcast_poa_ratio(w_p, w_h, patches.directions[:, 2]))
+    out = np.full(sd.shape[0], cie)
+    eps = getattr(factors, "sky_clearness", None)
+    if eps is None:
+        return out
+    ok = np.isfinite(eps)
+    if not np.any(ok):
+        return out
+    cr = cc = None
+    cloud = np.zeros(int(ok.sum()))
+    if clear is not None:
+        rad, circ, dhi, edges = clear
+        w = np.diff(np.asarray(edges, dtype=float))
+        d = np.asarray(dhi, dtype=float)[ok]
+        with np.errstate(invalid="ignore", divide="ignore"):       # the clear light's broadband scale
+            g = (factors.diffuse_scale[ok] * d) @ w / (d @ w)
+        g = np.where(np.isfinite(g), g, 0.0)
+        cr = np.asarray(rad, dtype=float)[ok] * g[:, None]
+        cc = np.asarray(circ, dtype=float)[ok] * g
+        cloud = factors.overcast_dhi[ok] @ w
+    shape = cloud_patch_shape(patches, sd[ok], eps[ok], factors.sky_brightness[ok], cloud,
+                              clear_radiance=cr, clear_circumsolar=cc, samples=samples)
+    out[ok] = shape @ w_p
+    return out
+
+
 def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overcast_dhi=None,
-              circumsolar_dhi=None, albedo_shape=None, channel_edges=None, vegetated=None):
+              circumsolar_dhi=None, albedo_shape=None, channel_edges=None, vegetated=None, overcast_ratio=None):
     """Spectral plane-of-array components under per-step (and per-channel) factors.
 
     Parameters
@@ -112,8 +201,8 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
     albedo : array_like
         Ground albedo [1]: scalar or (T,) per step.
     overcast_dhi : array_like, optional
-        (T, C) diffuse horizontal spectrum [W m-2 nm-1] of light distributed as the CIE overcast sky,
-        added to the scaled clear sky (``AllSkyFactors.overcast_dhi``).
+        (T, C) diffuse horizontal spectrum [W m-2 nm-1] of the cloud light (``AllSkyFactors.overcast_dhi``),
+        added to the scaled clear sky: on the plane ``overcast_dhi x overcast_ratio``.
     circumsolar_dhi : array_like, optional
         (T, C) diffuse horizontal spectrum [W m-2 nm-1] of cloud light traced with the sun
         (``AllSkyFactors.circumsolar_dhi``): on the plane ``circumsolar_dhi cos(aoi) / sin(elevation)``,
@@ -131,6 +220,10 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
     vegetated : array_like, optional
         (T,) bool: the steps whose ground follows ``albedo_shape`` (the rest grey; default all;
         :func:`widesky.irradiance.ground.vegetated_steps` gives the all-sky model's rule).
+    overcast_ratio : array_like, optional
+        Scalar or (T,) plane / horizontal irradiance of the cloud light [1] (:func:`cloud_poa_ratio`: the
+        Perez all-weather sky of factors with ``angular="perez"``); default the CIE overcast sky's
+        ``clear.overcast_ratio``.
 
     Returns
     -------
@@ -151,7 +244,8 @@ def plane_poa(clear: ClearPlaneSpectra, dni_scale, diffuse_scale, albedo, overca
         ov = np.asarray(overcast_dhi, dtype=float)
         if ov.shape != (T, C) or np.any(ov < 0):
             raise ValueError(f"overcast_dhi must have shape ({T}, {C}) and be >= 0")
-        sky = sky + ov * clear.overcast_ratio
+        ratio = clear.overcast_ratio if overcast_ratio is None else np.asarray(overcast_ratio, dtype=float)
+        sky = sky + ov * (ratio[:, None] if np.ndim(ratio) == 1 else ratio)
         dhi = dhi + ov
     circ = 0.0
     if circumsolar_dhi is not None:

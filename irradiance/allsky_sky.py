@@ -6,8 +6,9 @@ by broadband factors. The clear sky is evaluated once, contracted with a broadba
 identity (so the model's spectral DNI and DHI of the step are known from the integrator's own
 quadrature), the per-step per-channel factors of :func:`widesky.irradiance.allsky.allsky_factors` are applied
 per channel, and the result is contracted with the integrator's columns; the cloud-scattered light
-is added as CIE overcast patch radiance (:mod:`widesky.irradiance.overcast_sky`), which then goes through
-the same occlusion, optics and reflection coefficients as any sky light.
+is added as patch radiance of the Perez all-weather sky of the step (:mod:`widesky.irradiance.perez_sky`;
+``AllSkyOptions(angular="cie_overcast")``: the CIE overcast sky, :mod:`widesky.irradiance.overcast_sky`), which
+then goes through the same occlusion, optics and reflection coefficients as any sky light.
 """
 
 from __future__ import annotations
@@ -16,10 +17,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from widesky.core.spectral import in_band_share
+
 from .allsky import AllSkyOptions, allsky_factors
 from .ground import ground_scales, vegetated_steps
 from .integrator import patch_radiance
 from .overcast_sky import cie_overcast_relative
+from .perez_sky import cloud_patch_shape
 
 __all__ = ["AllSkyWeather", "allsky_patch_radiance"]
 
@@ -127,7 +131,8 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     f = allsky_factors(sky.channel_edges, dn, dhi_clear, states.sun_elevation, weather.dni,
                        weather.dhi, ghi=weather.ghi, visibility=weather.visibility,
                        temp_dew=weather.temp_dew, min_visibility=min_visibility, options=options,
-                       albedo=states.albedo, earth_sun_distance=states.earth_sun_distance)
+                       albedo=states.albedo, earth_sun_distance=states.earth_sun_distance,
+                       in_band_share=in_band_share(sky.channel_edges[0], sky.channel_edges[-1]))   # broadband weather
     L = np.einsum("tpc,tc,cr->tpr", Lp, f.diffuse_scale, W, optimize=True)
     dni_c = dn * f.dni_scale + cs * f.diffuse_scale                # (T, C) beam + circumsolar
     if np.any(f.circumsolar_dhi > 0):                              # cloud light traced with the sun
@@ -136,8 +141,17 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
     dni = dni_c @ W
     if np.any(f.overcast_dhi > 0):
         shape = cie_overcast_relative(patches.directions[:, 2])
-        shape = shape / (shape * w_h).sum()                      # unit horizontal irradiance [sr-1]
-        L += shape[None, :, None] * (f.overcast_dhi @ W)[:, None, :]
+        shape = np.broadcast_to(shape / (shape * w_h).sum(), (len(states), w_h.size)).copy()   # [sr-1]
+        if f.sky_clearness is not None:        # clear + cloud light together the step's Perez all-weather sky
+            ok = np.isfinite(f.sky_clearness)
+            if np.any(ok):
+                k = max(4, getattr(settings, "radiance_samples", 2))
+                ds = f.diffuse_scale[ok] * widths
+                shape[ok] = cloud_patch_shape(patches, states.sun_direction[ok], f.sky_clearness[ok],
+                                              f.sky_brightness[ok], f.overcast_dhi[ok] @ widths,
+                                              clear_radiance=np.einsum("tpc,tc->tp", Lp[ok], ds),
+                                              clear_circumsolar=np.einsum("tc,tc->t", cs[ok], ds), samples=k)
+        L += shape[:, :, None] * (f.overcast_dhi @ W)[:, None, :]
     ground = None
     if ground_shape is not None:                                   # the all-sky GHI spectrum of each step
         ghi_c = (np.einsum("p,tpc,tc->tc", w_h, Lp, f.diffuse_scale) + f.overcast_dhi

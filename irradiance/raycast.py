@@ -17,7 +17,10 @@ that reach the ground or a scene surface feed one reflection (Lambertian):
   reflector's sky irradiance, so the hit's share times its reflectance becomes a daylight
   coefficient of patch ``q`` (``reflect_sky``, ``ground_sky``): the reflected sky keeps the sky's
   anisotropy and the reflector's own obstruction; a closed box stays dark. Where a wall's secondary
-  ray reaches the ground it samples the ground's (unshaded) radiance (``reflect_ground``).
+  ray reaches the ground, that ground point is lit as the scene lets it be: one cosine-distributed ray
+  from it to the sky (into ``ground_sky``) and, per shading cell, one towards the sun (into ``ground_sun``),
+  weighted by the wall's reflectance (``reflect_ground``, the unshaded ground's coefficient until issue 39,
+  is zero).
 * **Reflected sun.** The year's sun positions are grouped into shading cells (:func:`shade_cells`:
   bands of elevation split into azimuth sectors of 30-120 deg). Per cell every reflecting point traces
   one ray towards a sun-position bin of that cell, drawn (deterministically, from the ray's identity)

@@ -22,6 +22,8 @@ from .optics import optic_terms
 from .patches import cosine_weights
 from .rays import _clear_dni, _cosine_directions, _fbincount, cast_rays, reflector_points, shade_cells
 
+_UP = np.array([0.0, 0.0, 1.0])
+
 __all__ = ["PrimaryRays", "Bounce", "primary_rays", "reflected_sky", "reflected_sun", "sun_visibility"]
 
 
@@ -51,6 +53,21 @@ class Bounce(NamedTuple):
     r_pt: np.ndarray       # (H,) the analysis point of each hit
     r_share: np.ndarray    # (H,) the hit's share of its patch's exact weight [sr]
     r_rho: np.ndarray      # (H,) reflectance (1 for the ground: its albedo is applied later)
+    # the ground points that walls' secondary rays reach (the ground light walls pass on, issue 39)
+    g2_x: np.ndarray = None    # (H2, 3) ground points
+    g2_pt: np.ndarray = None   # (H2,) the analysis point of each
+    g2_w: np.ndarray = None    # (H2,) weight: the wall hit's share [sr] x the wall's reflectance
+    g2_id: np.ndarray = None   # (H2,) identities of their samples (decorrelated from the wall hit's)
+
+
+def _second_identity(ids):
+    """Identities (float64, < 2**32) of a second sample drawn at a point reached by a ray of identity ``ids``:
+    a multiplicative hash (Knuth's golden-ratio constant), so the second sample is not correlated with the
+    first (the R2 sequence of :func:`widesky.irradiance.rays._cosine_directions` indexed by ``ids`` plus a
+    constant would be the same set of samples shifted, and the wall rays that reach the ground are a biased
+    subset of them)."""
+    h = np.asarray(ids, dtype=np.int64).astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+    return (h >> np.uint64(32)).astype(np.float64)
 
 
 def primary_rays(geometry, origins, normals, buried, patches, dirs, wcell):
@@ -80,8 +97,12 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     One bounce: every reflecting point (scene hit or ground) casts one cosine-distributed secondary
     ray, its direction fixed by the ray's identity; where it escapes to the sky it makes the
     reflector's sky irradiance a one-sample estimate pi L(patch) (so the reflected sky is a daylight
-    coefficient of that patch), where a wall's ray reaches the ground it samples the (unshaded) ground
-    radiance, where it hits the scene it brings nothing (one reflection).
+    coefficient of that patch), where it hits the scene it brings nothing (one reflection). Where a wall's
+    ray reaches the ground, the ground light the wall passes on is traced as the scene lets it be (issue 39):
+    the ground point casts one cosine-distributed ray to the sky, which adds the wall hit's share times
+    the wall's reflectance to ``ground_sky`` at the patch it escapes into (times the albedo in the
+    integrator, as the ground's own light), and :func:`reflected_sun` traces its sun. ``reflect_ground``
+    (the unshaded ground radiance's coefficient before 2026-12-05) is zero.
 
     Returns
     -------
@@ -123,8 +144,8 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     ws = sel_scene & to_sky
     reflect_sky = _fbincount(r_pt[ws] * P + s_patch[ws], weights=r_share[ws] * r_rho[ws],
                               minlength=n * P).reshape(n, P)
-    wg = sel_scene & s_ground
-    reflect_ground = _fbincount(r_pt[wg], weights=r_share[wg] * r_rho[wg], minlength=n)
+    wg = np.nonzero(sel_scene & s_ground & (r_rho > 0) & (r_share > 0))[0]
+    reflect_ground = np.zeros(n)
     # patches with a positive exact weight but no sample in front of the face (slivers at the face's
     # horizon): the face's mean visible fraction of that hemisphere; a lower sliver's ground is lit
     # like the point's other ground hits
@@ -140,6 +161,19 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
         extra = np.sum(np.where(sliver[:, P:], exact[:, P:], 0.0), axis=1) * f_lo
         with np.errstate(invalid="ignore", divide="ignore"):
             ground_sky *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[:, None]
+    # the ground light walls pass on: the ground point a wall's secondary ray reaches sees the sky as the
+    # scene lets it (one cosine ray; its sun in reflected_sun), added after the slivers' scaling, which is
+    # for the point's own ground hits
+    g2_x, _tn2 = reflector_points(geometry, x[wg], sd[wg], smax[wg], np.full(wg.size, -1))
+    g2_pt, g2_w = r_pt[wg], r_share[wg] * r_rho[wg]
+    g2_id = _second_identity((fi[ri[wg]] + first) * (2 * P * K) + si[ri[wg]])
+    n_g2 = wg.size
+    if wg.size:
+        td = _cosine_directions(np.broadcast_to(_UP, (wg.size, 3)), g2_id)
+        t_free = ~cast_rays(geometry, g2_x, td, np.full(wg.size, np.inf), occluded=True)
+        q = np.where(t_free, patches.index(td), -1)
+        ok = q >= 0
+        ground_sky += _fbincount(g2_pt[ok] * P + q[ok], weights=g2_w[ok], minlength=n * P).reshape(n, P)
     sky_optic = reflect_optic = None
     if optics is not None and optics.n:
         sky_optic, reflect_optic = optic_terms(optics, patches, normals, exact, w3, pr.flat,
@@ -151,7 +185,8 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     reflect_ground[buried] = 0.0
     coeffs = {"sky": sky, "ground_sky": ground_sky, "reflect_sky": reflect_sky,
               "reflect_ground": reflect_ground, "sky_optic": sky_optic, "reflect_optic": reflect_optic}
-    return coeffs, Bounce(ri, sel_scene, x, tn, r_pt, r_share, r_rho), gsh, extra, ri.size
+    return (coeffs, Bounce(ri, sel_scene, x, tn, r_pt, r_share, r_rho, g2_x, g2_pt, g2_w, g2_id), gsh, extra,
+            ri.size + n_g2)
 
 
 def reflected_sun(geometry, b: Bounce, sun_dirs, bins, sun_count, sun_cell, n, ident, buried, gsh, extra):
@@ -213,10 +248,40 @@ def reflected_sun(geometry, b: Bounce, sun_dirs, bins, sun_count, sun_cell, n, i
         # share of the point's ground hits
         with np.errstate(invalid="ignore", divide="ignore"):
             ground_sun *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[None, :]
+    n_rays += _wall_ground_sun(geometry, b, sun_dirs, bins, sun_count, sun_cell, G, ground_sun)
     ground_sun[:, buried] = 0.0
     reflect_sun = reflect_sun.reshape(G, n, B)
     reflect_sun[:, buried] = 0.0
     return ground_sun, reflect_sun, n_rays
+
+
+def _wall_ground_sun(geometry, b: Bounce, sun_dirs, bins, sun_count, sun_cell, G, ground_sun):
+    """The sun on the ground points that walls' secondary rays reach: per shading cell one ray towards a
+    sun bin of the cell drawn as for the point's own ground hits (orientation bin 0, up), the lit ones adding
+    their weight to ``ground_sun`` (G, n) in place. Returns the number of rays cast."""
+    if b.g2_x is None or b.g2_x.shape[0] == 0 or sun_dirs.shape[0] == 0 or G == 0:
+        return 0
+    cnt = np.ones(sun_dirs.shape[0]) if sun_count is None else np.asarray(sun_count, dtype=float)
+    el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
+    n_rays = 0
+    for g in range(G):
+        cg = np.nonzero(sun_cell == g)[0]
+        if cg.size == 0:
+            continue
+        cdf = np.cumsum(cnt[cg] * _clear_dni(el_b[cg]) * np.maximum(sun_dirs[cg] @ bins[0], 0.0))
+        if not cdf[-1] > 0:
+            continue
+        u = np.mod(0.5 + (b.g2_id + 7919 * (g + 1)) * 0.6180339887498949, 1.0)
+        pick = np.minimum(np.searchsorted(cdf, u * cdf[-1], side="right"), cg.size - 1)
+        sd = sun_dirs[cg[pick]]
+        front = np.nonzero(sd[:, 2] > 0)[0]
+        if front.size == 0:
+            continue
+        lit = ~cast_rays(geometry, b.g2_x[front].astype(np.float32), sd[front].astype(np.float32),
+                         occluded=True)
+        n_rays += front.size
+        ground_sun[g] += _fbincount(b.g2_pt[front], weights=b.g2_w[front] * lit, minlength=ground_sun.shape[1])
+    return n_rays
 
 
 def sun_visibility(geometry, origins, normals, buried, sun_dirs):

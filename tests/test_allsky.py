@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from widesky.core.spectral import in_band_share
 from widesky.irradiance.allsky import CLEAR_SHAPE, AllSkyOptions, allsky_factors, cloud_index
 from widesky.irradiance.allsky_plane import ClearPlaneSpectra, clear_plane_spectra, plane_poa
 from widesky.irradiance.ground import vegetated_steps, vegetation_albedo_shape
@@ -122,7 +123,7 @@ def test_options_and_shapes_are_checked():
     with pytest.raises(ValueError, match="haze"):
         AllSkyOptions(haze="fog")
     with pytest.raises(ValueError, match="angular"):
-        AllSkyOptions(angular="perez")
+        AllSkyOptions(angular="perez1990")
     with pytest.raises(ValueError, match="dni_clear"):
         allsky_factors(EDGES, bn[:, :3], dh, el, [1, 1], [1, 1])
     with pytest.raises(ValueError, match="channel_edges"):
@@ -158,19 +159,21 @@ def test_plane_path_matches_the_integrator_and_conserves_energy():
     dni, dhi = (clear.dni @ w) * np.array([0.0, 0.5, 0.9]), (clear.dhi @ w) * np.array([3.0, 1.6, 1.0])
     res = poa_irradiance(scene, sky, states, settings=settings, weather=MeasuredSky(measured=(dni, dhi)),
                          run=RunOptions(n_jobs=1))
-    ref = measured_scale_factors(clear.dni @ w, clear.dhi @ w, dni, dhi, missing="clear")
+    share = in_band_share(sky.channel_edges[0], sky.channel_edges[-1])   # measured is broadband (issue 35)
+    ref = measured_scale_factors(clear.dni @ w, clear.dhi @ w, dni * share, dhi * share, missing="clear")
     plain = plane_poa(clear, ref.sun_scale, ref.sky_scale, states.albedo)
     np.testing.assert_allclose(plain["poa_direct"] @ w, res.poa_direct[:, 0], rtol=1e-5, atol=1e-3)
     np.testing.assert_allclose(plain["poa_sky_diffuse"] @ w, res.poa_sky_diffuse[:, 0], rtol=1e-2)
     np.testing.assert_allclose(plain["poa_ground_diffuse"] @ w, res.poa_ground_diffuse[:, 0], rtol=3e-2)
     opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular="clear")
-    f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt)
+    f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt,
+                       in_band_share=share)
     spec = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo)
     np.testing.assert_allclose(spec["poa_global"] @ w, plain["poa_global"] @ w, rtol=1e-10)
     assert not np.allclose(spec["poa_global"], plain["poa_global"], rtol=1e-3)     # the shape moved
 
 
-@pytest.mark.parametrize("angular", ["clear", "cie_overcast"])
+@pytest.mark.parametrize("angular", ["clear", "cie_overcast", "perez"])
 def test_integrator_allsky_matches_the_plane_path(angular):
     from widesky.irradiance.allsky_sky import AllSkyWeather
     sky = RedSunSky()
@@ -180,12 +183,18 @@ def test_integrator_allsky_matches_the_plane_path(angular):
     w = np.diff(sky.channel_edges)
     dni, dhi = (clear.dni @ w) * np.array([0.0, 0.5, 0.9]), (clear.dhi @ w) * np.array([3.0, 1.6, 1.0])
     opt = AllSkyOptions(cloud_absorption=False, cloud_vapour=False, angular=angular)
-    f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt)
+    f = allsky_factors(sky.channel_edges, clear.dni, clear.dhi, states.sun_elevation, dni, dhi, options=opt,
+                       in_band_share=in_band_share(sky.channel_edges[0], sky.channel_edges[-1]))  # broadband
+    ratio = None
+    if angular == "perez":                 # the cloud light completes the Perez sky: the clear sky's patches
+        from widesky.irradiance.allsky_plane import clear_patch_broadband, cloud_poa_ratio
+        ratio = cloud_poa_ratio(f, states.sun_direction, 40.0, 180.0, settings,
+                                clear=(*clear_patch_broadband(sky, states, settings), clear.dhi, sky.channel_edges))
     # the default all-sky ground is vegetated (albedo 0.2, no snow): the same rule on both paths
     ref = plane_poa(clear, f.dni_scale, f.diffuse_scale, states.albedo, overcast_dhi=f.overcast_dhi,
                     circumsolar_dhi=f.circumsolar_dhi, albedo_shape=vegetation_albedo_shape(sky.wavelengths),
-                    channel_edges=sky.channel_edges, vegetated=vegetated_steps(states.albedo))
-    assert (angular == "clear") == np.all(f.circumsolar_dhi == 0)
+                    channel_edges=sky.channel_edges, vegetated=vegetated_steps(states.albedo), overcast_ratio=ratio)
+    assert (angular == "cie_overcast") == np.any(f.circumsolar_dhi > 0)
     scene = make_scene([_panel(40.0), _panel(0.0, z=150.0)], ground_z=0.0, analysis_reflectance=0.0)
     res = poa_irradiance(scene, sky, states, settings=settings,
                          weather=MeasuredSky(measured=AllSkyWeather(dni, dhi), spectral_model="allsky",
@@ -194,11 +203,12 @@ def test_integrator_allsky_matches_the_plane_path(angular):
     np.testing.assert_allclose(res.poa_direct[:, 0], ref["poa_direct"] @ w, rtol=1e-4, atol=1e-3)
     np.testing.assert_allclose(res.poa_sky_diffuse[:, 0], ref["poa_sky_diffuse"] @ w, rtol=1e-2)
     np.testing.assert_allclose(res.poa_ground_diffuse[:, 0], ref["poa_ground_diffuse"] @ w, rtol=3e-2)
-    # the horizontal face (2 mesh faces per panel: face 2) receives exactly the measured DNI and DHI
+    # the horizontal face (2 mesh faces per panel: face 2) receives exactly the measured DNI and DHI (in-band share)
     el = np.radians(states.sun_elevation)
-    np.testing.assert_allclose(res.poa_direct[:, 2] + res.poa_sky_diffuse[:, 2], dni * np.sin(el) + dhi,
+    share = in_band_share(sky.channel_edges[0], sky.channel_edges[-1])
+    np.testing.assert_allclose(res.poa_direct[:, 2] + res.poa_sky_diffuse[:, 2], (dni * np.sin(el) + dhi) * share,
                                rtol=2e-3)
-    np.testing.assert_allclose(res.scaling.sun_scale, dni / (clear.dni @ w), rtol=1e-9)
+    np.testing.assert_allclose(res.scaling.sun_scale, dni * share / (clear.dni @ w), rtol=1e-9)
     # spectral global on the tilted face follows the all-sky shape
     g = res.spectral["global"][:, 0, :]
     np.testing.assert_allclose(g / (g @ w)[:, None], ref["poa_global"] / (ref["poa_global"] @ w)[:, None],
@@ -277,14 +287,14 @@ def test_perez_circumsolar_fraction_matches_pvlib():
 
 
 def test_cloud_circumsolar_share():
-    """With ``circumsolar="perez"`` the share F1 of the cloud light (tapered below 5 deg of sun) moves from the CIE
+    """With ``angular="cie_overcast", circumsolar="perez"`` the share F1 of the cloud light (tapered below 5 deg of sun) moves from the CIE
     overcast part to the sun; the DHI and the spectral shape of the cloud light stay; "none" keeps it all CIE."""
     from widesky.irradiance.overcast_sky import perez_circumsolar_fraction
     el, bn, dh = clear_spectra(3)
     el = np.array([3.0, 35.0, 60.0])
     dni = np.array([0.2, 0.4, 0.0]) * (bn @ W)
     dhi = np.array([2.0, 2.5, 1.2]) * (dh @ W)
-    base = dict(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False)
+    base = dict(cloud_absorption=False, cloud_vapour=False, cloud_rayleigh=False, angular="cie_overcast")
     on = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(**base), earth_sun_distance=0.99)
     off = allsky_factors(EDGES, bn, dh, el, dni, dhi, options=AllSkyOptions(circumsolar="none", **base))
     np.testing.assert_allclose(off.circumsolar_dhi, 0.0)

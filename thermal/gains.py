@@ -9,6 +9,14 @@ glass from that part [W m-2]. The broadband route users know: the unit's rated g
 weighted) times its normalised angular curve, as an :class:`widesky.irradiance.AngularTable`, applied by
 the same integrator to broadband light. The two differ only by the spectrum the glazing sees.
 
+Broadband light is the whole solar spectrum, as a weather file's DNI/DHI and a pyranometer give it: the
+integrator's irradiance over the sky's channels (280-2480 nm) divided by
+:func:`widesky.core.spectral.in_band_share` (0.99248), widesky's one convention (docs/thermal.md, "Total
+shortwave"). :func:`irradiance_by_surface` (the total shortwave on opaque surfaces and the broadband window
+route) and both routes of :func:`window_gain_by_surface` are broadband so: the light beyond 2480 nm (0.75 % of
+AM1.5G) passes at each route's own mean g (the rated route's AM1.5-weighted g(theta), the spectral route's
+g weighted by the step's in-band spectrum from each direction), so the routes still differ only by the spectrum.
+
 Units: [W m-2] per m2 of glass, angles [deg], wavelength [nm].
 """
 
@@ -16,13 +24,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from widesky.core.spectral import in_band_share
 from widesky.irradiance import AngularTable, Response, SpectralAngularTable, make_scene
 
 from .glazing import ANGLES, WAVELENGTHS, GlazingUnit
 from .loads import glazing_g_table
 
 __all__ = ["glazing_response", "rated_glazing_response", "building_scene", "irradiance_by_surface",
-           "window_gain_by_surface", "group_weights", "front_faces"]
+           "window_gain_by_surface", "group_weights", "front_faces", "result_in_band_share"]
 
 
 def glazing_response(unit: GlazingUnit, name=None, quantity="shgc"):
@@ -102,16 +111,24 @@ def group_weights(res, labels):
     return M / M.sum(0)
 
 
+def result_in_band_share(res):
+    """:func:`widesky.core.spectral.in_band_share` [1] of a POAResult's channel range (280-2480 nm when the
+    result carries no channel edges): broadband [W m-2] = in-band [W m-2] / share."""
+    e = getattr(res, "channel_edges", None)
+    lo, hi = (280.0, 2480.0) if e is None else (float(np.asarray(e)[0]), float(np.asarray(e)[-1]))
+    return in_band_share(lo, hi)
+
+
 def irradiance_by_surface(res, labels):
-    """Area-weighted broadband parts per surface from a POAResult.
+    """Area-weighted broadband (whole solar spectrum) parts per surface from a POAResult: the total shortwave.
 
     Returns
     -------
     dict of numpy.ndarray
         (T, S): ``poa_direct``, ``poa_sky_diffuse``, ``poa_ground_diffuse``, ``poa_global``
-        [W m-2] and ``aoi`` [deg] (NaN at night).
+        [W m-2] (the integrator's in-band parts / :func:`result_in_band_share`) and ``aoi`` [deg] (NaN at night).
     """
-    M = group_weights(res, labels)
+    M = group_weights(res, labels) / result_in_band_share(res)
     out = {f"poa_{p}": res.get("broadband", p) @ M
            for p in ("direct", "sky_diffuse", "ground_diffuse", "global")}
     with np.errstate(invalid="ignore"):
@@ -138,7 +155,7 @@ def window_gain_by_surface(res, labels, building, constructions, route="spectral
         raise ValueError(f"route={route!r} not one of ('spectral', 'rated')")
     surf = [s for s in building.surfaces if s.kind != "shading"]
     wins = [s for s in surf if s.kind == "window"]
-    M = group_weights(res, [s.label for s in wins])
+    M = group_weights(res, [s.label for s in wins]) / result_in_band_share(res)     # on broadband light
     out = np.zeros((res.n_steps, len(wins)))
     for j, s in enumerate(wins):
         name = f"{constructions[s.construction].name}:{route}"

@@ -1,0 +1,279 @@
+"""A street canyon under a measured year: widesky per face group and part (issue 39's canyon scene).
+
+An east-west street canyon between two long blocks (street ``W`` wide, blocks ``H`` high and ``D`` deep,
+``L`` long), the Denver TMY3 year (shipped), a grey ground of albedo 0.2 (the scene's, not the file's), facades
+0.3, roofs 0.2. Sensor patches (analysis
+groups) in the middle of the blocks, the rest of the blocks context:
+
+* ``canyon_facing_south`` (the north block's street facade), ``canyon_facing_north`` (the south block's, in shade
+  most of the day), ``open_south`` / ``open_north`` (the blocks' outer facades), ``roof`` (the north block's).
+
+Prints the annual irradiation [kWh m-2] per group and part (direct, sky, reflected, global).
+:func:`canyon_scene` is the reusable scene builder (issue 36 times this benchmark): it returns the widesky
+scene and the quads (vertices, normal side, material) for another tool.
+
+Radiance cross-check (``--radiance WORKDIR``; pyradiance 1.3.1, an optional benchmark dependency that ships the
+Radiance binaries, ``pip install pyradiance==1.3.1``; skipped with that reason where it is absent): daylight
+coefficients of the same sensor points over Reinhart MF 4 (rfluxmtx for the sky, rcontrib over suns at the patch
+centres for the sun, 5-phase style) times gendaymtx's Perez all-weather sky and sun matrices of the same EPW
+(:func:`radiance_canyon`). Pitfalls met on the way (and those the issue noted): rcontrib's ``-fd`` also sets the
+*input* to binary, so ascii rays need ``-fad``; rcontrib writes coefficients per unit source radiance (no division
+by the light's radiance); a glow of radius 0 is reached only by the ambient calculation, so the sky's direct view
+is ``-ab 1`` and one reflection ``-ab 2``, the sun's direct ``-ab 0`` and one reflection ``-ab 1``; gendaymtx's
+``-c`` comes before ``-d``/``-s``; a numpy product of the matrices replaces the single-threaded dctimestep.
+
+Usage:  python benchmarks/bench_radiance_canyon.py [--stride N] [--tolerance 0.02] [--jobs N]
+        [--radiance WORKDIR [--bounces 5] [--ad 4096]]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import trimesh
+
+GROUPS = ("canyon_facing_south", "canyon_facing_north", "open_south", "open_north", "roof")
+
+
+def _quad(p0, p1, p2, p3):
+    """Two triangles of the quad p0 p1 p2 p3 (counter-clockwise seen from the side its normal points to)."""
+    return trimesh.Trimesh(np.array([p0, p1, p2, p3], dtype=float), [[0, 1, 2], [0, 2, 3]], process=False)
+
+
+def _grid(origin, u, v, nu, nv):
+    """The parallelogram origin + [0, 1] u + [0, 1] v as nu x nv quads, normal u x v."""
+    o, u, v = (np.asarray(a, dtype=float) for a in (origin, u, v))
+    quads = [_quad(o + i / nu * u + j / nv * v, o + (i + 1) / nu * u + j / nv * v,
+                   o + (i + 1) / nu * u + (j + 1) / nv * v, o + i / nu * u + (j + 1) / nv * v)
+             for i in range(nu) for j in range(nv)]
+    return trimesh.util.concatenate(quads)
+
+
+def canyon_scene(street=12.0, height=12.0, depth=12.0, length=96.0, sensor=12.0, facade_rho=0.3, roof_rho=0.2,
+                 ground_albedo=0.2, subdivide=3, samples_per_face=1):
+    """The canyon scene.
+
+    Parameters
+    ----------
+    street, height, depth, length : float
+        Street width, block height, block depth, block length [m] (the street runs east-west along x).
+    sensor : float
+        Length [m] of the sensor patches along the blocks (centred).
+    facade_rho, roof_rho, ground_albedo : float
+        Diffuse reflectances [1].
+    subdivide : int
+        Sensor faces per side of a sensor patch (``subdivide x subdivide`` quads).
+
+    Returns
+    -------
+    dict
+        ``scene`` (:class:`widesky.irradiance.Scene`, groups :data:`GROUPS`), ``analysis`` and ``context``
+        (lists of trimesh meshes), ``reflectance`` (per analysis mesh, per context mesh) and ``quads``
+        [(trimesh, material name)] of every surface (analysis first), for another tool.
+    """
+    from widesky.irradiance.scene import make_scene
+    W, H, D, L, S = street, height, depth, length, sensor
+    x0, x1, s0, s1 = -L / 2, L / 2, -S / 2, S / 2
+    ys_in, ys_out, yn_in, yn_out = -W / 2, -W / 2 - D, W / 2, W / 2 + D    # south / north block faces
+    n = subdivide
+    # facades facing south (normal -y): origin at the west end, u along +x, v up -> u x v = -y
+    def facing_south(y, xa, xb):
+        return _grid((xa, y, 0.0), (xb - xa, 0, 0), (0, 0, H), n if xb - xa == S else 1, n if xb - xa == S else 1)
+
+    def facing_north(y, xa, xb):
+        return _grid((xb, y, 0.0), (xa - xb, 0, 0), (0, 0, H), n if xb - xa == S else 1, n if xb - xa == S else 1)
+
+    def roof(ya, yb, xa, xb):
+        return _grid((xa, ya, H), (xb - xa, 0, 0), (0, yb - ya, 0), n if xb - xa == S else 1, n if xb - xa == S else 1)
+
+    analysis = [facing_south(yn_in, s0, s1), facing_north(ys_in, s0, s1), facing_south(ys_out, s0, s1),
+                facing_north(yn_out, s0, s1), roof(yn_in, yn_out, s0, s1)]
+    a_rho = [facade_rho, facade_rho, facade_rho, facade_rho, roof_rho]
+    context, c_rho = [], []
+    for xa, xb in ((x0, s0), (s1, x1)):
+        context += [facing_south(yn_in, xa, xb), facing_north(ys_in, xa, xb), facing_south(ys_out, xa, xb),
+                    facing_north(yn_out, xa, xb)]
+        c_rho += [facade_rho] * 4
+        context += [roof(yn_in, yn_out, xa, xb), roof(ys_out, ys_in, xa, xb)]
+        c_rho += [roof_rho] * 2
+    context.append(roof(ys_out, ys_in, s0, s1))                        # the south block's roof, middle
+    c_rho.append(roof_rho)
+    for x, sgn in ((x0, -1), (x1, 1)):                                 # the blocks' end walls
+        for ya, yb in ((ys_out, ys_in), (yn_in, yn_out)):
+            if sgn > 0:
+                context.append(_grid((x, ya, 0.0), (0, yb - ya, 0), (0, 0, H), 1, 1))
+            else:
+                context.append(_grid((x, yb, 0.0), (0, ya - yb, 0), (0, 0, H), 1, 1))
+            c_rho.append(facade_rho)
+    scene = make_scene(analysis, context, groups=list(GROUPS), analysis_reflectance=a_rho,
+                       context_reflectance=c_rho, ground_z=0.0, ground_albedo=ground_albedo,
+                       samples_per_face=samples_per_face)
+    quads = [(m, "roof" if r == roof_rho and m is analysis[-1] else "facade") for m, r in zip(analysis, a_rho)]
+    quads += [(m, "facade" if r == facade_rho else "roof") for m, r in zip(context, c_rho)]
+    return {"scene": scene, "analysis": analysis, "context": context, "reflectance": (a_rho, c_rho),
+            "quads": quads, "ground_albedo": ground_albedo}
+
+
+def widesky_canyon(built, weather="data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw", tolerance=0.02, jobs=None,
+                   stride=1):
+    """Annual irradiation [kWh m-2] per group and part: dict group -> dict part -> value; and the run's seconds."""
+    from widesky.irradiance.integrator import IntegratorSettings
+    from widesky.irradiance.simulation import Simulation
+    scene = built["scene"]
+    sim = Simulation(scene, weather=weather, settings=IntegratorSettings.for_tolerance(tolerance), n_jobs=jobs)
+    steps = None if stride == 1 else slice(None, None, stride)
+    t0 = time.perf_counter()
+    res = sim.run(steps=steps)
+    secs = time.perf_counter() - t0
+    area = scene.face_area
+    out = {}
+    for g, name in enumerate(GROUPS):
+        m = scene.face_group == g
+        a = area[m] / area[m].sum()
+        out[name] = {p: float(np.sum(getattr(res, f"poa_{p}")[:, m] @ a)) * stride / 1000.0
+                     for p in ("direct", "sky_diffuse", "ground_diffuse", "global")}
+    return out, secs
+
+
+def _radiance_env():
+    """PATH and RAYPATH for the Radiance binaries pyradiance ships; None where pyradiance is absent."""
+    import os
+    try:
+        import pyradiance
+    except ImportError:
+        return None
+    root = os.path.dirname(pyradiance.__file__)
+    env = dict(os.environ)
+    env["PATH"] = os.path.join(root, "bin") + os.pathsep + env.get("PATH", "")
+    env["RAYPATH"] = os.pathsep.join([".", os.path.join(root, "lib")])
+    return env
+
+
+def _read_matrix(data):
+    """A Radiance matrix (header, then binary doubles) as (NROWS, NCOLS, NCOMP)."""
+    head, _, body = data.partition(b"\n\n")
+    info = dict(line.split("=", 1) for line in head.decode(errors="replace").splitlines() if "=" in line)
+    rows, cols, comp = (int(info[k].strip()) for k in ("NROWS", "NCOLS", "NCOMP"))
+    return np.frombuffer(body, dtype="<f8", count=rows * cols * comp).reshape(rows, cols, comp)
+
+
+def radiance_canyon(built, epw, workdir, mf=4, bounces=5, ad=4096, lw=1e-4):
+    """Radiance daylight coefficients of the same scene and weather: annual [kWh m-2] per group and part.
+
+    Sky: rfluxmtx (Reinhart MF ``mf`` + ground glow) x gendaymtx's Perez all-weather sky (``-O1`` broadband
+    radiance, ground glow 0: the ground is a 10 km polygon of the scene's albedo). Sun: rcontrib over suns at the
+    Reinhart patch centres (radius 0.533 deg, 5-phase style) x gendaymtx ``-5 0.533 -d``. ``direct + sky`` from
+    the runs without reflections (sun ``-ab 0``, sky ``-ab 1``: a glow with radius 0 is seen through the ambient
+    calculation only), reflected light = converged (``bounces`` more) minus those.
+    """
+    import subprocess
+    from pathlib import Path
+    env = _radiance_env()
+    if env is None:
+        raise RuntimeError("pyradiance is not installed (pip install pyradiance==1.3.1)")
+    wd = Path(workdir)
+    wd.mkdir(parents=True, exist_ok=True)
+
+    def run(cmd, stdin=None, out=None):
+        r = subprocess.run(cmd, input=stdin, capture_output=True, env=env, cwd=wd, check=False)
+        if r.returncode != 0:
+            raise RuntimeError(f"{cmd[0]} failed: {r.stderr.decode(errors='replace')[-400:]}")
+        if out is not None:
+            (wd / out).write_bytes(r.stdout)
+        return r.stdout
+
+    a_rho, c_rho = built["reflectance"]
+    lines = [f"void plastic mat_{i} 0 0 5 {r:g} {r:g} {r:g} 0 0" for i, r in enumerate(list(a_rho) + list(c_rho))]
+    for i, m in enumerate(list(built["analysis"]) + list(built["context"])):
+        for j, t in enumerate(m.vertices[m.faces]):
+            lines.append(f"mat_{i} polygon s{i}_{j} 0 0 9 " + " ".join(f"{x:.6f}" for x in t.ravel()))
+    g, R = built["ground_albedo"], 5000.0
+    lines.append(f"void plastic ground_mat 0 0 5 {g:g} {g:g} {g:g} 0 0")
+    lines.append(f"ground_mat polygon ground 0 0 12 {-R} {-R} 0 {R} {-R} 0 {R} {R} 0 {-R} {R} 0")
+    (wd / "scene.rad").write_text("\n".join(lines) + "\n")
+    (wd / "sky.rad").write_text("#@rfluxmtx h=u u=Y\nvoid glow groundglow 0 0 4 1 1 1 0\n"
+                                "groundglow source ground 0 0 4 0 0 -1 180\n"
+                                f"#@rfluxmtx h=r{mf} u=Y\nvoid glow skyglow 0 0 4 1 1 1 0\n"
+                                "skyglow source skydome 0 0 4 0 0 1 180\n")
+    sc = built["scene"]
+    pts = sc.points + sc.origin + 0.01 * sc.point_normal
+    rays = "".join(f"{p[0]:.5f} {p[1]:.5f} {p[2]:.5f} {n[0]:.6f} {n[1]:.6f} {n[2]:.6f}\n"
+                   for p, n in zip(pts, sc.point_normal)).encode()
+    N = pts.shape[0]
+    run(["oconv", "scene.rad"], out="scene.oct")
+    n_sun = int(run(["rcalc", "-n", "-e", f"MF:{mf}", "-f", "reinsrc.cal", "-e", "$1=Rmax"]).split()[0])
+    suns = run(["rcalc", "-e", f"MF:{mf}", "-f", "reinsrc.cal", "-e", "Rbin=recno",
+                "-o", "solar source sun 0 0 4 ${Dx} ${Dy} ${Dz} 0.533"], stdin=b"\n".join([b"1"] * n_sun) + b"\n")
+    (wd / "suns.rad").write_bytes(b"void light solar 0 0 3 1e6 1e6 1e6\n" + suns)
+    run(["oconv", "scene.rad", "suns.rad"], out="sun.oct")
+    common = ["-ad", str(ad), "-lw", str(lw), "-aa", "0"]
+    dc = {}
+    for ab in (1, bounces + 1):
+        out = run(["rfluxmtx", "-I+", "-y", str(N), "-ab", str(ab), *common, "-fad", "-", "sky.rad", "-i",
+                   "scene.oct"], stdin=rays)
+        dc[("sky", ab)] = _read_matrix(out)[..., 0]
+    for ab in (0, bounces):
+        out = run(["rcontrib", "-I+", "-y", str(N), "-ab", str(ab), *common, "-dc", "1", "-dt", "0", "-dj", "0", "-st", "1",
+                   "-ss", "0", "-e", f"MF:{mf}", "-f", "reinhart.cal", "-b", "rbin", "-bn", "Nrbins",
+                   "-m", "solar", "-fad", "sun.oct"], stdin=rays)
+        dc[("sun", ab)] = _read_matrix(out)[..., 0]              # coefficients: per unit source radiance
+    run(["epw2wea", str(epw), "year.wea"])
+    sky = _read_matrix(run(["gendaymtx", "-O1", "-m", str(mf), "-g", "0", "0", "0", "-c", "1", "1", "1", "-s",
+                            "-od", "year.wea"]))[..., 0]
+    sun = _read_matrix(run(["gendaymtx", "-O1", "-m", str(mf), "-5", "0.533", "-c", "1", "1", "1", "-d",
+                            "-od", "year.wea"]))[..., 0]
+    direct_sky = dc[("sun", 0)] @ sun + dc[("sky", 1)] @ sky                           # (N, T) [W m-2]
+    total = dc[("sun", bounces)] @ sun + dc[("sky", bounces + 1)] @ sky
+    face = {"direct_sky": direct_sky.sum(1) / 1000.0, "reflected": (total - direct_sky).sum(1) / 1000.0,
+            "global": total.sum(1) / 1000.0}
+    k = sc.samples_per_face
+    out = {}
+    for gi, name in enumerate(GROUPS):
+        m = sc.face_group == gi
+        a = sc.face_area[m] / sc.face_area[m].sum()
+        out[name] = {p: float(v.reshape(-1, k).mean(1)[m] @ a) for p, v in face.items()}
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--stride", type=int, default=1)
+    ap.add_argument("--tolerance", type=float, default=0.02)
+    ap.add_argument("--jobs", type=int, default=None)
+    ap.add_argument("--radiance", default=None, metavar="WORKDIR",
+                    help="also run the Radiance cross-check (pyradiance) in this folder")
+    ap.add_argument("--bounces", type=int, default=5)
+    ap.add_argument("--ad", type=int, default=4096)
+    a = ap.parse_args(argv)
+    built = canyon_scene()
+    res, secs = widesky_canyon(built, tolerance=a.tolerance, jobs=a.jobs, stride=a.stride)
+    print(f"widesky, Denver TMY3, {built['scene'].n_faces} faces, {secs:.0f} s")
+    print("| group | direct | sky | reflected | global | [kWh m-2 a-1] |")
+    print("|---|---|---|---|---|---|")
+    for g, r in res.items():
+        print(f"| {g} | {r['direct']:.1f} | {r['sky_diffuse']:.1f} | {r['ground_diffuse']:.1f} | {r['global']:.1f} | |")
+    if a.radiance is None:
+        return
+    if _radiance_env() is None:
+        print("Radiance cross-check skipped: pyradiance is not installed (an optional benchmark dependency: "
+              "pip install pyradiance==1.3.1)")
+        return
+    from widesky.core.paths import data_reference
+    t0 = time.perf_counter()
+    rad = radiance_canyon(built, data_reference("data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"), a.radiance,
+                          bounces=a.bounces, ad=a.ad)
+    print(f"Radiance (pyradiance), {time.perf_counter() - t0:.0f} s; widesky / Radiance - 1:")
+    print("| group | widesky direct + sky | Radiance | diff | widesky reflected | Radiance | diff | global diff |")
+    print("|---|---|---|---|---|---|---|---|")
+    for g, r in res.items():
+        q = rad[g]
+        ds = r["direct"] + r["sky_diffuse"]
+        print(f"| {g} | {ds:.1f} | {q['direct_sky']:.1f} | {ds / q['direct_sky'] - 1:+.1%} | "
+              f"{r['ground_diffuse']:.1f} | {q['reflected']:.1f} | "
+              f"{r['ground_diffuse'] / max(q['reflected'], 1e-9) - 1:+.1%} | {r['global'] / q['global'] - 1:+.1%} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,60 @@
+"""Surface materials on the command line (issue 39): ``widesky poa --reflectance GROUP=VALUE``.
+
+A 4 m wide floor strip (group ``floor.obj``) in front of a 4 m high wall (group ``wall.obj``): the wall's
+reflected light reaching the floor scales with the wall's reflectance (the floor's part from the wall is
+linear in it: the floor's reflected light at reflectance r is ``ground + r x wall`` with the ground's part
+independent of r, so three runs give 0, 1 and 2 times the wall's part within float32 rounding); bad values
+give exit status 2 and one line naming the option, the value and what is valid.
+"""
+
+import numpy as np
+import pandas as pd
+import pytest
+import trimesh
+
+from widesky.cli import main
+
+CLEAR = ["--lat", "48", "--lon", "11", "--tz", "Europe/Berlin", "--start", "2021-06-21T06:00",
+         "--end", "2021-06-21T20:00", "--jobs", "1"]
+
+
+@pytest.fixture(scope="module")
+def meshes(tmp_path_factory):
+    d = tmp_path_factory.mktemp("materials")
+    floor = np.array([[0, 0, 0.01], [4, 0, 0.01], [4, 4, 0.01], [0, 4, 0.01]], dtype=float)
+    wall = np.array([[0, 4.2, 0], [4, 4.2, 0], [4, 4.2, 4], [0, 4.2, 4]], dtype=float)   # facing south (-y)
+    trimesh.Trimesh(floor, [[0, 1, 2], [0, 2, 3]], process=False).export(d / "floor.obj")
+    trimesh.Trimesh(wall, [[0, 2, 1], [0, 3, 2]], process=False).export(d / "wall.obj")
+    return d / "floor.obj", d / "wall.obj"
+
+
+def _run(meshes, tmp_path, *extra):
+    floor, wall = meshes
+    out = tmp_path / f"r{len(list(tmp_path.iterdir()))}.csv"
+    assert main(["poa", str(floor), str(wall), *CLEAR, *extra, "--ground-z", "0", "-o", str(out)]) == 0
+    df = pd.read_csv(out, index_col=0)
+    return df[[c for c in df.columns if str(floor) in c and "ground_diffuse" in c]].to_numpy().sum()
+
+
+def test_wall_reflectance_moves_the_floor_light(meshes, tmp_path):
+    floor, wall = meshes
+    r0 = _run(meshes, tmp_path, "--reflectance", f"{wall}=0")
+    r1 = _run(meshes, tmp_path, "--reflectance", f"{wall}=0.3")
+    r2 = _run(meshes, tmp_path, "--reflectance", f"{wall}=0.6", "--reflectance", f"{floor}=0.9")
+    assert r1 > r0 * 1.05
+    np.testing.assert_allclose(r2 - r0, 2 * (r1 - r0), rtol=1e-3)
+    default = _run(meshes, tmp_path)                                   # 0.1 for analysis meshes
+    np.testing.assert_allclose(default - r0, (r1 - r0) / 3, rtol=1e-3)
+
+
+@pytest.mark.parametrize("item, msg", [("x.obj=0.3", "no analysis mesh 'x.obj'"), ("{wall}=1.5", "in [0, 1]"),
+                                       ("{wall}=refl.csv", "spectral reflectance file is not supported"),
+                                       ("0.3", "expected GROUP=VALUE")])
+def test_bad_reflectance_is_one_line(meshes, tmp_path, capsys, item, msg):
+    floor, wall = meshes
+    out = tmp_path / "x.csv"
+    assert main(["poa", str(floor), str(wall), *CLEAR, "--reflectance", item.format(wall=wall),
+                 "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--reflectance" in err and msg in err and err.count("\n") == 1
+    assert not out.exists()
