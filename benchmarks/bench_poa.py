@@ -9,8 +9,15 @@ at 50 N, 14.4 E (Prague), solar positions by irradiance.solarposition (NREL SPA)
 Baseline, same run: ray casting the sky anew for every hour (what per-hour ray tracers do) on a few
 daylight hours, scaled to the year's daylight hours; the ratio is reported.
 
-Run: python benchmarks/bench_poa.py [--faces 20000] [--jobs 2] [--baseline-hours 3]
+Run: python benchmarks/bench_poa.py [--faces 20000] [--jobs 2] [--baseline-hours 3] [--dask N]
      [--mf M --rays-per-patch K --radiance-samples K]  (default: IntegratorSettings())
+
+The headline figure is faces x hours per second (the period's hours, daylight or not, per second of wall time,
+end to end); ``--dask N`` casts the rays on a local Dask cluster of N worker processes through
+``RunOptions(executor=client.get_executor())`` (no other change; the check sum is printed to compare).
+
+The per-step sky cost (issue 36): ``--sky-steps [--repeat 2]`` times the sky stage alone against a per-state
+baseline (see :func:`sky_steps`).
 
 Memory and time against today's code path (issue 17):
 
@@ -36,6 +43,8 @@ import time
 import numpy as np
 import pandas as pd
 import trimesh
+
+from widesky.irradiance.integrator import IntegratorSettings
 
 
 def grid_plane(nx, ny, size_x, size_y):
@@ -292,6 +301,110 @@ def compare(args):
     return 0
 
 
+class PerStateSky:
+    """Baseline sky source for ``--sky-steps``: the Prague Sky Model evaluated as before issue 36, one
+    ``skymodel.sky_radiance`` call per distinct sky state (elevation rounded as PragueSky rounds it, visibility,
+    albedo, altitude; steps that differ only in sun azimuth share a call, their directions rotated about the
+    zenith), i.e. a per-state table precompute of about 5-7 ms, then every sample direction; the sun's
+    spectrum by one ``solar_direct_normal`` call per step. Same values as :class:`PragueSky` (to float32
+    rounding), none of its per-configuration tables."""
+
+    def __init__(self, sky):
+        self.sky = sky
+
+    def __getattr__(self, name):          # everything else from the wrapped PragueSky, but not its new paths
+        if name in ("radiance_means", "state_order", "sky") or name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.sky, name)
+
+    def radiance(self, directions, states):
+        from widesky import skymodel
+        d = np.asarray(directions, dtype=float)
+        T, N = d.shape[0], d.shape[1]
+        out = np.empty((T, N, self.n_channels))
+        q = self.elevation_quantum
+        el = np.round(states.sun_elevation / q) * q if q > 0 else states.sun_elevation
+        key = np.stack([el, states.visibility, states.albedo, states.altitude], axis=1)
+        _, inverse = np.unique(key, axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        for g in range(inverse.max() + 1 if T else 0):
+            members = np.nonzero(inverse == g)[0]
+            ref = members[0]
+            delta = np.radians(states.sun_azimuth[ref] - states.sun_azimuth[members])
+            cd, sd = np.cos(delta)[:, None], np.sin(delta)[:, None]
+            dm = d[members]
+            rot = np.stack([dm[..., 0] * cd + dm[..., 1] * sd, -dm[..., 0] * sd + dm[..., 1] * cd, dm[..., 2]],
+                           axis=-1)
+            vals = skymodel.sky_radiance(self.model, rot.reshape(-1, 3), float(el[ref]),
+                                         float(states.sun_azimuth[ref]), float(states.visibility[ref]),
+                                         float(states.albedo[ref]), float(states.altitude[ref]),
+                                         channels=self.channels, threads=self.threads)
+            out[members] = np.asarray(vals).reshape(members.size, N, self.n_channels)
+        return out
+
+    def direct_normal(self, states):
+        from widesky import skymodel
+        dni = skymodel.solar_direct_normal(self.model, states.sun_elevation, states.sun_azimuth, states.visibility,
+                                           states.albedo, states.altitude, channels=self.channels,
+                                           threads=self.threads)
+        dni = np.asarray(dni, dtype=float).reshape(len(states), self.n_channels)
+        return np.where((states.sun_elevation > 0)[:, None], dni, 0.0)
+
+
+def sky_steps(args):
+    """The per-step sky cost (issue 36): the sky stage of ``poa_irradiance`` alone (the sky of every daylight hour
+    of a year, contracted to the benchmark's responses) with :class:`PerStateSky` (baseline) and ``PragueSky``,
+    interleaved, CPU time; for the clear-sky year of this benchmark and the Denver TMY3 year under the all-sky
+    model (the default weather path), and the largest difference of the contracted patch radiance."""
+    from widesky.irradiance import poa as poamod
+    from widesky.irradiance.scene import make_scene
+    from widesky.irradiance.simulation import SKY_DEFAULTS, Simulation
+    from widesky.irradiance.sky_chunks import evaluate_sky
+    analysis, groups, context = benchmark_scene(200)
+    scene = make_scene(analysis, context, groups=groups, ground_z=0.0)
+    cases = []
+    times, states = year_states()
+    sky, which = sky_source(args.dataset)
+    cases.append(("clear-sky year (Prague, this benchmark's states)", sky, states, None))
+    for model in ("allsky", "clear"):
+        sim = Simulation(scene, weather="data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw",
+                         sky=SKY_DEFAULTS.replace(spectral_model=model, dataset=args.dataset), n_jobs=1)
+        a = sim.integrator_arguments()
+        name = ("Denver TMY3, all-sky model (the default weather path)" if model == "allsky" else
+                "Denver TMY3, clear-sky spectra scaled to measured DNI/DHI")
+        cases.append((name, sim.sky_source, a["states"], a["weather"]))
+    print(f"load average before: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores; CPU time of this "
+          f"process (one thread), {args.repeat} interleaved rounds, best round")
+    print("| sky stage | baseline: per-state precompute [ms/step] | per-configuration tables [ms/step] | "
+          "ratio | largest difference |")
+    print("|---|---|---|---|---|")
+    for name, sky, st, weather in cases:
+        sky.model.radiance_coefficients()
+        base = PerStateSky(sky)
+        resp = responses(sky.wavelengths)
+        cols = poamod.sky_columns(scene, sky, resp, False, None)
+        best, terms = {}, {}
+        for rep in range(args.repeat):
+            for label, src in (("base", base), ("new", sky)):
+                if label == "new":
+                    sky._radiance_tables = None          # each round builds its tables anew
+                    sky.model.__dict__.pop("_radiance_tables", None)
+                scaling = poamod.step_scaling(weather or poamod.MeasuredSky(), st, src, scene.ground_albedo)
+                W = cols.Wall if scaling.ground_shape is None else cols.with_ground_shape(scaling.ground_shape).Wall
+                plan = poamod.output_plan(scene, src, st, IntegratorSettings(), cols.resp, poamod.OutputOptions())
+                c0 = time.process_time()
+                terms[label] = evaluate_sky(src, st, IntegratorSettings(), W, scaling, plan.lit)
+                c = time.process_time() - c0
+                best[label] = min(best.get(label, np.inf), c / plan.lit.size)
+        a, b = terms["base"].Lp.astype(float), terms["new"].Lp.astype(float)
+        diff = (np.abs(a - b) / np.maximum(np.abs(a).max(axis=1, keepdims=True), 1e-30)).max()
+        print(f"| {name}, {plan.lit.size} daylight hours | {1e3 * best['base']:.2f} | {1e3 * best['new']:.3f} | "
+              f"**{best['base'] / best['new']:.1f}x** | {diff:.1e} of the step's largest patch radiance |",
+              flush=True)
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
+    return 0
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--compare", action="store_true",
@@ -306,6 +419,10 @@ def main(argv=None):
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--baseline-hours", type=int, default=3)
     ap.add_argument("--dataset", default=None, help="PSM dataset file (default: the embedded one)")
+    ap.add_argument("--dask", type=int, default=0,
+                    help="cast the rays on a local Dask cluster of this many worker processes (RunOptions(executor=...))")
+    ap.add_argument("--sky-steps", action="store_true",
+                    help="the per-step sky cost against the per-state baseline (see sky_steps)")
     ap.add_argument("--mf", type=int, default=None, help="override IntegratorSettings.mf")
     ap.add_argument("--rays-per-patch", type=int, default=None, help="override rays_per_patch")
     ap.add_argument("--radiance-samples", type=int, default=None, help="override radiance_samples")
@@ -314,6 +431,8 @@ def main(argv=None):
         return _worker(args.worker, args.faces, args.jobs, args.worker_output)
     if args.compare:
         return compare(args)
+    if args.sky_steps:
+        return sky_steps(args)
     from widesky.irradiance.integrator import IntegratorSettings
     from widesky.irradiance.poa import RunOptions, poa_irradiance
     from widesky.irradiance.scene import make_scene
@@ -332,13 +451,33 @@ def main(argv=None):
           f"{len(states)} hourly steps; sky: PSM {which}, {sky.n_channels} channels -> "
           f"{1 + len(resp)} responses; settings {settings}")
     print(f"load average before the run: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores")
+    import resource
+    cluster = client = None
+    run = RunOptions(n_jobs=args.jobs, progress=sys.stderr.isatty())
+    if args.dask:                 # the same run on a local multi-process Dask cluster: no code change
+        import distributed
+        cluster = distributed.LocalCluster(n_workers=args.dask, threads_per_worker=1, processes=True,
+                                           host="127.0.0.1", dashboard_address=None, silence_logs=50)
+        client = distributed.Client(cluster)
+        run = RunOptions(executor=client.get_executor(), progress=sys.stderr.isatty())
+    ru0 = resource.getrusage(resource.RUSAGE_SELF)
     t0 = time.perf_counter()
-    res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times,
-                         run=RunOptions(n_jobs=args.jobs, progress=sys.stderr.isatty()))
+    res = poa_irradiance(scene, sky, states, responses=resp, settings=settings, times=times, run=run)
     t_total = time.perf_counter() - t0
+    ru1 = resource.getrusage(resource.RUSAGE_SELF)
+    if client is not None:
+        client.close()
+        cluster.close()
     tm = res.timings
     n_lit = tm["lit_steps"]
-    print(f"end to end: {t_total:.1f} s (+ {t_setup:.1f} s building the scene and solar positions)")
+    cpu_main = (ru1.ru_utime + ru1.ru_stime) - (ru0.ru_utime + ru0.ru_stime)
+    print(f"end to end: {t_total:.1f} s (+ {t_setup:.1f} s building the scene and solar positions); "
+          f"CPU of this process {cpu_main:.1f} s; peak RSS of this process {ru1.ru_maxrss / 1024:.0f} MB"
+          f"{'; ray casting on a local Dask cluster of %d worker processes' % args.dask if args.dask else ''}")
+    print(f"**headline: {scene.n_faces * len(states) / t_total / 1e6:.2f} M faces x hours per second** "
+          f"({scene.n_faces} faces x {len(states)} hours of the period in {t_total:.1f} s wall; "
+          f"{scene.n_faces * n_lit / t_total / 1e6:.2f} M faces x daylight hours per second)")
+    print(f"  check sum of broadband poa_global: {float(sum(res.get('broadband', 'global', steps=slice(a, a + 512)).sum(dtype=np.float64) for a in range(0, res.n_steps, 512))):.6e} W m-2")
     print(f"  ray casting: {tm['rays']:.1f} s wall, {tm['n_rays'] / 1e6:.1f} M rays "
           f"({tm['sun_bins']} sun-position bins), {tm['n_rays'] / tm['rays'] / 1e6:.2f} M rays/s on "
           f"{args.jobs} processes (this process evaluated the sky meanwhile)")
@@ -352,6 +491,9 @@ def main(argv=None):
     print("  annual POA global per group [kWh m-2]: " +
           ", ".join(f"{g} {v:.0f}" for g, v in zip(res.group_names, kwh)))
 
+    if args.baseline_hours <= 0:
+        print(f"load average after: {os.getloadavg()[0]:.1f}")
+        return 0
     # baseline: the sky ray-cast anew for every hour, a few daylight hours, scaled
     lit = np.nonzero(states.sun_elevation > 5)[0]
     pick = lit[np.linspace(0, lit.size - 1, args.baseline_hours).astype(int)]

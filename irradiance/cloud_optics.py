@@ -393,6 +393,25 @@ def cloud_vapour_path(tau, temp_dew, asymmetry=DEFAULT_ASYMMETRY, radius_um=DEFA
     return np.clip(np.where(np.isfinite(du), du, 0.0), 0.0, 2.0 * US62_WATER_COLUMN)
 
 
+@functools.lru_cache(maxsize=8)
+def _vapour_log_ratio(lower_edges, data_dir):
+    """log(T(2 u0) / T(u0)) per channel (C,) from the 6S band table, read once per channel set (the all-sky
+    path asks for it every chunk of steps)."""
+    a = np.genfromtxt(runtime_file("gas/6S_band_gas_transmittance_USS62_55ch.csv", data_dir),
+                      delimiter=",", names=True)
+    ratio = []
+    for lo in lower_edges:
+        r0 = a[(a["sza"] == 0) & np.isclose(a["lo_nm"], lo)]
+        r6 = a[(a["sza"] == 60) & np.isclose(a["lo_nm"], lo)]
+        if len(r0) != 1 or len(r6) != 1:
+            raise ValueError(f"channel starting at {lo} nm is not in the 6S band table (280-2480 nm, 40 nm)")
+        t0, t6 = float(r0["T_h2o"][0]), float(r6["T_h2o"][0])
+        ratio.append(t6 / t0 if t0 > 1e-6 else 1.0)
+    out = np.log(np.clip(np.array(ratio), 1e-6, 1.0))
+    out.flags.writeable = False
+    return out
+
+
 def vapour_band_deepening(channel_edges, delta_u, data_dir=None):
     """Band transmittance factor [1] of an extra water-vapour path per channel.
 
@@ -415,18 +434,7 @@ def vapour_band_deepening(channel_edges, delta_u, data_dir=None):
     numpy.ndarray
         (T, C) factors in (0, 1].
     """
-    a = np.genfromtxt(runtime_file("gas/6S_band_gas_transmittance_USS62_55ch.csv", data_dir),
-                      delimiter=",", names=True)
-    e = np.asarray(channel_edges, dtype=float)
-    ratio = []
-    for lo in e[:-1]:
-        r0 = a[(a["sza"] == 0) & np.isclose(a["lo_nm"], lo)]
-        r6 = a[(a["sza"] == 60) & np.isclose(a["lo_nm"], lo)]
-        if len(r0) != 1 or len(r6) != 1:
-            raise ValueError(f"channel starting at {lo} nm is not in the 6S band table (280-2480 nm, 40 nm)")
-        t0, t6 = float(r0["T_h2o"][0]), float(r6["T_h2o"][0])
-        ratio.append(t6 / t0 if t0 > 1e-6 else 1.0)
-    logr = np.log(np.clip(np.array(ratio), 1e-6, 1.0))
+    logr = _vapour_log_ratio(tuple(np.asarray(channel_edges, dtype=float)[:-1]), data_dir)
     du = np.asarray(delta_u, dtype=float)[:, None]
     return np.exp(logr[None, :] * du / US62_WATER_COLUMN)
 

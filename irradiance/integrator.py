@@ -22,13 +22,14 @@ Method (a daylight-coefficient / "3-phase"-style split; Tregenza & Waters 1983, 
      model counts circumsolar light with the beam;
    * ``poa_sky_diffuse = D @ L``;
    * reflected sky ``(R + a A) @ L``; reflected sun ``E_n (R_sun[g] @ max(0, n_b . s) / pi +
-     a sin(elevation) A_sun[g] / pi)`` with ``g`` the step's shading cell; ground light passed on
-     by walls ``W L_g`` with the unshaded ground radiance ``L_g = a (E_n sin(elevation) + H . L) / pi``;
+     a sin(elevation) A_sun[g] / pi)`` with ``g`` the step's shading cell; the ground light walls pass
+     on is in ``A`` and ``A_sun`` (the ground point a wall's secondary ray reaches is traced to the sky and
+     the sun like the ground the face sees; ``W`` is 0 since issue 39);
    * ``poa_ground_diffuse`` is the sum of the reflected terms (pvlib's name for light reflected from
      the surroundings), ``poa_global = poa_direct + poa_sky_diffuse + poa_ground_diffuse``.
 
-Documented approximations: one reflection (off the ground or a scene surface; the ground light a wall
-passes on is the unshaded ground's); each reflecting point's sky is a one-sample estimate (unbiased,
+Documented approximations: one reflection (off the ground or a scene surface), plus the ground light a wall
+passes on (with the ground's own shading); each reflecting point's sky is a one-sample estimate (unbiased,
 its noise averages over the many reflecting points a face sees); the sun on reflectors is one sampled
 sun position per reflecting point and shading cell (elevation bands split into azimuth sectors of
 30-120 deg), so within a cell the reflected sun follows the cell's mean shading; reflector normals are quantised to 42 bins (about
@@ -42,6 +43,8 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from widesky.core.spectral import in_band_share
 
 from .measured import measured_scale_factors
 from .patches import SkyPatches, cosine_weights, orthonormal_frame, reinhart
@@ -78,6 +81,10 @@ class IntegratorSettings:
         :func:`widesky.irradiance.raycast.sun_bins`); 0 casts one ray per point and daylight step.
     time_chunk : int
         Steps per block of the time-series product (bounds memory).
+    reflections : int
+        Reflections per light path (fixed depth, >= 1): 1 is a single reflection off the ground or a scene
+        surface (plus the ground light a wall passes on); ``m`` follows each reflected ray that reaches a
+        surface to ``m`` reflections (``docs/irradiance-integrator.md``, "Multiple reflections").
     """
 
     mf: int = 1
@@ -88,6 +95,7 @@ class IntegratorSettings:
     circumsolar_sectors: int = 12
     sun_bin: float = 1.0
     time_chunk: int = 256
+    reflections: int = 3
 
     def __post_init__(self):
         for name in ("mf", "rays_per_patch", "radiance_samples", "circumsolar_rings",
@@ -98,6 +106,8 @@ class IntegratorSettings:
             raise ValueError(f"circumsolar_radius={self.circumsolar_radius} deg outside [0.5, 45]")
         if not 0.0 <= self.sun_bin <= 10.0:
             raise ValueError(f"sun_bin={self.sun_bin} deg outside [0, 10]")
+        if not (float(self.reflections) == int(self.reflections) and 1 <= int(self.reflections) <= 20):
+            raise ValueError(f"reflections={self.reflections} must be an integer in [1, 20]")
 
     @classmethod
     def for_tolerance(cls, tolerance):
@@ -261,15 +271,28 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     above = qp >= 0
     qd[~above] = (0.0, 0.0, 1.0)
     qp = np.maximum(qp, 0)
-    inside = (s @ reg_d.T) > cos_rad                                         # (T, n_reg + P)
-    dirs = np.concatenate([np.broadcast_to(reg_d, (T,) + reg_d.shape), qd], axis=1)
+    inside = (s @ reg_d.T) > cos_rad                                         # (T, n_reg)
     r2 = 1.0 / np.asarray(states.earth_sun_distance, dtype=float) ** 2             # (T,)
     f_sky = _step_channel_factor(sky_scale, T, C, "sky_scale") * r2[:, None]       # (T, C)
     f_sun = _step_channel_factor(sun_scale, T, C, "sun_scale") * r2[:, None]
-    L = (sky.radiance(dirs, states) * f_sky[:, None, :]) @ W                 # (T, Nd, R)
     R = W.shape[1]
     nr = P * n_sub
-    Lq = L[:, nr:]
+    wn = reg_w / reg_w.sum(axis=1, keepdims=True)                             # (P, n_sub)
+    ti, si = np.nonzero(inside)                                              # samples inside the disc
+    if hasattr(sky, "radiance_means"):        # patch means straight from the sky source
+        mean = sky.radiance_means(reg_d, np.repeat(np.arange(P), n_sub), wn.reshape(-1), states)   # (T, P, C)
+        Lq_s = sky.radiance(qd, states)                                      # (T, Q, C)
+        Lin_s = (sky.radiance(reg_d[si][:, None, :], states.take(ti))[:, 0] if ti.size
+                 else np.zeros((0, C)))
+    else:
+        dirs = np.concatenate([np.broadcast_to(reg_d, (T,) + reg_d.shape), qd], axis=1)
+        Ls = sky.radiance(dirs, states)                                      # (T, Nd, C)
+        Lr = Ls[:, :nr].reshape(T, P, n_sub, C)
+        mean = Lr[:, :, 0] * wn[None, :, 0, None]
+        for k in range(1, n_sub):
+            mean += Lr[:, :, k] * wn[None, :, k, None]
+        Lq_s, Lin_s = Ls[:, nr:], Ls[ti, si]
+    Lq = _contract(Lq_s * f_sky[:, None, :], W)                              # (T, Q, R)
     Lq[~above] = 0.0
     # node solid angles from the first response column's radial profile (nodes below the horizon
     # carry no sky)
@@ -282,13 +305,29 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     with np.errstate(invalid="ignore", divide="ignore"):
         l_edge = np.einsum("tq,tqr->tr", w_out, Lq[:, -ns:]) / w_out.sum(axis=1)[:, None]
     l_edge[~has_edge] = np.inf
-    circumsolar = np.einsum("tq,tqr->tr", qwt, np.maximum(Lq - l_edge[:, None, :], 0.0))
-    Lr = L[:, :nr]
-    Lr = np.where(inside[..., None], np.minimum(Lr, l_edge[:, None, :]), Lr)
-    # patch mean of the capped sky from the stratified samples (each patch's n_sub samples are contiguous)
-    out = np.einsum("pn,tpnr->tpr", reg_w / reg_w.sum(axis=1, keepdims=True), Lr.reshape(T, P, n_sub, R))
+    excess = Lq - l_edge[:, None, :]
+    np.maximum(excess, 0.0, out=excess)
+    circumsolar = np.einsum("tq,tqr->tr", qwt, excess)
+    # patch mean of the capped sky from the stratified samples (each patch's n_sub samples are contiguous):
+    # the mean of the spectra, contracted, then the few samples inside the disc corrected to their cap
+    out = _contract(mean * f_sky[:, None, :], W)                             # (T, P, R)
+    if ti.size:
+        Lin = _contract(Lin_s * f_sky[ti], W)                                # (k, R)
+        np.add.at(out, (ti, si // n_sub), wn.reshape(-1)[si][:, None] * (np.minimum(Lin, l_edge[ti]) - Lin))
     dni = (np.asarray(sky.direct_normal(states), dtype=float) * f_sun) @ W
     return out, dni, circumsolar
+
+
+def _contract(X, W):
+    """``X @ W`` for (..., C) values and a (C, R) contraction; when W ends with the identity (the all-sky model's
+    spectral columns) those columns are copied instead of multiplied (the same values)."""
+    C, R = W.shape
+    if R > C and np.array_equal(W[:, R - C:], np.eye(C)):
+        out = np.empty(X.shape[:-1] + (R,))
+        out[..., :R - C] = X @ W[:, :R - C]
+        out[..., R - C:] = X
+        return out
+    return X @ W
 
 
 def _step_channel_factor(value, T, C, name):
@@ -314,7 +353,7 @@ def horizontal_diffuse(patch_radiance, circumsolar, w_horizontal, sun_elevation)
 
 
 def model_irradiance(sky, states: SkyStates, settings=None, chunk: int = 256):
-    """Broadband direct normal and diffuse horizontal irradiance of the sky model per step.
+    """In-band direct normal and diffuse horizontal irradiance of the sky model per step (over its channels).
 
     Integrated with the integrator's own quadrature (patch means of ``reinhart(settings.mf)`` times
     their exact horizontal cosine weights, plus the circumsolar disc at the sun's cosine), so the
@@ -357,24 +396,31 @@ def model_irradiance(sky, states: SkyStates, settings=None, chunk: int = 256):
 def measured_scaling(sky, states: SkyStates, dni, dhi, settings=None, **kwargs):
     """Per-step factors that make the clear-sky model reproduce measured DNI and DHI.
 
-    :func:`model_irradiance` gives the model's values, :func:`widesky.irradiance.measured_scale_factors`
+    :func:`model_irradiance` gives the model's in-band values, :func:`widesky.irradiance.measured_scale_factors`
     the factors (keyword arguments go to it: floors, cap, ``missing``). Pass ``sun_scale`` and
     ``sky_scale`` to :func:`poa_irradiance` as ``MeasuredSky(dni_scale=..., diffuse_scale=...)``.
+    The measured values are broadband (the whole solar spectrum): the sky's channels are matched to them
+    times :func:`widesky.core.spectral.in_band_share` of the channels' range (0.99248 for 280-2480 nm), as
+    ``MeasuredSky(measured=...)`` does.
 
     Parameters
     ----------
     dni, dhi : array_like
-        (T,) measured direct normal and diffuse horizontal irradiance [W m-2] (NaN = missing).
+        (T,) measured (broadband) direct normal and diffuse horizontal irradiance [W m-2] (NaN = missing).
 
     Returns
     -------
     scaling : MeasuredScaling
-        Factors [1], guard flags and unmatched irradiance [W m-2] per step.
+        Factors [1], guard flags and unmatched broadband irradiance [W m-2] per step.
     model : tuple of numpy.ndarray
-        (model_dni, model_dhi) [W m-2] the factors divide by.
+        (model_dni, model_dhi) in-band [W m-2] the factors divide by.
     """
     mdni, mdhi = model_irradiance(sky, states, settings)
-    return measured_scale_factors(mdni, mdhi, dni, dhi, **kwargs), (mdni, mdhi)
+    edges = np.asarray(sky.channel_edges, dtype=float)
+    share = in_band_share(edges[0], edges[-1])
+    f = measured_scale_factors(mdni, mdhi, np.asarray(dni, dtype=float) * share,
+                               np.asarray(dhi, dtype=float) * share, **kwargs)
+    return f._replace(unmatched_dni=f.unmatched_dni / share, unmatched_dhi=f.unmatched_dhi / share), (mdni, mdhi)
 
 
 def lazy_zeros(shape, dtype):

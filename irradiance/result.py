@@ -307,9 +307,13 @@ class POAResult:
         """
         Mn, area = self._group_matrix()
         out = {"area": area}
+        T = self.n_steps
+        step = max(1, (64 << 20) // (8 * max(self.n_faces, 1)))       # blocks of steps: bounded memory
         for r in self.responses:
             for p in self.available_parts(r):
-                out[f"{r}:{p}"] = self.get(r, p) @ Mn
+                out[f"{r}:{p}"] = np.concatenate(
+                    [self.get(r, p, steps=slice(a, min(T, a + step))) @ Mn for a in range(0, T, step)]
+                    or [np.zeros((0, Mn.shape[1]))])
         for q, p in zip(self.QUANTITIES, ("global", "direct", "sky_diffuse", "ground_diffuse")):
             out[q] = out[f"broadband:{p}"]
         return out

@@ -19,12 +19,31 @@ from .result import PARTS, H5Writer, POAResult, atomic_h5
 __all__ = ["Sink", "run_provenance"]
 
 
+IN_MEMORY_BYTES = 2 << 30
+"""Largest in-memory result [bytes] (its (T, F) float32 arrays, and spectral (T, F, C) ones, at their full size):
+a run without an output file whose result would be larger streams it to a temporary HDF5 file instead (in
+``WIDESKY_TMPDIR``, else the system's temporary folder; removed when the result is closed or garbage
+collected, at once on POSIX systems), which the returned result reads on access: 1.6 GB peak resident at
+20,000 faces over an hourly year (docs/benchmarks.md). Below it the arrays stay in memory, the pages of night
+steps never touched (resident: about the daylight fraction of this size)."""
+
+
 class Sink:
-    """Where the blocks of output steps go: arrays in memory, or the HDF5 file."""
+    """Where the blocks of output steps go: arrays in memory, or the HDF5 file (given, or a temporary one for a
+    result larger than :data:`IN_MEMORY_BYTES`)."""
 
     def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral, compression=None,
                  stored=None):
         self.keys, self.T, self.F, self.C = keys, T, F, C
+        self.temporary = None
+        if path is None:
+            n_arr = len(keys) + 2 + (len(PARTS) + 1) * C * bool(spectral)
+            if 4 * T * F * n_arr > IN_MEMORY_BYTES:
+                import tempfile
+                fd, path = tempfile.mkstemp(prefix="widesky-result-", suffix=".h5",
+                                            dir=os.environ.get("WIDESKY_TMPDIR") or None)
+                os.close(fd)
+                self.temporary = path
         self.path, self.writer, self.ctx = path, None, None
         self.spectral = spectral
         self.resp_names, self.units, self.faces = resp_names, units, faces
@@ -71,6 +90,8 @@ class Sink:
         if not failed:
             self.writer.finish(**finish)
         self.ctx.__exit__(RuntimeError if failed else None, None, None)
+        if failed and self.temporary is not None and os.path.exists(self.temporary):
+            os.unlink(self.temporary)
 
 
     def result(self, timings, times, states, scaling, provenance, wavelengths, channel_edges):
@@ -78,6 +99,12 @@ class Sink:
         if self.path is not None:
             res = POAResult.load(self.path)
             res.timings = timings
+            if self.temporary is not None:             # the open file stays readable; the name goes now
+                try:
+                    os.unlink(self.temporary)
+                except OSError:                        # (not on Windows while open): at exit
+                    import atexit
+                    atexit.register(lambda p=self.temporary: os.path.exists(p) and os.unlink(p))
             return res
         full = self.full
         spec = ({p: full[("spectral", p)] for p in PARTS + ("global",)} if self.spectral else None)

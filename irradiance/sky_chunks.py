@@ -93,7 +93,8 @@ def evaluate_sky(sky, states, settings, Wall, scaling: StepScaling, lit) -> SkyT
     pos[lit] = np.arange(lit.size)
     Lp_all = np.zeros((lit.size, P, Wall.shape[1]), np.float32)
     dni_all = np.zeros((lit.size, Wall.shape[1]))
-    order = sky_state_order(states, lit)
+    # steps that share sky-model work next to each other (the sky's own order where it has one)
+    order = sky.state_order(states, lit) if hasattr(sky, "state_order") else sky_state_order(states, lit)
     seconds = 0.0
     for c0 in range(0, order.size, settings.time_chunk):
         idx = np.sort(order[c0:c0 + settings.time_chunk])

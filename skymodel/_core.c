@@ -1010,10 +1010,15 @@ static void rel_buf(buf_t *bb)
 
 #define NBUF 12
 
+/* The thread count a call with nthreads <= 0 ("all cores") gets: OpenMP's own default, read once before any
+ * call changes it (omp_set_num_threads is per calling thread and sticky, so 0 must restore it explicitly). */
+static int default_threads = 0;
+
 static void set_threads(int nthreads)
 {
 #ifdef WIDESKY_OPENMP
-    if (nthreads > 0) omp_set_num_threads(nthreads);
+    if (default_threads <= 0) default_threads = omp_get_max_threads();
+    omp_set_num_threads(nthreads > 0 ? nthreads : default_threads);
 #else
     (void)nthreads;
 #endif
@@ -2117,6 +2122,351 @@ static PyObject *py_has_openmp(PyObject *self, PyObject *args)
 #endif
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* per-configuration tables, kept by the caller (the integrator's time series)                */
+/*
+ * The radiance of a sky state is sum_c w_c max(0, f_c(gamma, zero)) over its (at most 16) corner
+ * configurations (a configuration: one visibility, albedo, altitude and elevation knot), each clamped
+ * on its own. The daytime table of ONE configuration with weight 1 depends on nothing else: not on
+ * the sun position (which only maps a direction to (gamma, zero)) nor on the state's weights. The
+ * integrator's sky states (thousands per year) share a few hundred configurations, so it builds each
+ * configuration's table once (radiance_config_table), keeps them, and evaluates every step as the
+ * weighted sum of its corners' tables at the step's own geometry (radiance_config_eval): the same sum
+ * as the merged table of py_radiance, in a different order (exact to rounding).
+ */
+
+/* radiance_config_table(sun, zen, emph, sb, zb, eb, rank, nch, cfg_base (1,), chi, tab_out)
+ * tab_out: float32 of (ns-1)*(nu-1)*6*ncp values, ncp = nc rounded up to a multiple of 8 (nu: the merged zenith and emphasis knots).
+ * Returns None when a merged cell is narrower than TABLE_MIN_CELL (the caller uses the exact
+ * direct path), else (mix_start int32 bytes, mix_ch int32 bytes, mix_coef float64 bytes). */
+static PyObject *py_radiance_config_table(PyObject *self, PyObject *args)
+{
+    PyObject *o[11];
+    int rank, nch;
+    if (!PyArg_ParseTuple(args, "OOOOOOiiOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &rank, &nch, &o[6],
+                          &o[7], &o[8]))
+        return NULL;
+    buf_t b[9];
+    memset(b, 0, sizeof(b));
+    const Py_ssize_t isz[9] = {4, 4, 4, 8, 8, 8, 8, 8, 4};
+    const char *names[9] = {"sun", "zen", "emph", "sun_breaks", "zen_breaks", "emph_breaks", "cfg_base",
+                            "channels", "tab_out"};
+    PyObject *ret = NULL;
+    for (int i = 0; i < 9; ++i)
+        if (get_buf(o[i], &b[i], i == 8, names[i], isz[i]) < 0) goto done;
+    if (!b[2].held || !b[5].held || b[6].b.len != 8) {
+        PyErr_SetString(PyExc_ValueError, "radiance_config_table: radiance (with emphasis), one configuration");
+        goto done;
+    }
+    {
+        int ns = (int)(b[3].b.len / 8), nz = (int)(b[4].b.len / 8), ne = (int)(b[5].b.len / 8);
+        int nc = (int)(b[7].b.len / 8);
+        comp_t m = {(const float *)b[0].b.buf, (const float *)b[1].b.buf, (const float *)b[2].b.buf,
+                    (const double *)b[3].b.buf, (const double *)b[4].b.buf, (const double *)b[5].b.buf,
+                    ns, nz, ne, rank, 1, nch};
+        const double one = 1.0;
+        table_t t;
+        int err;
+        Py_BEGIN_ALLOW_THREADS
+        set_threads(1);
+        err = table_build(&t, &m, (const int64_t *)b[6].b.buf, &one, 1, (const int64_t *)b[7].b.buf, nc);
+        Py_END_ALLOW_THREADS
+        if (err == 1) {
+            Py_INCREF(Py_None);
+            ret = Py_None;
+            goto done;
+        }
+        if (err) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        size_t need = (size_t)(ns - 1) * (t.nu - 1) * 6 * (((size_t)nc + 7) & ~(size_t)7);
+        if ((size_t)(b[8].b.len / 4) != need) {
+            table_free(&t);
+            PyErr_Format(PyExc_ValueError, "radiance_config_table: tab_out has %zd values, expected %zu",
+                         b[8].b.len / 8, need);
+            goto done;
+        }
+        /* rows padded to a multiple of 8 channels (whole vectors in the evaluation; the padding is 0) */
+        float *dst = (float *)b[8].b.buf;
+        const size_t ncp = ((size_t)nc + 7) & ~(size_t)7;
+        memset(dst, 0, need * sizeof(float));
+        for (size_t r = 0; r < (size_t)(ns - 1) * (t.nu - 1) * 6; ++r)
+            for (int k = 0; k < nc; ++k) dst[r * ncp + k] = (float)t.tab[r * nc + k];
+        int ncell = (ns - 1) * (t.nu - 1);
+        ret = Py_BuildValue("(y#y#y#)", (const char *)t.mix_start, (Py_ssize_t)(sizeof(int) * (ncell + 1)),
+                            (const char *)t.mix_ch, (Py_ssize_t)(sizeof(int) * t.nmix),
+                            (const char *)t.mix_coef, (Py_ssize_t)(sizeof(double) * 6 * t.nmix));
+        table_free(&t);
+    }
+done:
+    for (int i = 0; i < 9; ++i) rel_buf(&b[i]);
+    return ret;
+}
+
+typedef struct {
+    const float *tab;
+    const int *mix_start, *mix_ch;
+    const double *mix_coef;
+} ctab_t;
+
+/* one direction: sum over the step's configurations of weight x the configuration's clamped value
+ * (the folded polynomials in float32 arithmetic, as the tables are kept; the mixed terms in double) */
+HOT static void ceval_dir(const ctab_t *tabs, const int64_t *ci, const double *w, int K, int nc, size_t cell,
+                          double g, double z, float *restrict acc)
+{
+    /* nc: the padded channel count (a multiple of 8) */
+    const float fg = (float)g, fz = (float)z, fgz = (float)(g * z), fz2 = (float)(z * z), fgz2 = (float)(g * z * z);
+    const double gz = g * z, z2 = z * z, gz2 = gz * z;
+    for (int k = 0; k < nc; ++k) acc[k] = 0.0f;
+    for (int c = 0; c < K; ++c) {
+        const float wc = (float)w[c];
+        if (w[c] == 0.0) continue;
+        const ctab_t *t = tabs + ci[c];
+        const float *restrict T = t->tab + cell * 6 * (size_t)nc;
+        for (int k = 0; k < nc; ++k)
+            acc[k] += wc * (T[k] + fg * T[nc + k] + fz * T[2 * nc + k] + fgz * T[3 * nc + k] + fz2 * T[4 * nc + k] +
+                            fgz2 * T[5 * nc + k]);
+        for (int e = t->mix_start[cell]; e < t->mix_start[cell + 1]; ++e) {
+            const double *c6 = t->mix_coef + 6 * (size_t)e;
+            double v = c6[0] + g * c6[1] + z * c6[2] + gz * c6[3] + z2 * c6[4] + gz2 * c6[5];
+            if (v > 0) acc[t->mix_ch[e]] += (float)(w[c] * v);
+        }
+    }
+}
+
+/* radiance_config_eval(tables, sb, u, step_cfg (T, K) int64, step_w (T, K) float64, geo (T, 3) float64
+ *                      (observer altitude [m], solar elevation [rad], azimuth [rad from +x toward +y]),
+ *                      dirs (T, N, 3) or (N, 3) float64, out float64, nthreads[, rows (N,) int64, wts (N,)])
+ * tables: sequence of (tab float32, mix_start int32, mix_ch int32, mix_coef float64) from
+ * radiance_config_table; step_cfg indexes it. Without rows: out (T, N, nc), one row per direction; with
+ * rows and wts: out (T, n_rows, nc) = sum over directions i of wts[i] x radiance into row rows[i] (patch
+ * means without writing every sample). dirs (N, 3): the same directions for every step. Daytime only (the
+ * caller keeps steps whose sun is below the horizon at the view point on the other paths). */
+static PyObject *py_radiance_config_eval(PyObject *self, PyObject *args)
+{
+    PyObject *tabs_obj, *o[9];
+    o[7] = o[8] = Py_None;
+    int nthreads;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOi|OO", &tabs_obj, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
+                          &nthreads, &o[7], &o[8]))
+        return NULL;
+    PyObject *seq = PySequence_Fast(tabs_obj, "tables must be a sequence");
+    if (!seq) return NULL;
+    Py_ssize_t ntab = PySequence_Fast_GET_SIZE(seq);
+    buf_t *tb = calloc((size_t)(4 * ntab + 1), sizeof(buf_t));
+    ctab_t *ct = calloc((size_t)(ntab + 1), sizeof(ctab_t));
+    buf_t b[9];
+    memset(b, 0, sizeof(b));
+    PyObject *ret = NULL;
+    if (!tb || !ct) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    const Py_ssize_t tsz[4] = {4, 4, 4, 8};
+    for (Py_ssize_t i = 0; i < ntab; ++i) {
+        PyObject *item = PySequence_Fast_GET_ITEM(seq, i);
+        if (!PyTuple_Check(item) || PyTuple_GET_SIZE(item) != 4) {
+            PyErr_SetString(PyExc_TypeError, "each table is a 4-tuple");
+            goto done;
+        }
+        for (int j = 0; j < 4; ++j)
+            if (get_buf(PyTuple_GET_ITEM(item, j), &tb[4 * i + j], 0, "table", tsz[j]) < 0) goto done;
+        ct[i].tab = (const float *)tb[4 * i].b.buf;
+        ct[i].mix_start = (const int *)tb[4 * i + 1].b.buf;
+        ct[i].mix_ch = (const int *)tb[4 * i + 2].b.buf;
+        ct[i].mix_coef = (const double *)tb[4 * i + 3].b.buf;
+    }
+    const char *names[9] = {"sun_breaks", "u", "step_cfg", "step_w", "geo", "dirs", "out", "rows", "wts"};
+    for (int i = 0; i < 9; ++i)
+        if (get_buf(o[i], &b[i], i == 6, names[i], 8) < 0) goto done;
+    if (!b[6].held || b[7].held != b[8].held) {
+        PyErr_SetString(PyExc_ValueError, "radiance_config_eval: out required; rows and wts together");
+        goto done;
+    }
+    {
+        const int ns = (int)(b[0].b.len / 8), nu = (int)(b[1].b.len / 8);
+        const Py_ssize_t T = b[4].b.len / 24;
+        if (T <= 0 || b[2].b.len != b[3].b.len || b[2].b.len % (8 * T) || ns < 2 || nu < 2) {
+            PyErr_SetString(PyExc_ValueError, "radiance_config_eval: inconsistent array sizes");
+            goto done;
+        }
+        const int K = (int)(b[2].b.len / 8 / T);
+        const int grouped = b[7].held;
+        const int64_t *rows = grouped ? (const int64_t *)b[7].b.buf : NULL;
+        const double *wts = grouped ? (const double *)b[8].b.buf : NULL;
+        Py_ssize_t N, nrow;
+        int shared;
+        if (grouped) {
+            N = b[7].b.len / 8;
+            if (b[8].b.len != b[7].b.len || N <= 0) {
+                PyErr_SetString(PyExc_ValueError, "radiance_config_eval: one row and weight per direction");
+                goto done;
+            }
+        } else {
+            N = 0;
+        }
+        if (!grouped) {
+            /* (T, N, 3) directions, out (T, N, nc) */
+            shared = 0;
+            if (b[5].b.len % (24 * T)) {
+                PyErr_SetString(PyExc_ValueError, "radiance_config_eval: dirs are not (T, N, 3)");
+                goto done;
+            }
+            N = b[5].b.len / 24 / T;
+            nrow = N;
+        } else {
+            shared = b[5].b.len == 24 * N;
+            if (!shared && b[5].b.len != 24 * N * T) {
+                PyErr_SetString(PyExc_ValueError, "radiance_config_eval: dirs are neither (N, 3) nor (T, N, 3)");
+                goto done;
+            }
+            nrow = 0;
+            for (Py_ssize_t i = 0; i < N; ++i) nrow = rows[i] + 1 > nrow ? rows[i] + 1 : nrow;
+            for (Py_ssize_t i = 0; i < N; ++i)
+                if (rows[i] < 0) {
+                    PyErr_SetString(PyExc_ValueError, "radiance_config_eval: negative row");
+                    goto done;
+                }
+        }
+        const Py_ssize_t nval = b[6].b.len / 8;
+        if (N <= 0 || nrow <= 0 || nval % (T * nrow)) {
+            PyErr_SetString(PyExc_ValueError, "radiance_config_eval: out does not hold (T, rows, nc) values");
+            goto done;
+        }
+        const int nc = (int)(nval / (T * nrow));
+        const int ncp = (nc + 7) & ~7;
+        const size_t tab_len = (size_t)(ns - 1) * (nu - 1) * 6 * ncp;
+        const int64_t *sc = (const int64_t *)b[2].b.buf;
+        for (Py_ssize_t i = 0; i < T * K; ++i)
+            if (sc[i] < 0 || sc[i] >= ntab) {
+                PyErr_SetString(PyExc_ValueError, "radiance_config_eval: configuration index outside the tables");
+                goto done;
+            }
+        for (Py_ssize_t i = 0; i < ntab; ++i) {
+            const Py_ssize_t ncell = (Py_ssize_t)(ns - 1) * (nu - 1);
+            if ((size_t)(tb[4 * i].b.len / 4) != tab_len || tb[4 * i + 1].b.len / 4 != ncell + 1) {
+                PyErr_SetString(PyExc_ValueError, "radiance_config_eval: a table of another shape");
+                goto done;
+            }
+            const int *ms = ct[i].mix_start;
+            const Py_ssize_t nmix = tb[4 * i + 2].b.len / 4;
+            if (ms[0] != 0 || ms[ncell] != nmix || tb[4 * i + 3].b.len / 48 != nmix) {
+                PyErr_SetString(PyExc_ValueError, "radiance_config_eval: inconsistent mixed terms");
+                goto done;
+            }
+            for (Py_ssize_t c = 0; c < ncell; ++c)
+                if (ms[c + 1] < ms[c]) {
+                    PyErr_SetString(PyExc_ValueError, "radiance_config_eval: inconsistent mixed terms");
+                    goto done;
+                }
+            for (Py_ssize_t e = 0; e < nmix; ++e)
+                if (ct[i].mix_ch[e] < 0 || ct[i].mix_ch[e] >= nc) {
+                    PyErr_SetString(PyExc_ValueError, "radiance_config_eval: a mixed term's channel outside nc");
+                    goto done;
+                }
+        }
+        const double *geo_in = (const double *)b[4].b.buf, *dirs = (const double *)b[5].b.buf;
+        const double *sw = (const double *)b[3].b.buf;
+        double *out = (double *)b[6].b.buf;
+        int fail = 0;
+        Py_BEGIN_ALLOW_THREADS
+        set_threads(nthreads);
+        accel_t ag, az;
+        memset(&ag, 0, sizeof(ag));
+        memset(&az, 0, sizeof(az));
+        if (accel_init(&ag, (const double *)b[0].b.buf, ns) || accel_init(&az, (const double *)b[1].b.buf, nu))
+            fail = 1;
+        /* directions shared by all steps at one observer altitude: their zenith cell and the unit vectors
+         * once (the zero angle does not depend on the sun), only gamma per step */
+        int same_alt = shared;
+        for (Py_ssize_t t = 1; t < T && same_alt; ++t) same_alt = geo_in[3 * t] == geo_in[0];
+        int *pre_iz = NULL;
+        double *pre_z = NULL, *pre_v = NULL;
+        if (!fail && same_alt) {
+            pre_iz = malloc(sizeof(int) * (size_t)N);
+            pre_z = malloc(sizeof(double) * (size_t)N);
+            pre_v = malloc(sizeof(double) * 3 * (size_t)N);
+            if (!pre_iz || !pre_z || !pre_v) {
+                fail = 1;
+            } else {
+                geom_t g0;
+                geom_init(&g0, geo_in[0], geo_in[1], geo_in[2]);
+                for (Py_ssize_t i = 0; i < N; ++i) {
+                    const double *v = dirs + 3 * i;
+                    angles_t a = compute_angles(v, &g0, 0, 0);
+                    pre_iz[i] = accel_cell(&az, a.zero, &pre_z[i]);
+                    double nv = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+                    if (nv < DBL_EPSILON_) nv = DBL_EPSILON_;
+                    for (int j = 0; j < 3; ++j) pre_v[3 * i + j] = v[j] / nv;
+                }
+            }
+        }
+        if (!fail) {
+            Py_ssize_t t;
+#pragma omp parallel for schedule(dynamic, 4) reduction(|| : fail) if (T * N * (Py_ssize_t)nc * K >= PAR_MIN_WORK)
+            for (t = 0; t < T; ++t) {
+                float *acc = malloc(sizeof(float) * (size_t)ncp);
+                if (!acc) {
+                    fail = 1;
+                    continue;
+                }
+                geom_t geo;
+                geom_init(&geo, geo_in[3 * t], geo_in[3 * t + 1], geo_in[3 * t + 2]);
+                double *ot = out + (size_t)t * nrow * nc;
+                if (grouped)
+                    for (Py_ssize_t i = 0; i < nrow * nc; ++i) ot[i] = 0.0;
+                for (Py_ssize_t i = 0; i < N; ++i) {
+                    double g, z;
+                    int ig, iz;
+                    if (pre_iz) {
+                        const double *v = pre_v + 3 * i;
+                        ig = accel_cell(&ag, acos(clamp_unit(v[0] * geo.s[0] + v[1] * geo.s[1] + v[2] * geo.s[2])), &g);
+                        iz = pre_iz[i];
+                        z = pre_z[i];
+                    } else {
+                        const double *v = dirs + 3 * (shared ? i : (size_t)t * N + i);
+                        angles_t a = compute_angles(v, &geo, 0, 0);
+                        ig = accel_cell(&ag, a.gamma, &g);
+                        iz = accel_cell(&az, a.zero, &z);
+                    }
+                    ceval_dir(ct, sc + (size_t)t * K, sw + (size_t)t * K, K, ncp, (size_t)ig * (nu - 1) + iz, g, z,
+                              acc);
+                    if (grouped) {
+                        double *o2 = ot + (size_t)rows[i] * nc;
+                        const double wi = wts[i];
+                        for (int k = 0; k < nc; ++k) o2[k] += wi * acc[k];
+                    } else {
+                        double *o2 = ot + (size_t)i * nc;
+                        for (int k = 0; k < nc; ++k) o2[k] = acc[k];
+                    }
+                }
+                free(acc);
+            }
+        }
+        free(pre_iz);
+        free(pre_z);
+        free(pre_v);
+        free(ag.start);
+        free(az.start);
+        Py_END_ALLOW_THREADS
+        if (fail) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        Py_INCREF(Py_None);
+        ret = Py_None;
+    }
+done:
+    for (int i = 0; i < 9; ++i) rel_buf(&b[i]);
+    if (tb)
+        for (Py_ssize_t i = 0; i < 4 * ntab; ++i) rel_buf(&tb[i]);
+    free(tb);
+    free(ct);
+    Py_DECREF(seq);
+    return ret;
+}
+
 static PyMethodDef methods[] = {
     {"radiance", py_radiance, METH_VARARGS, "Sky radiance or polarisation kernel (see skymodel.evaluate)."},
     {"transmittance", py_transmittance, METH_VARARGS, "Transmittance kernel (see skymodel.evaluate)."},
@@ -2132,6 +2482,10 @@ static PyMethodDef methods[] = {
     {"decode_polarisation", py_decode_polarisation, METH_VARARGS, "Decode polarisation blocks (float32)."},
     {"reference_halves", py_reference_halves, METH_VARARGS,
      "Baseline: every half converted on its own by a scalar decoder, one thread (loader benchmark)."},
+    {"radiance_config_table", py_radiance_config_table, METH_VARARGS,
+     "Daytime radiance table of one configuration (weight 1), for radiance_config_eval."},
+    {"radiance_config_eval", py_radiance_config_eval, METH_VARARGS,
+     "Radiance of many sky states as weighted sums of their configurations' tables."},
     {"openmp_threads", py_has_openmp, METH_NOARGS, "Maximum OpenMP threads (0 when built without OpenMP)."},
     {NULL, NULL, 0, NULL}};
 
@@ -2141,5 +2495,8 @@ static struct PyModuleDef moddef = {PyModuleDef_HEAD_INIT, "_core",
 PyMODINIT_FUNC PyInit__core(void)
 {
     half_table_init();
+#ifdef WIDESKY_OPENMP
+    default_threads = omp_get_max_threads();
+#endif
     return PyModule_Create(&moddef);
 }

@@ -91,7 +91,8 @@ class _Cursor:
         (default 1e-9 of the largest magnitude, at least 1e-9); ``valid``: (lo, hi) range of every value."""
         dt = np.dtype(dtype)
         self.need(field, count * dt.itemsize)
-        a = np.frombuffer(self.buf, dt, count, self.pos).astype(np.float64)
+        with np.errstate(invalid="ignore"):  # a float32 signalling NaN flags "invalid" when widened: rejected below
+            a = np.frombuffer(self.buf, dt, count, self.pos).astype(np.float64)
         if not np.all(np.isfinite(a)):
             raise self.error(field, "non-finite value")
         if valid is not None and count and (a.min() < valid[0] or a.max() > valid[1]):
