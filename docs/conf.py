@@ -4,8 +4,10 @@ Build (offline, warnings as errors)::
 
     python -m sphinx -W --keep-going -b html docs docs/_build/html
 
-The Markdown pages in ``docs/`` are read by myst-parser; the top-level pages are collected by globbed
-toctrees in ``index.md``, so a page added to ``docs/`` joins the site without editing this file. The
+The Markdown pages in ``docs/`` are read by myst-parser. The site is ordered by what a reader needs (the
+Diataxis split): the toctrees of ``index.md`` list the tutorials, how-to guides, explanation, validation and
+benchmarks, reference, and the development notes (``docs/dev/``, last) explicitly, so a new page must be placed
+in one of them: a page no toctree names makes Sphinx warn, which fails the build (warnings are errors). The
 gallery examples in ``docs/examples/`` run during the build (sphinx-gallery) on the embedded dataset.
 """
 
@@ -50,6 +52,8 @@ root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "examples/GALLERY_HEADER.rst", "**/README.md"]
 # The figures folder holds images the pages embed, example-data the inputs of the README's commands: not page sources.
 exclude_patterns += ["figures", "example-data"]
+# generated/ holds Markdown fragments that pages include ({include}; benchmarks/docs_pvsim_figures.py writes them).
+exclude_patterns += ["generated"]
 
 # --- Markdown (myst-parser) ------------------------------------------------------------------------
 myst_enable_extensions = ["dollarmath", "amsmath", "deflist", "colon_fence", "attrs_inline"]
@@ -80,7 +84,7 @@ sphinx_gallery_conf = {
     "matplotlib_animations": False,
     "image_scrapers": ("matplotlib",),
     "within_subsection_order": "FileNameSortKey",
-    # no generated sg_execution_times page in docs/: the top-level glob of index.md would list it
+    # no generated sg_execution_times page in docs/: no toctree lists it, so the build would warn
     "write_computation_times": False,
 }
 

@@ -1,10 +1,13 @@
 """The documentation site builds offline with warnings as errors (Sphinx, pydata theme, myst, gallery).
 
-Built from a copy of docs/ (sphinx-gallery writes its generated pages into the source tree) with one extra
-top-level page, to check that pages added to docs/ join the site through the globbed toctree. Skips cleanly
-when the [docs] extra is not installed (``.ci/run`` installs it).
+Built from a copy of docs/ (sphinx-gallery writes its generated pages into the source tree). The site's
+structure is explicit (tutorials, how-to guides, explanation, validation, reference, development notes: the
+toctrees of docs/index.md), so a page that no toctree names makes Sphinx warn and the build fail. Skips
+cleanly when the [docs] extra is not installed (``.ci/run`` installs it); the structure checks that need no
+build (first command, purpose paragraphs, page lengths) run without it.
 """
 
+import re
 import shutil
 import subprocess
 import sys
@@ -12,21 +15,59 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("sphinx")
-pytest.importorskip("pydata_sphinx_theme")
-pytest.importorskip("sphinx_gallery")
-pytest.importorskip("myst_parser")
-
-DOCS = Path(__file__).resolve().parents[1] / "docs"
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
 pytestmark = pytest.mark.slow
+
+# user pages that other work in progress (issues 35 and 40) is still editing and whose development history is
+# still to be moved to docs/dev/: exempt from the length limit until then (three are over it today)
+PENDING_LONG_PAGES = {"all-sky.md", "irradiance-integrator.md", "thermal.md", "pvsim.md"}
+MAX_USER_PAGE_LINES = 420  # "no page over about 400 lines of user documentation"
+
+
+def _pages():
+    """Every Markdown source page of the site (not the generated gallery, the example data or READMEs)."""
+    skip = {"_build", "gallery", "example-data", "figures", "_static", "generated"}  # generated/: included fragments
+    return sorted(p for p in DOCS.rglob("*.md")
+                  if p.name != "README.md" and not skip & set(p.relative_to(DOCS).parts[:-1]))
+
+
+def _first_command(text):
+    return re.search(r"```bash\n(.*?)\n", text).group(1).strip()
+
+
+def test_the_docs_index_gives_the_readme_first_command():
+    assert _first_command((DOCS / "index.md").read_text()) == _first_command((ROOT / "README.md").read_text())
+    assert _first_command((DOCS / "guide" / "quickstart.md").read_text()) == _first_command(
+        (ROOT / "README.md").read_text())
+
+
+def test_every_page_states_its_purpose_first():
+    """Under the title, the first paragraph is prose (not code, a table, a figure or a list)."""
+    for page in _pages():
+        lines = page.read_text().split("\n")
+        assert lines[0].startswith("# "), page
+        first = next(line for line in lines[1:] if line.strip())
+        assert not first.startswith(("```", "|", "!", "-", "*", "#", "<")), (page, first)
+
+
+def test_user_pages_stay_short():
+    for page in _pages():
+        rel = page.relative_to(DOCS)
+        n = len(page.read_text().split("\n"))
+        if rel.parts[0] == "dev":
+            continue                      # development notes may be long
+        if str(rel) not in PENDING_LONG_PAGES:
+            assert n <= MAX_USER_PAGE_LINES, f"{rel}: {n} lines of user documentation (limit {MAX_USER_PAGE_LINES})"
 
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
+    for mod in ("sphinx", "pydata_sphinx_theme", "sphinx_gallery", "myst_parser"):
+        pytest.importorskip(mod)
     root = tmp_path_factory.mktemp("docs")
     src = root / "docs"
     shutil.copytree(DOCS, src, ignore=shutil.ignore_patterns("_build", "gallery", "__pycache__"))
-    (src / "zz-added-page.md").write_text("# A page added later\n\nJoins the site by the glob.\n")
     out = root / "html"
     p = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", str(src), str(out)],
                        capture_output=True, text=True, timeout=600, env={**__import__("os").environ,
@@ -41,13 +82,20 @@ def test_site_builds_without_warnings(site):
 
 
 def test_every_markdown_page_is_in_the_site(site):
+    """Every page is built, and every entry of the index's toctrees is linked from the index, in the index's
+    order (tutorials first, development notes last)."""
     p, out = site
+    for md in _pages():
+        assert (out / md.relative_to(DOCS).with_suffix(".html")).is_file(), md
     index = (out / "index.html").read_text()
-    for md in [p for p in DOCS.glob("*.md") if p.name != "index.md"] + [Path("zz-added-page.md")]:
-        assert (out / (md.stem + ".html")).is_file(), md.name
-        assert f'href="{md.stem}.html"' in index, md.name
-    for page in ("guide/quickstart", "guide/concepts", "guide/howto", "guide/explorer", "guide/cases"):
-        assert (out / (page + ".html")).is_file(), page
+    entries = re.findall(r"^([a-z][\w/-]*)$", (DOCS / "index.md").read_text(), re.M)
+    assert entries[0] == "guide/quickstart" and entries[-1] == "dev/index", entries
+    positions = []
+    for entry in entries:
+        href = f'href="{entry}.html"'
+        assert href in index, entry
+        positions.append(index.index(href))
+    assert positions == sorted(positions), entries
 
 
 def test_api_reference_is_generated_from_the_docstrings(site):
