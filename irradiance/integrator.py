@@ -28,13 +28,15 @@ Method (a daylight-coefficient / "3-phase"-style split; Tregenza & Waters 1983, 
    * ``poa_ground_diffuse`` is the sum of the reflected terms (pvlib's name for light reflected from
      the surroundings), ``poa_global = poa_direct + poa_sky_diffuse + poa_ground_diffuse``.
 
-Documented approximations: one reflection (off the ground or a scene surface), plus the ground light a wall
-passes on (with the ground's own shading); each reflecting point's sky is a one-sample estimate (unbiased,
-its noise averages over the many reflecting points a face sees); the sun on reflectors is one sampled
-sun position per reflecting point and shading cell (elevation bands split into azimuth sectors of
-30-120 deg), so within a cell the reflected sun follows the cell's mean shading; reflector normals are quantised to 42 bins (about
-22 deg) for the sun's cosine; sun visibility of the analysis points per sun-position bin (1 deg:
-annual error per face 1.5e-4 mean, 7.5e-3 max on the benchmark scene); the sun is a point.
+Documented approximations: reflections to a fixed depth (``IntegratorSettings.reflections``, default 3; 1 is
+one reflection off the ground or a scene surface plus the ground light a wall passes on), the ground's albedo
+applied per step to a path's first ground reflection and a nominal albedo to its later ones; each reflecting
+point's sky is a one-sample estimate (unbiased, its noise averages over the many reflecting points a face
+sees); the sun on reflectors is one sampled sun position per reflecting point and shading cell (elevation bands
+split into azimuth sectors of 30-120 deg), so within a cell the reflected sun follows the cell's mean shading;
+reflector normals are quantised to 42 bins (about 22 deg) for the sun's cosine; sun visibility of the analysis
+points per sun-position bin (1 deg: annual error per face 1.5e-4 mean, 7.5e-3 max on the benchmark scene); the
+sun is a point.
 """
 
 from __future__ import annotations

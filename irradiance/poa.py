@@ -99,7 +99,10 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     if run.coefficients is None:
         pending = start_coefficients(scene, mf=settings.mf, rays_per_patch=settings.rays_per_patch,
                                      sun_directions=sun_dirs, sun_bin=settings.sun_bin, n_jobs=run.n_jobs,
-                                     executor=run.executor, progress=run.progress, optics=cols.plan.weights)
+                                     executor=run.executor, progress=run.progress, optics=cols.plan.weights,
+                                     reflections=settings.reflections,
+                                     ground_albedo=(float(np.mean(states.albedo[plan.lit])) if scene.ground_albedo
+                                                    is None and plan.lit.size else None))
     sky_terms = evaluate_sky(sky, states, settings, cols.Wall, scaling, plan.lit)
     t_sky_ahead = sky_terms.seconds if (pending is not None and pending.running) else 0.0
     sink = None

@@ -30,6 +30,23 @@ that reach the ground or a scene surface feed one reflection (Lambertian):
   cell's sunlit share of the reflectors, so the ground of a street canyon is lit when, and as rarely
   as, it is.
 
+* **Multiple reflections** (``reflections`` = m > 1, a fixed depth; ``IntegratorSettings.reflections``,
+  default 3). A secondary ray that reaches a scene surface or the ground, instead of the sky, makes that
+  point the next reflection's reflecting point: it carries the path weight (the first hit's share times the
+  reflectances met so far) times its own reflectance, casts its own cosine-distributed sky ray (into
+  ``reflect_sky``, or ``ground_sky`` for paths that reflected off the ground) and, per shading cell, its own
+  sun ray (into ``reflect_sun`` at its orientation bin, or ``ground_sun`` for a ground point), and its
+  secondary ray is followed in turn, up to m reflecting points per path. The first ground reflection's
+  albedo is applied by the integrator per step (those paths go to ``ground_sky`` / ``ground_sun``); a
+  path's second and later ground reflections, and the sun reflected by a scene surface on a path that
+  reflected off the ground (whose factors carry no albedo), take a nominal albedo (the scene's, else the
+  steps' mean). Each later point's sample identity is a hash of its parent's (as for the wall-then-ground
+  points of one reflection, which are the second level's ground points), so ``reflections=1`` gives
+  exactly the single-reflection coefficients and each further level only adds non-negative terms. The
+  series is truncated at m (no Russian roulette): the missing tail is about ``(rho F)^m`` of the
+  reflected light (in the street-canyon benchmark 0.9 % and 0.4 % of the canyon facades' reflected
+  light at m = 3).
+
 Adding an occluder never adds light to these estimates: a ray's secondary direction and sampled sun
 bin depend only on its identity, and an occluder can only block them or replace a reflector.
 
@@ -171,14 +188,15 @@ def _sample_directions(mf, k):
 
 
 def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first=0, sun_count=None,
-                sun_cell=None, optics=None, optic_kq=4):
+                sun_cell=None, optics=None, optic_kq=4, reflections=1, ground_albedo=0.2):
     """Coefficients for one chunk of points (runs in a worker process).
 
     ``sun_dirs`` (S_b, 3) are the sun-position bins' directions, ``sun_count`` (S_b,) their
     numbers of steps (the weights of the reflector shading samples) and ``sun_cell`` (S_b,) their
     reflector shading cells (default :func:`shade_cells`). ``optics`` (an
     :class:`widesky.irradiance.optics.AngularWeights`) adds the sky coefficients and reflected-light factors
-    of its incidence-angle weight functions (:func:`widesky.irradiance.optics.optic_terms`).
+    of its incidence-angle weight functions (:func:`widesky.irradiance.optics.optic_terms`). ``reflections``
+    and ``ground_albedo``: see :func:`compute_coefficients`.
     """
 
     t0 = time.perf_counter()
@@ -189,7 +207,7 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
     n = origins.shape[0]
     pr = primary_rays(geometry, origins, normals, buried, patches, dirs, wcell)
     coeffs, bounce, gsh, extra, n_bounce = reflected_sky(geometry, pr, patches, K, normals, buried, first,
-                                                         optics, optic_kq)
+                                                         optics, optic_kq, reflections, ground_albedo)
     ident = (bounce.r_pt + first) * (2 * P * K) + pr.si[bounce.ri]
     ground_sun, reflect_sun, n_sun = reflected_sun(geometry, bounce, sun_dirs, bins, sun_count, sun_cell, n,
                                                    ident, buried, gsh, extra)
@@ -237,7 +255,7 @@ def _pool_task_args(args):
 
 def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, sun_bin=0.0,
                          n_jobs=None, chunk_size=None, executor=None, progress=False, optics=None,
-                         optic_kq=4):
+                         optic_kq=4, reflections=1, ground_albedo=None):
     """Daylight coefficients, ground and reflection factors and sun visibility of every point.
 
     Parameters
@@ -265,6 +283,15 @@ def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, 
         ``reflect_optic``).
     optic_kq : int
         Sub-grid per patch side of their quadrature.
+    reflections : int
+        Reflecting points per light path (>= 1): 1 is one reflection (plus the ground light a wall passes
+        on), ``m`` follows each secondary ray that reaches a surface to ``m`` reflections (fixed depth; see
+        the module's description).
+    ground_albedo : float, optional
+        Nominal ground albedo [1] of the reflections the integrator cannot apply the step's albedo to (a
+        path's second and later ground reflections, the sun a scene surface reflects on a path that
+        reflected off the ground; ``reflections`` > 1 only); default the scene's ground albedo (mean over
+        channels), else 0.2.
 
     Returns
     -------
@@ -273,7 +300,8 @@ def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, 
     return start_coefficients(scene, mf=mf, rays_per_patch=rays_per_patch,
                               sun_directions=sun_directions, sun_bin=sun_bin, n_jobs=n_jobs,
                               chunk_size=chunk_size, executor=executor, progress=progress,
-                              optics=optics, optic_kq=optic_kq).result()
+                              optics=optics, optic_kq=optic_kq, reflections=reflections,
+                              ground_albedo=ground_albedo).result()
 
 
 class PendingCoefficients:
@@ -361,13 +389,21 @@ class PendingCoefficients:
 
 def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, sun_bin=0.0,
                        n_jobs=None, chunk_size=None, executor=None, progress=False, optics=None,
-                       optic_kq=4):
+                       optic_kq=4, reflections=1, ground_albedo=None):
     """Submit the ray-casting tasks of :func:`compute_coefficients` and return at once.
 
     Same parameters; returns a :class:`PendingCoefficients` whose ``result()`` gives the
     :class:`Coefficients`.
     """
     t0 = time.perf_counter()
+    if not (float(reflections) == int(reflections) and 1 <= int(reflections) <= 20):
+        raise ValueError(f"reflections={reflections} must be an integer in [1, 20] (reflections per light path)")
+    reflections = int(reflections)
+    if ground_albedo is None:
+        ga = getattr(scene, "ground_albedo", None)
+        ground_albedo = 0.2 if ga is None else float(np.mean(ga))
+    if not 0.0 <= float(ground_albedo) <= 1.0:
+        raise ValueError(f"ground_albedo={ground_albedo} must be in [0, 1]")
     sun = np.zeros((0, 3)) if sun_directions is None else np.asarray(sun_directions, float)
     sun = sun.reshape(-1, 3)
     if not np.all(np.isfinite(sun)):
@@ -390,6 +426,6 @@ def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, su
     sun_count = np.bincount(sun_index, minlength=sun_rep.shape[0]).astype(float)
     sun_band, _ = shade_cells(sun_rep)
     args = [(geom, origins[a:b], normals[a:b], buried[a:b], mf, rays_per_patch, sun_rep, bins, a,
-             sun_count, sun_band, optics, optic_kq) for a, b in bounds]
+             sun_count, sun_band, optics, optic_kq, reflections, float(ground_albedo)) for a, b in bounds]
     return PendingCoefficients(t0, args, bounds, bins, sun, sun_index, sun_bin, sun_band, n_jobs,
                                executor, progress)

@@ -24,7 +24,7 @@ from .rays import _clear_dni, _cosine_directions, _fbincount, cast_rays, reflect
 
 _UP = np.array([0.0, 0.0, 1.0])
 
-__all__ = ["PrimaryRays", "Bounce", "primary_rays", "reflected_sky", "reflected_sun", "sun_visibility"]
+__all__ = ["PrimaryRays", "Bounce", "Reflectors", "primary_rays", "reflected_sky", "reflected_sun", "sun_visibility"]
 
 
 class PrimaryRays(NamedTuple):
@@ -58,6 +58,108 @@ class Bounce(NamedTuple):
     g2_pt: np.ndarray = None   # (H2,) the analysis point of each
     g2_w: np.ndarray = None    # (H2,) weight: the wall hit's share [sr] x the wall's reflectance
     g2_id: np.ndarray = None   # (H2,) identities of their samples (decorrelated from the wall hit's)
+    # the reflecting points of the second and later reflections (``reflections`` > 1), one Reflectors per level
+    deep: tuple = ()
+
+
+class Reflectors(NamedTuple):
+    """The reflecting points of one later reflection (the second, third ...): where the secondary rays of the
+    previous level's points hit a scene surface or the ground."""
+    x: np.ndarray          # (H, 3) reflecting points
+    tn: np.ndarray         # (H, 3) their normals towards the ray
+    ground: np.ndarray     # (H,) the point is on the ground
+    pt: np.ndarray         # (H,) the analysis point of each
+    w: np.ndarray          # (H,) path weight: the first hit's share [sr] x the reflectances on the path,
+                           # this point's included, the ground's first albedo left out (applied later)
+    alb: np.ndarray        # (H,) the path has reflected off the ground (its albedo is applied later)
+    ident: np.ndarray      # (H,) identities of their samples
+    w_sun: np.ndarray      # (H,) weight of the point's reflected sun: ``w``, and for a scene surface on a path
+                           # that reflected off the ground also that albedo (the nominal one: the reflected-sun
+                           # factors of scene surfaces carry no albedo later)
+
+
+def _next_reflectors(geometry, x, d, t_hit, prim, w, alb, pt, ident, ground_albedo):
+    """The next level's :class:`Reflectors`: where the rays ``x + t d`` of a level's reflecting points end
+    (``prim`` >= 0: that scene triangle at ``t_hit``; -1: the ground plane at ``t_hit``). The path weight ``w``
+    is multiplied by the reflectance reached; the ground's albedo is left to the integrator on a path's first
+    ground reflection (``alb``) and is the nominal ``ground_albedo`` [1] on its second and later ones."""
+    on_g = prim < 0
+    rho = np.where(on_g, np.where(alb, ground_albedo, 1.0), geometry["reflectance"][np.maximum(prim, 0)])
+    w2 = w * rho
+    k = np.nonzero(w2 > 0)[0]
+    x2, tn2 = reflector_points(geometry, x[k], d[k], t_hit[k], prim[k])
+    alb2 = alb[k] | on_g[k]
+    w_sun = w2[k] * np.where(alb2 & ~on_g[k], ground_albedo, 1.0)
+    return Reflectors(x2, tn2, on_g[k], pt[k], w2[k], alb2, _second_identity(ident[k]), w_sun)
+
+
+def _reflector_sky(geometry, patches, r: Reflectors, follow, ground_albedo, ground_sky, reflect_sky):
+    """One cosine-distributed ray from each point of ``r`` (fixed by its identity): where it escapes into sky
+    patch ``q`` the path weight is added at (analysis point, ``q``) to ``ground_sky`` (paths that reflected
+    off the ground: times the albedo in the integrator) or ``reflect_sky``, in place. Returns the next
+    level's :class:`Reflectors` (the points these rays reach; None unless ``follow``) and the rays cast."""
+    if r.pt.size == 0:
+        return (r if follow else None), 0
+    n, P = ground_sky.shape
+    d = _cosine_directions(r.tn, r.ident)
+    tmax = np.full(r.pt.size, np.inf)
+    down = d[:, 2] < 0
+    tmax[down] = np.maximum((geometry["ground_z"] - r.x[down, 2]) / d[down, 2], 1e-9)
+    if follow:
+        prim, t = cast_rays(geometry, r.x, d, tmax, distance=True)
+        free = prim < 0
+    else:
+        free = ~cast_rays(geometry, r.x, d, tmax, occluded=True)
+    q = np.where(free & ~down, patches.index(d), -1)
+    for target, m in ((ground_sky, r.alb), (reflect_sky, ~r.alb)):
+        ok = m & (q >= 0)
+        target += _fbincount(r.pt[ok] * P + q[ok], weights=r.w[ok], minlength=n * P).reshape(n, P)
+    if not follow:
+        return None, r.pt.size
+    h = np.nonzero((prim >= 0) | down)[0]                       # a scene surface, or the ground
+    t_h = np.where(prim[h] >= 0, t[h], tmax[h])
+    return (_next_reflectors(geometry, r.x[h], d[h], t_h, prim[h], r.w[h], r.alb[h], r.pt[h], r.ident[h],
+                             ground_albedo), r.pt.size)
+
+
+def _reflector_sun(geometry, r: Reflectors, sun_dirs, bins, sun_count, sun_cell, G, ground_sun, reflect_sun):
+    """The sun on the points of a later reflection, sampled as for the first (per shading cell one ray towards
+    a sun bin drawn ~ steps x clear-sky DNI x cos(binned normal, sun)); the lit ones add their weight to
+    ``ground_sun`` (G, n) or ``reflect_sun`` (G, n B) in place. Returns the number of rays cast."""
+    S, B = sun_dirs.shape[0], bins.shape[0]
+    if r.pt.size == 0 or S == 0 or G == 0:
+        return 0
+    n = ground_sun.shape[1]
+    cnt = np.ones(S) if sun_count is None else np.asarray(sun_count, dtype=float)
+    el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
+    ob = np.zeros(r.pt.size, dtype=np.int64)                         # ground: bin 0 (up)
+    ob[~r.ground] = np.argmax(r.tn[~r.ground] @ bins.T, axis=1)
+    n_rays = 0
+    for g in range(G):
+        cg = np.nonzero(sun_cell == g)[0]
+        if cg.size == 0:
+            continue
+        wq = (cnt[cg] * _clear_dni(el_b[cg]))[None, :] * np.maximum(bins @ sun_dirs[cg].T, 0.0)
+        cdf = np.cumsum(wq, axis=1)                                   # (B, C_g)
+        tot = cdf[:, -1]
+        j = np.nonzero(tot[ob] > 0)[0]
+        u = np.mod(0.5 + (r.ident[j] + 7919 * (g + 1)) * 0.6180339887498949, 1.0)
+        pick = np.empty(j.size, dtype=np.int64)
+        for b in np.unique(ob[j]):
+            m = ob[j] == b
+            pick[m] = np.minimum(np.searchsorted(cdf[b], u[m] * tot[b], side="right"), cg.size - 1)
+        sd = sun_dirs[cg[pick]]
+        front = np.nonzero(np.sum(r.tn[j] * sd, axis=1) > 0)[0]
+        if front.size == 0:
+            continue
+        jj = j[front]
+        lit = ~cast_rays(geometry, r.x[jj].astype(np.float32), sd[front].astype(np.float32), occluded=True)
+        n_rays += front.size
+        wl = r.w_sun[jj] * lit
+        on_g = r.ground[jj]
+        ground_sun[g] += _fbincount(r.pt[jj[on_g]], weights=wl[on_g], minlength=n)
+        reflect_sun[g] += _fbincount(r.pt[jj[~on_g]] * B + ob[jj[~on_g]], weights=wl[~on_g], minlength=n * B)
+    return n_rays
 
 
 def _second_identity(ids):
@@ -91,7 +193,8 @@ def primary_rays(geometry, origins, normals, buried, patches, dirs, wcell):
     return PrimaryRays(exact, flat, w, fi, si, o, d, down, maxd, hit, prim, dist)
 
 
-def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first, optics=None, optic_kq=4):
+def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first, optics=None, optic_kq=4,
+                  reflections=1, ground_albedo=0.2):
     """Secondary rays from the reflecting hits and the sky-side coefficients.
 
     One bounce: every reflecting point (scene hit or ground) casts one cosine-distributed secondary
@@ -103,6 +206,14 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     the wall's reflectance to ``ground_sky`` at the patch it escapes into (times the albedo in the
     integrator, as the ground's own light), and :func:`reflected_sun` traces its sun. ``reflect_ground``
     (the unshaded ground radiance's coefficient before 2026-12-05) is zero.
+
+    ``reflections`` > 1 follows the paths further (:mod:`widesky.irradiance.raycast`): the point a secondary ray
+    reaches (scene surface or ground) is the next reflection's reflecting point, with the path weight times its
+    reflectance, and casts its own sky ray (here) and sun rays (:func:`reflected_sun`), up to ``reflections``
+    reflecting points per path (the wall-then-ground path of ``reflections=1`` is the second level's ground
+    points). ``ground_albedo`` [1] is the nominal albedo of a path's second and later ground reflections and of
+    the sun reflected by a scene surface on a path that reflected off the ground (the integrator applies the
+    step's albedo to a path's first ground reflection).
 
     Returns
     -------
@@ -122,7 +233,12 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     smax = np.full(ri.size, np.inf)
     sdown = sd[:, 2] < 0
     smax[sdown] = np.maximum((geometry["ground_z"] - x[sdown, 2]) / sd[sdown, 2], 1e-9)
-    s_free = ~cast_rays(geometry, x, sd, smax, occluded=True)
+    deeper = reflections > 1
+    if deeper:
+        s_prim, s_dist = cast_rays(geometry, x, sd, smax, distance=True)
+        s_free = s_prim < 0
+    else:
+        s_free = ~cast_rays(geometry, x, sd, smax, occluded=True)
     s_patch = np.where(s_free & ~sdown, patches.index(sd), -1)   # secondary ray's sky patch
     s_ground = s_free & sdown
     exact = pr.exact
@@ -144,7 +260,7 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     ws = sel_scene & to_sky
     reflect_sky = _fbincount(r_pt[ws] * P + s_patch[ws], weights=r_share[ws] * r_rho[ws],
                               minlength=n * P).reshape(n, P)
-    wg = np.nonzero(sel_scene & s_ground & (r_rho > 0) & (r_share > 0))[0]
+    wg = np.nonzero(sel_scene & s_ground & (r_rho > 0) & (r_share > 0) & (not deeper))[0]
     reflect_ground = np.zeros(n)
     # patches with a positive exact weight but no sample in front of the face (slivers at the face's
     # horizon): the face's mean visible fraction of that hemisphere; a lower sliver's ground is lit
@@ -152,6 +268,7 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     sliver = (wsum <= 0) & (exact > 0)
     extra = np.zeros(n)
     gsh = _fbincount(r_pt[~sel_scene], weights=r_share[~sel_scene], minlength=n)
+    sliver_fac = np.ones(n)
     if np.any(sliver):
         tot_up, tot_lo = share[:, :P].sum(axis=(1, 2)), share[:, P:].sum(axis=(1, 2))
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -160,7 +277,8 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
         sky = sky + np.where(sliver[:, :P], exact[:, :P] * f_up[:, None], 0.0)
         extra = np.sum(np.where(sliver[:, P:], exact[:, P:], 0.0), axis=1) * f_lo
         with np.errstate(invalid="ignore", divide="ignore"):
-            ground_sky *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[:, None]
+            sliver_fac = np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)
+            ground_sky *= sliver_fac[:, None]
     # the ground light walls pass on: the ground point a wall's secondary ray reaches sees the sky as the
     # scene lets it (one cosine ray; its sun in reflected_sun), added after the slivers' scaling, which is
     # for the point's own ground hits
@@ -174,6 +292,21 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
         q = np.where(t_free, patches.index(td), -1)
         ok = q >= 0
         ground_sky += _fbincount(g2_pt[ok] * P + q[ok], weights=g2_w[ok], minlength=n * P).reshape(n, P)
+    deep = []
+    if deeper:
+        # the later reflections: the first level's secondary rays that reach a surface (a point's own ground
+        # hits with the slivers' share, as above)
+        w1 = r_share * r_rho * np.where(sel_scene, 1.0, sliver_fac[r_pt])
+        h = np.nonzero(((s_prim >= 0) | s_ground) & (w1 > 0))[0]
+        t_h = np.where(s_prim[h] >= 0, s_dist[h], smax[h])
+        ident1 = (fi[ri[h]] + first) * (2 * P * K) + si[ri[h]]
+        level = _next_reflectors(geometry, x[h], sd[h], t_h, s_prim[h], w1[h], ~sel_scene[h], r_pt[h], ident1,
+                                 ground_albedo)
+        for depth in range(2, reflections + 1):
+            deep.append(level)
+            level, n_cast = _reflector_sky(geometry, patches, level, depth < reflections, ground_albedo,
+                                           ground_sky, reflect_sky)
+            n_g2 += n_cast
     sky_optic = reflect_optic = None
     if optics is not None and optics.n:
         sky_optic, reflect_optic = optic_terms(optics, patches, normals, exact, w3, pr.flat,
@@ -185,8 +318,8 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     reflect_ground[buried] = 0.0
     coeffs = {"sky": sky, "ground_sky": ground_sky, "reflect_sky": reflect_sky,
               "reflect_ground": reflect_ground, "sky_optic": sky_optic, "reflect_optic": reflect_optic}
-    return (coeffs, Bounce(ri, sel_scene, x, tn, r_pt, r_share, r_rho, g2_x, g2_pt, g2_w, g2_id), gsh, extra,
-            ri.size + n_g2)
+    return (coeffs, Bounce(ri, sel_scene, x, tn, r_pt, r_share, r_rho, g2_x, g2_pt, g2_w, g2_id, tuple(deep)),
+            gsh, extra, ri.size + n_g2)
 
 
 def reflected_sun(geometry, b: Bounce, sun_dirs, bins, sun_count, sun_cell, n, ident, buried, gsh, extra):
@@ -249,6 +382,8 @@ def reflected_sun(geometry, b: Bounce, sun_dirs, bins, sun_count, sun_cell, n, i
         with np.errstate(invalid="ignore", divide="ignore"):
             ground_sun *= np.where(gsh > 0, 1.0 + extra / np.where(gsh > 0, gsh, 1.0), 1.0)[None, :]
     n_rays += _wall_ground_sun(geometry, b, sun_dirs, bins, sun_count, sun_cell, G, ground_sun)
+    for level in b.deep:                                              # the later reflections
+        n_rays += _reflector_sun(geometry, level, sun_dirs, bins, sun_count, sun_cell, G, ground_sun, reflect_sun)
     ground_sun[:, buried] = 0.0
     reflect_sun = reflect_sun.reshape(G, n, B)
     reflect_sun[:, buried] = 0.0

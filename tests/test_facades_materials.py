@@ -2,8 +2,8 @@
 
 A 4 m wide floor strip (group ``floor.obj``) in front of a 4 m high wall (group ``wall.obj``): the wall's
 reflected light reaching the floor scales with the wall's reflectance (the floor's part from the wall is
-linear in it: the floor's reflected light at reflectance r is ``ground + r x wall`` with the ground's part
-independent of r, so three runs give 0, 1 and 2 times the wall's part within float32 rounding); bad values
+linear in it to first order: the floor's reflected light at reflectance r is ``ground + r x wall`` plus the
+later reflections' r**2 ... terms, so three runs give 0, 1 and 2 times the wall's part within 1 %); bad values
 give exit status 2 and one line naming the option, the value and what is valid.
 """
 
@@ -40,11 +40,15 @@ def test_wall_reflectance_moves_the_floor_light(meshes, tmp_path):
     floor, wall = meshes
     r0 = _run(meshes, tmp_path, "--reflectance", f"{wall}=0")
     r1 = _run(meshes, tmp_path, "--reflectance", f"{wall}=0.3")
-    r2 = _run(meshes, tmp_path, "--reflectance", f"{wall}=0.6", "--reflectance", f"{floor}=0.9")
+    r2 = _run(meshes, tmp_path, "--reflectance", f"{wall}=0.6")
     assert r1 > r0 * 1.05
-    np.testing.assert_allclose(r2 - r0, 2 * (r1 - r0), rtol=1e-3)
+    # linear to first order: the later reflections (IntegratorSettings.reflections, default 3) add the
+    # wall -> floor -> wall paths, measured +0.2 % and +0.4 % on the slope at 0.3 and 0.6 against 0.1
+    np.testing.assert_allclose(r2 - r0, 2 * (r1 - r0), rtol=1e-2)
     default = _run(meshes, tmp_path)                                   # 0.1 for analysis meshes
-    np.testing.assert_allclose(default - r0, (r1 - r0) / 3, rtol=1e-3)
+    np.testing.assert_allclose(default - r0, (r1 - r0) / 3, rtol=1e-2)
+    # the floor's own reflectance reaches it through those paths (measured +48 % with 0.9)
+    assert _run(meshes, tmp_path, "--reflectance", f"{wall}=0.6", "--reflectance", f"{floor}=0.9") > 1.2 * r2
 
 
 @pytest.mark.parametrize("item, msg", [("x.obj=0.3", "no analysis mesh 'x.obj'"), ("{wall}=1.5", "in [0, 1]"),
@@ -57,4 +61,29 @@ def test_bad_reflectance_is_one_line(meshes, tmp_path, capsys, item, msg):
                  "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert "--reflectance" in err and msg in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def _pv_floor_ground(meshes, tmp_path, *extra):
+    floor, wall = meshes
+    out = tmp_path / f"pv{len(list(tmp_path.iterdir()))}.csv"
+    assert main(["pv", "yield", str(floor), str(wall), *CLEAR, "--ground-z", "0", "--group", "floor", *extra,
+                 "-o", str(out)]) == 0
+    return pd.read_csv(out, index_col=0)["poa_ground_diffuse"].sum()
+
+
+def test_pv_takes_the_same_reflectance(meshes, tmp_path):
+    """``widesky pv`` passes ``--reflectance`` to the scene as ``poa`` does (groups are the meshes' stems): the
+    floor's reflected light grows with the wall's reflectance, by the same amount as through ``poa``."""
+    r0 = _pv_floor_ground(meshes, tmp_path, "--reflectance", "wall=0")
+    r1 = _pv_floor_ground(meshes, tmp_path, "--reflectance", "wall=0.3")
+    assert r1 > r0 * 1.05
+
+
+def test_pv_bad_reflectance_is_one_line(meshes, tmp_path, capsys):
+    floor, wall = meshes
+    out = tmp_path / "y.csv"
+    assert main(["pv", "yield", str(floor), str(wall), *CLEAR, "--reflectance", "wal=0.3", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no analysis mesh 'wal'" in err and "floor, wall, CONTEXT" in err and err.count("\n") == 1
     assert not out.exists()

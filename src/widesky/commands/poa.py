@@ -28,7 +28,8 @@ import sys
 
 import numpy as np
 
-from widesky.commands.scene_args import check_ground, check_samples, load_meshes
+from widesky.commands.scene_args import (add_reflectance_argument, check_ground, check_samples, load_meshes,
+                                         reflectances)
 from widesky.commands.sky_args import add_sky_arguments, check_site_arguments, simulation, sky_options
 
 
@@ -47,9 +48,7 @@ def register(subparsers) -> None:
                    help="unit of the --response values: sr [A W-1] (default), qe [1], "
                         "transmittance [1], weight [1]")
     p.add_argument("--ground-z", type=float, default=None, help="ground height [m] (default: lowest vertex)")
-    p.add_argument("--reflectance", action="append", default=[], metavar="GROUP=VALUE",
-                   help="diffuse (broadband) reflectance [1] of an analysis mesh's faces, GROUP its file as given "
-                        "(repeatable; default 0.1); CONTEXT=VALUE sets every --context mesh's (default 0.2)")
+    add_reflectance_argument(p)
     p.add_argument("--tolerance", type=float, default=0.02,
                    help="target relative annual error per face [1]: picks the cheapest preset measured "
                         "below it (docs/irradiance-integrator.md); 0.02 = the default settings")
@@ -122,31 +121,6 @@ def _responses(args):
     return out
 
 
-def _reflectances(items, groups, default=0.1, context_default=0.2):
-    """(per analysis mesh, context) diffuse reflectances [1] from ``--reflectance GROUP=VALUE`` items."""
-    import math
-    refl, ctx = {g: default for g in groups}, context_default
-    for item in items:
-        name, sep, value = item.rpartition("=")
-        try:
-            v = float(value)
-        except ValueError:
-            v = math.nan
-        if not sep or not name:
-            raise ValueError(f"--reflectance {item!r}: expected GROUP=VALUE (GROUP: {', '.join(groups)} or CONTEXT)")
-        if not (math.isfinite(v) and 0.0 <= v <= 1.0):
-            raise ValueError(f"--reflectance {item!r}: the value must be a broadband reflectance in [0, 1] "
-                             "(a spectral reflectance file is not supported for scene surfaces)")
-        if name == "CONTEXT":
-            ctx = v
-        elif name in refl:
-            refl[name] = v
-        else:
-            raise ValueError(f"--reflectance {item!r}: no analysis mesh {name!r}; valid groups: "
-                             f"{', '.join(groups)}, CONTEXT")
-    return [refl[g] for g in groups], ctx
-
-
 def _period_steps(args):
     """Steps of the clear-sky period, estimated before anything is allocated."""
     import pandas as pd
@@ -208,7 +182,7 @@ def _run(args) -> int:
     context = load_meshes(args.context, "--context")
     check_samples(args.samples_per_face, sum(len(m.faces) for m in meshes), args.two_sided)
     groups = [str(m) for m in args.mesh]
-    refl, ctx_refl = _reflectances(args.reflectance, groups)
+    refl, ctx_refl = reflectances(args.reflectance, groups)
     scene = make_scene(meshes, context, groups=groups, analysis_reflectance=refl, context_reflectance=ctx_refl,
                        ground_z=args.ground_z, samples_per_face=args.samples_per_face,
                        two_sided=args.two_sided)

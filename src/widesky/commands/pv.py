@@ -21,6 +21,7 @@ import sys
 
 import numpy as np
 
+from widesky.commands.scene_args import add_reflectance_argument, reflectances
 from widesky.commands.sky_args import add_sky_arguments, check_site_arguments, simulation, sky_options
 from widesky.pvsim.reference import DEFAULT_REFERENCE, REFERENCE_SPECTRA
 
@@ -33,6 +34,7 @@ def _site_args(p):
     p.add_argument("--wind-speed", type=float, default=1.0, help="wind speed without --weather [m s-1]")
     p.add_argument("--two-sided", action="store_true", help="analyse the rear of every face (bifacial)")
     p.add_argument("--ground-z", type=float, default=None, help="ground height [m] (default: lowest vertex)")
+    add_reflectance_argument(p)
     p.add_argument("--tolerance", type=float, default=0.02, help="integrator tolerance [1] (see widesky poa)")
     p.add_argument("--cover-n", type=float, default=1.526, help="cover glass refractive index [1]")
     p.add_argument("--cover-ar", type=float, default=None, help="anti-reflection layer index [1]")
@@ -201,6 +203,7 @@ def check_pv_args(args, output_kind):
     if args.jobs is not None and args.jobs < 1:
         raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
     groups = _groups(args)
+    reflectances(args.reflectance, groups)
     if args.group is not None and args.group not in groups:
         raise ValueError(f"--group {args.group!r}: not a module group; valid: {', '.join(groups)} (a mesh "
                          "file's stem)")
@@ -220,8 +223,11 @@ def _setup(args):
     system = SystemSpec(temperature_model=args.temperature_model, dc_loss=args.dc_loss,
                         dc_ac_ratio=args.dc_ac_ratio)
     from widesky.commands.scene_args import check_ground, load_meshes
-    scene = make_scene(load_meshes(args.mesh, "mesh"), load_meshes(args.context, "--context"), groups=_groups(args),
-                       ground_z=args.ground_z, two_sided=args.two_sided)
+    groups = _groups(args)
+    refl, ctx_refl = reflectances(args.reflectance, groups)
+    scene = make_scene(load_meshes(args.mesh, "mesh"), load_meshes(args.context, "--context"), groups=groups,
+                       analysis_reflectance=refl, context_reflectance=ctx_refl, ground_z=args.ground_z,
+                       two_sided=args.two_sided)
     check_ground(scene, args.ground_z)
     sim = simulation(args, scene, IntegratorSettings.for_tolerance(args.tolerance))
     return dict(sim=sim, note=sim.description, cover=cover, system=system,

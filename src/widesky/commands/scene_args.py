@@ -62,3 +62,34 @@ def check_ground(scene, ground_z):
     if below:
         print(f"widesky: warning: --ground-z {ground_z:g}: {below} of {z.size} analysis points lie below the ground "
               "and read 0", file=sys.stderr)
+
+
+def add_reflectance_argument(p):
+    """``--reflectance GROUP=VALUE`` (repeatable) on a simulating command's parser."""
+    p.add_argument("--reflectance", action="append", default=[], metavar="GROUP=VALUE",
+                   help="diffuse (broadband) reflectance [1] of an analysis mesh's faces, GROUP its group name as the output gives it "
+                        "(repeatable; default 0.1); CONTEXT=VALUE sets every --context mesh's (default 0.2)")
+
+
+def reflectances(items, groups, default=0.1, context_default=0.2):
+    """(per analysis mesh, context) diffuse reflectances [1] from ``--reflectance GROUP=VALUE`` items."""
+    refl, ctx = {g: default for g in groups}, context_default
+    for item in items:
+        name, sep, value = item.rpartition("=")
+        try:
+            v = float(value)
+        except ValueError:
+            v = math.nan
+        if not sep or not name:
+            raise ValueError(f"--reflectance {item!r}: expected GROUP=VALUE (GROUP: {', '.join(groups)} or CONTEXT)")
+        if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+            raise ValueError(f"--reflectance {item!r}: the value must be a broadband reflectance in [0, 1] "
+                             "(a spectral reflectance file is not supported for scene surfaces)")
+        if name == "CONTEXT":
+            ctx = v
+        elif name in refl:
+            refl[name] = v
+        else:
+            raise ValueError(f"--reflectance {item!r}: no analysis mesh {name!r}; valid groups: "
+                             f"{', '.join(groups)}, CONTEXT")
+    return [refl[g] for g in groups], ctx
