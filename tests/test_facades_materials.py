@@ -87,3 +87,18 @@ def test_pv_bad_reflectance_is_one_line(meshes, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "no analysis mesh 'wal'" in err and "floor, wall, CONTEXT" in err and err.count("\n") == 1
     assert not out.exists()
+
+
+def test_reflections_option(meshes, tmp_path, capsys):
+    """``--reflections N`` reaches the integrator: with reflective wall and floor (0.8 each) the floor's reflected
+    light grows from one bounce to three (the wall -> floor -> wall -> floor paths); 0 is refused in one line."""
+    floor, wall = meshes
+    mats = ["--reflectance", f"{wall}=0.8", "--reflectance", f"{floor}=0.8"]
+    one = _run(meshes, tmp_path, *mats, "--reflections", "1")
+    three = _run(meshes, tmp_path, *mats, "--reflections", "3")
+    assert three > one * 1.1
+    out = tmp_path / "z.csv"
+    assert main(["poa", str(floor), str(wall), *CLEAR, "--reflections", "0", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--reflections 0" in err and "[1, 20]" in err and err.count("\n") == 1
+    assert not out.exists()

@@ -169,7 +169,7 @@ def _write_csv(res, path, group=None):
 
 
 def _run(args) -> int:
-    from widesky.irradiance.integrator import IntegratorSettings
+    from widesky.commands.scene_args import integrator_settings
     from widesky.irradiance.scene import make_scene
 
     _check_args(args)
@@ -187,7 +187,7 @@ def _run(args) -> int:
                        ground_z=args.ground_z, samples_per_face=args.samples_per_face,
                        two_sided=args.two_sided)
     check_ground(scene, args.ground_z)
-    sim = simulation(args, scene, IntegratorSettings.for_tolerance(args.tolerance))
+    sim = simulation(args, scene, integrator_settings(args))
     states, note = sim.states, sim.description
     _refuse_huge(len(states), scene.n_faces, len(responses), "the run")
     res = sim.run(responses, output=args.output if kind == "h5" else None,

@@ -216,7 +216,7 @@ def check_pv_args(args, output_kind):
 
 
 def _setup(args):
-    from widesky.irradiance.integrator import IntegratorSettings
+    from widesky.commands.scene_args import integrator_settings
     from widesky.irradiance.scene import make_scene
     from widesky.pvsim.system import CoverOptics, SystemSpec
     cover = CoverOptics(n=args.cover_n, n_ar=args.cover_ar, spectral=args.spectral_cover)
@@ -229,7 +229,7 @@ def _setup(args):
                        analysis_reflectance=refl, context_reflectance=ctx_refl, ground_z=args.ground_z,
                        two_sided=args.two_sided)
     check_ground(scene, args.ground_z)
-    sim = simulation(args, scene, IntegratorSettings.for_tolerance(args.tolerance))
+    sim = simulation(args, scene, integrator_settings(args))
     return dict(sim=sim, note=sim.description, cover=cover, system=system,
                 temp_air=sim.weather_series("temp_air", args.temp_air),
                 wind_speed=np.maximum(sim.weather_series("wind_speed", args.wind_speed), 0.0))

@@ -65,7 +65,10 @@ def check_ground(scene, ground_z):
 
 
 def add_reflectance_argument(p):
-    """``--reflectance GROUP=VALUE`` (repeatable) on a simulating command's parser."""
+    """``--reflectance GROUP=VALUE`` (repeatable) and ``--reflections N`` on a simulating command's parser."""
+    p.add_argument("--reflections", type=int, default=3, metavar="N",
+                   help="reflections followed per light path, 1-20 (default 3; 1 is a single bounce; "
+                        "docs/irradiance-integrator.md, 'Multiple reflections')")
     p.add_argument("--reflectance", action="append", default=[], metavar="GROUP=VALUE",
                    help="diffuse (broadband) reflectance [1] of an analysis mesh's faces, GROUP its group name as the output gives it "
                         "(repeatable; default 0.1); CONTEXT=VALUE sets every --context mesh's (default 0.2)")
@@ -93,3 +96,13 @@ def reflectances(items, groups, default=0.1, context_default=0.2):
             raise ValueError(f"--reflectance {item!r}: no analysis mesh {name!r}; valid groups: "
                              f"{', '.join(groups)}, CONTEXT")
     return [refl[g] for g in groups], ctx
+
+
+def integrator_settings(args):
+    """The integrator's settings of ``--tolerance`` and ``--reflections`` (checked: one line naming the option)."""
+    from dataclasses import replace
+
+    from widesky.irradiance.integrator import IntegratorSettings
+    if not 1 <= args.reflections <= 20:
+        raise ValueError(f"--reflections {args.reflections}: must be an integer in [1, 20]")
+    return replace(IntegratorSettings.for_tolerance(args.tolerance), reflections=args.reflections)
