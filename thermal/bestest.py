@@ -58,7 +58,7 @@ __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_mod
            "layer_resistance", "EXTERIOR_MODELS", "CASE_SPECS", "CaseSpec", "SETBACK", "VENT_SCHEDULE",
            "MEAN_TEMPERATURE_RANGE", "LOAD_CASES", "SOURCES", "Verdict", "verdicts", "case_geometry",
            "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS",
-           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS"]
+           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "setback_substeps"]
 
 
 @dataclass(frozen=True)
@@ -543,6 +543,19 @@ def setpoint_schedules(case: BestestCase, index):
     return heat, cool, h_ve
 
 
+def setback_substeps(index, substeps):
+    """Case 640/940 heating set-point [degC] at the end of each of ``substeps`` sub-steps per hour (``index``: the
+    hours' ends), the ramp of :data:`SETBACK` followed within its hour (10 degC until 07:00, linear to 20 degC at
+    08:00, 20 degC until 23:00). Returns (T substeps,)."""
+    start = np.asarray((index - pd.Timedelta(hours=1)).hour, float)
+    t = (start[:, None] + np.arange(1, substeps + 1) / substeps).ravel() % 24.0    # sub-step ends [h of day]
+    sb = SETBACK
+    ramp = np.clip((t - sb["ramp_start"]) / (sb["ramp_end"] - sb["ramp_start"]), 0.0, 1.0)
+    day = np.where(t == 0.0, 24.0, t)
+    heat = sb["night"] + (sb["day"] - sb["night"]) * ramp
+    return np.where(day > sb["night_start"], sb["night"], heat)
+
+
 _SHADING_CACHE = {}
 
 
@@ -798,10 +811,13 @@ def interior_solar_distribution(case: BestestCase, elements):
 
 
 ISO52016_OPTIONS = {"solar": ("ashrae140", "area"), "convection": ("direction", "fixed", "tarp"),
-                    "gaps": ("hourly", "en673")}
+                    "gaps": ("hourly", "en673"), "substeps": (4, 1)}
 """Choices of the ISO 52016-1 run (first: the default): where the transmitted solar lands
 (:data:`INTERIOR_SOLAR_DISTRIBUTION` or by opaque area), the inside convection of floor and ceiling (by the heat
-flow's direction, or fixed by kind) and the windows' gap conductance (at the hour's temperature, or EN 673's)."""
+flow's direction, or fixed by kind), the windows' gap conductance (at the hour's temperature, or EN 673's) and the
+sub-steps per hour (4: 15-min implicit steps with the weather's instantaneous values interpolated, the Case 640/940
+set-point ramp followed within its hour (:func:`setback_substeps`) and the hourly means reported; 1: one step an
+hour, the Case 640 ramp hour at its mean 15 degC, the results at the hour's end)."""
 
 
 def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, options=None):
@@ -818,16 +834,21 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, o
     h_ce, h_re, sol = [], [], []
     for i, el in enumerate(els):
         height = c.height if el.kind == "roof" else 0.5 * c.height
-        hc, hr = exterior_coefficients(wind_at_height(v, height), ta, el.emissivity)
+        # the raised floor's underside: outdoor air at zero wind (the case files' conOpa, v = 0, May 2022 revision)
+        wind = np.zeros_like(v) if el.kind == "floor" else wind_at_height(v, height)
+        hc, hr = exterior_coefficients(wind, ta, el.emissivity)
         h_ce.append(hc)
         h_re.append(hr)
         sol.append(gains["poa_global"][:, i] if i <= n_wall else np.zeros(len(ta)))
+    if opt["substeps"] > 1 and c.spec.control == "setback":
+        heat = setback_substeps(weather.index, opt["substeps"])
     return simulate_iso52016(els, ta, gains["temp_sky"], np.stack(h_ce, 1), np.stack(h_re, 1),
                              np.stack(sol, 1), gains["window"], c.internal_gains, h_ve, heat, cool,
                              volume=c.zone.floor_area * c.height,
                              internal_radiative_fraction=INTERNAL_RADIATIVE_FRACTION,
                              air_capacity_per_volume=RHO_C_AIR, warmup_steps=warmup_steps,
-                             temp_start=20.0, solar_distribution=dist, convection=opt["convection"])
+                             temp_start=20.0, solar_distribution=dist, convection=opt["convection"],
+                             substeps=opt["substeps"])
 
 
 def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None,

@@ -170,7 +170,7 @@ def element_nodes(element: Element):
 def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, solar_in, phi_int,
                       h_ve, heating_setpoint, cooling_setpoint, *, volume, internal_radiative_fraction=0.5,
                       air_capacity_per_volume=1200.0, timestep=3600.0, warmup_steps=0, temp_start=20.0,
-                      solar_distribution=None, convection="fixed"):
+                      solar_distribution=None, convection="fixed", substeps=1):
     """Run the ISO 52016-1 hourly balance of one zone (module doc).
 
     Parameters
@@ -192,7 +192,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     h_ve : array_like
         (T,) or scalar ventilation conductance [W K-1] (air at the outdoor temperature).
     heating_setpoint, cooling_setpoint : array_like
-        (T,) or scalar air set-points [degC]; -inf / inf: off.
+        (T,) or scalar air set-points [degC]; -inf / inf: off. With ``substeps`` > 1 also (T substeps,): the
+        set-point of each sub-step (e.g. a ramp within the hour).
     volume : float
         Air volume [m3] (the air node's capacity: ``air_capacity_per_volume`` times it).
     internal_radiative_fraction : float
@@ -205,6 +206,14 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     convection : str
         A key of :data:`CONVECTION`: ``"fixed"`` (default), ``"direction"`` (h_ci of floors and roofs by the
         heat flow's direction at the end of the previous step) or ``"tarp"`` (Walton's correlations).
+    substeps : int
+        Sub-steps per step (ISO 52016-1 6.5.1 allows steps shorter than the hour): each step of ``timestep`` is
+        solved as ``substeps`` implicit-Euler steps. The weather's instantaneous values (``temp_air_out``,
+        ``temp_sky``, ``h_ce``, ``h_re``: the weather file's values at the end of each hour) are interpolated
+        linearly from the previous step's to this step's at each sub-step's end (the first step holds its own);
+        the hour's integrals and schedules (``solar_out``, ``solar_in``, ``phi_int``, ``h_ve``, set-points) are
+        held over the step. Results are the step's means over its sub-steps (``temp_air``, ``temp_surface``,
+        ``heating``, ``cooling``). 1 (default): one implicit step per step, the results at its end.
 
     Returns
     -------
@@ -230,9 +239,35 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     ts, hce, hre = steps(temp_sky, "temp_sky"), steps(h_ce, "h_ce", True), steps(h_re, "h_re", True)
     sol_out, sol_in = steps(solar_out, "solar_out", True), steps(solar_in, "solar_in")
     pint, hve = steps(phi_int, "phi_int"), steps(h_ve, "h_ve")
-    hs, cs = steps(heating_setpoint, "heating_setpoint"), steps(cooling_setpoint, "cooling_setpoint")
-    if np.any(hs > cs):
+    sub_set = [np.asarray(a, float) for a in (heating_setpoint, cooling_setpoint)]
+    per_sub = [isinstance(substeps, (int, np.integer)) and substeps > 1 and a.shape == (T * substeps,)
+               for a in sub_set]
+    hs, cs = (a if sub else steps(a, name) for a, sub, name in zip(sub_set, per_sub, ("heating_setpoint",
+                                                                                      "cooling_setpoint")))
+    if hs.shape == cs.shape and np.any(hs > cs):
         raise ValueError("heating_setpoint must be <= cooling_setpoint")
+    if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
+        raise ValueError(f"substeps={substeps!r} must be an integer >= 1")
+    n_sub = int(substeps)
+    T_hours = T
+    if n_sub > 1:
+        frac = np.arange(1, n_sub + 1) / n_sub
+
+        def interp(a):                        # (T, ...) end-of-step values -> (T n_sub, ...) at sub-step ends
+            prev = np.concatenate([a[:1], a[:-1]])
+            f = frac.reshape((1, n_sub) + (1,) * (a.ndim - 1))
+            return (prev[:, None] + f * (a - prev)[:, None]).reshape((T * n_sub,) + a.shape[1:])
+
+        def hold(a):
+            return np.repeat(a, n_sub, axis=0)
+        te, ts, hce, hre = interp(te), interp(ts), interp(np.asarray(hce)), interp(np.asarray(hre))
+        sol_out, sol_in, pint, hve = (hold(np.asarray(a)) for a in (sol_out, sol_in, pint, hve))
+        hs, cs = (a if sub else hold(np.asarray(a)) for a, sub in zip((hs, cs), per_sub))
+        if np.any(hs > cs):
+            raise ValueError("heating_setpoint must be <= cooling_setpoint")
+        T = T * n_sub
+        timestep = timestep / n_sub
+        warmup_steps = warmup_steps * n_sub
 
     # node numbering: 0 air, then each element's nodes outside first
     first, nodes = [], 1
@@ -343,5 +378,7 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         x = free + q * unit
         if i >= n_warm:
             ta[t], tsurf[t], need[t] = x[0], area @ x[inside] / a_tot, q
-    return {"temp_air": ta, "temp_surface": tsurf, "heating": np.maximum(need, 0.0),
-            "cooling": np.maximum(-need, 0.0)}
+    heat_, cool_ = np.maximum(need, 0.0), np.maximum(-need, 0.0)
+    if n_sub > 1:
+        ta, tsurf, heat_, cool_ = (a.reshape(T_hours, n_sub).mean(1) for a in (ta, tsurf, heat_, cool_))
+    return {"temp_air": ta, "temp_surface": tsurf, "heating": heat_, "cooling": cool_}
