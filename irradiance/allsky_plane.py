@@ -50,7 +50,7 @@ class ClearPlaneSpectra(NamedTuple):
     view_ground: float
 
 
-def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=None, chunk=256,
+def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=None, chunk=64,
                         progress=False) -> ClearPlaneSpectra:
     """Clear-sky spectral irradiance components of an unobstructed plane per step.
 
@@ -67,7 +67,8 @@ def clear_plane_spectra(sky, states, surface_tilt, surface_azimuth, settings=Non
     settings : IntegratorSettings, optional
         Quadrature (``mf``, radiance samples, circumsolar disc).
     chunk : int
-        Steps per sky evaluation.
+        Steps per sky evaluation (64: the (64, P, C) float64 spectral arrays stay in cache; 256 took twice the
+        time, the same values).
     progress : bool
         tqdm progress bar.
 

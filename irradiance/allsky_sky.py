@@ -85,9 +85,19 @@ def weather_measurements(data, spectral_model="clear", aerosol="visibility", cle
     return measured, "scaled to measured DNI/DHI"
 
 
+def _spectral_columns(widths):
+    """(C, C + 1) columns of the clear sky's evaluation: broadband first (the circumsolar nodes' radial profile),
+    then every channel."""
+    C = widths.size
+    return np.concatenate([widths[:, None], np.eye(C)], axis=1)
+
+
 def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllSkyWeather,
                           options=AllSkyOptions(), min_visibility=20.0, ground_shape=None):
     """All-sky patch radiance and beam of one chunk of steps, contracted with ``weights``.
+
+    The chunk is evaluated in blocks of steps whose spectral arrays stay in cache (about 4 MB; each step's values
+    do not depend on the block).
 
     Parameters
     ----------
@@ -120,21 +130,63 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
         :func:`widesky.irradiance.ground.vegetated_steps` from the states' albedo and ``weather.snow_depth``).
     """
     W = np.asarray(weights, dtype=float)
+    T = len(states)
+    # blocks of steps whose spectral arrays stay in cache ((block, P, C + 1) float64 of about 4 MB): the whole chunk's
+    # 56-column arrays made every pass, the sky tables' lookups included, run from memory (about twice the time)
+    block = max(16, _BLOCK_BYTES // (8 * patches.n_patches * (sky.n_channels + 1)))
+    if T <= block:
+        return _allsky_block(sky, patches, states, W, settings, weather, options, min_visibility, ground_shape)
+    parts = []
+    for a in range(0, T, block):
+        idx = np.arange(a, min(a + block, T))
+        wx = AllSkyWeather(*(v if v is None or np.ndim(v) == 0 else np.asarray(v)[idx] for v in weather))
+        parts.append(_allsky_block(sky, patches, states.take(idx), W, settings, wx, options, min_visibility,
+                                   ground_shape))
+    return _stack(parts)
+
+
+_BLOCK_BYTES = 4 << 20
+
+
+def _stack(parts):
+    """Per-step results of consecutive blocks joined along the steps (named tuples field by field; None stays)."""
+    first = parts[0]
+    if first is None:
+        return None
+    if isinstance(first, tuple):
+        joined = [_stack([p[i] for p in parts]) for i in range(len(first))]
+        return type(first)(*joined) if hasattr(first, "_fields") else tuple(joined)
+    if isinstance(first, np.ndarray) and first.ndim >= 1:
+        return np.concatenate(parts)
+    return first
+
+
+def _allsky_block(sky, patches, states, W, settings, weather, options, min_visibility, ground_shape):
+    """:func:`allsky_patch_radiance` of one block of steps."""
     C = sky.n_channels
+    R = W.shape[1]
     widths = np.asarray(sky.channel_widths, dtype=float)
-    cols = np.concatenate([widths[:, None], np.eye(C)], axis=1)   # broadband first (circumsolar nodes)
-    Lp, dn, cs = patch_radiance(sky, patches, states, cols, settings)
+    Lp, dn, cs = patch_radiance(sky, patches, states, _spectral_columns(widths), settings)
+    # views, not copies: the contractions below read the spectral columns in place (BLAS takes the row stride)
     Lp, dn, cs = Lp[..., 1:], dn[:, 1:], cs[:, 1:]                 # (T, P, C), (T, C), (T, C)
     w_h = patches.vector[:, 2]                                    # exact horizontal weights [sr]
     sin_el = np.sin(np.radians(np.maximum(states.sun_elevation, 0.0)))
-    dhi_clear = np.einsum("p,tpc->tc", w_h, Lp) + cs * sin_el[:, None]
+    h_clear = np.matmul(w_h, Lp)                                  # (T, C) patches' horizontal irradiance
+    dhi_clear = h_clear + cs * sin_el[:, None]
     f = allsky_factors(sky.channel_edges, dn, dhi_clear, states.sun_elevation, weather.dni,
                        weather.dhi, ghi=weather.ghi, visibility=weather.visibility,
                        temp_dew=weather.temp_dew, min_visibility=min_visibility, options=options,
                        albedo=states.albedo, earth_sun_distance=states.earth_sun_distance,
                        in_band_share=in_band_share(sky.channel_edges[0], sky.channel_edges[-1]))   # broadband weather
-    L = np.einsum("tpc,tc,cr->tpr", Lp, f.diffuse_scale, W, optimize=True)
-    dni_c = dn * f.dni_scale + cs * f.diffuse_scale                # (T, C) beam + circumsolar
+    ds = f.diffuse_scale                                          # (T, C)
+    # one pass over the spectral patch radiance: per step the (C, R + 1) matrix of the diffuse factors times the
+    # integrator's columns and the channel widths (the clear light's broadband radiance for the Perez sky)
+    Wt = np.empty((len(states), C, R + 1))
+    np.multiply(ds[:, :, None], W[None], out=Wt[..., :R])
+    np.multiply(ds, widths, out=Wt[..., R])
+    LW = np.matmul(Lp, Wt)                                        # (T, P, R + 1)
+    L = LW[..., :R]
+    dni_c = dn * f.dni_scale + cs * ds                            # (T, C) beam + circumsolar
     if np.any(f.circumsolar_dhi > 0):                              # cloud light traced with the sun
         up = sin_el > 0
         dni_c[up] += f.circumsolar_dhi[up] / sin_el[up, None]
@@ -146,16 +198,16 @@ def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllS
             ok = np.isfinite(f.sky_clearness)
             if np.any(ok):
                 k = max(4, getattr(settings, "radiance_samples", 2))
-                ds = f.diffuse_scale[ok] * widths
                 shape[ok] = cloud_patch_shape(patches, states.sun_direction[ok], f.sky_clearness[ok],
                                               f.sky_brightness[ok], f.overcast_dhi[ok] @ widths,
-                                              clear_radiance=np.einsum("tpc,tc->tp", Lp[ok], ds),
-                                              clear_circumsolar=np.einsum("tc,tc->t", cs[ok], ds), samples=k)
+                                              clear_radiance=LW[ok, :, R],
+                                              clear_circumsolar=np.einsum("tc,tc->t", cs[ok], ds[ok] * widths),
+                                              samples=k)
         L += shape[:, :, None] * (f.overcast_dhi @ W)[:, None, :]
+    L = np.ascontiguousarray(L)
     ground = None
     if ground_shape is not None:                                   # the all-sky GHI spectrum of each step
-        ghi_c = (np.einsum("p,tpc,tc->tc", w_h, Lp, f.diffuse_scale) + f.overcast_dhi
-                 + dni_c * sin_el[:, None])
+        ghi_c = h_clear * ds + f.overcast_dhi + dni_c * sin_el[:, None]
         veg = vegetated_steps(states.albedo, weather.snow_depth)
         ground = ground_scales(ground_shape, ghi_c, widths, states.albedo, veg)
     return L, dni, f, (dn @ widths, dhi_clear @ widths), ground

@@ -229,7 +229,14 @@ def cloud_spectral_transmittance(tau, extinction, coalbedo, asymmetry, reference
     """
     t = np.asarray(tau, dtype=float)
     e, c, g = (np.asarray(a, dtype=float) for a in (extinction, coalbedo, asymmetry))
-    T = np.stack([slab_transmittance(t * e[j], c[j], g[j]) for j in range(e.size)], axis=1)
+    bad_g = ~((g >= 0.0) & (g < 1.0))
+    if np.any(bad_g):
+        raise ValueError(f"asymmetry={float(g[bad_g][0])!r} outside the valid range [0, 1)")
+    if np.any(t < 0):
+        raise ValueError("tau must be >= 0")
+    if np.any((c < 0) | (c >= 1)):
+        raise ValueError("coalbedo outside the valid range [0, 1)")
+    T = _slab(t[:, None] * e[None, :], c[None, :], g[None, :])   # all channels at once, the same arithmetic
     return T / slab_transmittance(t, 0.0, reference_asymmetry)[:, None]
 
 
@@ -275,6 +282,11 @@ def slab_transmittance(tau, coalbedo, asymmetry=DEFAULT_ASYMMETRY):
         raise ValueError("tau must be >= 0")
     if np.any((c < 0) | (c >= 1)):
         raise ValueError("coalbedo outside the valid range [0, 1)")
+    return _slab(t, c, g)
+
+
+def _slab(t, c, g):
+    """:func:`slab_transmittance` of checked inputs; ``g`` may be an array broadcast against ``t`` and ``c``."""
     om = 1.0 - c
     g1 = (7.0 - om * (4.0 + 3.0 * g)) / 4.0
     g2 = -(1.0 - om * (4.0 - 3.0 * g)) / 4.0

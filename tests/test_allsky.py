@@ -392,3 +392,54 @@ def test_integrator_vegetated_ground_conserves_the_reflected_broadband():
     np.testing.assert_allclose(ratio[2], 1.0, rtol=1e-5)                  # snow: grey
     with pytest.raises(ValueError, match="ground"):
         AllSkyOptions(ground="sand")
+
+
+def test_allsky_chunk_in_blocks_is_the_whole_chunk(monkeypatch):
+    """allsky_patch_radiance evaluates a chunk in cache-sized blocks of steps (issue 36): every output, the
+    factors' fields included, is the one-block result in the same step order (1e-12 relative: the same
+    arithmetic per step); clear_plane_spectra's chunks (64 by default) do not change its values; and the
+    vectorised spectral cloud transmittance is the per-channel slab's, exactly."""
+    from widesky.irradiance import allsky_sky
+    from widesky.irradiance.allsky_sky import AllSkyWeather, allsky_patch_radiance
+    from widesky.irradiance.cloud_optics import cloud_spectral_transmittance, mie_droplet_optics, slab_transmittance
+    from widesky.irradiance.patches import reinhart
+    sky = RedSunSky()
+    T = 37
+    rng = np.random.default_rng(3)
+    states = SkyStates.create(rng.uniform(3.0, 70.0, T), rng.uniform(60.0, 300.0, T), 30.0, 0.2)
+    settings = IntegratorSettings()
+    patches = reinhart(settings.mf)
+    dni, dhi = rng.uniform(0.0, 800.0, T), rng.uniform(20.0, 400.0, T)
+    weather = AllSkyWeather(dni, dhi, visibility=np.full(T, 12.0), temp_dew=np.full(T, 5.0),
+                            snow_depth=np.where(np.arange(T) % 5 == 0, 3.0, 0.0))
+    Wc = np.stack([np.diff(sky.channel_edges), np.linspace(0.0, 1.0, sky.n_channels)], axis=1)
+    shape = vegetation_albedo_shape(sky.wavelengths)
+    whole = allsky_patch_radiance(sky, patches, states, Wc, settings, weather, ground_shape=shape)
+    monkeypatch.setattr(allsky_sky, "_BLOCK_BYTES", 1)                  # blocks of 16 steps: 16, 16, 5
+    blocks = allsky_patch_radiance(sky, patches, states, Wc, settings, weather, ground_shape=shape)
+
+    def leaves(x, name="out"):
+        if isinstance(x, tuple):
+            for k, v in zip(getattr(x, "_fields", range(len(x))), x):
+                yield from leaves(v, f"{name}.{k}")
+        elif x is not None:
+            yield name, np.asarray(x)
+
+    a, b = dict(leaves(whole)), dict(leaves(blocks))
+    assert a.keys() == b.keys() and len(a) > 20
+    for k in a:
+        assert a[k].shape == b[k].shape, k
+        if a[k].dtype == bool:
+            assert np.array_equal(a[k], b[k]), k
+        else:
+            np.testing.assert_allclose(b[k], a[k], rtol=1e-12, atol=1e-12 * np.nanmax(np.abs(a[k]), initial=0.0),
+                                       err_msg=k)
+    assert a["out.2.cloud_index"].max() > 0.2                          # cloudy steps are in the sample
+    one, parts = (clear_plane_spectra(sky, states, 30.0, 180.0, settings, chunk=n) for n in (64, 16))
+    for x, y in zip(one, parts):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    ext, co, g = mie_droplet_optics(sky.wavelengths)
+    tau = np.array([0.0, 2.0, 15.0, 80.0])
+    per_channel = np.stack([slab_transmittance(tau * ext[j], co[j], g[j]) for j in range(ext.size)], axis=1)
+    np.testing.assert_array_equal(cloud_spectral_transmittance(tau, ext, co, g),
+                                  per_channel / slab_transmittance(tau, 0.0, 0.86)[:, None])
