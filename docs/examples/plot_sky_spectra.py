@@ -13,7 +13,7 @@ import numpy as np
 from widesky import skymodel
 
 model = skymodel.load_dataset()
-zenith = skymodel.directions_from_angles([0.0], [0.0])
+zenith = skymodel.direction_from_zenith([0.0], [0.0])
 fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6))
 for vis in (20.0, 50.0, 131.8):
     L = skymodel.sky_radiance(model, zenith, 40.0, 180.0, vis, 0.2)[0]           # [W m-2 sr-1 nm-1]
