@@ -17,7 +17,7 @@ Usage:  python benchmarks/bench_allsky.py [--sites amsterdam|all] [--figure docs
 
 Also printed: where the sky model at the G173 state differs from G173 (direct or diffuse, with SPCTRL2),
 the spectral mismatch against the clear-sky index with PVSPEC, and the APE of global horizontal spectra
-against the clear-sky index, with SEDES2 when its coefficient file is given (docs/all-sky.md, section 4).
+against the clear-sky index, with SEDES2 when its coefficient file is given (docs/validation/all-sky.md).
 
 Prints a table per site and the time of each phase (the sky evaluation dominates; the all-sky factors
 cost milliseconds for a year, reported as a ratio to the plain scaling measured in the same run).

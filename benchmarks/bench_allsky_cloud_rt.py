@@ -1,4 +1,4 @@
-"""The all-sky model's cloudy spectra against radiative transfer with a cloud layer (docs/all-sky.md, section 4e).
+"""The all-sky model's cloudy spectra against radiative transfer with a cloud layer (docs/validation/all-sky.md, section 4e).
 
 For each solar elevation and cloud optical depth, ``widesky.skymodel.generator.cloud_reference.cloudy_fluxes`` solves the
 dataset's clear atmosphere with a homogeneous stratiform water cloud (Mie droplets, saturated in-cloud vapour,

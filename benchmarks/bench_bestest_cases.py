@@ -1,4 +1,4 @@
-"""Every ASHRAE 140 case of ``widesky thermal bestest`` on both irradiance routes, as the tables of docs/thermal.md.
+"""Every ASHRAE 140 case of ``widesky thermal bestest`` on both irradiance routes, as the tables of docs/validation/thermal-bestest-cases.md.
 
 One command regenerates the validation tables (section "The rest of the standard") after any change of the sky,
 the glazing or the zone model:
@@ -42,7 +42,7 @@ def main(argv=None):
     ap.add_argument("--json", default=None, help="write the integrator route's 5R1C results here")
     ap.add_argument("--zone-models", nargs="+", default=list(ZONE_MODELS), choices=ZONE_MODELS)
     ap.add_argument("--steps", action="store_true",
-                    help="instead: the ISO 52016-1 corrections one after another (docs/thermal.md table)")
+                    help="instead: the ISO 52016-1 corrections one after another (docs/validation/thermal-bestest-cases.md table)")
     args = ap.parse_args(argv)
     refs = reference_results(args.data_dir)
 

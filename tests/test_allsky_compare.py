@@ -18,7 +18,7 @@ References and tolerances:
   (every daylight hour, a south plane tilted at the latitude, the AOD column, generic EQEs) is within 1.5
   percentage points for each technology, in the measured order, and its a-Si minus CIGS spread within 1.5
   points of 2.8 (the issue's criterion); the grey ground misses a-Si by more than 1.5 points and the vegetated
-  ground changes no annual total (docs/all-sky.md, section 4b).
+  ground changes no annual total (docs/validation/all-sky.md, section 4b).
 * SEDES2 (Nann & Riordan 1991; cloud cover modifiers as tabulated by Whitaker & Newmiller 1998,
   NREL/SR-520-23942): median hourly APE of global horizontal spectra within 0.02 eV of SEDES2 applied to
   the same clear spectra and GHI, in the clear-sky-index bins 0.4-0.6 and 0.6-0.8 (SEDES2 is bluer below
@@ -162,7 +162,7 @@ def test_pvspec_annual_weights_hours_and_clips_the_clear_sky_index():
 @needs_data
 def test_clear_sky_airmass_trend_of_an_independent_code(sky):
     """SPCTRL2 (Bird & Riordan 1986, through pvlib) on a 52 deg south plane: a-Si loses and CIGS gains against
-    G173 as the air mass grows (the direct beam reddens), the trend that docs/all-sky.md section 4d sets
+    G173 as the air mass grows (the direct beam reddens), the trend that docs/validation/all-sky.md section 4d sets
     beside PVSPEC's. Monotone in both, and a-Si below -3 % by AM 2.9."""
     pytest.importorskip("pvlib")
     from widesky.irradiance.allsky_compare import spctrl2_airmass_trend

@@ -1,4 +1,4 @@
-"""The all-sky model's cloudy spectra against radiative transfer with a cloud layer (docs/all-sky.md, 4e).
+"""The all-sky model's cloudy spectra against radiative transfer with a cloud layer (docs/validation/all-sky.md, 4e).
 
 Reference: the dataset's clear atmosphere (US standard, OPAC continental aerosol AOD550 0.1, 6S k-distribution
 gases) with a stratiform water cloud of optical depth 20 (Mie droplets r_eff 10 um, saturated, base 1 km),
@@ -9,7 +9,7 @@ within 0.01 eV of the reference (the cloud shifts it by +0.044 eV), the mismatch
 CIGS responses relative to the clear spectrum within 1.5 points (a-Si: +13 %), band ratios within 0.03; the model
 before the Mie droplets and the two-stream vapour path misses a-Si by more than 3 points (the test can fail).
 At sun 60 deg APE within 0.01 eV and a-Si within 2.5 points; at sun 20 deg (where the reference's thin-cloud
-light is bluer than the model's, docs/all-sky.md 4e) the model is nearer the reference than before in APE and
+light is bluer than the model's, docs/validation/all-sky.md 4e) the model is nearer the reference than before in APE and
 a-Si.
 """
 

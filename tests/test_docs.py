@@ -21,7 +21,6 @@ pytestmark = pytest.mark.slow
 
 # user pages that other work in progress (issues 35, 36 and 40) is still editing and whose development history is
 # still to be moved to docs/dev/: exempt from the length limit until then (three are over it today)
-PENDING_LONG_PAGES = {"all-sky.md", "irradiance-integrator.md", "thermal.md", "pvsim.md", "benchmarks.md"}
 MAX_USER_PAGE_LINES = 420  # "no page over about 400 lines of user documentation"
 
 
@@ -57,8 +56,7 @@ def test_user_pages_stay_short():
         n = len(page.read_text().split("\n"))
         if rel.parts[0] == "dev":
             continue                      # development notes may be long
-        if str(rel) not in PENDING_LONG_PAGES:
-            assert n <= MAX_USER_PAGE_LINES, f"{rel}: {n} lines of user documentation (limit {MAX_USER_PAGE_LINES})"
+        assert n <= MAX_USER_PAGE_LINES, f"{rel}: {n} lines of user documentation (limit {MAX_USER_PAGE_LINES})"
 
 
 @pytest.fixture(scope="module")

@@ -160,7 +160,7 @@ def _site_ratios(site, stride):
 
 
 # annual ratio to pvlib's Perez (1990) allowed per plane: vertical S/E/W 3.5 % and N 5 % (PSM93 itself: up to
-# +2.9 / -4.0 %, module docstring), 30 deg tilts 2.5 %; measured (stride 1) in docs/all-sky.md, section 5
+# +2.9 / -4.0 %, module docstring), 30 deg tilts 2.5 %; measured (stride 1) in docs/validation/all-sky.md, section 4g
 TOL = {"S90": 0.035, "N90": 0.05, "E90": 0.035, "W90": 0.035, "S30": 0.025, "N30": 0.025, "E30": 0.025,
        "W30": 0.025, "H": 0.01}
 

@@ -9,7 +9,7 @@
   obstructed facade; and hourly, the reflected light's error below 10 % of the step's global at the
   95th percentile. The reference runs at reduced resolution here (sky grid 1.6 deg, reflector grid
   6 deg), measured within 0.2 % of its converged settings on these scenes; the full-year numbers
-  with the converged reference are in docs/irradiance-integrator.md
+  with the converged reference are in docs/validation/irradiance-integrator.md
   (``python benchmarks/bench_poa_accuracy.py``). Sky: the embedded default PSM dataset.
 """
 

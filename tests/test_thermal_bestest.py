@@ -50,7 +50,7 @@ OUTSIDE = {
     # Since the one pipeline (issue 33) the integrator route runs the all-sky default; with the room's real windows
     # (issue 38: two 3 m x 2 m south windows, bestest_geometry) and the all-sky distribution of 2026-12-05 its south
     # wall sits at Perez's level (1368 kWh m-2 against 1369), yet Case 900 still misses these two: the heavyweight
-    # misses are no longer a matter of the wall's light (docs/thermal.md, "The rest of the standard")
+    # misses are no longer a matter of the wall's light (docs/validation/thermal-bestest-cases.md)
     ("integrator", "900", "annual_cooling"): "2.27 MWh < 2.35 (all-sky default, 5R1C)",
     ("integrator", "900", "peak_heating"): "2.80 kW > 2.78 (programs' max; all-sky default)",
     # ISO 52016-1 (the default zone model since issue 38's corrections, docs/thermal.md): all 16 inside on the

@@ -11,7 +11,7 @@ which sits in series with the windows and the opaque elements:
 so it loses less than the hand balance, by the share ``(H_tr_w + H_tr_op) / (H_tr_w + H_tr_op + H_tr_is)``
 of the transmission: 10 % for the ASHRAE 140 room (92 W K-1 against 102), 7.6 % for a 20 x 12 x 3.5 m
 box (411 against 444).
-docs/thermal.md ("Steady-state balance") discusses the consequence. These tests state the difference with
+docs/validation/thermal-bestest.md ("Steady-state balance") discusses the consequence. These tests state the difference with
 its size, so that a change of the network shows here.
 """
 

@@ -5,7 +5,7 @@ from the south wall's ends or centred in the east and west walls; overhangs and 
 shading by ray casting against the analytic shadow of an infinite overhang, the schedules of Cases
 640 and 650, the verdict logic and the exit status of ``widesky thermal bestest``, and the new cases'
 results against their ranges on the weather (Hay-Davies) route, whose every figure is inside
-(docs/thermal.md lists the routes' figures).
+(docs/validation/thermal-bestest-cases.md lists the routes' figures).
 """
 
 import functools

@@ -51,7 +51,7 @@ def register(subparsers) -> None:
     add_reflectance_argument(p)
     p.add_argument("--tolerance", type=float, default=0.02,
                    help="target relative annual error per face [1]: picks the cheapest preset measured "
-                        "below it (docs/irradiance-integrator.md); 0.02 = the default settings")
+                        "below it (docs/validation/irradiance-integrator.md); 0.02 = the default settings")
     p.add_argument("--samples-per-face", type=int, default=1, help="points per face (1, 4, 9 ...)")
     p.add_argument("--two-sided", action="store_true", help="also analyse the back of every face")
     p.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores)")
@@ -139,7 +139,7 @@ def _refuse_huge(n_steps, n_faces, n_responses, what):
     if n_steps <= MAX_STEPS:
         return
     out_bytes, _ = estimate_run(n_faces, n_steps, n_responses)
-    # measured on the 20,000-face benchmark (docs/irradiance-integrator.md): about 26 s for
+    # measured on the 20,000-face benchmark (docs/validation/irradiance-integrator.md): about 26 s for
     # 20,000 faces x 4,444 daylight steps x 3 responses on 2 quiet cores, i.e. 1e-7 s per face,
     # daylight step and response; half the steps are daylight
     secs = 1e-7 * n_faces * n_steps * 0.5 * (n_responses + 1)
