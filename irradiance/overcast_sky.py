@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .haze import relative_airmass
+from .perez_sky import perez_clearness_brightness
 
 __all__ = ["cie_overcast_relative", "overcast_poa_ratio", "perez_circumsolar_fraction", "PEREZ_EPSILON_EDGES",
            "PEREZ_F1", "SOLAR_CONSTANT"]
@@ -87,16 +87,8 @@ def perez_circumsolar_fraction(dhi, dni, sun_elevation, dni_extra=SOLAR_CONSTANT
     numpy.ndarray
         (T,) F1 [1], >= 0.
     """
-    d = np.nan_to_num(np.asarray(dhi, dtype=float))
-    b = np.maximum(np.nan_to_num(np.asarray(dni, dtype=float)), 0.0)
-    el = np.asarray(sun_elevation, dtype=float)
-    z = np.radians(90.0 - np.clip(el, 0.0, 90.0))
-    ok = (d > 0) & (el > 0)
-    dd = np.where(ok, d, 1.0)
-    k = 1.041 * z ** 3
-    eps = ((dd + b) / dd + k) / (1.0 + k)
-    am = np.nan_to_num(relative_airmass(np.where(ok, el, 45.0)))
-    delta = dd * am / np.asarray(dni_extra, dtype=float)
+    eps, delta, ok = perez_clearness_brightness(dhi, dni, sun_elevation, dni_extra)
+    z = np.radians(90.0 - np.clip(np.asarray(sun_elevation, dtype=float), 0.0, 90.0))
     c = np.asarray(PEREZ_F1)[np.searchsorted(PEREZ_EPSILON_EDGES, eps, side="right")]
     f1 = np.maximum(c[..., 0] + c[..., 1] * delta + c[..., 2] * z, 0.0)
     return np.where(ok, f1, 0.0)
