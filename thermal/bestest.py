@@ -230,9 +230,8 @@ def read_modelica_record(path, name=None):
     return out
 
 
-def layer_resistance(path, block=None):
-    """Sum of ``x / k`` [m2 K W-1] over the layers (``Solids.Generic(x=..., k=...)``) of a Modelica
-    construction record, in the whole file or in the first ``block(...)`` (e.g. ``"matExtWal"``)."""
+def _construction_text(path, block=None):
+    """The text of a Modelica construction record file, or of its first ``block(...)`` up to its roughness."""
     text = Path(path).read_text(encoding="latin-1")
     if block is not None:
         m = re.search(r"\b" + re.escape(block) + r"\s*\(", text)
@@ -240,6 +239,13 @@ def layer_resistance(path, block=None):
             raise ValueError(f"{path}: no construction {block!r}")
         text = text[m.end():]
         text = text[:text.find("roughness_a")] if "roughness_a" in text else text
+    return text
+
+
+def layer_resistance(path, block=None):
+    """Sum of ``x / k`` [m2 K W-1] over the layers (``Solids.Generic(x=..., k=...)``) of a Modelica
+    construction record, in the whole file or in the first ``block(...)`` (e.g. ``"matExtWal"``)."""
+    text = _construction_text(path, block)
     num = r"([-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)"
     layers = re.findall(r"Generic\(\s*x\s*=\s*" + num + r"\s*,\s*k\s*=\s*" + num, text)
     if not layers:
@@ -251,13 +257,7 @@ def construction_layers(path, block=None):
     """The layers (outside first) of a Modelica construction record as
     :class:`~widesky.thermal.zone_iso52016.Layer` (``Solids.Generic(x=, k=, c=, d=)``), in the whole
     file or in the first ``block(...)``."""
-    text = Path(path).read_text(encoding="latin-1")
-    if block is not None:
-        m = re.search(r"\b" + re.escape(block) + r"\s*\(", text)
-        if not m:
-            raise ValueError(f"{path}: no construction {block!r}")
-        text = text[m.end():]
-        text = text[:text.find("roughness_a")] if "roughness_a" in text else text
+    text = _construction_text(path, block)
     num = r"([-+]?\d*\.?\d+(?:[eE][-+]?\d+)?)"
     found = re.findall(r"Generic\(\s*x\s*=\s*" + num + r"\s*,\s*k\s*=\s*" + num + r"\s*,\s*c\s*=\s*"
                        + num + r"\s*,\s*d\s*=\s*" + num, text)
