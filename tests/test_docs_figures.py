@@ -98,3 +98,61 @@ def test_fresh_run_reproduces_the_quoted_spectral_factors(tmp_path):
     for tech, label in (("a_si", "amorphous Si"), ("cdte", "CdTe"), ("topcon", "mono c-Si TOPCon")):
         q = float(quoted[label][AMS_G173].split("; ")[1])
         assert abs(sf[tech] - q) < 0.01, f"{label}: fresh {sf[tech]:.3f}, docs {q:.3f}: {REGENERATE}"
+
+
+# docs/thermal.md, "The spectral treatment": docs/generated/thermal_glazing*.md are written by
+# benchmarks/docs_glazing_study.py (the office box of widesky.thermal.study, the default sky under the Denver, San
+# Francisco and Chicago TMY3 years); the same checks as for pvsim, and the prose quotes the annual ranges.
+THERMAL_PAGE = DOCS / "thermal.md"
+THERMAL_GENERATED = {"glazing": DOCS / "generated" / "thermal_glazing.md",
+                     "solar_control": DOCS / "generated" / "thermal_glazing_solar_control.md"}
+THERMAL_REGENERATE = ("rerun `python benchmarks/docs_glazing_study.py` (it rewrites "
+                      "docs/generated/thermal_glazing*.md)")
+
+
+def _annual_rows(path):
+    """The annual table of ``path`` (the one headed by 'climate') as a list of cell lists."""
+    lines = [ln for ln in path.read_text().split("\n") if ln.startswith("| ")]
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("| climate |"))
+    return [[c.strip() for c in ln.strip("|").split("|")] for ln in lines[start + 1:]]
+
+
+def _thermal_section():
+    text = THERMAL_PAGE.read_text()
+    return text[text.index("## The spectral treatment"):text.index("## A facade study")]
+
+
+def test_thermal_page_includes_the_generated_tables():
+    text = THERMAL_PAGE.read_text()
+    for path in THERMAL_GENERATED.values():
+        assert path.is_file(), f"{path} missing: {THERMAL_REGENERATE}"
+        assert re.search(r"```\{include\} generated/" + re.escape(path.name) + r"\n```", text), \
+            f"docs/thermal.md does not include generated/{path.name}"
+        rows = [ln for ln in path.read_text().split("\n") if ln.startswith("| ") and not ln.startswith("|---")]
+        assert len(rows) >= 4, f"{path.name} holds no tables: {THERMAL_REGENERATE}"
+        copied = [ln for ln in rows if ln in text]
+        assert not copied, f"docs/thermal.md holds a hand-copied row of {path.name}: {copied[0]}"
+
+
+def test_thermal_stamps_name_the_current_sky_defaults():
+    import widesky
+    for path in THERMAL_GENERATED.values():
+        m = re.search(r"SKY_DEFAULTS: `(.*?)`", path.read_text())
+        assert m, f"{path.name} has no SKY_DEFAULTS stamp: {THERMAL_REGENERATE}"
+        assert m.group(1) == repr(widesky.SKY_DEFAULTS), (
+            f"{path.name} was generated under {m.group(1)}, the defaults are now {widesky.SKY_DEFAULTS!r}: "
+            f"{THERMAL_REGENERATE}")
+
+
+def test_thermal_prose_quotes_the_generated_ranges():
+    sec = _thermal_section()
+    rows = _annual_rows(THERMAL_GENERATED["glazing"])
+    for unit in ("clear", "low-e", "low-e #2"):
+        d = sorted((r[3] for r in rows if r[1] == unit), key=lambda s: float(s.split()[0]))
+        quoted = f"{d[0].split()[0]} to {d[-1]} ({unit})"
+        assert quoted in sec, f"the prose does not quote the generated window-gain range {quoted!r}"
+    sc = _annual_rows(THERMAL_GENERATED["solar_control"])
+    for col, what in ((3, "window gain"), (5, "cooling load")):
+        d = sorted(abs(float(r[col].split()[0])) for r in sc)
+        quoted = f"{what} by {d[0]:.2f}-{d[-1]:.2f} %"
+        assert quoted in sec, f"the prose does not quote the generated solar-control range {quoted!r}"
