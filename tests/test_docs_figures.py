@@ -45,25 +45,35 @@ def _section4():
     return text[text.index("## 4."):text.index("## 5.")]
 
 
-def test_page_includes_the_generated_tables():
-    text = PAGE.read_text()
-    for name, path in GENERATED.items():
-        assert path.is_file(), f"{path} missing: {REGENERATE}"
+def _pages():
+    """(page, its generated files, how to regenerate them) for every page that includes generated tables."""
+    return [(PAGE, GENERATED, REGENERATE), (THERMAL_PAGE, THERMAL_GENERATED, THERMAL_REGENERATE)]
+
+
+@pytest.mark.parametrize("which", [0, 1], ids=["pvsim", "thermal"])
+def test_page_includes_the_generated_tables(which):
+    page, generated, regenerate = _pages()[which]
+    text = page.read_text()
+    for path in generated.values():
+        assert path.is_file(), f"{path} missing: {regenerate}"
         assert re.search(r"```\{include\} generated/" + re.escape(path.name) + r"\n```", text), \
-            f"docs/pvsim.md does not include generated/{path.name}"
+            f"docs/{page.name} does not include generated/{path.name}"
         rows = [ln for ln in path.read_text().split("\n") if ln.startswith("| ") and not ln.startswith("|---")]
+        assert len(rows) >= 4, f"{path.name} holds no tables: {regenerate}"
         copied = [ln for ln in rows if ln in text]
-        assert not copied, f"docs/pvsim.md holds a hand-copied row of {path.name}: {copied[0]}"
+        assert not copied, f"docs/{page.name} holds a hand-copied row of {path.name}: {copied[0]}"
 
 
-def test_stamps_name_the_current_sky_defaults():
+@pytest.mark.parametrize("which", [0, 1], ids=["pvsim", "thermal"])
+def test_stamps_name_the_current_sky_defaults(which):
     import widesky
-    for path in GENERATED.values():
+    _, generated, regenerate = _pages()[which]
+    for path in generated.values():
         m = re.search(r"SKY_DEFAULTS: `(.*?)`", path.read_text())
-        assert m, f"{path.name} has no SKY_DEFAULTS stamp: {REGENERATE}"
+        assert m, f"{path.name} has no SKY_DEFAULTS stamp: {regenerate}"
         assert m.group(1) == repr(widesky.SKY_DEFAULTS), (
             f"{path.name} was generated under {m.group(1)}, the defaults are now {widesky.SKY_DEFAULTS!r}: "
-            f"{REGENERATE}")
+            f"{regenerate}")
 
 
 def test_prose_quotes_the_generated_numbers():
@@ -120,28 +130,6 @@ def _annual_rows(path):
 def _thermal_section():
     text = THERMAL_PAGE.read_text()
     return text[text.index("## The spectral treatment"):text.index("## A facade study")]
-
-
-def test_thermal_page_includes_the_generated_tables():
-    text = THERMAL_PAGE.read_text()
-    for path in THERMAL_GENERATED.values():
-        assert path.is_file(), f"{path} missing: {THERMAL_REGENERATE}"
-        assert re.search(r"```\{include\} generated/" + re.escape(path.name) + r"\n```", text), \
-            f"docs/thermal.md does not include generated/{path.name}"
-        rows = [ln for ln in path.read_text().split("\n") if ln.startswith("| ") and not ln.startswith("|---")]
-        assert len(rows) >= 4, f"{path.name} holds no tables: {THERMAL_REGENERATE}"
-        copied = [ln for ln in rows if ln in text]
-        assert not copied, f"docs/thermal.md holds a hand-copied row of {path.name}: {copied[0]}"
-
-
-def test_thermal_stamps_name_the_current_sky_defaults():
-    import widesky
-    for path in THERMAL_GENERATED.values():
-        m = re.search(r"SKY_DEFAULTS: `(.*?)`", path.read_text())
-        assert m, f"{path.name} has no SKY_DEFAULTS stamp: {THERMAL_REGENERATE}"
-        assert m.group(1) == repr(widesky.SKY_DEFAULTS), (
-            f"{path.name} was generated under {m.group(1)}, the defaults are now {widesky.SKY_DEFAULTS!r}: "
-            f"{THERMAL_REGENERATE}")
 
 
 def test_thermal_prose_quotes_the_generated_ranges():
