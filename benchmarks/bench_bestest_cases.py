@@ -8,7 +8,7 @@ the glazing or the zone model:
 
 Runs, with both zone models (ISO 13790 5R1C and ISO 52016-1) unless ``--zone-models`` picks one, the integrator
 route (one integrator year per room geometry: south windows, south with overhang, east/west windows, east/west with
-overhangs and fins) and the weather-file Hay-Davies route for each case, and prints a
+overhangs and fins) and the weather-file route (Perez; --transposition hay-davies) for each case, and prints a
 Markdown table: each figure of each case on both routes, its range and the range's source (the acceptance range of
 the standard where it gives one, else the six reference programs' range), with the figures outside in bold, then
 the count outside per model and route and the time of each. ``--json`` writes the 5R1C integrator numbers (for
@@ -41,6 +41,8 @@ def main(argv=None):
     ap.add_argument("--data-dir", default=None)
     ap.add_argument("--json", default=None, help="write the integrator route's 5R1C results here")
     ap.add_argument("--zone-models", nargs="+", default=list(ZONE_MODELS), choices=ZONE_MODELS)
+    ap.add_argument("--transposition", default="perez", choices=("perez", "hay-davies"),
+                    help="the weather route's transposition (default perez, as widesky thermal bestest)")
     ap.add_argument("--steps", action="store_true",
                     help="instead: the ISO 52016-1 corrections one after another (docs/validation/thermal-bestest-cases.md table)")
     args = ap.parse_args(argv)
@@ -60,10 +62,12 @@ def main(argv=None):
     for m, route in runs:
         t0 = time.perf_counter()
         results[m, route] = {c: run_case(c, args.data_dir, poa=poas[case_geometry(c)] if route == "integrator"
-                                         else None, zone_model=m) for c in args.cases}
+                                         else None, zone_model=m, transposition=args.transposition)
+                             for c in args.cases}
         times[f"{m}, {route} route, {len(args.cases)} cases"] = time.perf_counter() - t0
 
-    names = {"integrator": "integrator", "weather": "Hay-Davies"}
+    names = {"integrator": "integrator",
+             "weather": {"perez": "Perez", "hay-davies": "Hay-Davies"}[args.transposition]}
     head = " | ".join(f"{m.upper().replace('ISO52016', 'ISO 52016-1')} {names[r]}" for m, r in runs)
     print(f"| case | figure | {head} | range | range source |")
     print("|---|---|" + "---|" * len(runs) + "---|---|")
@@ -87,7 +91,7 @@ def main(argv=None):
     first = args.cases[0]
     m0 = args.zone_models[0]
     print(f"south wall, annual incident: integrator {results[m0, 'integrator'][first]['annual_incident_south']:.0f} "
-          f"kWh m-2, Hay-Davies {results[m0, 'weather'][first]['annual_incident_south']:.0f} (case {first})")
+          f"kWh m-2, {names['weather']} {results[m0, 'weather'][first]['annual_incident_south']:.0f} (case {first})")
     print("time [s]: " + "; ".join(f"{k} {v:.1f}" for k, v in times.items())
           + f" ({len(poas)} geometries, {args.jobs} process(es))")
     print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items()))
@@ -121,7 +125,7 @@ def _steps(args, poas, refs):
             vals, out = {}, 0
             for c in args.cases:
                 r = run_case(c, args.data_dir, poa=poas[case_geometry(c)] if route == "integrator" else None,
-                             zone_model="iso52016", iso52016_options=opt)
+                             zone_model="iso52016", iso52016_options=opt, transposition=args.transposition)
                 for v in verdicts(c, r, refs):
                     vals[c, v.quantity] = v
                     out += not v.inside

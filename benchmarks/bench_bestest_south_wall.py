@@ -15,7 +15,9 @@ irradiation [kWh m-2] on the south glazing (and the opaque south wall) of the AS
 for the same hours and solar positions (widesky's SPA at the middle of each hour, fed to pvlib too):
 
     widesky integrator (window, wall)   the default sky route of ``widesky thermal bestest --sky integrator``
-    widesky Hay-Davies                  thermal.surface.surface_irradiance, the default route of the command
+    widesky Perez                       thermal.surface.surface_irradiance, the weather route of the command
+                                        (``--sky weather``, its default ``--transposition perez``)
+    widesky Hay-Davies                  the same with ``--transposition hay-davies``
     pvlib Hay-Davies, pvlib Perez       pvlib.irradiance.haydavies / perez (return_components), get_ground_diffuse
 
 Usage:  python benchmarks/bench_bestest_south_wall.py [--jobs N] [--data-dir DIR] [--csv OUT.csv]
@@ -84,12 +86,15 @@ def main(argv=None):
     dne = dni_extra(sp["earth_sun_distance"])
     cols, beam = pvlib_parts(weather, sp, dne)
 
-    hd = surface_irradiance([SOUTH[0]], [SOUTH[1]], sp["zenith"], sp["azimuth"], weather["dni"].to_numpy(),
-                            weather["dhi"].to_numpy(), weather["ghi"].to_numpy(), dne, GROUND_REFLECTANCE)
     k = 1e-3
-    cols["widesky Hay-Davies"] = {"beam": beam.sum() * k, "circumsolar": (hd["poa_direct"][:, 0] - beam).sum() * k,
-                                  "sky": hd["poa_sky_diffuse"][:, 0].sum() * k, "  of which horizon band": 0.0,
-                                  "ground reflected": hd["poa_ground_diffuse"][:, 0].sum() * k}
+    for name, tr in (("widesky Perez", "perez"), ("widesky Hay-Davies", "hay-davies")):
+        r = surface_irradiance([SOUTH[0]], [SOUTH[1]], sp["zenith"], sp["azimuth"], weather["dni"].to_numpy(),
+                               weather["dhi"].to_numpy(), weather["ghi"].to_numpy(), dne, GROUND_REFLECTANCE,
+                               transposition=tr)
+        cols[name] = {"beam": beam.sum() * k, "circumsolar": (r["poa_direct"][:, 0] - beam).sum() * k,
+                      "sky": r["poa_sky_diffuse"][:, 0].sum() * k,
+                      "  of which horizon band": r["poa_horizon"][:, 0].sum() * k,
+                      "ground reflected": r["poa_ground_diffuse"][:, 0].sum() * k}
 
     t0 = time.perf_counter()
     with warnings.catch_warnings():          # TMY3 visibilities beyond the sky model's range: clamped
@@ -108,8 +113,8 @@ def main(argv=None):
                       "sky": parts["sky_diffuse"].sum() * k, "  of which horizon band": np.nan,
                       "ground reflected": parts["ground_diffuse"].sum() * k}
 
-    order = ["widesky integrator, window", "widesky integrator, wall", "widesky Hay-Davies", "pvlib Hay-Davies",
-             "pvlib Perez"]
+    order = ["widesky integrator, window", "widesky integrator, wall", "widesky Perez", "widesky Hay-Davies",
+             "pvlib Hay-Davies", "pvlib Perez"]
     table = pd.DataFrame({c: cols[c] for c in order})
     table.loc["total"] = table.drop(index="  of which horizon band").sum()
     table.loc["diffuse (circumsolar + sky)"] = table.loc["circumsolar"] + table.loc["sky"]

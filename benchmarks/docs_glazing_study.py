@@ -21,10 +21,18 @@ them and tests/test_docs_figures.py checks the stamp against the current default
 
 * docs/generated/thermal_glazing.md -- clear, low-e, low-e #2: monthly spectral effect per facade and annual
   gains and loads per climate;
-* docs/generated/thermal_glazing_solar_control.md -- the solar-control unit, the same figures and cooling peaks.
+* docs/generated/thermal_glazing_solar_control.md -- the solar-control unit, the same figures and cooling peaks;
+* docs/figures/thermal_effective_g.png -- effective g per month of the south and north facades, both routes
+  (:func:`widesky.thermal.figures.fig_study` on the same runs).
 
 Run: ``nice python benchmarks/docs_glazing_study.py [--jobs 2]`` (about 1-2 min per climate on a quiet
 2-core machine).
+
+``--trace`` instead decomposes the clear unit's annual spectral-vs-rated difference (Denver, the same office box
+and integrator run) by the part of the light (beam, sky, ground reflected) and by cause: the rating band (AM1.5G
+over 280-4000 nm against 280-2480 nm), the spectrum at normal incidence (the unit's spectral g at 0 deg times the
+rated angular shape) and the coupling of angle and wavelength; under the default sky, with a grey ground and with
+the clear-sky spectra (the sky before the all-sky default). About 15 s per sky.
 """
 
 from __future__ import annotations
@@ -112,10 +120,63 @@ def write_md(path: Path, text: str, log) -> None:
                     .replace("(scene files written by the script; ", "("), encoding="utf-8")
 
 
+def trace(jobs=1) -> str:
+    """Markdown table: the clear unit's annual spectral / rated - 1 in Denver, by part and cause, for three skies."""
+    import warnings
+    from dataclasses import replace
+
+    import numpy as np
+
+    from widesky.irradiance import Response, Simulation, SpectralAngularTable, read_weather
+    from widesky.irradiance.simulation import SKY_DEFAULTS, weather_path
+    from widesky.thermal.gains import building_scene, glazing_response, group_weights, rated_glazing_response
+    from widesky.thermal.glazing import ANGLES, WAVELENGTHS, read_solar_spectrum
+    from widesky.thermal.loads import glazing_g_table
+    from widesky.thermal.study import office_box, standard_units
+
+    u = standard_units()["clear"]
+    sw, se = read_solar_spectrum()
+    band = sw <= 2480.0
+    _, g_full, *_ = glazing_g_table(u, sw, se)
+    g0 = np.clip(u.optics(ANGLES, WAVELENGTHS)["shgc"][0], 0.0, None)
+    resp = [glazing_response(u, "spectral"), rated_glazing_response(u, sw, se, "rated"),
+            rated_glazing_response(u, sw[band], se[band], "rated_band"),
+            Response("normal", WAVELENGTHS, np.ones_like(WAVELENGTHS), unit="weight",
+                     angular=SpectralAngularTable(ANGLES, WAVELENGTHS, g0[None, :] * (g_full / g_full[0])[:, None])),
+            Response("light", np.array([280.0, 2500.0]), np.ones(2), unit="weight")]
+    b = office_box()
+    scene, labels = building_scene(b)
+    wins = [s for s in b.surfaces if s.kind == "window"]
+    w = read_weather(weather_path(CLIMATES["Denver"]))
+    skies = {"default (all-sky, vegetation ground)": SKY_DEFAULTS,
+             "all-sky, grey ground": replace(SKY_DEFAULTS, ground_spectrum="grey"),
+             "clear-sky spectra (before the all-sky default)": replace(SKY_DEFAULTS, spectral_model="clear")}
+    lines = ["| sky | part | share of the light | spectral / rated - 1 | rating band | spectrum at 0 deg | angle x "
+             "wavelength | contribution to the total |", "|---|---|---|---|---|---|---|---|"]
+    for label, opts in skies.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = Simulation(scene, weather=w, sky=opts, n_jobs=jobs).run(resp)
+        m = group_weights(res, [s.label for s in wins]) * np.array([s.area for s in wins])
+        v = {p: {r.name: float((res.get(r.name, p) @ m).sum()) for r in resp}
+             for p in ("direct", "sky_diffuse", "ground_diffuse", "global")}
+        for p, x in v.items():
+            pct = lambda a, c: f"{100 * (a / c - 1):+.2f} %"    # noqa: E731
+            lines.append(f"| {label} | {p.replace('_', ' ')} | {100 * x['light'] / v['global']['light']:.1f} % | "
+                         f"{pct(x['spectral'], x['rated'])} | {pct(x['rated_band'], x['rated'])} | "
+                         f"{pct(x['normal'], x['rated_band'])} | {pct(x['spectral'], x['normal'])} | "
+                         f"{100 * (x['spectral'] - x['rated']) / v['global']['rated']:+.2f} % |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--trace", action="store_true", help="decompose the clear unit's difference instead (Denver)")
     a = ap.parse_args(argv)
+    if a.trace:
+        print(trace(a.jobs))
+        return 0
     from widesky.core.paths import data_file, has_data
     weather = {}
     for climate, f in CLIMATES.items():
@@ -137,8 +198,11 @@ def main(argv=None) -> int:
             eff[climate] = pd.read_csv(out / "effective_g.csv", index_col=[0, 1, 2]).sort_index()
         basic, solar = body(annual, eff, BASIC, False), body(annual, eff, SOLAR, True)
         if len(annual) == len(CLIMATES):
+            from widesky.thermal.figures import fig_study
             write_md(GENERATED / "thermal_glazing.md", basic, log)
             write_md(GENERATED / "thermal_glazing_solar_control.md", solar, log)
+            fig_study(ROOT / "docs" / "figures", [tmp / c.lower().replace(" ", "_") for c in annual],
+                      names=list(annual))
         else:
             print(basic, solar, "partial run: docs/generated not rewritten", sep="\n")
     finally:

@@ -131,6 +131,11 @@ def bestest_building(layout="south", shading=None) -> Building:
     return building_from_meshes(np.array(verts), np.array(faces), labels)
 
 
+HORIZON_BAND = 6.5
+"""Width of the horizon band [deg] whose view :func:`window_shading` measures (Perez, Seals, Ineichen, Stewart,
+Menicucci 1987, Solar Energy 39(3), 221-231: the horizon brightening's band)."""
+
+
 def _cosine_directions(n):
     """(n*n, 3) stratified cosine-weighted unit directions about +z (one per cell of an n x n grid
     of (sin^2 theta, phi))."""
@@ -169,7 +174,10 @@ def window_shading(building: Building, solar_zenith, solar_azimuth, samples_per_
         ``labels``: the window surfaces' labels (W,); ``sunlit``: (T, W) area share of each window
         the sun reaches [1] (1 with the sun behind the window or below the horizon, where the beam
         is zero anyway); ``sky_view``, ``ground_view``: (W,) the window's cosine-weighted view
-        of the sky and of the ground as a share of an unobstructed plane's of the same tilt [1].
+        of the sky and of the ground as a share of an unobstructed plane's of the same tilt [1];
+        ``horizon_view``: (W,) its cosine-weighted view of the horizon band (the Perez transposition's
+        horizon brightening, taken as the band 0-6.5 deg above the horizon of Perez et al. 1987) as a share
+        of an unobstructed plane's [1].
     """
     wins = [s for s in building.surfaces if s.kind == "window"]
     if not wins:
@@ -187,7 +195,12 @@ def window_shading(building: Building, solar_zenith, solar_azimuth, samples_per_
     T = len(zen)
     sunlit = np.ones((T, len(wins)))
     sky_view, ground_view = np.ones(len(wins)), np.ones(len(wins))
+    horizon_view = np.ones(len(wins))
     dirs0 = _cosine_directions(hemisphere_grid)
+    h_el = np.radians(HORIZON_BAND * (np.arange(3) + 0.5) / 3)                  # the band's mid-strata
+    h_az = 2 * np.pi * (np.arange(4 * hemisphere_grid) + 0.5) / (4 * hemisphere_grid)
+    h_el, h_az = (x.ravel() for x in np.meshgrid(h_el, h_az, indexing="ij"))
+    h_dirs0 = np.c_[np.cos(h_el) * np.sin(h_az), np.cos(h_el) * np.cos(h_az), np.sin(h_el)]
     for j, s in enumerate(wins):
         sel = np.nonzero((group_of_point == names.index(s.label)) & (scene.face_side[face_of_point] == 0))[0]
         org = scene.ray_origins[sel]
@@ -209,5 +222,12 @@ def window_shading(building: Building, solar_zenith, solar_azimuth, samples_per_
         sky_view[j] = (wgt @ (~hit[:, up])).sum() / len(dirs) / free_sky if free_sky else 1.0
         ground_view[j] = ((wgt @ (~hit[:, ~up])).sum() / len(dirs) / free_ground
                           if free_ground else 1.0)
+        cos_h = h_dirs0 @ nrm
+        front = cos_h > 0
+        if np.any(front):
+            hd, hw = h_dirs0[front], cos_h[front] / cos_h[front].sum()
+            hit = cast_rays(geo, np.repeat(org, len(hd), axis=0), np.tile(hd, (len(org), 1)),
+                            occluded=True).reshape(len(org), len(hd))
+            horizon_view[j] = wgt @ (~hit) @ hw
     return {"labels": [s.label for s in wins], "sunlit": sunlit, "sky_view": sky_view,
-            "ground_view": ground_view}
+            "ground_view": ground_view, "horizon_view": horizon_view}

@@ -110,8 +110,9 @@ def _climate(folder):
     return core.split(".Intl")[0].split("-OHare")[0].replace(".", " ")
 
 
-def fig_study(outdir, study_dirs):
-    """Effective g per month, south and north facades, spectral vs rated route, per climate."""
+def fig_study(outdir, study_dirs, names=None):
+    """Effective g per month, south and north facades, spectral vs rated route, per climate (``names``: the
+    climates' titles, default from the folder names)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -119,7 +120,7 @@ def fig_study(outdir, study_dirs):
                             squeeze=False)
     for j, d in enumerate(study_dirs):
         eff = pd.read_csv(Path(d) / "effective_g.csv", index_col=[0, 1, 2]).sort_index()
-        name = _climate(d)
+        name = _climate(d) if names is None else names[j]
         for i, o in enumerate(("south", "north")):
             ax = axs[i, j]
             for unit, col in zip(eff.index.get_level_values(0).unique(), ("C0", "C1", "C2")):

@@ -35,8 +35,10 @@ def register(subparsers) -> None:
     b.add_argument("--weather", default="tmy3", choices=("tmy3", "drycold"),
                    help="tmy3: Denver Intl AP TMY3 (the 140-2020 weather, default); drycold: older")
     b.add_argument("--sky", default="weather", choices=("weather", "integrator"),
-                   help="weather: Hay-Davies from the file (default, seconds); integrator: widesky's "
-                        "all-sky spectra at the file's DNI/DHI (minutes; tmy3 only)")
+                   help="weather: the file's DNI/DHI transposed (--transposition; default, seconds); integrator: "
+                        "widesky's all-sky spectra at the file's DNI/DHI (minutes; tmy3 only)")
+    b.add_argument("--transposition", default="perez", choices=("perez", "hay-davies"),
+                   help="transposition of --sky weather: Perez et al. 1990 (default) or Hay-Davies 1980")
     b.add_argument("--exterior", default="hourly", choices=("hourly", "constant"),
                    help="outside surface coefficients of --zone-model 5r1c: hourly from wind and air temperature "
                         "(ISO 6946 Annex C, default) or ISO 13790's constant R_se = 0.04")
@@ -65,7 +67,10 @@ def register(subparsers) -> None:
                     help="double-glazed unit of every window (default clear; the units of thermal study)")
     lo.add_argument("--sky", default="integrator", choices=("integrator", "weather"),
                     help="integrator: widesky's spectral sky (the all-sky model at the measured DNI/DHI, as "
-                         "every command) with shading (default); weather: Hay-Davies from the file, no shading")
+                         "every command) with shading (default); weather: the file transposed "
+                         "(--transposition), no shading")
+    lo.add_argument("--transposition", default="perez", choices=("perez", "hay-davies"),
+                    help="transposition of --sky weather: Perez et al. 1990 (default) or Hay-Davies 1980")
     lo.add_argument("--route", default="spectral", choices=("spectral", "rated"),
                     help="window gains from the spectral-angular g or the rated AM1.5 g(angle)")
     lo.add_argument("--output", required=True, help="hourly CSV of zone heating, cooling and solar [W]")
@@ -185,12 +190,13 @@ def _bestest(args) -> int:
             poas[geo] = integrator_irradiance(args.weather, args.data_dir, n_jobs=args.jobs,
                                               progress=sys.stderr.isatty(), geometry=geo)
     model = {"5r1c": "the ISO 13790 5R1C model", "iso52016": "the ISO 52016-1 hourly method"}[args.zone_model]
-    print(f"ASHRAE 140 with {model}, weather {args.weather}, sky {args.sky}, exterior {args.exterior}")
+    sky = args.sky if args.sky == "integrator" else f"{args.sky} ({args.transposition})"
+    print(f"ASHRAE 140 with {model}, weather {args.weather}, sky {sky}, exterior {args.exterior}")
     print(f"{'case':6s} {'quantity':16s} {'widesky':>12s} {'range':>15s} {'verdict':8s} source")
     saved, outside = {}, []
     for c in cases:
         r = run_case(c, args.data_dir, weather=args.weather, poa=poas.get(case_geometry(c)),
-                     exterior=args.exterior, zone_model=args.zone_model)
+                     exterior=args.exterior, zone_model=args.zone_model, transposition=args.transposition)
         saved[c] = {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
                     if k not in ("hourly", "case")}
         saved[c]["verdicts"] = {}
@@ -369,7 +375,7 @@ def _loads(args) -> int:
                                  sp["zenith"].to_numpy(), sp["azimuth"].to_numpy(),
                                  data["dni"].fillna(0).to_numpy(), data["dhi"].fillna(0).to_numpy(),
                                  data["ghi"].fillna(0).to_numpy(),
-                                 dni_extra(sp["earth_sun_distance"].to_numpy()))
+                                 dni_extra(sp["earth_sun_distance"].to_numpy()), transposition=args.transposition)
     else:
         from widesky.irradiance import Simulation
         from widesky.thermal.gains import (building_scene, front_faces, glazing_response, irradiance_by_surface,
