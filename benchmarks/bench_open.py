@@ -4,19 +4,18 @@ Writes (once, into a cache directory, with the project's own synthetic writer) a
 a large dataset: 10 visibilities x 3 albedos x 45 elevations x 55 channels, radiance rank 12 with
 90/90/60 knots, polarisation rank 8 with 45/45 knots. Then measures, each in a fresh process so
 resident memory is attributable:
-  read      read the whole file into memory (what the reference's loader must at least do: it reads
-            every block with fread before converting it)
-  refconv   baseline for the decoding time: read the whole file and convert as many of its halves as
-            the full decode keeps float32 values, each on its own (``_core.reference_halves``: a scalar
-            decoder of the sign, exponent and mantissa fields, one thread, as the reference's initialize
-            converts each value; the reference itself is not installed here). A lower bound of the
-            reference's load: it skips the block parsing and the zenith scale division, and its output
-            array takes as many fresh pages as the decoded arrays
+  read      read the whole file into memory (what any loader must at least do)
+  ref       the baseline: the project's C port of the reference loader (``_core.reference_load``: the loop
+            of the public reference C++ ``PragueSkyModel::initialize`` ported to C: stdio fread segment
+            by segment, each half converted on its own through a double into zero-filled float32
+            vectors, one thread; the reference binary itself is not installed here)
   open      load_dataset(path): memory-map and validate the header
   state     load_dataset(path, visibility=50, albedo=0.3, elevation=33).load(): one sky state's selection
   one vis   load_dataset(path, visibility=50).load(): the two bracketing visibility slabs
-  all       load_dataset(path).load(): decode everything
-the time (best of 3; wall clock and CPU time, the steadier figure on a shared machine), the growth of
+  all1      load_dataset(path).load() on one thread (OMP_NUM_THREADS=1): decode everything
+  all       the same with the default threads (every core)
+the time (best of the rounds, every step once per round so the decode and its baseline see the same load;
+wall clock and CPU time, the steadier figure on a shared machine), the growth of
 the resident set (VmRSS) and its peak (VmHWM) over the start, against the decoded size (target: peak at
 most 1.1x the decoded size plus a fixed margin).
 
@@ -53,13 +52,10 @@ resident = 0
 if mode == "read":
     data = open(path, "rb").read()
     resident = len(data)
-elif mode == "refconv":  # read + as many halves converted on their own into float32 as the decode keeps
+elif mode == "ref":  # the project's C port of the reference loader (one thread)
     from widesky.skymodel import _core
-    data = open(path, "rb").read()
-    raw = np.frombuffer(data, np.uint16, count=min(len(data) // 2, int(sys.argv[3])))
-    out = np.empty(raw.size, np.float32)
-    _core.reference_halves(raw, out)
-    resident = out.nbytes
+    vectors = _core.reference_load(path)
+    resident = sum(len(v) for v in vectors if v is not None)
 elif mode == "open":
     m = skymodel.load_dataset(path)
 elif mode == "state":
@@ -70,7 +66,7 @@ else:
     m = skymodel.load_dataset(path).load()
 dt = time.perf_counter() - t0
 cpu = time.process_time() - c0
-if mode not in ("read", "refconv"):
+if mode not in ("read", "ref"):
     resident = m.resident_bytes
 print(json.dumps({"seconds": dt, "cpu_seconds": cpu, "rss_growth_MB": (status("VmRSS") - before) / 1e6,
                   "peak_growth_MB": (status("VmHWM") - before) / 1e6, "resident_MB": resident / 1e6}))
@@ -127,17 +123,17 @@ def main():
     print(f"dataset {path} ({path.stat().st_size / 1e6:.0f} MB, written/reused in {time.perf_counter() - t0:.1f} s)")
     res = {"file_MB": path.stat().st_size / 1e6, "load_average_before": os.getloadavg()[0]}
 
-    def child(mode, n_values=0):
-        out = subprocess.run([sys.executable, "-c", CHILD, str(path), mode, str(n_values)], capture_output=True,
-                             text=True, check=True)
+    def child(mode):
+        env = dict(os.environ, OMP_NUM_THREADS="1") if mode in ("all1", "ref") else None
+        out = subprocess.run([sys.executable, "-c", CHILD, str(path), mode], capture_output=True, text=True,
+                             check=True, env=env)
         return json.loads(out.stdout)
 
-    n_values = int(round(child("all")["resident_MB"] * 1e6 / 4))
-    modes = ("read", "open", "state", "onevis", "all", "refconv")
+    modes = ("read", "open", "state", "onevis", "ref", "all1", "all")
     runs = {m: [] for m in modes}
     for _ in range(args.repeat):  # rounds over every mode, so the decode and its baseline see the same load
         for mode in modes:
-            runs[mode].append(child(mode, n_values))
+            runs[mode].append(child(mode))
     for mode in modes:
         best = dict(min(runs[mode], key=lambda r: r["seconds"]))
         best["cpu_seconds"] = min(r["cpu_seconds"] for r in runs[mode])
@@ -149,17 +145,22 @@ def main():
               f"{best['median_seconds'] * 1e3:.0f} / {best['median_cpu_seconds'] * 1e3:.0f} ms)   RSS growth "
               f"{best['rss_growth_MB']:7.1f} MB   peak growth {best['peak_growth_MB']:7.1f} MB   decoded "
               f"{best['resident_MB']:7.1f} MB   peak/decoded {ratio:5.2f}")
-    res["all_over_refconv_time"] = res["all"]["seconds"] / res["refconv"]["seconds"]
-    res["all_over_refconv_cpu"] = res["all"]["cpu_seconds"] / res["refconv"]["cpu_seconds"]
-    res["all_over_refconv_median_time"] = res["all"]["median_seconds"] / res["refconv"]["median_seconds"]
-    print(f"decoding everything takes {res['all_over_refconv_time']:.2f}x the time of the baseline (read + as many "
-          f"halves converted on their own, one thread; medians {res['all_over_refconv_median_time']:.2f}x; CPU time "
-          f"{res['all_over_refconv_cpu']:.2f}x)")
+    for mode, what in (("all1", "one thread"), ("all", "default threads")):
+        r = {k: res[mode][k] / res["ref"][k] for k in ("seconds", "cpu_seconds", "median_seconds",
+                                                          "median_cpu_seconds")}
+        res[f"{mode}_over_ref"] = r
+        print(f"decoding everything ({what}) against the project's C port of the reference loader: "
+              f"{r['cpu_seconds']:.2f}x its CPU time (medians {r['median_cpu_seconds']:.2f}x), {r['seconds']:.2f}x "
+              f"its wall time (medians {r['median_seconds']:.2f}x)")
+    res["all_peak_over_ref_peak"] = res["all"]["peak_growth_MB"] / res["ref"]["peak_growth_MB"]
+    res["load_average_after"] = os.getloadavg()[0]
     res["all_over_read_time"] = res["all"]["seconds"] / res["read"]["seconds"]
     res["all_over_read_cpu"] = res["all"]["cpu_seconds"] / res["read"]["cpu_seconds"]
     print(f"decoding everything takes {res['all_over_read_time']:.2f}x the time of reading the file (CPU time "
           f"{res['all_over_read_cpu']:.2f}x); peak "
-          f"{res['all']['peak_growth_MB'] - res['all']['resident_MB']:.1f} MB above the decoded size")
+          f"{res['all']['peak_growth_MB'] - res['all']['resident_MB']:.1f} MB above the decoded size, "
+          f"{res['all_peak_over_ref_peak']:.2f}x the reference port's peak")
+    print(f"load average {res['load_average_before']:.2f} before, {res['load_average_after']:.2f} after")
     return res
 
 

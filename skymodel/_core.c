@@ -232,6 +232,8 @@ typedef struct {
     Py_ssize_t nmix;
     double *mix_coef;/* [nmix][6] */
     int nc;
+    int ilo, ihi, jlo, jhi; /* the sun rows and merged-knot columns of cells built (inclusive); the others
+                             * are not (no direction of the call falls in them) */
 } table_t;
 
 /* The table (megabytes) is reused across calls: fresh pages would cost a page fault and a kernel
@@ -328,9 +330,15 @@ static int accel_init(accel_t *a, const double *b, int n)
 {
     a->b = b;
     a->n = n;
-    a->nbk = 8 * n;
     a->b0 = b[0];
     double span = b[n - 1] - b[0];
+    /* buckets at most 1/8 of the narrowest interval wide (at most 2^16 of them), so a bucket rarely holds a
+     * knot and the scans below rarely step: branches the processor predicts */
+    double dmin = span;
+    for (int i = 0; i + 1 < n; ++i)
+        if (b[i + 1] - b[i] > 0 && b[i + 1] - b[i] < dmin) dmin = b[i + 1] - b[i];
+    double want = dmin > 0 ? 8.0 * span / dmin : 0.0;
+    a->nbk = want > 65536.0 ? 65536 : (want > 8.0 * n ? (int)want : 8 * n);
     a->inv = span > 0 ? a->nbk / span : 0.0;
     a->start = malloc(sizeof(int) * (a->nbk + 1));
     if (!a->start) return -1;
@@ -361,90 +369,183 @@ static inline int accel_cell(const accel_t *a, double q, double *local)
     return i;
 }
 
+/* accel_cell, trying the interval of the previous direction first (in an image's order it is mostly the
+ * same): the same interval and offset as accel_cell. */
+static inline int accel_cell_hint(const accel_t *a, double q, double *local, int hint)
+{
+    const double *b = a->b;
+    const int n = a->n;
+    if (!(q >= b[0])) q = b[0];
+    if (q > b[n - 1]) q = b[n - 1];
+    if (b[hint] <= q && (q < b[hint + 1] || hint == n - 2)) {
+        *local = q - b[hint];
+        return hint;
+    }
+    return accel_cell(a, q, local);
+}
+
 typedef struct {
     const comp_t *m;
     const int64_t *cfg_base;
     const double *cfg_w;
-    int ncfg, nc, nu, ncell_u;
+    int ncfg, nc, nu, nup, ncell_u;
     const int64_t *chi;
     const double *u;
-    const double *zat, *eat;
+    const ip_t *zl, *el; /* the merged knots' lookups in the zenith and emphasis knots */
+    const double *ix;    /* 1 / (u[j + 1] - u[j]) */
+    int ja, jb;          /* the knot columns [ja, jb) formed: multiples of 4 around the cells built */
     table_t *t;
+    double sign; /* the output's sign, carried by the table (exact: a negation) */
 } build_ctx_t;
 
-/* One row of sun cells: S at sun knots i and i+1 (ra, rb), then 8 corner-product sums per cell
- * acc[p][j], p = (e0|e1) x (S00|S01|S10|S11), accumulated over the configurations that cannot change
- * sign inside the cell; the others go to the mixed list (clamped terms) or are dropped (<= 0). */
-HOT static int build_row(const build_ctx_t *X, int i, mixlist_t *mix, double *restrict ra, double *restrict rb,
-                         double *restrict acc)
+/* four doubles (GCC/clang vector extension: one AVX register in the x86-64-v3 clone, two SSE2 ones in the
+ * portable build); v4du is the unaligned variant for loads and stores from double arrays */
+typedef double v4d __attribute__((vector_size(32)));
+typedef double v4du __attribute__((vector_size(32), aligned(8)));
+#define v4_load(p) (*(const v4du *)(p))
+#define v4_store(p, v) (*(v4du *)(p) = (v))
+#define v4_set1(x) ((v4d){(x), (x), (x), (x)})
+
+/* sum_r sun_r(knot i) zen_r(merged knot j) for every configuration of channel k, j in [0, nup) (rows of
+ * nup values; the rank sum in rank order, as the direct path forms it; four vectors at a time, whose chains
+ * are independent). zq: channel k's zenith factors at the merged knots [c][r][nup]; sv: scratch [R]. */
+static inline void knot_sums(const build_ctx_t *X, int k, int i, const double *restrict zq, double *restrict sv,
+                             double *restrict dst)
 {
     const comp_t *m = X->m;
-    const int nu = X->nu, ncell_u = X->ncell_u, nc = X->nc, R = m->rank, ns = m->ns;
-    const double dg = m->sb[i + 1] - m->sb[i];
-    const double *u = X->u;
-    for (int k = 0; k < nc; ++k) {
-        memset(acc, 0, sizeof(double) * 8 * (size_t)ncell_u);
-        for (int c = 0; c < X->ncfg; ++c) {
-            const double w = X->cfg_w[c];
-            size_t q = (size_t)c * nc + k;
-            size_t cfg = (size_t)X->cfg_base[c] * m->nch + (size_t)X->chi[k];
-            const float *sun = m->sun + cfg * (size_t)R * ns;
-            for (int j = 0; j < nu; ++j) ra[j] = rb[j] = 0.0;
+    const int R = m->rank, ns = m->ns, nup = X->nup;
+    for (int c = 0; c < X->ncfg; ++c) {
+        const size_t cfg = (size_t)X->cfg_base[c] * m->nch + (size_t)X->chi[k];
+        const float *sun = m->sun + cfg * (size_t)R * ns + i; /* knot i of rank 0; rank r at r * ns */
+        for (int r = 0; r < R; ++r) sv[r] = (double)sun[(size_t)r * ns];
+        const double *z = zq + (size_t)c * R * nup;
+        double *d = dst + (size_t)c * nup;
+        const int jb = X->jb;
+        int j = X->ja;
+        for (; j + 16 <= jb; j += 16) {
+            v4d a0 = v4_set1(0.0), a1 = a0, a2 = a0, a3 = a0;
             for (int r = 0; r < R; ++r) {
-                const double s0 = sun[(size_t)r * ns + i], s1 = sun[(size_t)r * ns + i + 1];
-                const double *restrict zr = X->zat + (q * R + r) * nu;
-                for (int j = 0; j < nu; ++j) {
-                    ra[j] += s0 * zr[j];
-                    rb[j] += s1 * zr[j];
-                }
+                const v4d s = v4_set1(sv[r]);
+                const double *zr = z + (size_t)r * nup + j;
+                a0 += s * v4_load(zr);
+                a1 += s * v4_load(zr + 4);
+                a2 += s * v4_load(zr + 8);
+                a3 += s * v4_load(zr + 12);
             }
-            const double *restrict er = X->eat + q * nu;
-            int row_safe = 1;
-            if (m->clamp) {
-                double smin = ra[0], smax = ra[0], emin = er[0], emax = er[0];
-                for (int j = 0; j < nu; ++j) {
-                    double lo = ra[j] < rb[j] ? ra[j] : rb[j], hi = ra[j] < rb[j] ? rb[j] : ra[j];
-                    smin = lo < smin ? lo : smin;
-                    smax = hi > smax ? hi : smax;
-                    emin = er[j] < emin ? er[j] : emin;
-                    emax = er[j] > emax ? er[j] : emax;
-                }
-                row_safe = (smin >= 0 && emin >= 0) || (smax <= 0 && emax <= 0);
+            v4_store(d + j, a0);
+            v4_store(d + j + 4, a1);
+            v4_store(d + j + 8, a2);
+            v4_store(d + j + 12, a3);
+        }
+        for (; j < jb; j += 4) {
+            v4d a0 = v4_set1(0.0);
+            for (int r = 0; r < R; ++r) a0 += v4_set1(sv[r]) * v4_load(z + (size_t)r * nup + j);
+            v4_store(d + j, a0);
+        }
+    }
+}
+
+/* Channel k's table, row by row of sun cells: the rank sums at sun knots i and i+1 (ra, rb; each knot's
+ * once), then 8 corner-product sums per cell acc[p][j], p = (e0|e1) x (S00|S01|S10|S11), over the
+ * configurations that cannot change sign inside the cell (a whole row at once where the configuration's sums
+ * and emphasis keep one sign over the row, four cells per vector, configurations innermost); the others go
+ * to the mixed list (clamped terms) or are dropped (<= 0). Scratch: ra, rb [ncfg][nup], acc [8][nup],
+ * unsafe [ncfg]. */
+HOT static int build_channel(const build_ctx_t *X, int k, mixlist_t *mix, double *restrict ra, double *restrict rb,
+                             double *restrict acc, int *restrict unsafe, double *restrict zq, double *restrict eq,
+                             double *restrict sv)
+{
+    const comp_t *m = X->m;
+    const int nu = X->nu, nup = X->nup, ncfg = X->ncfg, R = m->rank, ncell_u = X->ncell_u;
+    const double *u = X->u, *ixs = X->ix;
+    const int ilo = X->t->ilo, ihi = X->t->ihi, jlo = X->t->jlo, jhi = X->t->jhi, ja = X->ja, jb = X->jb;
+    const int jend = jb < nu ? jb : nu;
+    /* every zenith factor and the emphasis of channel k at the merged knots [ja, jb) (rows of nup, zero past
+     * nu): zq[(c * R + r) * nup + j], eq[c * nup + j] */
+    for (int c = 0; c < ncfg; ++c) {
+        size_t cfg = (size_t)X->cfg_base[c] * m->nch + (size_t)X->chi[k];
+        const float *zen = m->zen + cfg * (size_t)R * m->nz;
+        for (int r = 0; r < R; ++r) {
+            double *zr = zq + ((size_t)c * R + r) * nup;
+            for (int j = ja; j < jend; ++j) zr[j] = pl_eval(zen + (size_t)r * m->nz, X->zl[j]);
+            for (int j = jend; j < jb; ++j) zr[j] = 0.0;
+        }
+        double *er = eq + (size_t)c * nup;
+        for (int j = ja; j < jend; ++j) er[j] = m->emph ? pl_eval(m->emph + cfg * (size_t)m->ne, X->el[j]) : 1.0;
+        for (int j = jend; j < jb; ++j) er[j] = 0.0;
+    }
+    knot_sums(X, k, ilo, zq, sv, ra);
+    for (int i = ilo; i <= ihi; ++i) {
+        knot_sums(X, k, i + 1, zq, sv, rb);
+        const double dg = m->sb[i + 1] - m->sb[i];
+        int nunsafe = 0;
+        for (int c = 0; c < ncfg; ++c) {
+            if (!m->clamp) continue;
+            const double *restrict a = ra + (size_t)c * nup, *restrict b = rb + (size_t)c * nup;
+            const double *restrict er = eq + (size_t)c * nup;
+            int sneg = 0, spos = 0, eneg = 0, epos = 0;
+            for (int j = jlo; j <= jhi + 1; ++j) {
+                sneg |= (a[j] < 0) | (b[j] < 0);
+                spos |= (a[j] > 0) | (b[j] > 0);
+                eneg |= er[j] < 0;
+                epos |= er[j] > 0;
             }
-            double *restrict a0 = acc, *restrict a1 = acc + ncell_u, *restrict a2 = acc + 2 * ncell_u;
-            double *restrict a3 = acc + 3 * ncell_u, *restrict a4 = acc + 4 * ncell_u;
-            double *restrict a5 = acc + 5 * ncell_u, *restrict a6 = acc + 6 * ncell_u;
-            double *restrict a7 = acc + 7 * ncell_u;
-            if (row_safe) {
-                for (int j = 0; j < ncell_u; ++j) {
-                    const double e0 = w * er[j], e1 = w * er[j + 1];
-                    a0[j] += e0 * ra[j];
-                    a1[j] += e0 * ra[j + 1];
-                    a2[j] += e0 * rb[j];
-                    a3[j] += e0 * rb[j + 1];
-                    a4[j] += e1 * ra[j];
-                    a5[j] += e1 * ra[j + 1];
-                    a6[j] += e1 * rb[j];
-                    a7[j] += e1 * rb[j + 1];
+            if (!((!sneg && !eneg) || (!spos && !epos))) unsafe[nunsafe++] = c;
+        }
+        /* the row-safe configurations, four cells at a time */
+        for (int j = ja; j <= jhi; j += 4) {
+            v4d x00 = v4_set1(0.0), x01 = x00, x10 = x00, x11 = x00, y00 = x00, y01 = x00, y10 = x00, y11 = x00;
+            for (int c = 0, nx = 0; c < ncfg; ++c) {
+                if (nx < nunsafe && unsafe[nx] == c) {
+                    ++nx;
+                    continue;
                 }
-                continue;
+                const v4d w = v4_set1(X->cfg_w[c]);
+                const double *er = eq + (size_t)c * nup + j;
+                const double *a = ra + (size_t)c * nup + j, *b = rb + (size_t)c * nup + j;
+                const v4d e0 = w * v4_load(er), e1 = w * v4_load(er + 1);
+                const v4d S00 = v4_load(a), S01 = v4_load(a + 1), S10 = v4_load(b), S11 = v4_load(b + 1);
+                x00 += e0 * S00;
+                x01 += e0 * S01;
+                x10 += e0 * S10;
+                x11 += e0 * S11;
+                y00 += e1 * S00;
+                y01 += e1 * S01;
+                y10 += e1 * S10;
+                y11 += e1 * S11;
             }
-            for (int j = 0; j < ncell_u; ++j) {
-                const double S00 = ra[j], S01 = ra[j + 1], S10 = rb[j], S11 = rb[j + 1];
+            v4_store(acc + j, x00);
+            v4_store(acc + nup + j, x01);
+            v4_store(acc + 2 * (size_t)nup + j, x10);
+            v4_store(acc + 3 * (size_t)nup + j, x11);
+            v4_store(acc + 4 * (size_t)nup + j, y00);
+            v4_store(acc + 5 * (size_t)nup + j, y01);
+            v4_store(acc + 6 * (size_t)nup + j, y10);
+            v4_store(acc + 7 * (size_t)nup + j, y11);
+        }
+        /* configurations that change sign somewhere in the row: cell by cell */
+        for (int x = 0; x < nunsafe; ++x) {
+            const int c = unsafe[x];
+            const double w = X->cfg_w[c];
+            const double *er = eq + (size_t)c * nup;
+            const double *a = ra + (size_t)c * nup, *b = rb + (size_t)c * nup;
+            for (int j = jlo; j <= jhi; ++j) {
+                const double S00 = a[j], S01 = a[j + 1], S10 = b[j], S11 = b[j + 1];
                 const double e0 = er[j], e1v = er[j + 1];
-                double smin = fmin(fmin(S00, S01), fmin(S10, S11));
-                double smax = fmax(fmax(S00, S01), fmax(S10, S11));
-                double emin = fmin(e0, e1v), emax = fmax(e0, e1v);
+                const double l0 = S00 < S01 ? S00 : S01, l1 = S10 < S11 ? S10 : S11;
+                const double h0 = S00 > S01 ? S00 : S01, h1 = S10 > S11 ? S10 : S11;
+                const double smin = l0 < l1 ? l0 : l1, smax = h0 > h1 ? h0 : h1;
+                const double emin = e0 < e1v ? e0 : e1v, emax = e0 > e1v ? e0 : e1v;
                 if ((smin >= 0 && emin >= 0) || (smax <= 0 && emax <= 0)) {
                     const double we0 = w * e0, we1 = w * e1v;
-                    a0[j] += we0 * S00;
-                    a1[j] += we0 * S01;
-                    a2[j] += we0 * S10;
-                    a3[j] += we0 * S11;
-                    a4[j] += we1 * S00;
-                    a5[j] += we1 * S01;
-                    a6[j] += we1 * S10;
-                    a7[j] += we1 * S11;
+                    acc[j] += we0 * S00;
+                    acc[nup + j] += we0 * S01;
+                    acc[2 * (size_t)nup + j] += we0 * S10;
+                    acc[3 * (size_t)nup + j] += we0 * S11;
+                    acc[4 * (size_t)nup + j] += we1 * S00;
+                    acc[5 * (size_t)nup + j] += we1 * S01;
+                    acc[6 * (size_t)nup + j] += we1 * S10;
+                    acc[7 * (size_t)nup + j] += we1 * S11;
                 } else if (!((smin >= 0 && emax <= 0) || (smax <= 0 && emin >= 0))) {
                     const double dz = u[j + 1] - u[j];
                     const double P10 = (S10 - S00) / dg, P01 = (S01 - S00) / dz;
@@ -458,29 +559,39 @@ HOT static int build_row(const build_ctx_t *X, int i, mixlist_t *mix, double *re
         }
         /* polynomial coefficients from the corner-product sums (x: e0 S, y: e1 S):
          * e(z) = e0 + (e1 - e0) z/dz, S = S00 + (S10-S00) g/dg + (S01-S00) z/dz + (S11-S10-S01+S00) g z/(dg dz) */
-        const double ig = 1.0 / dg;
-        for (int j = 0; j < ncell_u; ++j) {
-            const double ix = 1.0 / (u[j + 1] - u[j]);
-            const double x00 = acc[j], x01 = acc[ncell_u + j], x10 = acc[2 * ncell_u + j];
-            const double x11 = acc[3 * ncell_u + j], y00 = acc[4 * ncell_u + j];
-            const double y01 = acc[5 * ncell_u + j], y10 = acc[6 * ncell_u + j];
-            const double y11 = acc[7 * ncell_u + j];
+        const double ig = 1.0 / dg, sg = X->sign;
+        const int nc = X->nc;
+        for (int j = jlo; j <= jhi; ++j) {
+            const double ix = ixs[j];
+            const double x00 = acc[j], x01 = acc[nup + j], x10 = acc[2 * (size_t)nup + j];
+            const double x11 = acc[3 * (size_t)nup + j], y00 = acc[4 * (size_t)nup + j];
+            const double y01 = acc[5 * (size_t)nup + j], y10 = acc[6 * (size_t)nup + j];
+            const double y11 = acc[7 * (size_t)nup + j];
             double *T = X->t->tab + ((size_t)(i * ncell_u + j)) * 6 * nc + k;
-            T[0] = x00;
-            T[nc] = (x10 - x00) * ig;
-            T[2 * nc] = ((x01 - x00) + (y00 - x00)) * ix;
-            T[3 * nc] = ((x11 - x10 - x01 + x00) + (y10 - x10) - (y00 - x00)) * ig * ix;
-            T[4 * nc] = ((y01 - x01) - (y00 - x00)) * ix * ix;
-            T[5 * nc] = ((y11 - x11) - (y10 - x10) - (y01 - x01) + (y00 - x00)) * ig * ix * ix;
+            T[0] = sg * x00;
+            T[nc] = sg * ((x10 - x00) * ig);
+            T[2 * nc] = sg * (((x01 - x00) + (y00 - x00)) * ix);
+            T[3 * nc] = sg * (((x11 - x10 - x01 + x00) + (y10 - x10) - (y00 - x00)) * ig * ix);
+            T[4 * nc] = sg * (((y01 - x01) - (y00 - x00)) * ix * ix);
+            T[5 * nc] = sg * (((y11 - x11) - (y10 - x10) - (y01 - x01) + (y00 - x00)) * ig * ix * ix);
         }
+        double *tmp = ra;
+        ra = rb;
+        rb = tmp;
     }
     return 0;
 }
 
-/* Build the per-cell polynomial table for a fixed sky state (sun above the horizon). Returns 0 on
- * success, -1 on allocation failure, 1 when a cell is too narrow (use the direct path). */
-static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, const double *cfg_w,
-                       int ncfg, const int64_t *chi, int nc)
+/* Build the per-cell polynomial table for a fixed sky state (sun above the horizon), its values times
+ * sign (+1 or -1). Returns 0 on success, -1 on allocation failure, 1 when a cell is too narrow (use the
+ * direct path). */
+static void angle_range(const geom_t *geo, const double *dirs, Py_ssize_t n, double *range);
+static int interval_of(double q, const double *b, int n);
+static int table_pays(const comp_t *m, const geom_t *geo, const double *dirs, Py_ssize_t n, int ncfg, int nc);
+
+static int table_build_signed(table_t *t, const comp_t *m, const int64_t *cfg_base, const double *cfg_w,
+                              int ncfg, const int64_t *chi, int nc, double sign, const geom_t *geo,
+                              const double *dirs, Py_ssize_t n)
 {
     memset(t, 0, sizeof(*t));
     const int ns = m->ns, R = m->rank;
@@ -499,6 +610,22 @@ static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, con
         if (nu == 0 || t->u[j] > t->u[nu - 1]) t->u[nu++] = t->u[j];
     t->nu = nu;
     const int ncell_u = nu - 1, ncell = (ns - 1) * ncell_u;
+    /* rows padded to whole vectors, with room for the (j + 1) loads of the last vector */
+    const int nup = (nu + 4 + 3) & ~3;
+    /* only the cells the directions can fall in (dirs given): their angles' range, one cell of margin on
+     * each side (the range's arccos and the evaluation's may differ by an ulp at a knot) */
+    t->ilo = 0, t->ihi = ns - 2, t->jlo = 0, t->jhi = ncell_u - 1;
+    if (dirs && n > 0) {
+        double rg[4];
+        angle_range(geo, dirs, n, rg);
+        if (isfinite(rg[0]) && isfinite(rg[1]) && isfinite(rg[2]) && isfinite(rg[3])) {
+            int a = interval_of(rg[0], m->sb, ns) - 1, b = interval_of(rg[1], m->sb, ns) + 1;
+            t->ilo = a > 0 ? a : 0, t->ihi = b < ns - 2 ? b : ns - 2;
+            a = interval_of(rg[2], t->u, nu) - 1, b = interval_of(rg[3], t->u, nu) + 1;
+            t->jlo = a > 0 ? a : 0, t->jhi = b < ncell_u - 1 ? b : ncell_u - 1;
+        }
+    }
+    const int ja = t->jlo & ~3, jb0 = (t->jhi & ~3) + 8, jb = jb0 < nup ? jb0 : nup;
     /* zenith and emphasis knots closer than TABLE_MIN_CELL make a cell whose polynomial coefficients grow
      * as 1/width^2 (they may overflow): leave such a sky state to the direct path, which is exact */
     for (int j = 0; j + 1 < nu; ++j)
@@ -508,99 +635,78 @@ static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, con
             return 1;
         }
 
-    /* values of every zenith factor and of the emphasis at the merged knots:
-     * zat[((c * nc + k) * R + r) * nu + j], eat[(c * nc + k) * nu + j] */
-    size_t nzat = (size_t)ncfg * nc * R * nu, neat = (size_t)ncfg * nc * nu;
-    double *zat = malloc(sizeof(double) * nzat);
-    double *eat = malloc(sizeof(double) * neat);
     ip_t *zl = malloc(sizeof(ip_t) * nu), *el = malloc(sizeof(ip_t) * nu);
+    double *ix = malloc(sizeof(double) * nu);
     t->tab = ws_acquire((size_t)ncell * 6 * nc);
     t->mix_start = calloc((size_t)ncell + 1, sizeof(int));
-    mixlist_t *rows = calloc((size_t)(ns - 1), sizeof(mixlist_t));
-    int fail = !zat || !eat || !zl || !el || !t->tab || !t->mix_start || !rows;
+    mixlist_t *lists = calloc((size_t)(nc > 0 ? nc : 1), sizeof(mixlist_t));
+    int fail = !zl || !el || !ix || !t->tab || !t->mix_start || !lists;
     if (!fail) {
         for (int j = 0; j < nu; ++j) {
             zl[j] = knot_lookup(t->u[j], m->zb, m->nz);
             if (m->emph) el[j] = knot_lookup(t->u[j], m->eb, m->ne);
+            if (j + 1 < nu) ix[j] = 1.0 / (t->u[j + 1] - t->u[j]);
         }
-        Py_ssize_t q, nq = (Py_ssize_t)ncfg * nc;
-#pragma omp parallel for schedule(static) if (nq * R * nu >= PAR_MIN_WORK)
-        for (q = 0; q < nq; ++q) {
-            int c = (int)(q / nc), k = (int)(q % nc);
-            size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
-            const float *zen = m->zen + cfg * (size_t)R * m->nz;
-            for (int r = 0; r < R; ++r)
-                for (int j = 0; j < nu; ++j)
-                    zat[((size_t)q * R + r) * nu + j] = pl_eval(zen + (size_t)r * m->nz, zl[j]);
-            for (int j = 0; j < nu; ++j)
-                eat[(size_t)q * nu + j] = m->emph ? pl_eval(m->emph + cfg * (size_t)m->ne, el[j]) : 1.0;
-        }
-        build_ctx_t X = {m, cfg_base, cfg_w, ncfg, nc, nu, ncell_u, chi, t->u, zat, eat, t};
-        int row_fail = 0;
-        int i;
-#pragma omp parallel for schedule(dynamic, 1) reduction(|| : row_fail) if ((Py_ssize_t)ns * nc * ncfg * R * nu >= PAR_MIN_WORK)
-        for (i = 0; i < ns - 1; ++i) {
-            double *buf = malloc(sizeof(double) * (2 * (size_t)nu + 8 * (size_t)ncell_u));
-            if (!buf || build_row(&X, i, &rows[i], buf, buf + nu, buf + 2 * nu)) row_fail = 1;
+        build_ctx_t X = {m, cfg_base, cfg_w, ncfg, nc, nu, nup, ncell_u, chi, t->u, zl, el, ix, ja, jb, t, sign};
+        int ch_fail = 0;
+        int k;
+#pragma omp parallel reduction(|| : ch_fail) if ((Py_ssize_t)ns * nc * ncfg * R * nu >= PAR_MIN_WORK && nc > 1)
+        {
+            /* ra, rb [ncfg][nup], acc [8][nup], zq [ncfg][R][nup], eq [ncfg][nup], sv [R] */
+            const size_t cn = (size_t)ncfg * nup;
+            double *buf = malloc(sizeof(double) * ((3 + (size_t)R) * cn + 8 * (size_t)nup + (size_t)R));
+            int *unsafe = malloc(sizeof(int) * (ncfg > 0 ? ncfg : 1));
+            if (!buf || !unsafe) ch_fail = 1;
+#pragma omp for schedule(dynamic, 1)
+            for (k = 0; k < nc; ++k)
+                if (buf && unsafe &&
+                    build_channel(&X, k, &lists[k], buf, buf + cn, buf + 2 * cn, unsafe, buf + 2 * cn + 8 * (size_t)nup,
+                                  buf + (2 + (size_t)R) * cn + 8 * (size_t)nup,
+                                  buf + (3 + (size_t)R) * cn + 8 * (size_t)nup))
+                    ch_fail = 1;
             free(buf);
+            free(unsafe);
         }
-        fail = row_fail;
+        fail = ch_fail;
     }
     if (!fail) {
-        /* CSR of the mixed terms by cell */
+        /* CSR of the mixed terms by cell; within a cell by channel, then configuration */
         size_t total = 0;
-        for (int i = 0; i < ns - 1; ++i) total += rows[i].n;
+        for (int k = 0; k < nc; ++k) total += lists[k].n;
         t->nmix = (Py_ssize_t)total;
         t->mix_ch = malloc(sizeof(int) * (total ? total : 1));
         t->mix_coef = malloc(sizeof(double) * 6 * (total ? total : 1));
         int *fill = calloc((size_t)ncell, sizeof(int));
         if (!t->mix_ch || !t->mix_coef || !fill) fail = 1;
         if (!fail) {
-            for (int i = 0; i < ns - 1; ++i)
-                for (int e = 0; e < rows[i].n; ++e) t->mix_start[rows[i].cell[e] + 1]++;
+            for (int k = 0; k < nc; ++k)
+                for (int e = 0; e < lists[k].n; ++e) t->mix_start[lists[k].cell[e] + 1]++;
             for (int c = 0; c < ncell; ++c) t->mix_start[c + 1] += t->mix_start[c];
-            for (int i = 0; i < ns - 1; ++i)
-                for (int e = 0; e < rows[i].n; ++e) {
-                    int cell = rows[i].cell[e];
+            for (int k = 0; k < nc; ++k)
+                for (int e = 0; e < lists[k].n; ++e) {
+                    int cell = lists[k].cell[e];
                     int pos = t->mix_start[cell] + fill[cell]++;
-                    t->mix_ch[pos] = rows[i].ch[e];
-                    memcpy(t->mix_coef + 6 * (size_t)pos, rows[i].coef + 6 * (size_t)e, 6 * sizeof(double));
+                    t->mix_ch[pos] = lists[k].ch[e];
+                    memcpy(t->mix_coef + 6 * (size_t)pos, lists[k].coef + 6 * (size_t)e, 6 * sizeof(double));
                 }
         }
         free(fill);
     }
-    if (rows)
-        for (int i = 0; i < ns - 1; ++i) {
-            free(rows[i].cell);
-            free(rows[i].ch);
-            free(rows[i].coef);
+    if (lists)
+        for (int k = 0; k < nc; ++k) {
+            free(lists[k].cell);
+            free(lists[k].ch);
+            free(lists[k].coef);
         }
-    free(rows);
-    free(zat);
-    free(eat);
+    free(lists);
     free(zl);
     free(el);
+    free(ix);
     if (fail) {
         table_free(t);
         return -1;
     }
     return 0;
-}
-
-/* Evaluate one direction from its cell and local offsets. */
-static inline void eval_one(const table_t *t, int cell, double g, double z, double *restrict acc)
-{
-    const int nc = t->nc;
-    const double *restrict T = t->tab + (size_t)cell * 6 * nc;
-    const double gz = g * z, z2 = z * z, gz2 = gz * z;
-    for (int k = 0; k < nc; ++k)
-        acc[k] = T[k] + g * T[nc + k] + z * T[2 * nc + k] + gz * T[3 * nc + k] + z2 * T[4 * nc + k] +
-                 gz2 * T[5 * nc + k];
-    for (int e = t->mix_start[cell]; e < t->mix_start[cell + 1]; ++e) {
-        const double *c6 = t->mix_coef + 6 * (size_t)e;
-        double v = c6[0] + g * c6[1] + z * c6[2] + gz * c6[3] + z2 * c6[4] + gz2 * c6[5];
-        if (v > 0) acc[t->mix_ch[e]] += v;
-    }
 }
 
 static inline void store_row(void *out, size_t i, int nc, const double *restrict acc, int is_double,
@@ -615,25 +721,284 @@ static inline void store_row(void *out, size_t i, int nc, const double *restrict
     }
 }
 
-/* Evaluate directions [i0, i1) in their given order (an image's order keeps neighbouring directions,
- * which mostly share a cell, together). */
-HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *az, const geom_t *geo,
-                           const double *dirs, Py_ssize_t i0, Py_ssize_t i1, void *out, int is_double,
-                           double sign, double *restrict acc, const int64_t *rows)
+static int table_build(table_t *t, const comp_t *m, const int64_t *cfg_base, const double *cfg_w, int ncfg,
+                       const int64_t *chi, int nc)
 {
-    const int ncell_u = t->nu - 1;
-    for (Py_ssize_t i = i0; i < i1; ++i) {
-        angles_t a = compute_angles(dirs + 3 * i, geo, 0, 0);
-        double g, z;
-        int ig = accel_cell(ag, a.gamma, &g);
-        int iz = accel_cell(az, a.zero, &z);
-        eval_one(t, ig * ncell_u + iz, g, z, acc);
-        store_row(out, OUT_ROW(rows, i), t->nc, acc, is_double, sign);
+    return table_build_signed(t, m, cfg_base, cfg_w, ncfg, chi, nc, 1.0, NULL, NULL, 0);
+}
+
+/* arccos for the table paths: branch-free (vectorised in a loop over a block of directions), within one ulp
+ * of the C library's acos (checked on 2e7 arguments, dense near -1, -1/2, 1/2 and 1, in both builds).
+ * Range reduction by the identities acos(x) = pi/2 - asin(x) for |x| <= 1/2 and acos(|x|) = 2 asin(s),
+ * s = sqrt((1 - |x|) / 2) for |x| > 1/2 (acos(-a) = pi - acos(a)), so asin is only needed on [0, 1/2]:
+ * asin(s) = s + s t P(t), t = s^2 <= 1/4, P(t) = (asin(s) - s) / s^3 approximated by a degree-12 polynomial:
+ * least squares on 48 Chebyshev points of [0, 1/4] against P's Maclaurin series (coefficients
+ * (2n)! / (4^n (n!)^2 (2n + 1))), in exact rational arithmetic, then rounded; relative error 1.2e-16 of P,
+ * which enters asin scaled by t P / (1 + t P) < 0.05. */
+static const double ASIN_C[13] = {
+    0x1.5555555555556p-3, 0x1.3333333332e87p-4, 0x1.6db6db6e3844bp-5, 0x1.f1c71c19f8d29p-6,
+    0x1.6e8bb25868b49p-6, 0x1.1c4d28ea04196p-6, 0x1.c9d07d4d03ddbp-7, 0x1.78186416c6a4ep-7,
+    0x1.529a9bba29802p-7, 0x1.62c22a53244eap-8, 0x1.1f0750c0651fcp-6, -0x1.ec92eb603f637p-7,
+    0x1.d924a1e3b6e41p-6};
+#define PI_HI 0x1.921fb54442d18p+1
+#define PI_LO 0x1.1a62633145c07p-53
+#define PIO2_HI 0x1.921fb54442d18p+0
+#define PIO2_LO 0x1.1a62633145c07p-54
+
+static inline double acos_block(double x)
+{
+    const double a = fabs(x);
+    const int big = a > 0.5;
+    const double tb = (1.0 - a) * 0.5, ts = a * a;
+    const double t = big ? tb : ts;
+    const double sq = sqrt(tb);
+    const double s = big ? sq : a;
+    const double *C = ASIN_C;
+    double p = C[12] * t + C[11];
+    p = p * t + C[10], p = p * t + C[9], p = p * t + C[8], p = p * t + C[7], p = p * t + C[6];
+    p = p * t + C[5], p = p * t + C[4], p = p * t + C[3], p = p * t + C[2], p = p * t + C[1];
+    p = p * t + C[0];
+    const double as = s + s * (t * p); /* asin(s) */
+    const double r_small = PIO2_HI - (copysign(as, x) - PIO2_LO);
+    const double r_pos = 2.0 * as, r_neg = PI_HI - (2.0 * as - PI_LO);
+    const double r_big = x > 0 ? r_pos : r_neg;
+    return big ? r_big : r_small;
+}
+
+/* Cosines of the angles of directions dirs[0..cnt), by the operations compute_angles uses (so the same
+ * values): to the sun (cg), of the altitude-corrected zenith (cz) and, with need_shadow, to the shadow
+ * direction (cs), each clamped to [-1, 1]. A loop without calls, vectorised; corrected and need_shadow are
+ * constants at every call site (dir_cosines), so each variant is its own loop. */
+static inline void dir_cos_body(const geom_t *geo, const double *restrict dirs, int cnt, double *restrict cg,
+                                double *restrict cz, double *restrict cs, const int corrected, const int need_shadow)
+{
+    const double s0 = geo->s[0], s1 = geo->s[1], s2 = geo->s[2];
+    const double h0 = geo->h[0], h1 = geo->h[1], h2 = geo->h[2];
+    const double sz = geo->sz, oz = geo->oz;
+    for (int t = 0; t < cnt; ++t) {
+        const double x = dirs[3 * t], y = dirs[3 * t + 1], z = dirs[3 * t + 2];
+        double nv = sqrt(x * x + y * y + z * z);
+        nv = nv < DBL_EPSILON_ ? DBL_EPSILON_ : nv;
+        const double vx = x / nv, vy = y / nv, vz = z / nv;
+        double cx = vx, cy = vy, c = vz;
+        if (corrected) {
+            c = (vz + sz) - oz;
+            const double n2 = sqrt(cx * cx + cy * cy + c * c);
+            cx /= n2;
+            cy /= n2;
+            c /= n2;
+        }
+        cg[t] = clamp_unit(vx * s0 + vy * s1 + vz * s2);
+        cz[t] = clamp_unit(c);
+        if (need_shadow) cs[t] = clamp_unit(cx * h0 + cy * h1 + c * h2);
     }
 }
 
+static inline void dir_cosines(const geom_t *geo, const double *restrict dirs, int cnt, int need_shadow,
+                               double *restrict cg, double *restrict cz, double *restrict cs)
+{
+    if (geo->corrected) {
+        if (need_shadow)
+            dir_cos_body(geo, dirs, cnt, cg, cz, cs, 1, 1);
+        else
+            dir_cos_body(geo, dirs, cnt, cg, cz, cs, 1, 0);
+    } else {
+        if (need_shadow)
+            dir_cos_body(geo, dirs, cnt, cg, cz, cs, 0, 1);
+        else
+            dir_cos_body(geo, dirs, cnt, cg, cz, cs, 0, 0);
+    }
+}
+
+/* directions per block of the table paths: angles for a block first (vectorised), then the channels */
+#define EVAL_BLOCK 256
+
+typedef float v4fo __attribute__((vector_size(16), aligned(4)));
+
+/* The cell polynomial T0 + g T1 + z (T2 + g T3 + z (T4 + g T5)) (rows T0..T5 of nc channels) at L
+ * directions (g[l], z[l]) that share the cell, into the output rows o[l] (float32 or float64): each
+ * coefficient vector is loaded once for the L directions. The same operations in the same order as for one
+ * direction alone (L is a constant at every call site), so the values do not depend on the grouping. */
+static inline double cell_poly(const double *T0, int nc, int k, double g, double z)
+{
+    const double *T1 = T0 + nc, *T2 = T1 + nc, *T3 = T2 + nc, *T4 = T3 + nc, *T5 = T4 + nc;
+    return T0[k] + g * T1[k] + z * (T2[k] + g * T3[k] + z * (T4[k] + g * T5[k]));
+}
+
+static inline __attribute__((always_inline)) void poly_group(const double *restrict T0, int nc, const double *g,
+                                                             const double *z, void *const *o, const int L,
+                                                             const int is_double)
+{
+    const double *restrict T1 = T0 + nc, *restrict T2 = T1 + nc, *restrict T3 = T2 + nc;
+    const double *restrict T4 = T3 + nc, *restrict T5 = T4 + nc;
+    v4d G[4], Z[4];
+    for (int l = 0; l < 4; ++l) {
+        G[l] = v4_set1(g[l < L ? l : 0]);
+        Z[l] = v4_set1(z[l < L ? l : 0]);
+    }
+    int k = 0;
+    for (; k + 4 <= nc; k += 4) {
+        const v4d t0 = v4_load(T0 + k), t1 = v4_load(T1 + k), t2 = v4_load(T2 + k);
+        const v4d t3 = v4_load(T3 + k), t4 = v4_load(T4 + k), t5 = v4_load(T5 + k);
+        for (int l = 0; l < L; ++l) {
+            const v4d v = t0 + G[l] * t1 + Z[l] * (t2 + G[l] * t3 + Z[l] * (t4 + G[l] * t5));
+            if (is_double)
+                v4_store((double *)o[l] + k, v);
+            else
+                *(v4fo *)((float *)o[l] + k) = __builtin_convertvector(v, v4fo);
+        }
+    }
+    for (; k < nc; ++k)
+        for (int l = 0; l < L; ++l) {
+            const double v = cell_poly(T0, nc, k, g[l], z[l]);
+            if (is_double)
+                ((double *)o[l])[k] = v;
+            else
+                ((float *)o[l])[k] = (float)v;
+        }
+}
+
+/* The clamped terms [m0, m1) of a cell at 4 directions (g[l], z[l]) sharing it, added to acc rows l (4 rows
+ * of nc): each term's 6 coefficients loaded once, its value for the 4 directions in one vector, by the same
+ * operations in the same order as for one direction; max(value, 0) added without a branch (whether a term
+ * is positive is as good as random: a branch on it is mispredicted half the time). */
+typedef long long v4di __attribute__((vector_size(32)));
+static inline void mixed_group(const table_t *t, int m0, int m1, const double *g, const double *z,
+                               double *restrict acc, int nc)
+{
+    const v4d G = {g[0], g[1], g[2], g[3]}, Z = {z[0], z[1], z[2], z[3]};
+    const v4d GZ = G * Z, Z2 = Z * Z, GZ2 = GZ * Z;
+    for (int e = m0; e < m1; ++e) {
+        const double *c6 = t->mix_coef + 6 * (size_t)e;
+        const v4d v = v4_set1(c6[0]) + G * v4_set1(c6[1]) + Z * v4_set1(c6[2]) + GZ * v4_set1(c6[3]) +
+                      Z2 * v4_set1(c6[4]) + GZ2 * v4_set1(c6[5]);
+        const int ch = t->mix_ch[e];
+        const v4d vp = (v4d)((v4di)v & (v4di)(v > 0));
+        for (int l = 0; l < 4; ++l) acc[(size_t)l * nc + ch] += vp[l];
+    }
+}
+
+/* Evaluate directions [i0, i0 + cnt) in their given order (an image's order keeps neighbouring directions,
+ * which mostly share a cell, together): the block's cosines (vectorised), its angles and cells, then per
+ * direction the cell's polynomial over the channels (channel-innermost, vectorised), written straight to the
+ * output where the cell has no separately clamped term, else through acc. The table carries the output's
+ * sign (table_build_signed). */
+HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *az, const geom_t *geo,
+                           const double *dirs, Py_ssize_t i0, int cnt, void *out, int is_double,
+                           double *restrict acc, const int64_t *rows)
+{
+    double cg[EVAL_BLOCK], cz[EVAL_BLOCK], gv[EVAL_BLOCK], zv[EVAL_BLOCK];
+    int cell[EVAL_BLOCK];
+    const int ncell_u = t->nu - 1, nc = t->nc;
+    dir_cosines(geo, dirs + 3 * i0, cnt, 0, cg, cz, NULL);
+    for (int j = 0; j < cnt; ++j) {
+        cg[j] = acos_block(cg[j]);
+        cz[j] = acos_block(cz[j]);
+    }
+    int ig = 0, iz = 0;
+    for (int j = 0; j < cnt; ++j) {
+        ig = accel_cell_hint(ag, cg[j], &gv[j], ig);
+        iz = accel_cell_hint(az, cz[j], &zv[j], iz);
+        cell[j] = ig * ncell_u + iz;
+    }
+    const size_t osz = is_double ? sizeof(double) : sizeof(float);
+    for (int j = 0; j < cnt;) {
+        const int c = cell[j];
+        const double *restrict T0 = t->tab + (size_t)c * 6 * nc;
+        const int m0 = t->mix_start[c], m1 = t->mix_start[c + 1];
+        /* the following directions in the same cell (most, in an image's order) share the loads */
+        int L = 1;
+        while (L < 4 && j + L < cnt && cell[j + L] == c) ++L;
+        if (m0 == m1) {
+            void *o[4];
+            for (int l = 0; l < L; ++l) o[l] = (char *)out + OUT_ROW(rows, i0 + j + l) * nc * osz;
+            if (is_double) {
+                if (L == 4) poly_group(T0, nc, gv + j, zv + j, o, 4, 1);
+                else if (L >= 2) poly_group(T0, nc, gv + j, zv + j, o, 2, 1);
+                else poly_group(T0, nc, gv + j, zv + j, o, 1, 1);
+            } else {
+                if (L == 4) poly_group(T0, nc, gv + j, zv + j, o, 4, 0);
+                else if (L >= 2) poly_group(T0, nc, gv + j, zv + j, o, 2, 0);
+                else poly_group(T0, nc, gv + j, zv + j, o, 1, 0);
+            }
+            j += L == 4 ? 4 : (L >= 2 ? 2 : 1);
+            continue;
+        }
+        /* a cell with separately clamped terms: the polynomial into acc (double, 4 rows of nc), the clamped
+         * terms added there, then the rows written */
+        void *a[4] = {acc, acc + nc, acc + 2 * (size_t)nc, acc + 3 * (size_t)nc};
+        if (L == 4) {
+            poly_group(T0, nc, gv + j, zv + j, a, 4, 1);
+            mixed_group(t, m0, m1, gv + j, zv + j, acc, nc);
+        } else {
+            L = 1;
+            poly_group(T0, nc, gv + j, zv + j, a, 1, 1);
+            const double g = gv[j], z = zv[j], gz = g * z, z2 = z * z, gz2 = gz * z;
+            for (int e = m0; e < m1; ++e) {
+                const double *c6 = t->mix_coef + 6 * (size_t)e;
+                double v = c6[0] + g * c6[1] + z * c6[2] + gz * c6[3] + z2 * c6[4] + gz2 * c6[5];
+                acc[t->mix_ch[e]] += v > 0 ? v : 0.0;
+            }
+        }
+        for (int l = 0; l < L; ++l) store_row(out, OUT_ROW(rows, i0 + j + l), nc, acc + (size_t)l * nc, is_double, 1.0);
+        j += L;
+    }
+}
+
+/* The range of the sun angle and of the zero angle over directions dirs [rad]: range = {gamma min, gamma
+ * max, zero min, zero max}, from the cosines' extremes (arccos decreases). NaN where a cosine is NaN. */
+HOT static void angle_range_block(const geom_t *geo, const double *dirs, int cnt, double *mm)
+{
+    double cg[EVAL_BLOCK], cz[EVAL_BLOCK];
+    dir_cosines(geo, dirs, cnt, 0, cg, cz, NULL);
+    double gl = mm[0], gh = mm[1], zl = mm[2], zh = mm[3];
+    for (int j = 0; j < cnt; ++j) {
+        gl = cg[j] < gl ? cg[j] : gl;
+        gh = cg[j] > gh ? cg[j] : gh;
+        zl = cz[j] < zl ? cz[j] : zl;
+        zh = cz[j] > zh ? cz[j] : zh;
+    }
+    int bad = 0;
+    for (int j = 0; j < cnt; ++j) bad |= (cg[j] != cg[j]) | (cz[j] != cz[j]);
+    if (bad) gl = gh = zl = zh = NAN;
+    mm[0] = gl, mm[1] = gh, mm[2] = zl, mm[3] = zh;
+}
+
+static void angle_range(const geom_t *geo, const double *dirs, Py_ssize_t n, double *range)
+{
+    double gl = 2.0, gh = -2.0, zl = 2.0, zh = -2.0;
+    int bad = 0;
+    Py_ssize_t b, nb = (n + EVAL_BLOCK - 1) / EVAL_BLOCK;
+#pragma omp parallel for schedule(static) reduction(min : gl, zl) reduction(max : gh, zh) reduction(|| : bad) if (n >= 16384)
+    for (b = 0; b < nb; ++b) {
+        double mm[4] = {2.0, -2.0, 2.0, -2.0};
+        const Py_ssize_t i0 = b * EVAL_BLOCK;
+        angle_range_block(geo, dirs + 3 * i0, (int)(n - i0 < EVAL_BLOCK ? n - i0 : EVAL_BLOCK), mm);
+        if (mm[0] != mm[0]) bad = 1;
+        else {
+            gl = mm[0] < gl ? mm[0] : gl, gh = mm[1] > gh ? mm[1] : gh;
+            zl = mm[2] < zl ? mm[2] : zl, zh = mm[3] > zh ? mm[3] : zh;
+        }
+    }
+    if (bad) {
+        range[0] = range[1] = range[2] = range[3] = NAN;
+        return;
+    }
+    range[0] = acos_block(gh), range[1] = acos_block(gl), range[2] = acos_block(zh), range[3] = acos_block(zl);
+}
+
+/* the interval [0, n-2] containing q (clamped to the knots), as accel_cell selects it */
+static int interval_of(double q, const double *b, int n)
+{
+    if (!(q >= b[0])) q = b[0];
+    if (q > b[n - 1]) q = b[n - 1];
+    int i = 0;
+    while (i + 1 < n - 1 && b[i + 1] <= q) ++i;
+    return i;
+}
+
 static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, Py_ssize_t n, void *out,
-                      int is_double, double sign, const int64_t *rows)
+                      int is_double, const int64_t *rows)
 {
     accel_t ag, az;
     if (accel_init(&ag, t->sb, t->ns)) return -1;
@@ -641,18 +1006,18 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
         free(ag.start);
         return -1;
     }
-    const Py_ssize_t chunk = 256;
+    const Py_ssize_t chunk = EVAL_BLOCK;
     Py_ssize_t nchunks = (n + chunk - 1) / chunk, c;
     int fail = 0;
 #pragma omp parallel reduction(|| : fail) if (n * (Py_ssize_t)t->nc >= PAR_MIN_WORK / 8)
     {
-        double *acc = malloc(sizeof(double) * (t->nc > 0 ? t->nc : 1));
+        double *acc = malloc(sizeof(double) * 4 * (t->nc > 0 ? t->nc : 1));
         if (!acc) fail = 1;
 #pragma omp for schedule(static)
         for (c = 0; c < nchunks; ++c) {
             if (!acc) continue;
             Py_ssize_t i0 = c * chunk, i1 = i0 + chunk < n ? i0 + chunk : n;
-            eval_chunk(t, &ag, &az, geo, dirs, i0, i1, out, is_double, sign, acc, rows);
+            eval_chunk(t, &ag, &az, geo, dirs, i0, (int)(i1 - i0), out, is_double, acc, rows);
         }
         free(acc);
     }
@@ -682,6 +1047,118 @@ typedef struct {
 /* largest number of 3-D cells indexed directly; beyond it the direct path is used */
 #define TW_MAX_CELLS 50000000
 
+/* pass 1 of the twilight table for the block of directions from i0: cells and local offsets */
+HOT static void tw_locate(const geom_t *geo, const accel_t *ag, const accel_t *as, const accel_t *ae,
+                          const double *dirs, Py_ssize_t i0, Py_ssize_t n, int64_t cz, int64_t ce, tw_dir_t *d)
+{
+    double cg[EVAL_BLOCK], cs[EVAL_BLOCK], cze[EVAL_BLOCK];
+    const int cnt = (int)(n - i0 < EVAL_BLOCK ? n - i0 : EVAL_BLOCK);
+    dir_cosines(geo, dirs + 3 * i0, cnt, 1, cg, cze, cs);
+    for (int j = 0; j < cnt; ++j) {
+        cg[j] = acos_block(cg[j]);
+        cs[j] = acos_block(cs[j]);
+        cze[j] = acos_block(cze[j]);
+    }
+    int ig = 0, is = 0, iz = 0;
+    for (int j = 0; j < cnt; ++j) {
+        tw_dir_t *e = d + i0 + j;
+        ig = accel_cell_hint(ag, cg[j], &e->g, ig);
+        is = accel_cell_hint(as, cs[j], &e->s, is);
+        iz = accel_cell_hint(ae, cze[j], &e->z, iz);
+        e->key = ((int64_t)ig * cz + is) * ce + iz;
+    }
+}
+
+typedef struct {
+    const double *tab;
+    const int *mix_start, *mix_ch;
+    const double *mix_coef;
+    const int32_t *slot;
+    int nc;
+} tw_tab_t;
+
+/* The twilight cell polynomial T0 + g T1 + s (T2 + g T3) + z (T4 + g T5 + s (T6 + g T7)) at L directions
+ * sharing the cell (as poly_group: one load of each coefficient vector for the L directions, the same
+ * operations in the same order as one direction alone). */
+static inline double tw_poly(const double *T, int nc, int k, double g, double s, double z)
+{
+    return T[k] + g * T[nc + k] + s * (T[2 * nc + k] + g * T[3 * nc + k]) +
+           z * (T[4 * nc + k] + g * T[5 * nc + k] + s * (T[6 * nc + k] + g * T[7 * nc + k]));
+}
+
+static inline __attribute__((always_inline)) void tw_poly_group(const double *restrict T, int nc, const tw_dir_t *dd,
+                                                                void *const *o, const int L, const int is_double)
+{
+    v4d G[4], S[4], Z[4];
+    for (int l = 0; l < 4; ++l) {
+        const tw_dir_t *e = dd + (l < L ? l : 0);
+        G[l] = v4_set1(e->g);
+        S[l] = v4_set1(e->s);
+        Z[l] = v4_set1(e->z);
+    }
+    int k = 0;
+    for (; k + 4 <= nc; k += 4) {
+        const v4d t0 = v4_load(T + k), t1 = v4_load(T + nc + k), t2 = v4_load(T + 2 * nc + k);
+        const v4d t3 = v4_load(T + 3 * nc + k), t4 = v4_load(T + 4 * nc + k), t5 = v4_load(T + 5 * nc + k);
+        const v4d t6 = v4_load(T + 6 * nc + k), t7 = v4_load(T + 7 * nc + k);
+        for (int l = 0; l < L; ++l) {
+            const v4d v = t0 + G[l] * t1 + S[l] * (t2 + G[l] * t3) + Z[l] * (t4 + G[l] * t5 + S[l] * (t6 + G[l] * t7));
+            if (is_double)
+                v4_store((double *)o[l] + k, v);
+            else
+                *(v4fo *)((float *)o[l] + k) = __builtin_convertvector(v, v4fo);
+        }
+    }
+    for (; k < nc; ++k)
+        for (int l = 0; l < L; ++l) {
+            const double v = tw_poly(T, nc, k, dd[l].g, dd[l].s, dd[l].z);
+            if (is_double)
+                ((double *)o[l])[k] = v;
+            else
+                ((float *)o[l])[k] = (float)v;
+        }
+}
+
+/* pass 3 of the twilight table for the block of directions from i0 */
+HOT static void tw_eval_block(const tw_tab_t *X, const tw_dir_t *d, Py_ssize_t i0, int cnt, void *out, int is_double,
+                              double *restrict acc, const int64_t *rows)
+{
+    const int nc = X->nc;
+    const size_t osz = is_double ? sizeof(double) : sizeof(float);
+    const tw_dir_t *db = d + i0;
+    for (int j = 0; j < cnt;) {
+        const int v = X->slot[db[j].key];
+        const double *restrict T = X->tab + (size_t)v * 8 * nc;
+        const int m0 = X->mix_start[v], m1 = X->mix_start[v + 1];
+        if (m0 == m1) {
+            int L = 1;
+            while (L < 4 && j + L < cnt && db[j + L].key == db[j].key) ++L;
+            void *o[4];
+            for (int l = 0; l < L; ++l) o[l] = (char *)out + OUT_ROW(rows, i0 + j + l) * nc * osz;
+            if (is_double) {
+                if (L == 4) tw_poly_group(T, nc, db + j, o, 4, 1);
+                else if (L >= 2) tw_poly_group(T, nc, db + j, o, 2, 1);
+                else tw_poly_group(T, nc, db + j, o, 1, 1);
+            } else {
+                if (L == 4) tw_poly_group(T, nc, db + j, o, 4, 0);
+                else if (L >= 2) tw_poly_group(T, nc, db + j, o, 2, 0);
+                else tw_poly_group(T, nc, db + j, o, 1, 0);
+            }
+            j += L == 4 ? 4 : (L >= 2 ? 2 : 1);
+            continue;
+        }
+        const double g = db[j].g, sv = db[j].s, z = db[j].z, gs = g * sv;
+        for (int k = 0; k < nc; ++k) acc[k] = tw_poly(T, nc, k, g, sv, z);
+        for (int e = m0; e < m1; ++e) {
+            const double *c8 = X->mix_coef + 8 * (size_t)e;
+            double x = c8[0] + g * c8[1] + sv * c8[2] + gs * c8[3] + z * (c8[4] + g * c8[5] + sv * c8[6] + gs * c8[7]);
+            acc[X->mix_ch[e]] += x > 0 ? x : 0.0; /* without a branch: the sign is as good as random */
+        }
+        store_row(out, OUT_ROW(rows, i0 + j), nc, acc, is_double, 1.0);
+        ++j;
+    }
+}
+
 static int twilight_eval(const comp_t *m, const geom_t *geo, const int64_t *cfg_base, const double *cfg_w,
                          int ncfg, const int64_t *chi, int nc, const double *dirs, Py_ssize_t n, void *out,
                          int is_double, const int64_t *rows, Py_ssize_t *nvisited_out, Py_ssize_t *nmix_out)
@@ -696,7 +1173,7 @@ static int twilight_eval(const comp_t *m, const geom_t *geo, const int64_t *cfg_
     int fail = 0;
     accel_t ag, as, ae;
     memset(&ag, 0, sizeof(ag)), memset(&as, 0, sizeof(as)), memset(&ae, 0, sizeof(ae));
-    double *K = malloc(sizeof(double) * (size_t)ns * nz * cn); /* [i][j][c][k] corner products */
+    double *K = NULL; /* [i - i0k][j - j0k][c][k] corner products over the visited cells' knots */
     double *E = malloc(sizeof(double) * (size_t)ne * cn);      /* [l][c][k] emphasis at its knots */
     tw_dir_t *d = malloc(sizeof(tw_dir_t) * (n ? n : 1));
     int32_t *slot = malloc(sizeof(int32_t) * (size_t)ncell3);
@@ -706,41 +1183,48 @@ static int twilight_eval(const comp_t *m, const geom_t *geo, const int64_t *cfg_
     double *mix_coef = NULL;
     mixlist_t *lists = NULL;
     Py_ssize_t nvis = 0, nmix = 0;
-    if (!K || !E || !d || !slot || accel_init(&ag, m->sb, ns) || accel_init(&as, m->zb, nz) ||
+    if (!E || !d || !slot || accel_init(&ag, m->sb, ns) || accel_init(&as, m->zb, nz) ||
         accel_init(&ae, m->eb, ne)) {
         fail = -1;
         goto out;
     }
     {
+        Py_ssize_t b, nb = (n + EVAL_BLOCK - 1) / EVAL_BLOCK;
+#pragma omp parallel for schedule(static) if (n >= 4096)
+        for (b = 0; b < nb; ++b) tw_locate(geo, &ag, &as, &ae, dirs, b * EVAL_BLOCK, n, cz, ce, d);
+    }
+    for (int64_t c = 0; c < ncell3; ++c) slot[c] = -1;
+    int i0k = ns, i1k = -1, j0k = nz, j1k = -1; /* knots of the visited cells' corners */
+    for (Py_ssize_t i = 0; i < n; ++i)
+        if (slot[d[i].key] < 0) {
+            slot[d[i].key] = (int32_t)nvis++;
+            const int64_t key = d[i].key;
+            const int is = (int)((key / ce) % cz), ig = (int)(key / (ce * cz));
+            i0k = ig < i0k ? ig : i0k, i1k = ig + 1 > i1k ? ig + 1 : i1k;
+            j0k = is < j0k ? is : j0k, j1k = is + 1 > j1k ? is + 1 : j1k;
+        }
+    const int nik = i1k >= i0k ? i1k - i0k + 1 : 0, njk = j1k >= j0k ? j1k - j0k + 1 : 0;
+    K = malloc(sizeof(double) * ((size_t)nik * njk * cn + 1));
+    if (!K) {
+        fail = -1;
+        goto out;
+    }
+    {
         Py_ssize_t q, nq = (Py_ssize_t)cn;
-#pragma omp parallel for schedule(static) if (nq * ns * nz * R >= PAR_MIN_WORK)
+#pragma omp parallel for schedule(static) if (nq * nik * njk * R >= PAR_MIN_WORK)
         for (q = 0; q < nq; ++q) {
             int c = (int)(q / nc), k = (int)(q % nc);
             size_t cfg = (size_t)cfg_base[c] * m->nch + (size_t)chi[k];
             const float *sun = m->sun + cfg * (size_t)R * ns, *zen = m->zen + cfg * (size_t)R * nz;
-            for (int i = 0; i < ns; ++i)
-                for (int j = 0; j < nz; ++j) {
+            for (int i = i0k; i <= i1k; ++i)
+                for (int j = j0k; j <= j1k; ++j) {
                     double acc = 0.0;
                     for (int r = 0; r < R; ++r) acc += (double)sun[(size_t)r * ns + i] * (double)zen[(size_t)r * nz + j];
-                    K[((size_t)i * nz + j) * cn + q] = acc;
+                    K[((size_t)(i - i0k) * njk + (j - j0k)) * cn + q] = acc;
                 }
             for (int l = 0; l < ne; ++l) E[(size_t)l * cn + q] = (double)m->emph[cfg * (size_t)ne + l];
         }
     }
-    {
-        Py_ssize_t i;
-#pragma omp parallel for schedule(static) if (n >= 4096)
-        for (i = 0; i < n; ++i) {
-            angles_t a = compute_angles(dirs + 3 * i, geo, 0, 1);
-            int ig = accel_cell(&ag, a.gamma, &d[i].g);
-            int is = accel_cell(&as, a.shadow, &d[i].s);
-            int iz = accel_cell(&ae, a.zero, &d[i].z);
-            d[i].key = ((int64_t)ig * cz + is) * ce + iz;
-        }
-    }
-    for (int64_t c = 0; c < ncell3; ++c) slot[c] = -1;
-    for (Py_ssize_t i = 0; i < n; ++i)
-        if (slot[d[i].key] < 0) slot[d[i].key] = (int32_t)nvis++;
     cells = malloc(sizeof(int64_t) * (nvis ? nvis : 1));
     tab = malloc(sizeof(double) * 8 * (size_t)nc * (nvis ? nvis : 1));
     mix_start = calloc((size_t)nvis + 1, sizeof(int));
@@ -772,8 +1256,9 @@ static int twilight_eval(const comp_t *m, const geom_t *geo, const int64_t *cfg_
             const int iz = (int)(key % ce), is = (int)((key / ce) % cz), ig = (int)(key / (ce * cz));
             const double dg = m->sb[ig + 1] - m->sb[ig], ds = m->zb[is + 1] - m->zb[is];
             const double dz = m->eb[iz + 1] - m->eb[iz];
-            const double *K00 = K + ((size_t)ig * nz + is) * cn, *K01 = K + ((size_t)ig * nz + is + 1) * cn;
-            const double *K10 = K + ((size_t)(ig + 1) * nz + is) * cn, *K11 = K + ((size_t)(ig + 1) * nz + is + 1) * cn;
+            const size_t kr = (size_t)(ig - i0k) * njk + (is - j0k);
+            const double *K00 = K + kr * cn, *K01 = K + (kr + 1) * cn;
+            const double *K10 = K + (kr + njk) * cn, *K11 = K + (kr + njk + 1) * cn;
             const double *E0 = E + (size_t)iz * cn, *E1 = E + (size_t)(iz + 1) * cn;
             double *T = tab + (size_t)v * 8 * nc;
             for (int k = 0; k < nc; ++k) {
@@ -844,25 +1329,16 @@ static int twilight_eval(const comp_t *m, const geom_t *geo, const int64_t *cfg_
         free(fill);
     }
     {
-        Py_ssize_t i;
+        Py_ssize_t b, nb = (n + EVAL_BLOCK - 1) / EVAL_BLOCK;
+        const tw_tab_t TT = {tab, mix_start, mix_ch, mix_coef, slot, nc};
 #pragma omp parallel if (n * (Py_ssize_t)nc >= PAR_MIN_WORK / 8)
         {
             double *acc = malloc(sizeof(double) * (nc > 0 ? nc : 1));
 #pragma omp for schedule(static)
-            for (i = 0; i < n; ++i) {
+            for (b = 0; b < nb; ++b) {
                 if (!acc) continue;
-                const int v = slot[d[i].key];
-                const double g = d[i].g, sv = d[i].s, z = d[i].z, gs = g * sv;
-                const double *restrict T = tab + (size_t)v * 8 * nc;
-                for (int k = 0; k < nc; ++k)
-                    acc[k] = T[k] + g * T[nc + k] + sv * T[2 * nc + k] + gs * T[3 * nc + k] +
-                             z * (T[4 * nc + k] + g * T[5 * nc + k] + sv * T[6 * nc + k] + gs * T[7 * nc + k]);
-                for (int e = mix_start[v]; e < mix_start[v + 1]; ++e) {
-                    const double *c8 = mix_coef + 8 * (size_t)e;
-                    double x = c8[0] + g * c8[1] + sv * c8[2] + gs * c8[3] + z * (c8[4] + g * c8[5] + sv * c8[6] + gs * c8[7]);
-                    if (x > 0) acc[mix_ch[e]] += x;
-                }
-                store_row(out, OUT_ROW(rows, i), nc, acc, is_double, 1.0);
+                const Py_ssize_t i0 = b * EVAL_BLOCK;
+                tw_eval_block(&TT, d, i0, (int)(n - i0 < EVAL_BLOCK ? n - i0 : EVAL_BLOCK), out, is_double, acc, rows);
             }
             if (!acc) fail = -1;
             free(acc);
@@ -1099,6 +1575,8 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
         geom_init(&geo, alt, el, az);
         double sign = m.emph ? 1.0 : -1.0;
         int use_table = method == 2 || (method == 0 && n * (Py_ssize_t)nc >= 20000);
+        if (method == 0 && !use_table && !(m.emph && geo.use_shadow) && n * (Py_ssize_t)nc >= 256)
+            use_table = table_pays(&m, &geo, (const double *)b[9].b.buf, n, ncfg, nc);
         int twilight = use_table && m.emph && geo.use_shadow;
         int err = 0;
         Py_ssize_t nmix = 0, nvisited = 0;
@@ -1117,8 +1595,8 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
             }
         } else if (use_table) {
             table_t t;
-            err = table_build(&t, &m, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
-                              (const int64_t *)b[8].b.buf, nc);
+            err = table_build_signed(&t, &m, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                                     (const int64_t *)b[8].b.buf, nc, sign, &geo, (const double *)b[9].b.buf, n);
             if (err == 1) { /* ill-conditioned cell: the direct path instead */
                 err = 0;
                 use_table = 0;
@@ -1127,7 +1605,7 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
                                 is_double, sign, rows);
             } else if (!err) {
                 nmix = t.nmix;
-                err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, sign, rows);
+                err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, rows);
                 table_free(&t);
             }
         } else {
@@ -1146,6 +1624,69 @@ done:
     for (int i = 0; i < 11; ++i) rel_buf(&b[i]);
     rel_buf(&rb);
     return ret;
+}
+
+/* check_dirs(dirs float64 (n, 3) C-contiguous) -> index of the first direction whose squared length
+ * x^2 + y^2 + z^2 is not finite and positive (NaN, infinity, overflow or the zero vector), or -1. One pass
+ * without temporaries (the evaluator's argument check). */
+static PyObject *py_check_dirs(PyObject *self, PyObject *args)
+{
+    PyObject *o;
+    if (!PyArg_ParseTuple(args, "O", &o)) return NULL;
+    buf_t b;
+    memset(&b, 0, sizeof(b));
+    if (get_buf(o, &b, 0, "dirs", 8) < 0) {
+        rel_buf(&b);
+        return NULL;
+    }
+    const double *v = (const double *)b.b.buf;
+    const Py_ssize_t n = b.b.len / 24;
+    Py_ssize_t bad = -1;
+    Py_BEGIN_ALLOW_THREADS
+    const Py_ssize_t blk = 1024;
+    for (Py_ssize_t i0 = 0; i0 < n && bad < 0; i0 += blk) {
+        const Py_ssize_t i1 = i0 + blk < n ? i0 + blk : n;
+        int any = 0;
+        for (Py_ssize_t i = i0; i < i1; ++i) {
+            const double n2 = v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2];
+            any |= !(n2 > 0.0 && n2 <= 1.7976931348623157e308);
+        }
+        if (any)
+            for (Py_ssize_t i = i0; i < i1; ++i) {
+                const double n2 = v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2];
+                if (!(n2 > 0.0 && n2 <= 1.7976931348623157e308)) {
+                    bad = i;
+                    break;
+                }
+            }
+    }
+    Py_END_ALLOW_THREADS
+    rel_buf(&b);
+    return PyLong_FromSsize_t(bad);
+}
+
+/* auto's choice for a smaller call (sun above the horizon): the table when building the cells in the range
+ * of the call's angles and evaluating them costs less than the direct path. Costs in CPU time measured
+ * for the x86-64-v3 build (benchmarks/bench_sky.py): table build about 0.1 ns per (cell, channel,
+ * configuration, rank + 8), evaluation about 1 ns per value and 20 ns per direction; direct about 0.22 ns
+ * per (value, configuration, 3 rank + 4). Both paths give the reference's values to rounding. */
+static int table_pays(const comp_t *m, const geom_t *geo, const double *dirs, Py_ssize_t n, int ncfg, int nc)
+{
+    double rg[4];
+    angle_range(geo, dirs, n, rg);
+    if (!(isfinite(rg[0]) && isfinite(rg[1]) && isfinite(rg[2]) && isfinite(rg[3]))) return 0;
+    /* cells in range: sun intervals x zenith/emphasis intervals (counted over the larger knot set, the merged
+     * set being at most their sum) plus the margin table_build_signed adds */
+    const double *zb = m->zb;
+    int nz = m->nz;
+    if (m->emph && m->ne > nz) zb = m->eb, nz = m->ne;
+    const double rows = interval_of(rg[1], m->sb, m->ns) - interval_of(rg[0], m->sb, m->ns) + 3;
+    double cols = interval_of(rg[3], zb, nz) - interval_of(rg[2], zb, nz) + 3;
+    if (m->emph) cols *= 2.0;
+    const double R = m->rank;
+    const double table = rows * cols * nc * ncfg * (R + 8) * 0.1 + (double)n * nc * 1.0 + (double)n * 20.0;
+    const double direct = (double)n * nc * ncfg * (3 * R + 4) * 0.22;
+    return table < direct;
 }
 
 /* transmittance(U, V, ddim, adim, nalt, rank, nch, pair_vis, pair_alt, pair_w, chi, dirs, altitude,
@@ -1869,6 +2410,11 @@ done:
 /* ------------------------------------------------------------------------------------------ */
 /* dataset decoding                                                                           */
 
+/* Half -> float32 for the decoder. Two implementations that give the same bits for all 65,536 half
+ * patterns (tests/test_dataset_decode.py checks it): F16C (vcvtph2ps, 8 values per instruction), picked at
+ * run time where the processor and OS support it, and a 64k-entry table elsewhere. The conversion is exact
+ * (every half is a float32); a signalling NaN comes out quiet (quiet bit set, payload kept), as vcvtph2ps
+ * and the reference's float(double(half)) both give it. */
 static float half_table[65536];
 static void half_table_init(void)
 {
@@ -1880,7 +2426,7 @@ static void half_table_init(void)
             memcpy(&x, &f, 4);
             x |= sgn;
         } else if (e == 31) {
-            x = sgn | 0x7f800000u | (m << 13);
+            x = sgn | 0x7f800000u | (m << 13) | (m ? 0x00400000u : 0u); /* inf, or NaN made quiet */
         } else {
             x = sgn | ((e + 112u) << 23) | (m << 13);
         }
@@ -1891,18 +2437,114 @@ static void half_table_init(void)
 
 static inline int finite_f(float f) { return isfinite(f); }
 
-#if defined(__FLT16_MAX__) && defined(__x86_64__)
-typedef _Float16 half_t; /* the compiler converts (vcvtph2ps in the x86-64-v3 clone, vectorised) */
-#define HALF_TO_FLOAT(p, j) ((float)(p)[j])
-#else
-typedef uint16_t half_t;
-#define HALF_TO_FLOAT(p, j) (half_table[(p)[j]])
-#endif
+static inline uint16_t load_u16(const unsigned char *p)
+{
+    uint16_t v;
+    memcpy(&v, p, 2);
+    return v;
+}
 
-/* One radiance block: rank x (sun halves, zenithScale, zenith halves), then the emphasis halves. Returns
- * 0, or the code of the first problem (1 scale, 2 sun, 3 zenith, 4 emphasis). */
-HOT static int decode_block(const unsigned char *blk, int rank, int ns, int nz, int ne, float *restrict so,
-                            float *restrict zo, float *restrict eo)
+/* One radiance block: rank x (sun halves, zenithScale, zenith halves), then the emphasis halves; zenith
+ * values are float32(double(half) / zenithScale), the division in double as the reference does it.
+ * Returns 0, or the code of the first problem (1 scale, 2 sun, 3 zenith, 4 emphasis), checked in that
+ * order rank by rank. Table version (any processor). */
+static int decode_block_table(const unsigned char *blk, int rank, int ns, int nz, int ne, float *restrict so,
+                              float *restrict zo, float *restrict eo)
+{
+    const size_t rank_bytes = 2 * (size_t)ns + 8 + 2 * (size_t)nz;
+    for (int r = 0; r < rank; ++r) {
+        const unsigned char *p = blk + (size_t)r * rank_bytes, *pz = p + 2 * (size_t)ns + 8;
+        double scale;
+        memcpy(&scale, p + 2 * (size_t)ns, 8);
+        if (!isfinite(scale) || scale == 0.0) return 1;
+        float *restrict s = so + (size_t)r * ns, *restrict z = zo + (size_t)r * nz;
+        int bad = 0;
+        for (int j = 0; j < ns; ++j) {
+            s[j] = half_table[load_u16(p + 2 * (size_t)j)];
+            bad |= !finite_f(s[j]);
+        }
+        if (bad) return 2;
+        for (int j = 0; j < nz; ++j) {
+            z[j] = (float)((double)half_table[load_u16(pz + 2 * (size_t)j)] / scale);
+            bad |= !finite_f(z[j]);
+        }
+        if (bad) return 3;
+    }
+    const unsigned char *pe = blk + (size_t)rank * rank_bytes;
+    int bad = 0;
+    for (int j = 0; j < ne; ++j) {
+        eo[j] = half_table[load_u16(pe + 2 * (size_t)j)];
+        bad |= !finite_f(eo[j]);
+    }
+    return bad ? 4 : 0;
+}
+
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define HAVE_F16C_DECODE 1
+#define F16C_FN __attribute__((target("avx,f16c"))) static inline
+
+/* lanes of v that are inf or NaN: not (|v| <= FLT_MAX), unordered compares true */
+F16C_FN __m256 nonfinite_ps(__m256 v)
+{
+    const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    return _mm256_cmp_ps(_mm256_and_ps(v, abs_mask), _mm256_set1_ps(3.4028234663852886e38f), _CMP_NLE_UQ);
+}
+
+/* 8 halves (the first n valid, n <= 8; the others read as zeros) */
+F16C_FN __m256 load8_halves(const unsigned char *p, int n)
+{
+    if (n == 8) return _mm256_cvtph_ps(_mm_loadu_si128((const __m128i *)p));
+    uint16_t t[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    memcpy(t, p, 2 * (size_t)n);
+    return _mm256_cvtph_ps(_mm_loadu_si128((const __m128i *)t));
+}
+
+F16C_FN void store8(float *o, __m256 v, int n)
+{
+    if (n == 8) {
+        _mm256_storeu_ps(o, v);
+        return;
+    }
+    float t[8];
+    _mm256_storeu_ps(t, v);
+    memcpy(o, t, 4 * (size_t)n);
+}
+
+/* n halves to float32; returns nonzero if any is inf or NaN */
+F16C_FN int halves_run(const unsigned char *p, float *restrict o, int n)
+{
+    __m256 bad = _mm256_setzero_ps();
+    for (int j = 0; j < n; j += 8) {
+        int k = n - j < 8 ? n - j : 8;
+        __m256 v = load8_halves(p + 2 * (size_t)j, k);
+        bad = _mm256_or_ps(bad, nonfinite_ps(v));
+        store8(o + j, v, k);
+    }
+    return _mm256_movemask_ps(bad);
+}
+
+/* n halves to float32(double(half) / scale); returns nonzero if any result is inf or NaN */
+F16C_FN int halves_scaled_run(const unsigned char *p, double scale, float *restrict o, int n)
+{
+    __m256 bad = _mm256_setzero_ps();
+    const __m256d s = _mm256_set1_pd(scale);
+    for (int j = 0; j < n; j += 8) {
+        int k = n - j < 8 ? n - j : 8;
+        __m256 v = load8_halves(p + 2 * (size_t)j, k);
+        __m128 lo = _mm256_cvtpd_ps(_mm256_div_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(v)), s));
+        __m128 hi = _mm256_cvtpd_ps(_mm256_div_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(v, 1)), s));
+        __m256 r = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
+        bad = _mm256_or_ps(bad, nonfinite_ps(r));
+        store8(o + j, r, k);
+    }
+    return _mm256_movemask_ps(bad);
+}
+
+/* decode_block_table with F16C: the same values and the same return codes */
+__attribute__((target("avx,f16c"))) static int decode_block_f16c(const unsigned char *blk, int rank, int ns, int nz,
+                                                                  int ne, float *restrict so, float *restrict zo,
+                                                                  float *restrict eo)
 {
     const size_t rank_bytes = 2 * (size_t)ns + 8 + 2 * (size_t)nz;
     for (int r = 0; r < rank; ++r) {
@@ -1910,27 +2552,43 @@ HOT static int decode_block(const unsigned char *blk, int rank, int ns, int nz, 
         double scale;
         memcpy(&scale, p + 2 * (size_t)ns, 8);
         if (!isfinite(scale) || scale == 0.0) return 1;
-        const half_t *hs = (const half_t *)p, *hz = (const half_t *)(p + 2 * (size_t)ns + 8);
-        float *restrict s = so + (size_t)r * ns, *restrict z = zo + (size_t)r * nz;
-        int bad = 0;
-        for (int j = 0; j < ns; ++j) {
-            s[j] = HALF_TO_FLOAT(hs, j);
-            bad |= !finite_f(s[j]);
-        }
-        if (bad) return 2;
-        for (int j = 0; j < nz; ++j) {
-            z[j] = (float)((double)HALF_TO_FLOAT(hz, j) / scale);
-            bad |= !finite_f(z[j]);
-        }
-        if (bad) return 3;
+        if (halves_run(p, so + (size_t)r * ns, ns)) return 2;
+        if (halves_scaled_run(p + 2 * (size_t)ns + 8, scale, zo + (size_t)r * nz, nz)) return 3;
     }
-    const half_t *he = (const half_t *)(blk + (size_t)rank * rank_bytes);
-    int bad = 0;
-    for (int j = 0; j < ne; ++j) {
-        eo[j] = HALF_TO_FLOAT(he, j);
-        bad |= !finite_f(eo[j]);
+    return halves_run(blk + (size_t)rank * rank_bytes, eo, ne) ? 4 : 0;
+}
+
+/* n halves to float32 with F16C (the test helper below) */
+__attribute__((target("avx,f16c"))) static void halves_f16c_n(const uint16_t *h, float *o, size_t n)
+{
+    for (size_t j = 0; j < n; j += 8) {
+        size_t k = n - j < 8 ? n - j : 8;
+        store8(o + j, load8_halves((const unsigned char *)(h + j), (int)k), (int)k);
     }
-    return bad ? 4 : 0;
+}
+#endif
+
+/* which converter the decoder uses: 0 not decided yet, 1 table, 2 F16C */
+static int decode_impl = 0;
+static int decode_f16c_available(void)
+{
+#ifdef HAVE_F16C_DECODE
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+#else
+    return 0;
+#endif
+}
+
+typedef int (*decode_block_fn)(const unsigned char *, int, int, int, int, float *restrict, float *restrict,
+                               float *restrict);
+static decode_block_fn decode_block_pick(void)
+{
+    if (decode_impl == 0) decode_impl = decode_f16c_available() ? 2 : 1;
+#ifdef HAVE_F16C_DECODE
+    if (decode_impl == 2) return decode_block_f16c;
+#endif
+    return decode_block_table;
 }
 
 /* decode_radiance(raw, nch_file, chi, rank, ns, nz, ne, sun, zen, emph): radiance blocks of whole
@@ -1973,29 +2631,24 @@ static PyObject *py_decode_radiance(PyObject *self, PyObject *args)
             }
         const unsigned char *raw = b[0].b.buf;
         float *sun = b[2].b.buf, *zen = b[3].b.buf, *emph = b[4].b.buf;
-        Py_ssize_t bad_all = -1, nq = nrows * nsel, q;
-        int code_all = 0;
+        /* One thread: the work is memory-bound and the caller reads the next chunk between calls, so a
+         * parallel region per chunk left its idle threads spinning (2.5x the CPU time measured with
+         * benchmarks/bench_open.py, no faster). */
+        Py_ssize_t bad = -1, nq = nrows * nsel;
+        int code = 0;
+        const decode_block_fn dec = decode_block_pick();
         Py_BEGIN_ALLOW_THREADS
-#pragma omp parallel for schedule(static) if (nq * rank * (ns + nz) >= PAR_MIN_WORK)
-        for (q = 0; q < nq; ++q) {
-            Py_ssize_t bad = -1;
-            int code = 0;
+        for (Py_ssize_t q = 0; q < nq; ++q) {
             Py_ssize_t row = q / nsel, k = q % nsel;
             const unsigned char *blk = raw + ((size_t)row * nch + (size_t)chi[k]) * block;
-            code = decode_block(blk, rank, ns, nz, ne, sun + (size_t)q * rank * ns, zen + (size_t)q * rank * nz,
-                                emph + (size_t)q * ne);
-            if (code) bad = q;
-            if (bad >= 0) {
-#pragma omp critical(widesky_decode_bad)
-                if (bad_all < 0 || bad < bad_all) {
-                    bad_all = bad;
-                    code_all = code;
-                }
+            code = dec(blk, rank, ns, nz, ne, sun + (size_t)q * rank * ns, zen + (size_t)q * rank * nz,
+                       emph + (size_t)q * ne);
+            if (code) {
+                bad = q;
+                break;
             }
         }
         Py_END_ALLOW_THREADS
-        Py_ssize_t bad = bad_all;
-        int code = code_all;
         if (bad >= 0)
             ret = Py_BuildValue("inn", code, bad / nsel, bad % nsel);
         else {
@@ -2043,10 +2696,9 @@ static PyObject *py_decode_polarisation(PyObject *self, PyObject *args)
             }
         const unsigned char *raw = b[0].b.buf;
         float *ps = b[2].b.buf, *pz = b[3].b.buf;
-        Py_ssize_t bad_all = -1, q;
+        Py_ssize_t bad_all = -1;
         Py_BEGIN_ALLOW_THREADS
-#pragma omp parallel for schedule(static) if (nq * rank * (nps + npz) >= PAR_MIN_WORK)
-        for (q = 0; q < nq; ++q) {
+        for (Py_ssize_t q = 0; q < nq; ++q) { /* one thread, as decode_radiance */
             Py_ssize_t row = q / nsel, k = q % nsel;
             const unsigned char *blk = raw + ((size_t)row * nch + (size_t)chi[k]) * block;
             int ok = 1;
@@ -2059,8 +2711,8 @@ static PyObject *py_decode_polarisation(PyObject *self, PyObject *args)
                 for (int j = 0; j < npz; ++j) ok &= finite_f(zo[j]);
             }
             if (!ok) {
-#pragma omp critical(widesky_decode_bad)
-                if (bad_all < 0 || q < bad_all) bad_all = q;
+                bad_all = q;
+                break;
             }
         }
         Py_END_ALLOW_THREADS
@@ -2076,41 +2728,270 @@ done:
     return ret;
 }
 
-/* Baseline of the loader benchmark (benchmarks/bench_open.py): every half of a buffer converted on its own,
- * as a scalar decoder does it (sign, exponent and mantissa fields, ldexp; IEEE zero, subnormals, inf, NaN),
- * into float32, one thread: the per-value work any loader that keeps float32 arrays must do at least. */
-static float half_scalar(uint16_t h)
+/* ------------------------------------------------------------------------------------------ */
+/* the project's C port of the reference loader (benchmark baseline and cross-check)          */
+/*
+ * reference_load(path): the loading loop of the public reference implementation's
+ * PragueSkyModel::initialize (readRadiance, readTransmittance, readPolarisation, full load; Wilkie et al.
+ * 2021, Vevoda et al. 2022), ported to C from its structure for benchmarks/bench_open.py and the decoder's
+ * cross-check test. As the reference does it: stdio fread segment by segment (per configuration and rank
+ * the sun halves, the zenith scale, the zenith halves, then the configuration's emphasis halves, each into a
+ * small temporary), every half converted on its own to double by building the double's high word (sign,
+ * exponent rebiased from 15 to 1023, mantissa; a subnormal normalised one shift at a time), then cast to
+ * float32 (zenith values divided by the scale first) into a freshly allocated vector that is zero-filled
+ * first, as std::vector::resize does; transmittance U and V, and each polarisation segment, fread straight
+ * into their zero-filled vectors. One thread, plain malloc (no huge-page advice). Returns (rad, U, V, pol or
+ * None), bytearrays of float32 in the reference's memory layout: rad per configuration [rank][nSun sun
+ * values, nZen zenith values] then nEmph emphasis values; pol per configuration [rankPol][nPSun, nPZen].
+ * Not used by the package at run time.
+ */
+static double ref_double_from_half(uint16_t h)
 {
-    int e = (h >> 10) & 31, m = h & 1023;
-    double v = e == 0 ? ldexp((double)m, -24) : e == 31 ? (m ? NAN : INFINITY) : ldexp((double)(m | 1024), e - 25);
-    return (float)((h >> 15) ? -v : v);
+    uint32_t hi = (uint32_t)(h & 0x8000u) << 16, mag = h & 0x7fffu;
+    if (mag) {
+        /* exponent bias 15 -> 1023 (1008 << 20 in the high word once the half sits 10 bits up); for inf and
+         * NaN twice that, which makes the exponent field all ones */
+        hi |= mag >= 0x7c00u ? 0x7e000000u : 0x3f000000u;
+        for (; mag < 0x400u; mag <<= 1) hi -= 0x100000u; /* subnormal: one exponent step per shift */
+        hi += mag << 10;
+    }
+    uint64_t bits = (uint64_t)hi << 32;
+    double d;
+    memcpy(&d, &bits, 8);
+    return d;
 }
 
-static PyObject *py_reference_halves(PyObject *self, PyObject *args)
+/* a count (>= minimum) and that many f64 into a new array */
+static int ref_counted(FILE *f, int minimum, long long fsize, double **out, int *n)
+{
+    if (fread(n, sizeof(int), 1, f) != 1 || *n < minimum || (long long)*n * 8 > fsize) return -1;
+    *out = malloc(sizeof(double) * (size_t)*n);
+    return *out && fread(*out, sizeof(double), (size_t)*n, f) == (size_t)*n ? 0 : -1;
+}
+
+/* a zero-filled float32 vector of n values as a bytearray (NULL and an exception when out of memory) */
+static PyObject *ref_vector(size_t n, float **data)
+{
+    PyObject *o = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)(n * sizeof(float)));
+    if (!o) return NULL;
+    *data = (float *)PyByteArray_AS_STRING(o);
+    memset(*data, 0, n * sizeof(float));
+    return o;
+}
+
+static PyObject *py_reference_load(PyObject *self, PyObject *args)
+{
+    PyObject *path_obj = NULL;
+    if (!PyArg_ParseTuple(args, "O&", PyUnicode_FSConverter, &path_obj)) return NULL;
+    const char *path = PyBytes_AS_STRING(path_obj);
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        PyErr_SetFromErrnoWithFilename(PyExc_OSError, path);
+        Py_DECREF(path_obj);
+        return NULL;
+    }
+    long long fsize = 0;
+    if (fseek(f, 0, SEEK_END) == 0) fsize = ftell(f);
+    rewind(f);
+    PyObject *rad = NULL, *U = NULL, *V = NULL, *pol = NULL, *ret = NULL;
+    double *grid[7] = {NULL, NULL, NULL, NULL, NULL, NULL, NULL}; /* vis, alb, alt, ele, sun, zen, emph */
+    double *pgrid[2] = {NULL, NULL};
+    float *tgrid = NULL;
+    uint16_t *temp = NULL;
+    int n[7], channels = 0, rank = 0;
+    double channel_start, channel_width;
+    const char *field = NULL;
+    /* radiance metadata */
+    for (int i = 0; i < 4 && !field; ++i)
+        if (ref_counted(f, 1, fsize, &grid[i], &n[i]) < 0) field = "radiance grids";
+    if (!field && (fread(&channels, sizeof(int), 1, f) != 1 || channels < 1)) field = "channels";
+    if (!field && (fread(&channel_start, sizeof(double), 1, f) != 1 || fread(&channel_width, sizeof(double), 1, f) != 1))
+        field = "channelStart/channelWidth";
+    if (!field && (fread(&rank, sizeof(int), 1, f) != 1 || rank < 1)) field = "rankRad";
+    for (int i = 4; i < 7 && !field; ++i)
+        if (ref_counted(f, 2, fsize, &grid[i], &n[i]) < 0) field = "radiance breaks";
+    if (field) goto fail;
+    {
+        const size_t configs = (size_t)channels * n[3] * n[2] * n[1] * n[0];
+        const int ns = n[4], nz = n[5], ne = n[6];
+        const size_t per_cfg = (size_t)rank * (ns + nz) + ne;
+        const size_t cfg_bytes = (size_t)rank * (2 * (size_t)(ns + nz) + 8) + 2 * (size_t)ne;
+        if ((double)configs * (double)cfg_bytes > (double)fsize) {
+            field = "radiance coefficients (file too short)";
+            goto fail;
+        }
+        float *data;
+        if (!(rad = ref_vector(configs * per_cfg, &data))) goto done;
+        int mx = ns > nz ? ns : nz;
+        if (ne > mx) mx = ne;
+        if (!(temp = malloc(sizeof(uint16_t) * (size_t)mx))) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        Py_BEGIN_ALLOW_THREADS
+        size_t off = 0;
+        for (size_t c = 0; c < configs && !field; ++c) {
+            for (int r = 0; r < rank; ++r) {
+                if (fread(temp, sizeof(uint16_t), (size_t)ns, f) != (size_t)ns) {
+                    field = "sunCoefsRad";
+                    break;
+                }
+                for (int i = 0; i < ns; ++i) data[off++] = (float)ref_double_from_half(temp[i]);
+                double scale;
+                if (fread(&scale, sizeof(double), 1, f) != 1) {
+                    field = "zenithScaleRad";
+                    break;
+                }
+                if (fread(temp, sizeof(uint16_t), (size_t)nz, f) != (size_t)nz) {
+                    field = "zenithCoefsRad";
+                    break;
+                }
+                for (int i = 0; i < nz; ++i) data[off++] = (float)(ref_double_from_half(temp[i]) / scale);
+            }
+            if (field) break;
+            if (fread(temp, sizeof(uint16_t), (size_t)ne, f) != (size_t)ne) {
+                field = "emphCoefsRad";
+                break;
+            }
+            for (int i = 0; i < ne; ++i) data[off++] = (float)ref_double_from_half(temp[i]);
+        }
+        Py_END_ALLOW_THREADS
+        if (field) goto fail;
+
+        /* transmittance */
+        int tdim[5]; /* dDim, aDim, nVisT, nAltT, rankT */
+        for (int i = 0; i < 5 && !field; ++i)
+            if (fread(&tdim[i], sizeof(int), 1, f) != 1 || tdim[i] < 1 || tdim[i] > fsize) field = "transmittance header";
+        if (field) goto fail;
+        int nt = tdim[2] > tdim[3] ? tdim[2] : tdim[3];
+        if (!(tgrid = malloc(sizeof(float) * (size_t)nt))) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        if (fread(tgrid, sizeof(float), (size_t)tdim[3], f) != (size_t)tdim[3] ||
+            fread(tgrid, sizeof(float), (size_t)tdim[2], f) != (size_t)tdim[2]) {
+            field = "altitudesTrans/visibilitiesTrans";
+            goto fail;
+        }
+        const size_t nu = (size_t)tdim[0] * tdim[1] * tdim[4] * tdim[3];
+        const size_t nv = (size_t)tdim[2] * tdim[4] * channels * tdim[3];
+        if ((double)(nu + nv) * 4.0 > (double)fsize) {
+            field = "transmittance coefficients (file too short)";
+            goto fail;
+        }
+        float *du, *dv;
+        if (!(U = ref_vector(nu, &du)) || !(V = ref_vector(nv, &dv))) goto done;
+        if (fread(du, sizeof(float), nu, f) != nu || fread(dv, sizeof(float), nv, f) != nv) {
+            field = "datasetTransU/V";
+            goto fail;
+        }
+
+        /* polarisation (absent when the file ends here) */
+        int prank = 0, np[2];
+        if (fread(&prank, sizeof(int), 1, f) == 1) {
+            for (int i = 0; i < 2 && !field; ++i)
+                if (ref_counted(f, 1, fsize, &pgrid[i], &np[i]) < 0) field = "polarisation breaks";
+            if (field) goto fail;
+            const size_t per = (size_t)prank * (np[0] + np[1]);
+            if (prank < 1 || (double)configs * (double)per * 4.0 > (double)fsize) {
+                field = "polarisation coefficients (file too short)";
+                goto fail;
+            }
+            float *dp;
+            if (!(pol = ref_vector(configs * per, &dp))) goto done;
+            Py_BEGIN_ALLOW_THREADS
+            size_t poff = 0;
+            for (size_t c = 0; c < configs && !field; ++c)
+                for (int r = 0; r < prank; ++r) {
+                    if (fread(dp + poff, sizeof(float), (size_t)np[0], f) != (size_t)np[0]) {
+                        field = "sunCoefsPol";
+                        break;
+                    }
+                    poff += (size_t)np[0];
+                    if (fread(dp + poff, sizeof(float), (size_t)np[1], f) != (size_t)np[1]) {
+                        field = "zenithCoefsPol";
+                        break;
+                    }
+                    poff += (size_t)np[1];
+                }
+            Py_END_ALLOW_THREADS
+            if (field) goto fail;
+        } else {
+            pol = Py_None;
+            Py_INCREF(pol);
+        }
+        ret = PyTuple_Pack(4, rad, U, V, pol);
+        goto done;
+    }
+fail:
+    PyErr_Format(PyExc_ValueError, "reference_load: %s: cannot read %s", path, field);
+done:
+    fclose(f);
+    for (int i = 0; i < 7; ++i) free(grid[i]);
+    free(pgrid[0]);
+    free(pgrid[1]);
+    free(tgrid);
+    free(temp);
+    Py_XDECREF(rad);
+    Py_XDECREF(U);
+    Py_XDECREF(V);
+    Py_XDECREF(pol);
+    Py_DECREF(path_obj);
+    return ret;
+}
+
+/* half_to_float(raw uint16, out float32, impl): every half of raw into out by one converter: 1 the table,
+ * 2 F16C (ValueError where the processor lacks it), 3 the reference loader's float(double from half). For
+ * the test that they agree on all 65,536 patterns. */
+static PyObject *py_half_to_float(PyObject *self, PyObject *args)
 {
     PyObject *o[2];
-    if (!PyArg_ParseTuple(args, "OO", &o[0], &o[1])) return NULL;
+    int impl;
+    if (!PyArg_ParseTuple(args, "OOi", &o[0], &o[1], &impl)) return NULL;
     buf_t b[2];
     memset(b, 0, sizeof(b));
     PyObject *ret = NULL;
     if (get_buf(o[0], &b[0], 0, "raw", 2) < 0 || get_buf(o[1], &b[1], 1, "out", 4) < 0) goto done;
     {
-        Py_ssize_t n = b[0].b.len / 2;
-        if (b[1].b.len / 4 != n) {
-            PyErr_SetString(PyExc_ValueError, "reference_halves: out must hold one float32 per half");
-            goto done;
-        }
+        size_t n = (size_t)b[0].b.len / 2;
         const uint16_t *raw = b[0].b.buf;
         float *out = b[1].b.buf;
-        Py_BEGIN_ALLOW_THREADS
-        for (Py_ssize_t i = 0; i < n; ++i) out[i] = half_scalar(raw[i]);
-        Py_END_ALLOW_THREADS
+        if ((size_t)b[1].b.len / 4 != n || impl < 1 || impl > 3 || (impl == 2 && !decode_f16c_available())) {
+            PyErr_SetString(PyExc_ValueError, "half_to_float: out must hold one float32 per half; impl 1 table, "
+                                              "2 F16C (where available), 3 reference");
+            goto done;
+        }
+        if (impl == 1)
+            for (size_t i = 0; i < n; ++i) out[i] = half_table[raw[i]];
+        else if (impl == 3)
+            for (size_t i = 0; i < n; ++i) out[i] = (float)ref_double_from_half(raw[i]);
+#ifdef HAVE_F16C_DECODE
+        else
+            halves_f16c_n(raw, out, n);
+#endif
         ret = Py_None;
         Py_INCREF(ret);
     }
 done:
     for (int i = 0; i < 2; ++i) rel_buf(&b[i]);
     return ret;
+}
+
+/* decode_impl(impl): the converter decode_radiance uses from now on (0 automatic, 1 table, 2 F16C);
+ * returns the one in use before the call (1 or 2). For tests and benchmarks. */
+static PyObject *py_decode_impl(PyObject *self, PyObject *args)
+{
+    int impl;
+    if (!PyArg_ParseTuple(args, "i", &impl)) return NULL;
+    if (impl < 0 || impl > 2 || (impl == 2 && !decode_f16c_available())) {
+        PyErr_SetString(PyExc_ValueError, "decode_impl: 0 automatic, 1 table, 2 F16C (where available)");
+        return NULL;
+    }
+    decode_block_pick();
+    int before = decode_impl;
+    decode_impl = impl;
+    decode_block_pick();
+    return PyLong_FromLong(before);
 }
 
 static PyObject *py_has_openmp(PyObject *self, PyObject *args)
@@ -2210,29 +3091,57 @@ typedef struct {
     const double *mix_coef;
 } ctab_t;
 
-/* one direction: sum over the step's configurations of weight x the configuration's clamped value
- * (the folded polynomials in float32 arithmetic, as the tables are kept; the mixed terms in double) */
-HOT static void ceval_dir(const ctab_t *tabs, const int64_t *ci, const double *w, int K, int nc, size_t cell,
-                          double g, double z, float *restrict acc)
+/* A step's corner configurations merged on one cell: M = sum over the corners of weight x the cell's folded
+ * polynomial rows (6 x nc float32, nc the padded channel count). Every direction of the step that falls in the
+ * cell is then one polynomial of M (6 x nc multiply-adds instead of K times that): the same terms as summing
+ * each corner's polynomial, in another order, in float32 as the tables are kept. */
+typedef float cv8f __attribute__((vector_size(32)));                  /* eight floats (GCC vector extension) */
+typedef float cv8f_u __attribute__((vector_size(32), aligned(4)));    /* the same, any alignment */
+
+HOT static void cmerge_cell(const ctab_t *tabs, const int64_t *ci, const double *w, int K, int nc, size_t cell,
+                            float *restrict M)
 {
-    /* nc: the padded channel count (a multiple of 8) */
+    const size_t len = 6 * (size_t)nc;
+    const float *rowp[16];
+    float wf[16];
+    int n = 0;
+    for (int c = 0; c < K && n < 16; ++c)
+        if (w[c] != 0.0) {
+            rowp[n] = tabs[ci[c]].tab + cell * len;
+            wf[n++] = (float)w[c];
+        }
+    /* eight values at a time summed over the corners in a register (the corners' rows streamed side by side) */
+    for (size_t k0 = 0; k0 < len; k0 += 8) {
+        cv8f a = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+        for (int c = 0; c < n; ++c) a += wf[c] * *(const cv8f_u *)(rowp[c] + k0);
+        *(cv8f_u *)(M + k0) = a;
+    }
+}
+
+/* one direction from its cell's merged rows M, plus each corner's mixed terms (clamped on their own, in double) */
+HOT static void ceval_merged(const float *restrict M, const ctab_t *tabs, const int64_t *ci, const double *w, int K,
+                             int nc, size_t cell, double g, double z, float *restrict acc)
+{
     const float fg = (float)g, fz = (float)z, fgz = (float)(g * z), fz2 = (float)(z * z), fgz2 = (float)(g * z * z);
     const double gz = g * z, z2 = z * z, gz2 = gz * z;
-    for (int k = 0; k < nc; ++k) acc[k] = 0.0f;
+    for (int k = 0; k < nc; ++k)
+        acc[k] = M[k] + fg * M[nc + k] + fz * M[2 * nc + k] + fgz * M[3 * nc + k] + fz2 * M[4 * nc + k] +
+                 fgz2 * M[5 * nc + k];
     for (int c = 0; c < K; ++c) {
-        const float wc = (float)w[c];
         if (w[c] == 0.0) continue;
         const ctab_t *t = tabs + ci[c];
-        const float *restrict T = t->tab + cell * 6 * (size_t)nc;
-        for (int k = 0; k < nc; ++k)
-            acc[k] += wc * (T[k] + fg * T[nc + k] + fz * T[2 * nc + k] + fgz * T[3 * nc + k] + fz2 * T[4 * nc + k] +
-                            fgz2 * T[5 * nc + k]);
         for (int e = t->mix_start[cell]; e < t->mix_start[cell + 1]; ++e) {
             const double *c6 = t->mix_coef + 6 * (size_t)e;
             double v = c6[0] + g * c6[1] + z * c6[2] + gz * c6[3] + z2 * c6[4] + gz2 * c6[5];
             if (v > 0) acc[t->mix_ch[e]] += (float)(w[c] * v);
         }
     }
+}
+
+/* grouped output: o[k] += wi x acc[k] (double) */
+HOT static void cacc_row(double *restrict o, const float *restrict acc, double wi, int nc)
+{
+    for (int k = 0; k < nc; ++k) o[k] += wi * acc[k];
 }
 
 /* radiance_config_eval(tables, sb, u, step_cfg (T, K) int64, step_w (T, K) float64, geo (T, 3) float64
@@ -2292,6 +3201,10 @@ static PyObject *py_radiance_config_eval(PyObject *self, PyObject *args)
             goto done;
         }
         const int K = (int)(b[2].b.len / 8 / T);
+        if (K > 16) {
+            PyErr_SetString(PyExc_ValueError, "radiance_config_eval: at most 16 configurations per step");
+            goto done;
+        }
         const int grouped = b[7].held;
         const int64_t *rows = grouped ? (const int64_t *)b[7].b.buf : NULL;
         const double *wts = grouped ? (const double *)b[8].b.buf : NULL;
@@ -2403,45 +3316,93 @@ static PyObject *py_radiance_config_eval(PyObject *self, PyObject *args)
             }
         }
         if (!fail) {
-            Py_ssize_t t;
-#pragma omp parallel for schedule(dynamic, 4) reduction(|| : fail) if (T * N * (Py_ssize_t)nc * K >= PAR_MIN_WORK)
-            for (t = 0; t < T; ++t) {
+            /* steps in batches of SB: every (step, direction)'s cell first, then the batch cell by cell (a counting
+             * sort), so each cell's corner rows are read from memory once per batch and stay in cache while the
+             * batch's steps that look into that cell merge their corners on it (cmerge_cell, once per step and
+             * cell) and evaluate their directions there. Each value depends only on its own step and direction. */
+            const size_t ncell = (size_t)(ns - 1) * (nu - 1), mlen = 6 * (size_t)ncp;
+            Py_ssize_t SB = N >= 65536 ? 1 : 65536 / N;
+            if (SB > 64) SB = 64;
+            const Py_ssize_t nbatch = (T + SB - 1) / SB;
+#pragma omp parallel reduction(|| : fail) if (T * N * (Py_ssize_t)nc * K >= PAR_MIN_WORK)
+            {
+                const size_t cap = (size_t)SB * (size_t)N;
                 float *acc = malloc(sizeof(float) * (size_t)ncp);
-                if (!acc) {
-                    fail = 1;
-                    continue;
-                }
-                geom_t geo;
-                geom_init(&geo, geo_in[3 * t], geo_in[3 * t + 1], geo_in[3 * t + 2]);
-                double *ot = out + (size_t)t * nrow * nc;
-                if (grouped)
-                    for (Py_ssize_t i = 0; i < nrow * nc; ++i) ot[i] = 0.0;
-                for (Py_ssize_t i = 0; i < N; ++i) {
-                    double g, z;
-                    int ig, iz;
-                    if (pre_iz) {
-                        const double *v = pre_v + 3 * i;
-                        ig = accel_cell(&ag, acos(clamp_unit(v[0] * geo.s[0] + v[1] * geo.s[1] + v[2] * geo.s[2])), &g);
-                        iz = pre_iz[i];
-                        z = pre_z[i];
-                    } else {
-                        const double *v = dirs + 3 * (shared ? i : (size_t)t * N + i);
-                        angles_t a = compute_angles(v, &geo, 0, 0);
-                        ig = accel_cell(&ag, a.gamma, &g);
-                        iz = accel_cell(&az, a.zero, &z);
+                float *mrg = malloc(sizeof(float) * mlen);
+                size_t *cnt = calloc(ncell + 1, sizeof(size_t));
+                size_t *ord = malloc(sizeof(size_t) * cap);
+                int *cellof = malloc(sizeof(int) * cap);
+                double *gzv = malloc(sizeof(double) * 2 * cap);
+                if (!acc || !mrg || !cnt || !ord || !cellof || !gzv) fail = 1;
+                Py_ssize_t bt;
+#pragma omp for schedule(dynamic, 1)
+                for (bt = 0; bt < nbatch; ++bt) {
+                    if (fail) continue;
+                    const Py_ssize_t t0 = bt * SB, t1 = t0 + SB < T ? t0 + SB : T;
+                    const size_t nent = (size_t)(t1 - t0) * (size_t)N;
+                    for (Py_ssize_t t = t0; t < t1; ++t) {
+                        geom_t geo;
+                        geom_init(&geo, geo_in[3 * t], geo_in[3 * t + 1], geo_in[3 * t + 2]);
+                        if (grouped) {
+                            double *ot = out + (size_t)t * nrow * nc;
+                            for (Py_ssize_t i = 0; i < nrow * nc; ++i) ot[i] = 0.0;
+                        }
+                        const size_t e0 = (size_t)(t - t0) * (size_t)N;
+                        for (Py_ssize_t i = 0; i < N; ++i) {
+                            double g, z;
+                            int ig, iz;
+                            if (pre_iz) {
+                                const double *v = pre_v + 3 * i;
+                                ig = accel_cell(&ag, acos(clamp_unit(v[0] * geo.s[0] + v[1] * geo.s[1] + v[2] * geo.s[2])),
+                                                &g);
+                                iz = pre_iz[i];
+                                z = pre_z[i];
+                            } else {
+                                const double *v = dirs + 3 * (shared ? i : (size_t)t * N + i);
+                                angles_t a = compute_angles(v, &geo, 0, 0);
+                                ig = accel_cell(&ag, a.gamma, &g);
+                                iz = accel_cell(&az, a.zero, &z);
+                            }
+                            const int cell = ig * (nu - 1) + iz;
+                            cellof[e0 + i] = cell;
+                            gzv[2 * (e0 + i)] = g;
+                            gzv[2 * (e0 + i) + 1] = z;
+                            cnt[cell + 1]++;
+                        }
                     }
-                    ceval_dir(ct, sc + (size_t)t * K, sw + (size_t)t * K, K, ncp, (size_t)ig * (nu - 1) + iz, g, z,
-                              acc);
-                    if (grouped) {
-                        double *o2 = ot + (size_t)rows[i] * nc;
-                        const double wi = wts[i];
-                        for (int k = 0; k < nc; ++k) o2[k] += wi * acc[k];
-                    } else {
-                        double *o2 = ot + (size_t)i * nc;
-                        for (int k = 0; k < nc; ++k) o2[k] = acc[k];
+                    for (size_t c = 0; c < ncell; ++c) cnt[c + 1] += cnt[c];          /* cnt[c]: first entry of cell c */
+                    for (size_t e = 0; e < nent; ++e) ord[cnt[cellof[e]]++] = e;     /* now cnt[c]: past its last */
+                    size_t p = 0;
+                    for (size_t c = 0; c < ncell; ++c) {
+                        Py_ssize_t tprev = -1;
+                        for (const size_t end = cnt[c]; p < end; ++p) {
+                            const size_t e = ord[p];
+                            const Py_ssize_t tl = (Py_ssize_t)(e / (size_t)N), i = (Py_ssize_t)(e % (size_t)N);
+                            const Py_ssize_t t = t0 + tl;
+                            const int64_t *ci = sc + (size_t)t * K;
+                            const double *wt = sw + (size_t)t * K;
+                            if (tl != tprev) {                   /* entries of one cell come step by step */
+                                cmerge_cell(ct, ci, wt, K, ncp, c, mrg);
+                                tprev = tl;
+                            }
+                            ceval_merged(mrg, ct, ci, wt, K, ncp, c, gzv[2 * e], gzv[2 * e + 1], acc);
+                            double *ot = out + (size_t)t * nrow * nc;
+                            if (grouped) {
+                                cacc_row(ot + (size_t)rows[i] * nc, acc, wts[i], nc);
+                            } else {
+                                double *o2 = ot + (size_t)i * nc;
+                                for (int k = 0; k < nc; ++k) o2[k] = acc[k];
+                            }
+                        }
                     }
+                    memset(cnt, 0, sizeof(size_t) * (ncell + 1));
                 }
                 free(acc);
+                free(mrg);
+                free(cnt);
+                free(ord);
+                free(cellof);
+                free(gzv);
             }
         }
         free(pre_iz);
@@ -2470,6 +3431,7 @@ done:
 static PyMethodDef methods[] = {
     {"radiance", py_radiance, METH_VARARGS, "Sky radiance or polarisation kernel (see skymodel.evaluate)."},
     {"transmittance", py_transmittance, METH_VARARGS, "Transmittance kernel (see skymodel.evaluate)."},
+    {"check_dirs", py_check_dirs, METH_VARARGS, "Index of the first non-finite or zero direction, or -1."},
     {"reference_loop", py_reference_loop, METH_VARARGS,
      "Baseline: straight port of the reference loop, one direction and channel per call, one thread."},
     {"fisheye_counts", py_fisheye_counts, METH_VARARGS, "Pixels per image row inside the fisheye disc."},
@@ -2480,8 +3442,10 @@ static PyMethodDef methods[] = {
     {"exr_lines", py_exr_lines, METH_VARARGS, "OpenEXR scanline chunks (uncompressed or RLE) of an image."},
     {"decode_radiance", py_decode_radiance, METH_VARARGS, "Decode radiance blocks into float32 factors."},
     {"decode_polarisation", py_decode_polarisation, METH_VARARGS, "Decode polarisation blocks (float32)."},
-    {"reference_halves", py_reference_halves, METH_VARARGS,
-     "Baseline: every half converted on its own by a scalar decoder, one thread (loader benchmark)."},
+    {"reference_load", py_reference_load, METH_VARARGS,
+     "The project's C port of the reference loader's loop (benchmark baseline; float32 in its layout)."},
+    {"half_to_float", py_half_to_float, METH_VARARGS, "Halves to float32 by one converter (1 table, 2 F16C, 3 ref)."},
+    {"decode_impl", py_decode_impl, METH_VARARGS, "Select the decoder's half converter (0 auto, 1 table, 2 F16C)."},
     {"radiance_config_table", py_radiance_config_table, METH_VARARGS,
      "Daytime radiance table of one configuration (weight 1), for radiance_config_eval."},
     {"radiance_config_eval", py_radiance_config_eval, METH_VARARGS,
