@@ -1,42 +1,58 @@
-"""Benchmark: a 1000 x 1000 up-facing fisheye of all 55 channels of sky radiance.
+"""Benchmark: the sky evaluator against the project's C port of the reference loop, per core.
 
 Dataset: realistic-sized synthetic file (6 visibilities x 3 albedos x 30 solar elevations x 55 channels,
 rank 8, 60/60/40 knots: 61 MB), written once to a cache directory.
 
-Measured in the same run:
-  baseline  a straight port of the reference loop in C (skymodel._core.reference_loop): for every
-            direction the parameters, then one channel per call with every lookup and the nested
-            16-configuration interpolation done anew; one thread, on a subset of the directions;
-  direct    widesky's direct path (angle lookups once per direction, all channels together);
-  table     widesky's per-sky-state piecewise-polynomial table (the default for images);
-for 1 and 2 threads, float32 output into a preallocated array (file writing excluded). Median of
-``--repeat`` runs. Ratios are per core (throughput with one thread against the baseline's). The same for
-the sun 2.5 deg below the horizon (``twilight``: the baseline and the table path, which then builds
-only the 3-D cells the directions visit). CPU times (``time.process_time``) are reported beside the
-wall-clock times: on a shared machine they are the steadier ratio.
+Baseline: ``_core.reference_loop``, the project's C port of the public reference C++ evaluation loop
+(Wilkie et al. 2021): for every direction the parameters, then one channel per call with every lookup and
+the nested 16-configuration interpolation done anew; one thread, on every ``--baseline-stride``-th
+direction of the image (its cost per value does not depend on how many directions it is given).
 
-    python benchmarks/bench_sky.py [--repeat 7] [--resolution 1000] [--json out.json]
+Candidates, each timed in the same run, interleaved with the baseline (baseline, candidate, baseline, ...),
+in CPU time (``time.process_time``) and wall time, median of ``--repeat`` pairs:
+
+  daylight   a 1000 x 1000 up-facing fisheye (785,456 directions) x 55 channels, sun at 33.3 deg,
+             visibility 47 km, albedo 0.37 (between grid points: every interpolation level exercised),
+             float32 into a preallocated array; ``sky_radiance`` end to end (argument checks, the
+             per-sky-state table and its evaluation), 1 thread (per core) and 2 threads (the image time);
+  twilight   the same with the sun 2.5 deg below the horizon (the twilight table);
+  small      calls below ``auto``'s old 20,000-value threshold: 300 directions x 55 channels, scattered
+             over the upper hemisphere and clustered within about 8 deg, by the direct path
+             (``method="direct"``) and by ``auto`` (which builds a table of only the cells in the range of
+             the call's angles where that is cheaper).
+
+Per-core ratio = baseline time per value / candidate time per value, both on one thread; the CPU-time
+ratio is the fair one on a shared machine (a long baseline run gets less of a core than a short one).
+OpenMP's idle workers are told to sleep (OMP_WAIT_POLICY=PASSIVE unless set) so that the 2-thread runs
+leave no spinning thread charged to the 1-thread measurements.
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_sky.py [--repeat 7] [--resolution 1000] [--json out.json]
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import platform
-import tempfile
-import time
-from pathlib import Path
 
-import numpy as np
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before libgomp starts (the import below)
 
-from widesky import skymodel
-from widesky.skymodel import _core
-from widesky.skymodel.render import fisheye_directions
-from widesky.skymodel.synthetic import write_synthetic_dataset
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from widesky import skymodel  # noqa: E402
+from widesky.skymodel import _core  # noqa: E402
+from widesky.skymodel.evaluate import KERNEL_INFO  # noqa: E402
+from widesky.skymodel.render import fisheye_directions  # noqa: E402
+from widesky.skymodel.synthetic import write_synthetic_dataset  # noqa: E402
 
 STATE = dict(sun_elevation=33.3, sun_azimuth=150.0, visibility=47.0, albedo=0.37)  # between grid points
 TWILIGHT = dict(STATE, sun_elevation=-2.5)  # sun below the horizon: the shadow angle, the twilight table
+BASELINE_NAME = "reference loop, C port (_core.reference_loop), 1 thread"
 
 
 def dataset(cache: Path) -> Path:
@@ -48,127 +64,117 @@ def dataset(cache: Path) -> Path:
     return path
 
 
-def median_time(fn, repeat):
-    times = []
+def timed(fn):
+    """(CPU seconds, wall seconds) of one call."""
+    c0, w0 = time.process_time(), time.perf_counter()
+    fn()
+    return time.process_time() - c0, time.perf_counter() - w0
+
+
+def interleaved(base, base_values, cand, cand_values, repeat):
+    """Baseline and candidate alternately, ``repeat`` pairs (after one warm-up call of each); medians of
+    the CPU and wall seconds per value, and the per-core ratios (baseline / candidate)."""
+    base(), cand()
+    b, c = [], []
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), times
+        b.append(timed(base))
+        c.append(timed(cand))
+    b, c = np.array(b), np.array(c)
+    bc, bw = np.median(b[:, 0]) / base_values, np.median(b[:, 1]) / base_values
+    cc, cw = np.median(c[:, 0]) / cand_values, np.median(c[:, 1]) / cand_values
+    return dict(baseline_cpu_ns=1e9 * bc, baseline_wall_ns=1e9 * bw, cpu_ns=1e9 * cc, wall_ns=1e9 * cw,
+                ratio_cpu=bc / cc, ratio_wall=bw / cw, call_cpu_s=float(np.median(c[:, 0])),
+                call_wall_s=float(np.median(c[:, 1])), call_wall_s_all=c[:, 1].tolist())
+
+
+def load_average():
+    try:
+        return os.getloadavg()[0]
+    except OSError:
+        return float("nan")
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--resolution", type=int, default=1000)
-    ap.add_argument("--baseline-stride", type=int, default=40, help="evaluate every Nth direction in the baseline")
+    ap.add_argument("--baseline-stride", type=int, default=40, help="baseline on every Nth image direction")
     ap.add_argument("--json", default=None)
     ap.add_argument("--cache", default=os.environ.get("WIDESKY_BENCH_CACHE", tempfile.gettempdir()))
     args = ap.parse_args(argv)
 
     path = dataset(Path(args.cache))
     m = skymodel.load_dataset(path)
-    t0 = time.perf_counter()
     m.load()
-    decode = time.perf_counter() - t0
     d, mask = fisheye_directions(args.resolution)
     dirs = np.ascontiguousarray(d[mask])
     n, C = dirs.shape[0], m.n_channels
     out = np.empty((n, C), np.float32)
-    res = {"dataset_MB": path.stat().st_size / 1e6, "decode_s": decode, "resolution": args.resolution,
+    res = {"baseline": BASELINE_NAME, "dataset_MB": path.stat().st_size / 1e6, "resolution": args.resolution,
            "directions": n, "channels": C, "machine": platform.processor() or platform.machine(),
-           "cpu_count": os.cpu_count()}
-
-    # baseline: straight port of the reference loop, one direction and one channel per call
-    sub = np.ascontiguousarray(dirs[:: args.baseline_stride])
+           "cpu_count": os.cpu_count(), "load_average_start": load_average()}
     sun, zen, emph = m.radiance_coefficients()
-    base_out = np.empty((sub.shape[0], C))
-    el, az = np.radians(STATE["sun_elevation"]), np.radians(90.0 - STATE["sun_azimuth"])
 
-    def baseline():
-        _core.reference_loop(sun, zen, emph, m.sun_breaks, m.zenith_breaks, m.emph_breaks, m.rank, C,
-                             m.visibilities, m.albedos, m.altitudes, m.elevations, sub,
-                             (0.0, el, az, STATE["visibility"], STATE["albedo"]), np.arange(C), base_out)
+    def baseline_for(state, sub):
+        el, az = np.radians(state["sun_elevation"]), np.radians(90.0 - state["sun_azimuth"])
+        bo = np.empty((sub.shape[0], C))
 
-    tb, _ = median_time(baseline, max(3, args.repeat // 2))
-    base_rate = sub.shape[0] * C / tb
-    res["baseline_ns_per_value"] = 1e9 / base_rate
-    res["baseline_full_image_s_estimate"] = n * C / base_rate
+        def run():
+            _core.reference_loop(sun, zen, emph, m.sun_breaks, m.zenith_breaks, m.emph_breaks, m.rank, C,
+                                 m.visibilities, m.albedos, m.altitudes, m.elevations, sub,
+                                 (0.0, el, az, state["visibility"], state["albedo"]), np.arange(C), bo)
+        return run, bo
 
-    check = skymodel.sky_radiance(m, sub, **STATE)
-    res["baseline_max_rel_diff"] = float(np.max(np.abs(check - base_out) / np.maximum(np.abs(check), 1e-30)))
-
-    for method in ("direct", "table"):
+    sub = np.ascontiguousarray(dirs[:: args.baseline_stride])
+    for name, state in (("daylight", STATE), ("twilight", TWILIGHT)):
+        base, bo = baseline_for(state, sub)
+        base()
+        ours = skymodel.sky_radiance(m, sub, **state)
+        res[name + "_max_rel_diff"] = float(np.max(np.abs(ours - bo)) / np.abs(bo).max())
         for threads in (1, 2):
-            if method == "direct":  # a subset: the direct path costs about as much per value as the baseline/8
-                target, o = sub, np.empty((sub.shape[0], C), np.float32)
-            else:
-                target, o = dirs, out
-            def fn(target=target, method=method, threads=threads, o=o):
-                skymodel.sky_radiance(m, target, **STATE, method=method, threads=threads, dtype=np.float32, out=o)
-            fn()  # warm-up (first-touch of the output, workspace)
-            t, times = median_time(fn, args.repeat)
-            rate = target.shape[0] * C / t
-            key = f"{method}_{threads}t"
-            res[key + "_ns_per_value"] = 1e9 / rate
-            res[key + "_speedup_vs_baseline"] = rate / base_rate / threads
-            if method == "table":
-                res[key + "_image_s"] = t
-                res[key + "_image_s_all_runs"] = times
-    # twilight: the baseline and the twilight table path, wall and CPU time
-    from widesky.skymodel.evaluate import KERNEL_INFO
+            def cand(state=state, threads=threads):
+                skymodel.sky_radiance(m, dirs, **state, method="table", threads=threads, dtype=np.float32, out=out)
+            r = interleaved(base, sub.shape[0] * C, cand, n * C, args.repeat)
+            r["path"] = KERNEL_INFO.get("path")
+            if threads == 2:  # per core: 2 threads' wall-clock throughput over 2 cores (CPU time counts both)
+                r["ratio_wall"] = r["ratio_wall"] / 2
+            res[f"{name}_{threads}t"] = r
 
-    elt, azt = np.radians(TWILIGHT["sun_elevation"]), np.radians(90.0 - TWILIGHT["sun_azimuth"])
+    # small calls: 300 directions, scattered and clustered
+    rng = np.random.default_rng(1)
+    v = rng.normal(size=(300, 3))
+    v[:, 2] = np.abs(v[:, 2])
+    scattered = np.ascontiguousarray(v / np.linalg.norm(v, axis=1)[:, None])
+    c = np.array([np.cos(np.radians(40)) * np.sin(np.radians(200)), np.cos(np.radians(40)) * np.cos(np.radians(200)),
+                  np.sin(np.radians(40))])
+    w = c + 0.08 * rng.normal(size=(300, 3))
+    clustered = np.ascontiguousarray(w / np.linalg.norm(w, axis=1)[:, None])
+    for name, D in (("scattered", scattered), ("clustered", clustered)):
+        base, bo = baseline_for(STATE, D)
+        for method in ("direct", "auto"):
+            def cand(D=D, method=method):
+                skymodel.sky_radiance(m, D, **STATE, method=method, threads=1)
+            r = interleaved(base, D.shape[0] * C, cand, D.shape[0] * C, max(args.repeat, 9))
+            r["path"] = KERNEL_INFO.get("path")
+            base()
+            r["max_rel_diff"] = float(np.max(np.abs(skymodel.sky_radiance(m, D, **STATE, method=method) - bo))
+                                      / np.abs(bo).max())
+            res[f"small_{name}_{method}"] = r
+    res["load_average_end"] = load_average()
 
-    def baseline_tw():
-        _core.reference_loop(sun, zen, emph, m.sun_breaks, m.zenith_breaks, m.emph_breaks, m.rank, C,
-                             m.visibilities, m.albedos, m.altitudes, m.elevations, sub,
-                             (0.0, elt, azt, TWILIGHT["visibility"], TWILIGHT["albedo"]), np.arange(C), base_out)
-
-    c0 = time.process_time()
-    tbt, _ = median_time(baseline_tw, max(3, args.repeat // 2))
-    cpu_b = (time.process_time() - c0) / max(3, args.repeat // 2)
-    res["twilight_baseline_ns_per_value"] = 1e9 * tbt / (sub.shape[0] * C)
-    res["twilight_baseline_max_rel_diff"] = float(np.max(np.abs(skymodel.sky_radiance(m, sub, **TWILIGHT) - base_out))
-                                                  / np.abs(base_out).max())
-    for threads in (1, 2):
-        fn = lambda threads=threads: skymodel.sky_radiance(m, dirs, **TWILIGHT, method="table", threads=threads,  # noqa: E731
-                                                           dtype=np.float32, out=out)
-        fn()
-        c0 = time.process_time()
-        t, times = median_time(fn, args.repeat)
-        cpu = (time.process_time() - c0) / args.repeat
-        key = f"twilight_table_{threads}t"
-        res[key + "_image_s"] = t
-        res[key + "_speedup_vs_baseline"] = (n * C / t) / (sub.shape[0] * C / tbt) / threads
-        res[key + "_cpu_speedup_vs_baseline"] = (cpu_b / sub.shape[0]) / (cpu / n)
-    res["twilight_cells_built"] = KERNEL_INFO.get("cells_built")
-    res["twilight_mixed_terms"] = KERNEL_INFO.get("mixed_terms")
-    # the table precompute alone (per sky state)
-    tp, _ = median_time(lambda: skymodel.sky_radiance(m, dirs[:8], **STATE, method="table", threads=2), args.repeat)
-    res["table_precompute_2t_s"] = tp
-    # fresh float64 output (allocation and page faults included), as a plain call returns
-    tf, _ = median_time(lambda: skymodel.sky_radiance(m, dirs, **STATE, threads=2), max(3, args.repeat // 2))
-    res["table_2t_image_float64_fresh_s"] = tf
-
-    print(f"dataset {res['dataset_MB']:.1f} MB, decoded in {decode:.2f} s; image {args.resolution}^2 "
-          f"({n} directions in the disc) x {C} channels")
-    print(f"baseline (reference loop, 1 thread):   {res['baseline_ns_per_value']:8.1f} ns/value  "
-          f"(full image would take {res['baseline_full_image_s_estimate']:.1f} s)")
-    for method in ("direct", "table"):
-        for threads in (1, 2):
-            k = f"{method}_{threads}t"
-            extra = f"  image {res[k + '_image_s']:.3f} s" if method == "table" else ""
-            print(f"{method:6s} {threads} thread(s): {res[k + '_ns_per_value']:8.2f} ns/value  "
-                  f"{res[k + '_speedup_vs_baseline']:7.1f}x baseline per core{extra}")
-    print(f"table precompute per sky state (2 threads): {tp * 1e3:.1f} ms; float64 with fresh output: {tf:.3f} s")
-    print(f"agreement with the baseline: max relative difference {res['baseline_max_rel_diff']:.1e}")
-    print(f"twilight (sun {TWILIGHT['sun_elevation']} deg): baseline {res['twilight_baseline_ns_per_value']:.1f} ns/value; "
-          f"table 1 thread {res['twilight_table_1t_image_s']:.3f} s = {res['twilight_table_1t_speedup_vs_baseline']:.1f}x "
-          f"baseline per core (CPU time {res['twilight_table_1t_cpu_speedup_vs_baseline']:.1f}x), 2 threads "
-          f"{res['twilight_table_2t_image_s']:.3f} s = {res['twilight_table_2t_speedup_vs_baseline']:.1f}x per core "
-          f"(CPU {res['twilight_table_2t_cpu_speedup_vs_baseline']:.1f}x); {res['twilight_cells_built']} cells built; "
-          f"max relative difference to the baseline {res['twilight_baseline_max_rel_diff']:.1e}")
+    print(f"baseline: {BASELINE_NAME}; dataset {res['dataset_MB']:.1f} MB; image {args.resolution}^2 "
+          f"({n} directions in the disc) x {C} channels; load average {res['load_average_start']:.1f} -> "
+          f"{res['load_average_end']:.1f}")
+    print(f"{'case':34s} {'base ns/val':>11s} {'ns/val':>8s} {'CPU ratio':>9s} {'wall ratio':>10s} {'call wall':>10s}")
+    for key, label in (("daylight_1t", "daylight, table, 1 thread"), ("daylight_2t", "daylight, table, 2 threads"),
+                       ("twilight_1t", "twilight -2.5 deg, 1 thread"), ("twilight_2t", "twilight -2.5 deg, 2 threads"),
+                       ("small_scattered_direct", "300 scattered, direct"), ("small_scattered_auto", "300 scattered, auto"),
+                       ("small_clustered_direct", "300 clustered, direct"), ("small_clustered_auto", "300 clustered, auto")):
+        r = res[key]
+        print(f"{label:34s} {r['baseline_cpu_ns']:11.1f} {r['cpu_ns']:8.2f} {r['ratio_cpu']:8.1f}x {r['ratio_wall']:9.1f}x "
+              f"{r['call_wall_s'] * 1e3:8.2f} ms  (path {r['path']})")
+    print(f"agreement with the baseline (max abs difference / max value): daylight {res['daylight_max_rel_diff']:.1e}, "
+          f"twilight {res['twilight_max_rel_diff']:.1e}")
     if args.json:
         Path(args.json).write_text(json.dumps(res, indent=1))
     return res

@@ -836,8 +836,9 @@ static inline __attribute__((always_inline)) void poly_group(const double *restr
         G[l] = v4_set1(g[l < L ? l : 0]);
         Z[l] = v4_set1(z[l < L ? l : 0]);
     }
-    int k = 0;
-    for (; k + 4 <= nc; k += 4) {
+    /* whole vectors; a remainder as the last four channels again (overlapping: the same values rewritten) */
+    for (int k = 0; k < nc && nc >= 4; k += 4) {
+        if (k + 4 > nc) k = nc - 4;
         const v4d t0 = v4_load(T0 + k), t1 = v4_load(T1 + k), t2 = v4_load(T2 + k);
         const v4d t3 = v4_load(T3 + k), t4 = v4_load(T4 + k), t5 = v4_load(T5 + k);
         for (int l = 0; l < L; ++l) {
@@ -848,7 +849,7 @@ static inline __attribute__((always_inline)) void poly_group(const double *restr
                 *(v4fo *)((float *)o[l] + k) = __builtin_convertvector(v, v4fo);
         }
     }
-    for (; k < nc; ++k)
+    for (int k = 0; k < nc && nc < 4; ++k)
         for (int l = 0; l < L; ++l) {
             const double v = cell_poly(T0, nc, k, g[l], z[l]);
             if (is_double)
@@ -927,9 +928,11 @@ HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *a
         /* a cell with separately clamped terms: the polynomial into acc (double, 4 rows of nc), the clamped
          * terms added there, then the rows written */
         void *a[4] = {acc, acc + nc, acc + 2 * (size_t)nc, acc + 3 * (size_t)nc};
-        if (L == 4) {
-            poly_group(T0, nc, gv + j, zv + j, a, 4, 1);
-            mixed_group(t, m0, m1, gv + j, zv + j, acc, nc);
+        if (L >= 2) { /* four lanes (a run of 2 or 3 repeats its last direction in the spare lanes) */
+            double g4[4], z4[4];
+            for (int l = 0; l < 4; ++l) g4[l] = gv[j + (l < L ? l : L - 1)], z4[l] = zv[j + (l < L ? l : L - 1)];
+            poly_group(T0, nc, g4, z4, a, 4, 1);
+            mixed_group(t, m0, m1, g4, z4, acc, nc);
         } else {
             L = 1;
             poly_group(T0, nc, gv + j, zv + j, a, 1, 1);
@@ -945,12 +948,24 @@ HOT static void eval_chunk(const table_t *t, const accel_t *ag, const accel_t *a
     }
 }
 
-/* The range of the sun angle and of the zero angle over directions dirs [rad]: range = {gamma min, gamma
- * max, zero min, zero max}, from the cosines' extremes (arccos decreases). NaN where a cosine is NaN. */
+/* A range containing the sun angle and the zero angle of every direction [rad]: range = {gamma min, gamma
+ * max, zero min, zero max}, or NaN where a direction is NaN. Bounds, cheaply: the cosines of gamma and of
+ * the uncorrected zenith angle by one reciprocal (within a few ulp of the evaluation's), the range then
+ * widened by 1e-6 rad (far more than a few ulp of a cosine make, even near +-1), and the zenith range by
+ * asin(h) more, h the altitude correction's shift of the view point (adding h to a unit vector's z turns
+ * it by at most asin(h)). */
 HOT static void angle_range_block(const geom_t *geo, const double *dirs, int cnt, double *mm)
 {
     double cg[EVAL_BLOCK], cz[EVAL_BLOCK];
-    dir_cosines(geo, dirs, cnt, 0, cg, cz, NULL);
+    const double s0 = geo->s[0], s1 = geo->s[1], s2 = geo->s[2];
+    for (int t = 0; t < cnt; ++t) {
+        const double x = dirs[3 * t], y = dirs[3 * t + 1], z = dirs[3 * t + 2];
+        double nv = sqrt(x * x + y * y + z * z);
+        nv = nv < DBL_EPSILON_ ? DBL_EPSILON_ : nv;
+        const double r = 1.0 / nv;
+        cg[t] = (x * s0 + y * s1 + z * s2) * r;
+        cz[t] = z * r;
+    }
     double gl = mm[0], gh = mm[1], zl = mm[2], zh = mm[3];
     for (int j = 0; j < cnt; ++j) {
         gl = cg[j] < gl ? cg[j] : gl;
@@ -984,7 +999,10 @@ static void angle_range(const geom_t *geo, const double *dirs, Py_ssize_t n, dou
         range[0] = range[1] = range[2] = range[3] = NAN;
         return;
     }
-    range[0] = acos_block(gh), range[1] = acos_block(gl), range[2] = acos_block(zh), range[3] = acos_block(zl);
+    const double h = geo->corrected ? geo->sz - geo->oz : 0.0;
+    const double wz = 1e-6 + (h < 1.0 ? asin(h > 0 ? h : 0.0) : M_PI);
+    range[0] = acos_block(clamp_unit(gh)) - 1e-6, range[1] = acos_block(clamp_unit(gl)) + 1e-6;
+    range[2] = acos_block(clamp_unit(zh)) - wz, range[3] = acos_block(clamp_unit(zl)) + wz;
 }
 
 /* the interval [0, n-2] containing q (clamped to the knots), as accel_cell selects it */
@@ -1096,8 +1114,8 @@ static inline __attribute__((always_inline)) void tw_poly_group(const double *re
         S[l] = v4_set1(e->s);
         Z[l] = v4_set1(e->z);
     }
-    int k = 0;
-    for (; k + 4 <= nc; k += 4) {
+    for (int k = 0; k < nc && nc >= 4; k += 4) { /* a remainder as the last four channels again */
+        if (k + 4 > nc) k = nc - 4;
         const v4d t0 = v4_load(T + k), t1 = v4_load(T + nc + k), t2 = v4_load(T + 2 * nc + k);
         const v4d t3 = v4_load(T + 3 * nc + k), t4 = v4_load(T + 4 * nc + k), t5 = v4_load(T + 5 * nc + k);
         const v4d t6 = v4_load(T + 6 * nc + k), t7 = v4_load(T + 7 * nc + k);
@@ -1109,7 +1127,7 @@ static inline __attribute__((always_inline)) void tw_poly_group(const double *re
                 *(v4fo *)((float *)o[l] + k) = __builtin_convertvector(v, v4fo);
         }
     }
-    for (; k < nc; ++k)
+    for (int k = 0; k < nc && nc < 4; ++k)
         for (int l = 0; l < L; ++l) {
             const double v = tw_poly(T, nc, k, dd[l].g, dd[l].s, dd[l].z);
             if (is_double)

@@ -150,12 +150,10 @@ def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, 
     if dirs.ndim < 1 or dirs.shape[-1] != 3:
         raise ValueError(f"directions must have shape (..., 3), got {dirs.shape}")
     flat = np.ascontiguousarray(dirs.reshape(-1, 3))
-    bad = None
     if not unit:
-        n2 = np.einsum("ij,ij->i", flat, flat)  # one pass: catches NaN, inf and zero vectors
-        bad = ~(np.isfinite(n2) & (n2 > 0))
-    if bad is not None and bad.any():
-        v = flat[np.argmax(bad)]
+        bad = _core.check_dirs(flat)  # one pass in C: NaN, inf, overflowing and zero vectors
+    if not unit and bad >= 0:
+        v = flat[bad]
         what = "a zero vector" if np.all(v == 0) else f"a non-finite (or overflowing) vector {v}"
         raise ValueError(f"directions contain {what}")
     state = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in
@@ -340,9 +338,11 @@ def sky_radiance(model: SkyModel, directions, sun_elevation, sun_azimuth, visibi
     out : ndarray, optional
         Preallocated result (C-contiguous, right shape and dtype).
     method : {"auto", "direct", "table"}
-        "table" precomputes per sky state a piecewise-polynomial table (fast for many directions);
-        "direct" does the angle lookups once per direction and reuses them over channels; "auto"
-        picks table above about 20,000 direction-channel pairs. Both give the reference's values.
+        "table" precomputes per sky state a piecewise-polynomial table over the cells in the range of
+        the call's angles (fast for many directions); "direct" does the angle lookups once per direction
+        and reuses them over channels; "auto" picks table from 20,000 direction-channel values, and for
+        smaller calls with the sun above the horizon wherever building the cells in range costs less
+        than the direct path (directions close together). Both give the reference's values.
     threads : int
         OpenMP threads (0: all cores).
     return_clamped : bool
@@ -592,6 +592,16 @@ class RadianceTables:
         cfg[w == 0] = cfg[:, :1].repeat(16, 1)[w == 0]
         return cfg, w, ok
 
+    def _corners(self, el, vis, alb, alt):
+        """:meth:`state_corners`, the last states' answer kept (the integrator evaluates the same chunk of steps at
+        its patch samples and at its circumsolar nodes)."""
+        last = getattr(self, "_last_corners", None)
+        if last is not None and all(np.array_equal(a, b) for a, b in zip(last[0], (el, vis, alb, alt))):
+            return last[1]
+        res = self.state_corners(el, vis, alb, alt)
+        self._last_corners = (tuple(np.array(x) for x in (el, vis, alb, alt)), res)
+        return res
+
     def order_key(self, sun_elevation, visibility, albedo, altitude):
         """A (T,) sort key that puts states sharing corner configurations next to each other (visibility
         cell, albedo cell, altitude, elevation)."""
@@ -628,7 +638,7 @@ class RadianceTables:
                                  (sun_elevation, sun_azimuth, visibility, albedo, altitude))
         C = self.chi.size
         res = np.empty((T, n_out, C))
-        cfg, w, ok = self.state_corners(el, vis, alb, alt)
+        cfg, w, ok = self._corners(el, vis, alb, alt)
         fast = np.nonzero(ok)[0] if self.usable else np.zeros(0, np.int64)
         used = np.where(w[fast] > 0, cfg[fast], -1)
         start = 0
@@ -658,7 +668,7 @@ class RadianceTables:
             if not whole:
                 res[idx] = blk
             start = stop
-        for t in np.setdiff1d(np.arange(T), fast[:start]):
+        for t in (np.setdiff1d(np.arange(T), fast[:start]) if start < T else ()):
             v = sky_radiance(self.model, d if d.ndim == 2 else d[t], el[t], az[t], vis[t], alb[t], alt[t],
                              channels=self.chi, threads=self.threads)
             if grouped:
@@ -686,24 +696,31 @@ class RadianceTables:
         tv, ta = m.trans_visibilities, m.trans_altitudes
         ok = (vis >= tv[0] - 1e-6) & (vis <= tv[-1] + 1e-6) & (alt <= ta[-1] + 1e-9)
         sun = sun_direction(el, az)
-        one = np.empty((1, self.chi.size))
         # the reference lookups of _trans_weights, vectorised (one branch where the factor is <= 0)
         lk = [self._lookup(q, g) for q, g in ((vis, tv), (alt_param, ta))]
-        for t in range(T):
-            if not ok[t]:
-                res[t] = solar_direct_normal(m, el[t], az[t], vis[t], 0.5, alt[t], channels=self.chi,
-                                             threads=self.threads)
-                continue
+        for t in np.nonzero(~ok)[0]:
+            res[t] = solar_direct_normal(m, el[t], az[t], vis[t], 0.5, alt[t], channels=self.chi, threads=self.threads)
+        # steps with the same knots, factors and altitude share one kernel call over their sun directions (the kernel
+        # evaluates each direction on its own: the same values as one call per step)
+        good = np.nonzero(ok)[0]
+        key = np.stack([lk[0][0][good], lk[0][1][good], lk[1][0][good], lk[1][1][good], alt_param[good]], axis=1)
+        _, inverse = np.unique(key, axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        groups = (np.split(good[np.argsort(inverse, kind="stable")], np.cumsum(np.bincount(inverse))[:-1])
+                  if good.size else [])
+        for grp in groups:
+            t = grp[0]
             (iv, fv), (ia, fa) = ((int(i[t]), float(f[t])) for i, f in lk)
             bv = [(iv, 1.0)] if fv <= 0 else [(iv, 1.0 - fv), (iv + 1, fv)]
             ba = [(ia, 1.0)] if fa <= 0 else [(ia, 1.0 - fa), (ia + 1, fa)]
             pv = np.array([v for v, _ in bv for _ in ba], np.int64)
             pa = np.array([a for _ in bv for a, _ in ba], np.int64)
             pw = np.array([wv * wa for _, wv in bv for _, wa in ba], np.float64)
+            one = np.empty((grp.size, self.chi.size))
             _core.transmittance(U, V, m.trans_d_dim, m.trans_a_dim, U.shape[0], m.trans_rank, m.n_channels, pv,
-                                pa, pw, self.chi, sun[t:t + 1], float(alt_param[t]), np.finfo(float).max,
-                                one.reshape(-1), self.threads)
-            res[t] = self._et * one[0]
+                                pa, pw, self.chi, np.ascontiguousarray(sun[grp]), float(alt_param[t]),
+                                np.finfo(float).max, one.reshape(-1), self.threads)
+            res[grp] = self._et * one
         return res
 
     @staticmethod
