@@ -16,8 +16,20 @@ The headline figure is faces x hours per second (the period's hours, daylight or
 end to end); ``--dask N`` casts the rays on a local Dask cluster of N worker processes through
 ``RunOptions(executor=client.get_executor())`` (no other change; the check sum is printed to compare).
 
-The per-step sky cost (issue 36): ``--sky-steps [--repeat 2]`` times the sky stage alone against a per-state
-baseline (see :func:`sky_steps`).
+Faces x hours per second and memory against the face count (issue 36)::
+
+     python benchmarks/bench_poa.py --scaling 20000,100000,200000,1000000 [--pieces 2] [--max-file-gb 9]
+
+runs each size in its own process (peak resident memory of that process: ``ru_maxrss``), streamed to an HDF5 file
+(``WIDESKY_TMPDIR`` or the system's temporary folder, removed after), in blocks of faces
+(``RunOptions(face_block=...)``, default the automatic blocks); a size whose whole file would exceed
+``--max-file-gb`` runs only its first ``--pieces`` blocks of faces (the whole scene built and ray-cast against, the
+rest of the faces not computed: "in pieces"), and its time is extrapolated per face, said so. Prints faces x hours
+per second, CPU per face (the main process; the ray casting: its descendants'), peak RSS, and the
+exponent of CPU against faces fitted over the sizes; see :func:`scaling`.
+
+The per-step sky cost (issue 36): ``--sky-steps [--repeat 2] [--baseline-core PATH]`` times the sky stage alone
+against a per-state baseline (see :func:`sky_steps`).
 
 Memory and time against today's code path (issue 17):
 
@@ -235,6 +247,183 @@ def _worker(mode, faces, jobs, output):
     return 0
 
 
+class _DescendantCPU:
+    """CPU time [s] of this process's descendants (the ray-casting pool's workers are the fork server's children,
+    which this process never reaps, so ``RUSAGE_CHILDREN`` misses them): polled every 0.5 s with psutil, the
+    last value seen per process (up to 0.5 s of a worker's last moments can be missed)."""
+
+    def __init__(self):
+        import threading
+        import psutil
+        self.me, self.seen = psutil.Process(), {}
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        while not self.stop.wait(0.5):
+            self.poll()
+
+    def poll(self):
+        import psutil
+        for c in self.me.children(recursive=True):
+            try:
+                t = c.cpu_times()
+                self.seen[c.pid] = t.user + t.system
+            except psutil.Error:
+                pass
+
+    def total(self):
+        self.poll()
+        self.stop.set()
+        self.thread.join()
+        return float(sum(self.seen.values()))
+
+
+def _scale_worker(faces, jobs, output, pieces, face_block):
+    """One size of ``--scaling`` in this process: prints a JSON line."""
+    import dataclasses
+    import json
+    import resource
+    from widesky.irradiance import OutputOptions, RunOptions, poa_irradiance
+    from widesky.irradiance import poa as poamod
+    from widesky.irradiance.scene import make_scene
+    t_a = time.perf_counter()
+    analysis, groups, context = benchmark_scene(faces)
+    scene = make_scene(analysis, context, groups=groups, ground_z=0.0)
+    times, states = year_states()
+    sky, _ = sky_source(None)
+    resp = responses(sky.wavelengths)
+    t_setup = time.perf_counter() - t_a
+    plans = []
+    real_plan = poamod.output_plan
+
+    def first_pieces(*a, **kw):              # only the first `pieces` blocks of faces (the rest not computed)
+        plan = real_plan(*a, **kw)
+        plans.append(plan)
+        if pieces and len(plan.face_blocks) > pieces:
+            plan = dataclasses.replace(plan, face_blocks=plan.face_blocks[:pieces])
+        return plan
+
+    poamod.output_plan = first_pieces
+    real_sky, sky_cpu = poamod.evaluate_sky, []
+
+    def timed_sky(*a, **kw):                 # the sky stage's CPU time (this process, all its threads)
+        c = time.process_time()
+        out = real_sky(*a, **kw)
+        sky_cpu.append(time.process_time() - c)
+        return out
+
+    poamod.evaluate_sky = timed_sky
+    from widesky.irradiance import sink as sinkmod
+    real_flush, flush_cpu = sinkmod.Sink.flush, [0.0]
+
+    def timed_flush(self, *a, **kw):         # writing the output blocks to the file (CPU of this process)
+        c = time.process_time()
+        real_flush(self, *a, **kw)
+        flush_cpu[0] += time.process_time() - c
+
+    sinkmod.Sink.flush = timed_flush
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    ru0 = resource.getrusage(resource.RUSAGE_SELF)
+    load0 = os.getloadavg()[0]
+    kids = _DescendantCPU()
+    t0 = time.perf_counter()
+    res = poa_irradiance(scene, sky, states, responses=resp, times=times,
+                         run=RunOptions(n_jobs=jobs, face_block=face_block), output=OutputOptions(path=output))
+    sec = time.perf_counter() - t0
+    ru1 = resource.getrusage(resource.RUSAGE_SELF)
+    cpu_rays = kids.total()
+    blocks = plans[0].face_blocks
+    done = sum(b - a for a, b in blocks[:pieces or None])
+    tm = res.timings
+    size = os.path.getsize(output) if os.path.exists(output) else 0
+    res.close()
+    print("RESULT " + json.dumps({
+        "faces": scene.n_faces, "faces_done": done, "blocks": len(blocks),
+        "blocks_done": len(blocks[:pieces or None]), "block_faces": blocks[0][1] - blocks[0][0],
+        "hours": len(states), "lit": tm["lit_steps"], "seconds": sec, "setup_s": t_setup,
+        "cpu_main": (ru1.ru_utime + ru1.ru_stime) - (ru0.ru_utime + ru0.ru_stime), "cpu_rays": cpu_rays,
+        "peak_rss_mb": ru1.ru_maxrss / 1024, "rss_before_run_mb": rss0 / 1024, "file_gb": size / 1e9,
+        "sky_s": tm["sky"], "sky_cpu": sky_cpu[0], "write_cpu": flush_cpu[0], "product_s": tm["product"],
+        "rays_s": tm["rays"], "rays_wait_s": tm["rays_wait"], "n_rays": tm["n_rays"], "load_before": load0,
+        "load_after": os.getloadavg()[0]}), flush=True)
+    return 0
+
+
+def scaling(args):
+    """Faces x hours per second, CPU per face and peak memory from 20k to 1M faces (issue 36), each size in its own
+    process; sizes too large for the disk in pieces (see the module docstring). CPU of the ray casting: that of
+    the process's descendants (its pools' workers and their fork server, :class:`_DescendantCPU`). Projection to
+    ``--cores`` cores: the ray casting's CPU spread over cores - 1 worker processes, the main process's products
+    and file writing as measured (one process), the larger of the two plus the sky stage."""
+    import json
+    import subprocess
+    sizes = [int(x) for x in args.scaling.split(",")]
+    work = tempfile.mkdtemp(prefix="bench_poa_scaling_", dir=os.environ.get("WIDESKY_TMPDIR") or None)
+    print(f"load average before: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores; {args.jobs} "
+          f"ray-casting processes; output streamed to {work}")
+    rows = []
+    for F in sizes:
+        per_face_file = 8760 * 4 * 11                      # 3 responses x 3 parts + aoi + sun visibility, float32
+        pieces = 0 if F * per_face_file <= args.max_file_gb * 1e9 else args.pieces
+        out = os.path.join(work, f"f{F}.h5")
+        cmd = [sys.executable, os.path.abspath(__file__), "--scale-worker", "--faces", str(F), "--jobs",
+               str(args.jobs), "--worker-output", out, "--pieces", str(pieces)]
+        if args.face_block:
+            cmd += ["--face-block", str(args.face_block)]
+        env = dict(os.environ, OPENBLAS_NUM_THREADS=str(args.blas_threads))
+        p = subprocess.run(cmd, capture_output=True, text=True, cwd=work, env=env)
+        if os.path.exists(out):
+            os.unlink(out)
+        line = [x for x in p.stdout.splitlines() if x.startswith("RESULT ")]
+        if p.returncode or not line:
+            print(p.stdout[-2000:], p.stderr[-4000:])
+            raise SystemExit(f"{F} faces: run failed")
+        r = json.loads(line[-1][7:])
+        rows.append(r)
+        print("  " + json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in r.items()}), flush=True)
+    print()
+    print("| faces | computed | blocks of faces | wall | **faces x hours / s** | CPU per face: rays / products / "
+          "file | sky CPU | peak RSS (before the run) | load |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        F, d = r["faces"], r["faces_done"]
+        fhs = d * r["hours"] / r["seconds"]
+        part = "all" if d == F else f"first {r['blocks_done']} of {r['blocks']} ({d:,})"
+        print(f"| {F:,} | {part} | {r['blocks']} x {r['block_faces']:,} | {r['seconds']:.1f} s | "
+              f"**{fhs / 1e6:.2f} M** | {1e3 * r['cpu_rays'] / d:.2f} / "
+              f"{1e3 * (r['cpu_main'] - r['sky_cpu'] - r['write_cpu']) / d:.2f} / {1e3 * r['write_cpu'] / d:.2f} ms | "
+              f"{r['sky_cpu']:.1f} s | "
+              f"{r['peak_rss_mb']:,.0f} MB ({r['rss_before_run_mb']:,.0f}) | "
+              f"{r['load_before']:.1f}-{r['load_after']:.1f} |")
+    if len(rows) > 1:
+        x = np.log([r["faces"] for r in rows])
+        for key, v in (("ray casting", lambda r: r["cpu_rays"]),
+                       ("products", lambda r: r["cpu_main"] - r["sky_cpu"] - r["write_cpu"]),
+                       ("file writing", lambda r: r["write_cpu"]),
+                       ("all", lambda r: r["cpu_rays"] + r["cpu_main"] - r["sky_cpu"])):
+            y = np.log([v(r) / r["faces_done"] * r["faces"] for r in rows])
+            print(f"exponent of the {key} CPU (whole scene: per-face CPU x faces) against faces: "
+                  f"{np.polyfit(x, y, 1)[0]:.2f}")
+    big = rows[-1]
+    F, d, n = big["faces"], big["faces_done"], args.cores
+    rays = big["cpu_rays"] / d * F
+    write = big["write_cpu"] / d * F
+    main_f = (big["cpu_main"] - big["sky_cpu"]) / d * F
+    for label, m in (("with the file", main_f),
+                     ("without the file writing (a projection only: a run always keeps broadband's parts, aoi and "
+                      "sun visibility)", main_f - write)):
+        wall = max(rays / max(n - 1, 1), m) + big["sky_cpu"]
+        print(f"projection, {F:,} faces x {big['hours']} h on {n} cores, {label}: rays {rays:,.0f} s CPU -> "
+              f"{rays / (n - 1):,.0f} s on {n - 1} worker processes; main process {m:,.0f} s CPU beside them; sky "
+              f"{big['sky_cpu']:.1f} s CPU: about {wall / 60:.1f} min ({F * big['hours'] / wall / 1e6:.1f} M faces x "
+              f"hours / s)")
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
+    os.rmdir(work)
+    return 0
+
+
 def compare(args):
     """Run today / streamed / optics in separate processes, alternating; print RSS and time ratios."""
     import json
@@ -356,7 +545,12 @@ def sky_steps(args):
     of a year, contracted to the benchmark's responses) with :class:`PerStateSky` (baseline) and ``PragueSky``,
     interleaved, CPU time; for the clear-sky year of this benchmark and the Denver TMY3 year under the all-sky
     model (the default weather path), and the largest difference of the contracted patch radiance. The baseline
-    evaluates each all-sky chunk (256 steps) whole, as before issue 36; the candidate in cache-sized blocks."""
+    evaluates each all-sky chunk (256 steps) whole, as before issue 36; the candidate in cache-sized blocks.
+
+    The baseline's per-state calls run on today's C kernels, which other work makes faster too. ``--baseline-core
+    PATH`` runs them on another build of ``skymodel/_core.c`` instead (a ``_core*.so`` built from the commit before
+    issue 36, e.g. ``git show 36fa688:skymodel/_core.c``; functions it lacks come from today's), so that the ratio
+    is against the per-step cost as it was."""
     from widesky.irradiance import poa as poamod
     from widesky.irradiance.scene import make_scene
     from widesky.irradiance.simulation import SKY_DEFAULTS, Simulation
@@ -376,8 +570,22 @@ def sky_steps(args):
         name = ("Denver TMY3, all-sky model (the default weather path)" if model == "allsky" else
                 "Denver TMY3, clear-sky spectra scaled to measured DNI/DHI")
         cases.append((name, sim.sky_source, a["states"], a["weather"]))
+    from widesky.skymodel import evaluate as sm_eval
+    today_core = base_core = sm_eval._core
+    if getattr(args, "baseline_core", None):
+        import importlib.machinery
+        import importlib.util
+        loader = importlib.machinery.ExtensionFileLoader("_core", args.baseline_core)
+        other = importlib.util.module_from_spec(importlib.util.spec_from_loader("_core", loader))
+        loader.exec_module(other)
+
+        class _Core:                                  # the other build's kernels, today's where it has none
+            def __getattr__(self, name):
+                return getattr(other, name) if hasattr(other, name) else getattr(today_core, name)
+        base_core = _Core()
     print(f"load average before: {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores; CPU time of this "
-          f"process (one thread), {args.repeat} interleaved rounds, best round")
+          f"process (one thread), {args.repeat} interleaved rounds, best round; baseline's C kernels: "
+          f"{getattr(args, 'baseline_core', None) or 'today'}")
     print("| sky stage | baseline: per-state precompute [ms/step] | per-configuration tables [ms/step] | "
           "ratio | largest difference |")
     print("|---|---|---|---|---|")
@@ -397,9 +605,11 @@ def sky_steps(args):
                 plan = poamod.output_plan(scene, src, st, IntegratorSettings(), cols.resp, poamod.OutputOptions())
                 # the baseline evaluates each all-sky chunk whole, as before (issue 36: in cache-sized blocks)
                 allsky_sky._BLOCK_BYTES = 1 << 40 if label == "base" else block_bytes
+                sm_eval._core = base_core if label == "base" else today_core
                 c0 = time.process_time()
                 terms[label] = evaluate_sky(src, st, IntegratorSettings(), W, scaling, plan.lit)
                 c = time.process_time() - c0
+                sm_eval._core = today_core
                 allsky_sky._BLOCK_BYTES = block_bytes
                 best[label] = min(best.get(label, np.inf), c / plan.lit.size)
         a, b = terms["base"].Lp.astype(float), terms["new"].Lp.astype(float)
@@ -427,14 +637,29 @@ def main(argv=None):
     ap.add_argument("--dataset", default=None, help="PSM dataset file (default: the embedded one)")
     ap.add_argument("--dask", type=int, default=0,
                     help="cast the rays on a local Dask cluster of this many worker processes (RunOptions(executor=...))")
+    ap.add_argument("--scaling", default=None,
+                    help="comma-separated face counts: faces x hours per second and memory against faces (see scaling)")
+    ap.add_argument("--pieces", type=int, default=2, help="blocks of faces computed where the whole file is too large")
+    ap.add_argument("--max-file-gb", type=float, default=9.0, help="largest result file written whole [GB]")
+    ap.add_argument("--face-block", type=int, default=None, help="RunOptions(face_block=...) (default automatic)")
+    ap.add_argument("--cores", type=int, default=16, help="cores of the node the scaling run is projected to")
+    ap.add_argument("--blas-threads", type=int, default=1,
+                    help="OPENBLAS_NUM_THREADS of the --scaling runs (1: the cores are busy casting rays)")
+    ap.add_argument("--scale-worker", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--sky-steps", action="store_true",
                     help="the per-step sky cost against the per-state baseline (see sky_steps)")
+    ap.add_argument("--baseline-core", default=None,
+                    help="--sky-steps: a _core*.so built from another commit for the baseline's kernels")
     ap.add_argument("--mf", type=int, default=None, help="override IntegratorSettings.mf")
     ap.add_argument("--rays-per-patch", type=int, default=None, help="override rays_per_patch")
     ap.add_argument("--radiance-samples", type=int, default=None, help="override radiance_samples")
     args = ap.parse_args(argv)
     if args.worker:
         return _worker(args.worker, args.faces, args.jobs, args.worker_output)
+    if args.scale_worker:
+        return _scale_worker(args.faces, args.jobs, args.worker_output, args.pieces, args.face_block)
+    if args.scaling:
+        return scaling(args)
     if args.compare:
         return compare(args)
     if args.sky_steps:

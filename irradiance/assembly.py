@@ -13,18 +13,21 @@ import time
 import numpy as np
 from tqdm.auto import tqdm
 
-from .products import GlobalParts, ProductContext, chunk_products
+from .products import GlobalParts, ProductContext, chunk_products, dot3
 from .result import PARTS
 
 __all__ = ["assemble_parts", "assemble_blocks"]
 
 
 def assemble_blocks(ctx: ProductContext, cols, plan, sink, scene, states, sky_terms, consumer=None,
-                    progress=False):
+                    progress=False, faces=None):
     """Stages 3 and 4 over every output block of ``plan`` (:class:`~widesky.irradiance.output_plan.OutputPlan`):
     the beam's angle of incidence, per chunk :func:`chunk_products` and :func:`assemble_parts` from the
     columns ``cols`` and the contracted sky ``sky_terms``, the ``consumer``, invalid faces zeroed, each
-    block flushed to ``sink``. Returns the seconds spent in (the products and assembly, the consumer)."""
+    block flushed to ``sink``; ``faces`` (f0, f1): the block of faces ``ctx`` holds (default all). Returns the
+    seconds spent in (the products and assembly, the consumer)."""
+    f0, f1 = (0, scene.n_faces) if faces is None else (int(faces[0]), int(faces[1]))
+    kw = {"faces": slice(f0, f1)} if plan.consumer_faces else {}
     cf = ctx.cf
     up, sun_rank, chunk_plan = plan.up, plan.sun_rank, plan.chunks
     t_prod = t_consumer = 0.0
@@ -32,16 +35,16 @@ def assemble_blocks(ctx: ProductContext, cols, plan, sink, scene, states, sky_te
     bar = None
     if progress:
         bar = tqdm(total=len(chunk_plan), unit="chunk", desc="time series")
-    face_nT = np.ascontiguousarray(np.asarray(scene.face_normal, dtype=np.float32).T)
+    face_nT = np.ascontiguousarray(np.asarray(scene.face_normal[f0:f1], dtype=np.float32).T)
     sun_dir32 = states.sun_direction.astype(np.float32)
-    invalid = ~scene.face_valid
+    invalid = ~scene.face_valid[f0:f1]
     for bi, (b0, b1) in enumerate(plan.blocks):
         if b1 <= b0:
             continue
-        block = sink.block(b0, b1)
+        block = sink.block(b0, b1, f0, f1)
         upb = np.nonzero(up[b0:b1])[0]
         if upb.size:                               # beam angle of incidence of every face
-            cz = sun_dir32[b0 + upb] @ face_nT
+            cz = dot3(sun_dir32[b0 + upb], face_nT)
             np.clip(cz, -1.0, 1.0, out=cz)
             np.arccos(cz, out=cz)
             cz *= np.float32(180.0 / np.pi)
@@ -66,7 +69,7 @@ def assemble_blocks(ctx: ProductContext, cols, plan, sink, scene, states, sky_te
                         gp.beam[:, invalid] = 0
                 t_prod += time.perf_counter() - t1
                 t1 = time.perf_counter()
-                consumer(idx, block, idx - b0, currents)
+                consumer(idx, block, idx - b0, currents, **kw)
                 t_consumer += time.perf_counter() - t1
                 t1 = time.perf_counter()
             t_prod += time.perf_counter() - t1
@@ -76,7 +79,7 @@ def assemble_blocks(ctx: ProductContext, cols, plan, sink, scene, states, sky_te
         if np.any(invalid):
             for v in block.values():
                 v[:, invalid] = 0
-        sink.flush(b0, block)
+        sink.flush(b0, block, f0)
     if bar is not None:
         bar.close()
     return t_prod, t_consumer

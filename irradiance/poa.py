@@ -19,6 +19,11 @@ Stages (see :mod:`widesky.irradiance.integrator` for the method), each in a modu
    incidence), averaged over each face's points, written into a block of steps that a sink
    (:class:`widesky.irradiance.sink.Sink`) keeps in memory or streams to the HDF5 result file (bounded
    memory: one block at a time).
+
+Above a working-memory budget (:data:`widesky.irradiance.output_plan.FACE_BLOCK_BYTES`) or with
+``RunOptions(face_block=...)`` the ray casting and stages 4 and 5 run per block of faces, the next block's rays
+cast while this block's products run, so memory does not grow with the face count; the numbers are those of one
+block, bit for bit (:data:`widesky.irradiance.products.FACE_TILE`).
 """
 
 from __future__ import annotations
@@ -33,8 +38,9 @@ from .columns import contraction_columns, sky_columns
 from .integrator import IntegratorSettings
 from .output_plan import BLOCK_BYTES, estimate_run, output_plan, stored_parts
 from .poa_options import MeasuredSky, OutputOptions, RunOptions
-from .products import GlobalParts, ProductContext, check_coefficients, chunk_products, fast_columns
-from .raycast import start_coefficients
+from .products import (GlobalParts, ProductContext, check_coefficients, chunk_products, fast_columns,
+                       group_normals)
+from .raycast import geometry_pool, start_coefficients
 from .result import FaceTable, POAResult
 from .scene import Scene
 from .sink import Sink, run_provenance
@@ -93,35 +99,68 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
     scaling = step_scaling(weather, states, sky, scene.ground_albedo)
     if scaling.ground_shape is not None:
         cols = cols.with_ground_shape(scaling.ground_shape)
-    plan = output_plan(scene, sky, states, settings, cols.resp, output)
+    n_optics = 0 if cols.plan.weights is None else int(cols.plan.weights.n)
+    plan = output_plan(scene, sky, states, settings, cols.resp, output,
+                       face_block=scene.n_faces if run.coefficients is not None else run.face_block,
+                       n_columns=cols.J_all, n_optics=n_optics)
+    fblocks = plan.face_blocks
+    whole = [tuple(b) for b in fblocks] == [(0, scene.n_faces)]      # one block: the whole scene
+    k = scene.samples_per_face
     sun_dirs = states.sun_direction[plan.up]
-    pending = None
-    if run.coefficients is None:
-        pending = start_coefficients(scene, mf=settings.mf, rays_per_patch=settings.rays_per_patch,
-                                     sun_directions=sun_dirs, sun_bin=settings.sun_bin, n_jobs=run.n_jobs,
-                                     executor=run.executor, progress=run.progress, optics=cols.plan.weights,
-                                     reflections=settings.reflections,
-                                     ground_albedo=(float(np.mean(states.albedo[plan.lit])) if scene.ground_albedo
-                                                    is None and plan.lit.size else None))
-    sky_terms = evaluate_sky(sky, states, settings, cols.Wall, scaling, plan.lit)
-    t_sky_ahead = sky_terms.seconds if (pending is not None and pending.running) else 0.0
-    sink = None
+
+    pool = None
+    if not whole and run.coefficients is None and run.executor is None and (run.n_jobs or os.cpu_count() or 1) > 1:
+        # one pool for every block of faces: its workers keep the scene (and their Embree scene) between blocks
+        pool = geometry_pool(run.n_jobs or os.cpu_count() or 1, scene.geometry())
+
+    def start(i):                                  # the ray casting of the i-th block of faces
+        f0, f1 = fblocks[i]
+        return start_coefficients(scene, mf=settings.mf, rays_per_patch=settings.rays_per_patch,
+                                  sun_directions=sun_dirs, sun_bin=settings.sun_bin, n_jobs=run.n_jobs,
+                                  executor=run.executor if pool is None else pool, progress=run.progress,
+                                  optics=cols.plan.weights,
+                                  reflections=settings.reflections,
+                                  ground_albedo=(float(np.mean(states.albedo[plan.lit])) if scene.ground_albedo
+                                                 is None and plan.lit.size else None),
+                                  points=None if whole else (f0 * k, f1 * k))
+
+    pending = sink = None
     failed = True
     try:
-        cf = pending.result() if pending is not None else run.coefficients
-        check_coefficients(cf, scene.n_points, sky_terms.n_patches, sun_dirs.shape[0], cols.plan.weights)
-        t_rays = time.perf_counter()
-        ctx = ProductContext(scene, cf, states, plan.lit, cols.J, cols.J_all, cols.col_mat, output.spectral,
-                             cols.spectral_ground, settings.time_chunk,
-                             fast_columns(cols.resp, cols.col_of, cols.plan, plan.stored), scaling.ground_steps)
+        pending = start(0) if run.coefficients is None else None
+        sky_terms = evaluate_sky(sky, states, settings, cols.Wall, scaling, plan.lit)
+        t_sky_ahead = sky_terms.seconds if (pending is not None and pending.running) else 0.0
         sink = Sink(plan.keys, T, scene.n_faces, sky.n_channels,
                     None if output.path is None else os.fspath(output.path), plan.kept_names, plan.kept_units,
                     FaceTable.from_scene(scene), output.spectral, output.compression, stored=plan.kept_parts)
-        t_prod, t_consumer = assemble_blocks(ctx, cols, plan, sink, scene, states, sky_terms,
-                                             output.consumer, run.progress)
-        timings = {"rays": (t_rays - t_start) if pending is not None else 0.0,
-                   "sky_during_rays": t_sky_ahead, "n_rays": cf.n_rays, "sun_bins": cf.n_sun_bins,
-                   "sky": sky_terms.seconds, "product": t_prod, "steps": T, "lit_steps": int(plan.lit.size)}
+        grouped = None if whole else group_normals(scene)
+        t_prod = t_consumer = t_wait = t_cast = 0.0
+        n_rays = n_bins = 0
+        for i, (f0, f1) in enumerate(fblocks):
+            t_w = time.perf_counter()
+            cf = pending.result() if pending is not None else run.coefficients
+            t_wait += time.perf_counter() - t_w
+            if i == 0:
+                t_rays = time.perf_counter()
+            check_coefficients(cf, (f1 - f0) * k, sky_terms.n_patches, sun_dirs.shape[0], cols.plan.weights)
+            n_rays, n_bins = n_rays + cf.n_rays, cf.n_sun_bins
+            t_cast += cf.seconds if pending is not None else 0.0
+            # the next block's rays are cast (in the workers) while this process does this block's products
+            pending = start(i + 1) if run.coefficients is None and i + 1 < len(fblocks) else None
+            ctx = ProductContext(scene, cf, states, plan.lit, cols.J, cols.J_all, cols.col_mat, output.spectral,
+                                 cols.spectral_ground, settings.time_chunk,
+                                 fast_columns(cols.resp, cols.col_of, cols.plan, plan.stored), scaling.ground_steps,
+                                 faces=None if whole else (f0, f1), grouped=grouped)
+            del cf
+            tp, tc = assemble_blocks(ctx, cols, plan, sink, scene, states, sky_terms, output.consumer,
+                                     run.progress, faces=None if whole else (f0, f1))
+            del ctx
+            t_prod, t_consumer = t_prod + tp, t_consumer + tc
+        cast = run.coefficients is None
+        timings = {"rays": ((t_rays - t_start) if whole else t_cast) if cast else 0.0,
+                   "sky_during_rays": t_sky_ahead, "n_rays": n_rays, "sun_bins": n_bins,
+                   "sky": sky_terms.seconds, "product": t_prod, "steps": T, "lit_steps": int(plan.lit.size),
+                   "face_blocks": len(fblocks), "rays_wait": t_wait if cast else 0.0}
         if output.consumer is not None:
             timings["consumer"] = t_consumer
         finish = dict(times=times, states=states, scaling=result_scaling(scaling, plan.lit_mask),
@@ -135,5 +174,7 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
             sink.close(True)
         if failed and pending is not None:
             pending.cancel()
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
     timings["total"] = time.perf_counter() - t_start
     return sink.result(timings, **finish)

@@ -99,7 +99,9 @@ class OutputOptions:
         product serves and of every response kept for the consumer only (the fused product's factors, so
         a consumer can use them without a copy; other kept globals are in ``block``). The arrays are
         reused afterwards: a consumer reduces them, it does not keep them (pvsim's yield model uses this
-        to never write sub-cell currents).
+        to never write sub-cell currents). A consumer that takes a keyword ``faces`` is called with the
+        slice of faces the arrays' columns hold (a run in blocks of faces, ``RunOptions.face_block``, calls
+        it per block); one that does not sees all faces at once (the run is not split).
     block_steps : int, optional
         Steps per output block [steps] (default: a block of about 384 MB), >= 1.
     compression : {None, "lzf", "gzip"}
@@ -147,6 +149,13 @@ class RunOptions:
         responses' optics.
     optic_nodes : sequence of float
         Incidence-angle class nodes [deg] of angle x wavelength optics (from 0 to 90).
+    face_block : int, optional
+        Faces per block [faces], >= 1: the rays, products and output of one block of faces at a time, so the
+        working memory does not grow with the face count (results identical to one block). Default: one block
+        unless its estimated working memory exceeds
+        :data:`widesky.irradiance.output_plan.FACE_BLOCK_BYTES` (1 GiB; then blocks of a multiple of 4,096 faces).
+        Not with ``coefficients`` (one block); a consumer must take ``faces=`` (see
+        :class:`OutputOptions`).
     """
 
     n_jobs: Optional[int] = None
@@ -154,7 +163,10 @@ class RunOptions:
     progress: bool = False
     coefficients: Any = None
     optic_nodes: Any = DEFAULT_NODES
+    face_block: Optional[int] = None
 
     def __post_init__(self):
         if self.n_jobs is not None and int(self.n_jobs) < 1:
             raise ValueError(f"n_jobs={self.n_jobs} must be >= 1 (processes)")
+        if self.face_block is not None and int(self.face_block) < 1:
+            raise ValueError(f"face_block={self.face_block} must be >= 1 (faces)")

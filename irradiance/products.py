@@ -15,7 +15,32 @@ from .integrator import lazy_zeros
 from .patches import reinhart
 
 __all__ = ["GlobalParts", "ProductContext", "fast_columns", "chunk_products", "check_coefficients",
-           "reinhart_vector_z"]
+           "reinhart_vector_z", "group_normals", "FACE_TILE", "tiled_matmul", "dot3"]
+
+#: Faces per tile of the products over the face axis [faces]: each is computed in tiles of this many faces at
+#: fixed offsets (a BLAS product's last bits depend on the matrices' widths), so a block of faces that starts at
+#: a multiple of it (:func:`widesky.irradiance.output_plan.face_blocks`) gives the whole run's numbers bit for bit.
+FACE_TILE = 4096
+
+
+def tiled_matmul(a, b, out, step):
+    """``out = a @ b`` [the operands' units] in tiles of ``step`` columns of ``b`` and ``out`` (views, no copies)."""
+    n = b.shape[-1]
+    if n <= step:
+        return np.matmul(a, b, out=out)
+    for c0 in range(0, n, step):
+        np.matmul(a, b[..., c0:c0 + step], out=out[..., c0:c0 + step])
+    return out
+
+
+def dot3(s, nT):
+    """(T, N) float32 dot products of (T, 3) directions and (3, N) unit vectors, element by element in a fixed
+    order (no BLAS: the same bits whatever N)."""
+    s = np.asarray(s, dtype=np.float32)
+    out = s[:, 0:1] * nT[0]
+    out += s[:, 1:2] * nT[1]
+    out += s[:, 2:3] * nT[2]
+    return out
 
 
 def check_coefficients(cf, n_points, n_patches, n_sun, weights):
@@ -66,9 +91,13 @@ class ProductContext:
     """The coefficient matrices in the layout of the products, and reusable work buffers."""
 
     def __init__(self, scene, cf, states, lit, J, J_all, col_mat, spectral, spectral_ground,
-                 tmax, fast=(), ground_steps=None):
+                 tmax, fast=(), ground_steps=None, faces=None, grouped=None):
+        # faces: (f0, f1), a block of the scene's faces whose points' coefficients ``cf`` holds; grouped:
+        # group_normals(scene) when known
         N, P = cf.sky.shape
-        self.N, self.P, self.F, self.k = N, P, scene.n_faces, scene.samples_per_face
+        f0, f1 = (0, scene.n_faces) if faces is None else (int(faces[0]), int(faces[1]))
+        self.N, self.P, self.F, self.k = N, P, f1 - f0, scene.samples_per_face
+        self.tile = FACE_TILE                                                       # faces per product tile
         self.J, self.J_all, self.C = J, J_all, J_all - J
         self.spectral, self.spectral_ground = spectral, spectral_ground
         self.ga = scene.ground_albedo
@@ -103,12 +132,15 @@ class ProductContext:
         self.Ksun_T = np.ascontiguousarray(np.concatenate(
             [cf.reflect_sun / np.pi, cf.ground_sun[:, :, None]], axis=2).transpose(0, 2, 1),
             dtype=np.float32)                                                       # (G, B+1, N)
-        self.normals_T = np.ascontiguousarray(scene.point_normal.T.astype(np.float32))   # (3, N)
+        k = self.k
+        self.normals_T = np.ascontiguousarray(scene.point_normal[f0 * k:f1 * k].T.astype(np.float32))   # (3, N)
         # points that share a normal share the beam's angle of incidence: an angular optic is
-        # evaluated per distinct normal (rows of modules, the walls of a building: a handful)
+        # evaluated per distinct normal (rows of modules, the walls of a building: a handful); decided on the
+        # whole scene's points, so that a block of faces takes the path the whole scene takes
         un, inv = np.unique(self.normals_T.T, axis=0, return_inverse=True)
-        self.normal_groups = ((np.ascontiguousarray(un.T), inv.reshape(-1))
-                              if un.shape[0] <= max(1, N // 4) else None)
+        if grouped is None:
+            grouped = un.shape[0] <= max(1, N // 4) if faces is None else group_normals(scene)
+        self.normal_groups = (np.ascontiguousarray(un.T), inv.reshape(-1)) if grouped else None
         self.sun_vis = cf.sun_visibility_bins()                                      # (S_b, N)
         self.sun_bin_of = np.arange(cf.n_sun) if cf.sun_index is None else cf.sun_index
         self.Hb = reinhart_vector_z(P)
@@ -159,6 +191,13 @@ class ProductContext:
         return a if k == 1 else a.reshape(a.shape[:-1] + (F, k)).mean(axis=-1)
 
 
+def group_normals(scene):
+    """True when the scene's points have at most a quarter as many distinct float32 normals as points (then an
+    angular optic is evaluated per distinct normal)."""
+    nt = np.asarray(scene.point_normal, dtype=np.float32)
+    return bool(np.unique(nt, axis=0).shape[0] <= max(1, nt.shape[0] // 4))
+
+
 def reinhart_vector_z(P):
     """(P,) vertical components of the patches' solid-angle vectors [sr] (horizontal weights)."""
     mf = int(round(np.sqrt((P - 1) / 144.0)))
@@ -207,19 +246,20 @@ def chunk_products(ctx: ProductContext, idx, Lp, dni, up, sun_rank, band=None):
     Xs = np.ascontiguousarray((Lp if every else Lp[..., sc]).transpose(0, 2, 1), dtype=np.float32)
     sky_all = ctx.buf_sky[:Tc * Rp].reshape(Tc, Rp, N)
     mats = ctx.col_mat[sc]
+    step = ctx.tile * ctx.k                        # points per product tile
     for m in np.unique(mats):
         cols = np.nonzero(mats == m)[0]
         if cols.size == Rp:
-            np.matmul(Xs.reshape(Tc * Rp, P), ctx.D_T[int(m)], out=sky_all.reshape(Tc * Rp, N))
+            tiled_matmul(Xs.reshape(Tc * Rp, P), ctx.D_T[int(m)], sky_all.reshape(Tc * Rp, N), step)
         else:
             X = np.ascontiguousarray(Xs[:, cols]).reshape(Tc * cols.size, P)
-            sky_all[:, cols] = (X @ ctx.D_T[int(m)]).reshape(Tc, cols.size, N)
-    refl_all = np.matmul(Xs.reshape(Tc * Rp, P), ctx.R_T, out=ctx.buf_refl[:Tc * Rp]).reshape(
-        Tc, Rp, N)
+            sky_all[:, cols] = tiled_matmul(X, ctx.D_T[int(m)], np.empty((X.shape[0], N), np.float32),
+                                            step).reshape(Tc, cols.size, N)
+    refl_all = tiled_matmul(Xs.reshape(Tc * Rp, P), ctx.R_T, ctx.buf_refl[:Tc * Rp], step).reshape(Tc, Rp, N)
     if ctx.A_T is not None:                        # the ground's albedo changes between steps
         Xa = Lp_alb if ctx.spectral_ground else alb[:, :, None] * Lp
         Xa = np.ascontiguousarray(Xa.transpose(0, 2, 1).reshape(Tc * Rp, P), dtype=np.float32)
-        refl_all += np.matmul(Xa, ctx.A_T, out=ctx.buf_aux[:Tc * Rp]).reshape(Tc, Rp, N)
+        refl_all += tiled_matmul(Xa, ctx.A_T, ctx.buf_aux[:Tc * Rp], step).reshape(Tc, Rp, N)
     Lg32 = Lg.astype(np.float32)
     tmp = ctx.buf_tmp[:Tc]
     for r, c in enumerate(sc):                     # walls pass on the unshaded ground's light
@@ -230,7 +270,7 @@ def chunk_products(ctx: ProductContext, idx, Lp, dni, up, sun_rank, band=None):
                             axis=1)                                         # (Tg, B+1, Rp)
         Xu = np.ascontiguousarray(Xu.transpose(0, 2, 1).reshape(rows.size * Rp, -1),
                                   dtype=np.float32)
-        refl_all[rows] += np.matmul(Xu, ctx.Ksun_T[g], out=ctx.buf_aux[:rows.size * Rp]).reshape(
+        refl_all[rows] += tiled_matmul(Xu, ctx.Ksun_T[g], ctx.buf_aux[:rows.size * Rp], step).reshape(
             rows.size, Rp, N)
     fast = {m: _fused_product(ctx, m, cols, Lp, Lg, dni, cos_b, g_sun, band)
             for m, cols in ctx.fast_cols.items()}
@@ -241,10 +281,10 @@ def chunk_products(ctx: ProductContext, idx, Lp, dni, up, sun_rank, band=None):
     cos_u = None if ctx.normal_groups is None else np.zeros((Tc, ctx.normal_groups[0].shape[1]),
                                                              np.float32)
     if upc.size:
-        cos[upc] = s[upc].astype(np.float32) @ ctx.normals_T
+        cos[upc] = dot3(s[upc], ctx.normals_T)
         vis[upc] = ctx.sun_vis[ctx.sun_bin_of[sun_rank[idx[upc]]]]
         if cos_u is not None:
-            cos_u[upc] = s[upc].astype(np.float32) @ ctx.normal_groups[0]
+            cos_u[upc] = dot3(s[upc], ctx.normal_groups[0])
     np.maximum(cos, 0.0, out=beam)
     beam *= vis
     return {"sky": sky_all, "refl": refl_all, "beam": beam, "cos": cos, "vis": vis,
@@ -270,11 +310,11 @@ def _fused_product(ctx, m, cols, Lp, Lg, dni, cos_b, g_sun, band):
         Gr = out[a:b].reshape((b - a) * nc, ctx.F)
         Xr = X[a:b].reshape((b - a) * nc, -1)
         if g < 0 or nz[g].size == 0:               # sun down, or no sunlit reflector in view
-            np.matmul(Xr[:, :P1], W[:P1], out=Gr)
+            tiled_matmul(Xr[:, :P1], W[:P1], Gr, ctx.tile)
             continue
         q = nz[g]
         W[P1:P1 + q.size] = ks[g, q]
-        np.matmul(np.concatenate([Xr[:, :P1], Xr[:, P1 + q]], axis=1), W[:P1 + q.size], out=Gr)
+        tiled_matmul(np.concatenate([Xr[:, :P1], Xr[:, P1 + q]], axis=1), W[:P1 + q.size], Gr, ctx.tile)
     return out
 
 

@@ -78,7 +78,7 @@ from .rays import (SHADE_BANDS, SHADE_SECTORS, cast_rays, reflector_bins, shade_
                    sun_bins)
 from .raystages import primary_rays, reflected_sky, reflected_sun, sun_visibility
 
-__all__ = ["Coefficients", "compute_coefficients", "start_coefficients", "PendingCoefficients",
+__all__ = ["Coefficients", "compute_coefficients", "start_coefficients", "PendingCoefficients", "geometry_pool",
            "reflector_bins", "cast_rays", "sun_bins", "shade_band", "shade_cells", "SHADE_BANDS",
            "SHADE_SECTORS"]
 
@@ -248,6 +248,16 @@ def _default_executor(n_jobs, geometry):
                                initargs=(geometry,))
 
 
+def geometry_pool(n_jobs, geometry):
+    """A local process pool whose workers hold ``geometry`` (``scene.geometry()``), to pass as
+    :func:`start_coefficients`'s ``executor`` for several calls on one scene (blocks of points): its tasks carry the
+    scene's key, as the default pool's do, and its workers keep their Embree scene between calls. The caller shuts
+    it down."""
+    ex = _default_executor(int(n_jobs), geometry)
+    ex.widesky_geometry_key = geometry["key"]
+    return ex
+
+
 def _pool_task_args(args):
     """Task arguments for the default pool: the scene's key in place of its geometry arrays."""
     return [(a[0]["key"],) + tuple(a[1:]) for a in args]
@@ -255,7 +265,7 @@ def _pool_task_args(args):
 
 def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, sun_bin=0.0,
                          n_jobs=None, chunk_size=None, executor=None, progress=False, optics=None,
-                         optic_kq=4, reflections=1, ground_albedo=None):
+                         optic_kq=4, reflections=1, ground_albedo=None, points=None):
     """Daylight coefficients, ground and reflection factors and sun visibility of every point.
 
     Parameters
@@ -292,6 +302,9 @@ def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, 
         path's second and later ground reflections, the sun a scene surface reflects on a path that
         reflected off the ground; ``reflections`` > 1 only); default the scene's ground albedo (mean over
         channels), else 0.2.
+    points : tuple of int, optional
+        (start, stop): only the points ``start:stop`` (face-major; the coefficients of a block of faces, equal
+        to those rows of the whole scene's: each ray's identity is its point's index in the scene).
 
     Returns
     -------
@@ -301,7 +314,7 @@ def compute_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, 
                               sun_directions=sun_directions, sun_bin=sun_bin, n_jobs=n_jobs,
                               chunk_size=chunk_size, executor=executor, progress=progress,
                               optics=optics, optic_kq=optic_kq, reflections=reflections,
-                              ground_albedo=ground_albedo).result()
+                              ground_albedo=ground_albedo, points=points).result()
 
 
 class PendingCoefficients:
@@ -319,13 +332,15 @@ class PendingCoefficients:
         self._futs, self._own, self._value = None, None, None
         self._bar = None
         if progress:
-            self._bar = tqdm(total=bounds[-1][1] if bounds else 0, unit="point",
+            self._bar = tqdm(total=bounds[-1][1] - bounds[0][0] if bounds else 0, unit="point",
                              desc="ray casting")
         if executor is not None or (n_jobs > 1 and len(args) > 1):
             ex = executor if executor is not None else _default_executor(n_jobs, args[0][0])
             self._own = ex if executor is None else None
-            # the default pool's workers hold the scene (initializer); a user's executor gets it per task
-            tasks = args if executor is not None else _pool_task_args(args)
+            # the default pool's workers hold the scene (initializer), and so do a geometry_pool's; a user's
+            # executor gets it per task
+            holds = bool(args) and getattr(executor, "widesky_geometry_key", None) == args[0][0]["key"]
+            tasks = args if executor is not None and not holds else _pool_task_args(args)
             try:
                 self._futs = {ex.submit(_chunk_task, *a): i for i, a in enumerate(tasks)}
             except BaseException:
@@ -389,7 +404,7 @@ class PendingCoefficients:
 
 def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, sun_bin=0.0,
                        n_jobs=None, chunk_size=None, executor=None, progress=False, optics=None,
-                       optic_kq=4, reflections=1, ground_albedo=None):
+                       optic_kq=4, reflections=1, ground_albedo=None, points=None):
     """Submit the ray-casting tasks of :func:`compute_coefficients` and return at once.
 
     Same parameters; returns a :class:`PendingCoefficients` whose ``result()`` gives the
@@ -412,7 +427,10 @@ def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, su
     bins = reflector_bins()
     geom = scene.geometry()
     origins, normals, buried = scene.ray_origins, scene.point_normal, scene.point_buried
-    n = scene.n_points
+    lo, hi = (0, scene.n_points) if points is None else (int(points[0]), int(points[1]))
+    if not 0 <= lo <= hi <= scene.n_points:
+        raise ValueError(f"points={points} outside the scene's 0:{scene.n_points}")
+    n = hi - lo
     n_jobs = (os.cpu_count() or 1) if n_jobs is None else int(n_jobs)
     if n_jobs < 1:
         raise ValueError(f"n_jobs={n_jobs} must be >= 1 (processes)")
@@ -422,7 +440,7 @@ def start_coefficients(scene, *, mf=1, rays_per_patch=2, sun_directions=None, su
         if n_jobs != 1 or executor is not None:       # at least two tasks per worker for balance
             workers = n_jobs if executor is None else max(n_jobs, 2)
             chunk_size = int(max(32, min(chunk_size, -(-n // (2 * workers)))))
-    bounds = [(i, min(i + int(chunk_size), n)) for i in range(0, n, int(chunk_size))]
+    bounds = [(i, min(i + int(chunk_size), hi)) for i in range(lo, hi, int(chunk_size))]
     sun_count = np.bincount(sun_index, minlength=sun_rep.shape[0]).astype(float)
     sun_band, _ = shade_cells(sun_rep)
     args = [(geom, origins[a:b], normals[a:b], buried[a:b], mf, rays_per_patch, sun_rep, bins, a,

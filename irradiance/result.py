@@ -540,10 +540,14 @@ class H5Writer:
                                                              **skw)
         _write_faces(f.create_group("faces"), faces)
 
-    def write(self, t0, block):
+    def write(self, t0, block, f0=0):
+        """Rows ``t0:t0 + n`` (of the faces ``f0:f0 + m``) from a block of (n, m) arrays."""
         for k, v in block.items():
             if k in self.ds:
-                self.ds[k][t0:t0 + v.shape[0]] = v
+                if f0 == 0 and v.shape[1] == self.ds[k].shape[1]:
+                    self.ds[k][t0:t0 + v.shape[0]] = v
+                else:
+                    self.ds[k][t0:t0 + v.shape[0], f0:f0 + v.shape[1]] = v
 
     def finish(self, times, states, scaling, provenance, wavelengths, channel_edges):
         f = self.f

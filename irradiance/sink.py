@@ -60,29 +60,36 @@ class Sink:
             self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None,
                                    compression, parts=stored)
 
-    def block(self, b0, b1):
-        """dict key -> (b1 - b0, F) zeroed arrays (aoi NaN) to fill for steps b0:b1."""
+    def block(self, b0, b1, f0=0, f1=None):
+        """dict key -> (b1 - b0, f1 - f0) zeroed arrays (aoi NaN) to fill for steps b0:b1 of the faces f0:f1
+        (default all)."""
         n = b1 - b0
+        f1 = self.F if f1 is None else f1
         if self.writer is None:
-            out = {k: v[b0:b1] for k, v in self.full.items()}
+            out = {k: v[b0:b1, f0:f1] for k, v in self.full.items()}
             out["aoi"][:] = np.nan
             return out
         # one set of block buffers, reused (fresh multi-100-MB arrays per block cost seconds of
-        # page faults)
-        if getattr(self, "_buf", None) is None or self._buf_n < n:
-            shape = {k: (n, self.F) for k in [*self.keys, "aoi", "sun_visible"]}
+        # page faults); contiguous (n, f1 - f0) views of them
+        m = f1 - f0
+        if getattr(self, "_buf", None) is None or self._buf_size < n * m:
+            shape = {k: (n * m,) for k in [*self.keys, "aoi", "sun_visible"]}
             if self.spectral:
-                shape.update({("spectral", p): (n, self.F, self.C) for p in PARTS + ("global",)})
+                shape.update({("spectral", p): (n * m * self.C,) for p in PARTS + ("global",)})
             self._buf = {k: lazy_zeros(v, np.float32) for k, v in shape.items()}
-            self._buf_n = n
-        out = {k: v[:n] for k, v in self._buf.items()}
+            self._buf_size = n * m
+        out = {}
+        for k, v in self._buf.items():
+            shape = (n, m, self.C) if isinstance(k, tuple) and k[0] == "spectral" else (n, m)
+            out[k] = v[:int(np.prod(shape))].reshape(shape)
         for k, v in out.items():
             v.fill(np.nan if k == "aoi" else 0.0)
         return out
 
-    def flush(self, b0, block):
+    def flush(self, b0, block, f0=0):
+        """Write a block of steps from b0 (of the faces from f0) to the file (in memory: nothing to do)."""
         if self.writer is not None:
-            self.writer.write(b0, block)
+            self.writer.write(b0, block, f0)
 
     def close(self, failed, **finish):
         if self.writer is None:
