@@ -85,13 +85,6 @@ def weather_measurements(data, spectral_model="clear", aerosol="visibility", cle
     return measured, "scaled to measured DNI/DHI"
 
 
-def _spectral_columns(widths):
-    """(C, C + 1) columns of the clear sky's evaluation: broadband first (the circumsolar nodes' radial profile),
-    then every channel."""
-    C = widths.size
-    return np.concatenate([widths[:, None], np.eye(C)], axis=1)
-
-
 def allsky_patch_radiance(sky, patches, states, weights, settings, weather: AllSkyWeather,
                           options=AllSkyOptions(), min_visibility=20.0, ground_shape=None):
     """All-sky patch radiance and beam of one chunk of steps, contracted with ``weights``.
@@ -166,9 +159,8 @@ def _allsky_block(sky, patches, states, W, settings, weather, options, min_visib
     C = sky.n_channels
     R = W.shape[1]
     widths = np.asarray(sky.channel_widths, dtype=float)
-    Lp, dn, cs = patch_radiance(sky, patches, states, _spectral_columns(widths), settings)
-    # views, not copies: the contractions below read the spectral columns in place (BLAS takes the row stride)
-    Lp, dn, cs = Lp[..., 1:], dn[:, 1:], cs[:, 1:]                 # (T, P, C), (T, C), (T, C)
+    # the spectral clear sky, uncontracted (the circumsolar nodes' solid angles from its broadband radial profile)
+    Lp, dn, cs = patch_radiance(sky, patches, states, None, settings, profile=widths)   # (T, P, C), (T, C), (T, C)
     w_h = patches.vector[:, 2]                                    # exact horizontal weights [sr]
     sin_el = np.sin(np.radians(np.maximum(states.sun_elevation, 0.0)))
     h_clear = np.matmul(w_h, Lp)                                  # (T, C) patches' horizontal irradiance

@@ -183,19 +183,21 @@ def _radial_weights(edges, lq, sectors, nodes=6):
     pos = (inner > 0) & (ring > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(pos, ring / np.where(pos, inner, 1.0), 1.0)
-        # interpolated value relative to the linear blend: L(u) = La (Lb/La)^u
-        expo = ratio[..., None] ** u                                      # (T, n_r, S, nodes)
+        # interpolated value relative to the linear blend: L(u) = La (Lb/La)^u (as exp(u log(Lb/La)))
+        expo = np.exp(np.log(ratio)[..., None] * u)                       # (T, n_r, S, nodes)
     lin_a, lin_b = 1.0 - u, u
     la = np.where(pos, inner, 1.0)[..., None]
-    # exponential profile: int L (1-u) ..., int L u ... divided by La, Lb
-    wa_exp = np.sum(expo * lin_a * jac[None, :, None, :], axis=-1)
+    # exponential profile: int L (1-u) ..., int L u ... (divided by La, Lb) and int L, the three node sums in one
+    # product
+    sums = np.matmul(expo, np.stack([lin_a * jac, lin_b * jac, jac], axis=-1)[None])   # (T, n_r, S, 3)
+    wa_exp = sums[..., 0]
     with np.errstate(divide="ignore", invalid="ignore"):
-        wb_exp = np.sum(expo * lin_b * jac[None, :, None, :], axis=-1) / np.where(pos, ratio, 1.0)
+        wb_exp = sums[..., 1] / np.where(pos, ratio, 1.0)
     wa_lin = np.sum(lin_a * jac, axis=-1)[None, :, None]
     wb_lin = np.sum(lin_b * jac, axis=-1)[None, :, None]
     # an exponential through La, Lb splits as (int L(1-u))/La and (int L u)/Lb; normalise so that
     # wa*La + wb*Lb equals the exponential integral exactly
-    total = np.sum(expo * jac[None, :, None, :], axis=-1) * la[..., 0]
+    total = sums[..., 2] * la[..., 0]
     part = wa_exp * la[..., 0] + wb_exp * ring
     with np.errstate(divide="ignore", invalid="ignore"):
         fix = np.where(part > 0, total / part, 1.0)
@@ -210,7 +212,7 @@ def _radial_weights(edges, lq, sectors, nodes=6):
 
 
 def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, settings=None, *,
-                   sun_scale=None, sky_scale=None):
+                   sun_scale=None, sky_scale=None, profile=None):
     """Mean sky radiance over every patch per step, the circumsolar peak split off, channels contracted.
 
     Inside ``circumsolar_radius`` of the sun the sky is split into ``min(L, L_edge)`` (``L_edge``: the
@@ -229,12 +231,15 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     states : SkyStates
         T sky states.
     weights : array_like, optional
-        (C, R) contraction matrix applied to the channels; default identity (R = C).
+        (C, R) contraction matrix applied to the channels; default none: the channels themselves (R = C).
     settings : IntegratorSettings, optional
         Sample counts.
     sun_scale, sky_scale : array_like, optional
         (T,) or (T, C) factors [1] on the sun's spectral direct normal irradiance and on the
         spectral sky radiance, applied before the channels are contracted.
+    profile : array_like, optional
+        (C,) channel weights [1 or nm] of the radial profile that sets the circumsolar nodes' solid angles; default
+        the first column of ``weights`` (the first channel without weights).
 
     The sun and the sky are scaled by ``1 / earth_sun_distance**2`` (the states' Earth-Sun
     distance [AU]; the sky model's extraterrestrial spectrum is at 1 AU).
@@ -254,8 +259,8 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     """
     settings = settings or IntegratorSettings()
     C = sky.n_channels
-    W = np.eye(C) if weights is None else np.asarray(weights, dtype=float)
-    if W.shape[0] != C:
+    W = None if weights is None else np.asarray(weights, dtype=float)      # None: the channels, uncontracted
+    if W is not None and W.shape[0] != C:
         raise ValueError(f"weights has {W.shape[0]} rows for a sky of {C} channels")
     P, T = patches.n_patches, len(states)
     reg_d, reg_w = patches.subsample(settings.radiance_samples)               # (P, n, 3), (P, n)
@@ -277,15 +282,26 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     r2 = 1.0 / np.asarray(states.earth_sun_distance, dtype=float) ** 2             # (T,)
     f_sky = _step_channel_factor(sky_scale, T, C, "sky_scale") * r2[:, None]       # (T, C)
     f_sun = _step_channel_factor(sun_scale, T, C, "sun_scale") * r2[:, None]
-    R = W.shape[1]
+    R = C if W is None else W.shape[1]
     nr = P * n_sub
     wn = reg_w / reg_w.sum(axis=1, keepdims=True)                             # (P, n_sub)
     ti, si = np.nonzero(inside)                                              # samples inside the disc
     if hasattr(sky, "radiance_means"):        # patch means straight from the sky source
         mean = sky.radiance_means(reg_d, np.repeat(np.arange(P), n_sub), wn.reshape(-1), states)   # (T, P, C)
-        Lq_s = sky.radiance(qd, states)                                      # (T, Q, C)
-        Lin_s = (sky.radiance(reg_d[si][:, None, :], states.take(ti))[:, 0] if ti.size
-                 else np.zeros((0, C)))
+        # the circumsolar nodes and the samples inside the disc in one call: (T, Q + k) directions, the k slots after
+        # the nodes holding each step's inside samples (the zenith where a step has fewer)
+        Q = qd.shape[1]
+        slot = np.arange(ti.size) - np.searchsorted(ti, ti)                  # rank within its step
+        k = int(slot.max()) + 1 if ti.size else 0
+        if k:
+            ext = np.empty((T, Q + k, 3))
+            ext[:, :Q] = qd
+            ext[:, Q:] = (0.0, 0.0, 1.0)
+            ext[ti, Q + slot] = reg_d[si]
+            Lx = sky.radiance(ext, states)                                   # (T, Q + k, C)
+            Lq_s, Lin_s = Lx[:, :Q], Lx[ti, Q + slot]
+        else:
+            Lq_s, Lin_s = sky.radiance(qd, states), np.zeros((0, C))          # (T, Q, C)
     else:
         dirs = np.concatenate([np.broadcast_to(reg_d, (T,) + reg_d.shape), qd], axis=1)
         Ls = sky.radiance(dirs, states)                                      # (T, Nd, C)
@@ -294,11 +310,16 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
         for k in range(1, n_sub):
             mean += Lr[:, :, k] * wn[None, :, k, None]
         Lq_s, Lin_s = Ls[:, nr:], Ls[ti, si]
-    Lq = _contract(Lq_s * f_sky[:, None, :], W)                              # (T, Q, R)
+    if hasattr(sky, "radiance_means"):        # the sky's own fresh (T, Q, C) array: scaled in place
+        Lq_s *= f_sky[:, None, :]
+        Lq = _contract(Lq_s, W)                                              # (T, Q, R)
+    else:
+        Lq = _contract(Lq_s * f_sky[:, None, :], W)
     Lq[~above] = 0.0
     # node solid angles from the first response column's radial profile (nodes below the horizon
     # carry no sky)
-    qwt = _radial_weights(edges, Lq[..., 0], settings.circumsolar_sectors) * above
+    lq0 = Lq[..., 0] if profile is None else Lq @ np.asarray(profile, dtype=float)
+    qwt = _radial_weights(edges, lq0, settings.circumsolar_sectors) * above
     # split the sky inside the disc into min(L, L_edge) (smooth, left to the patches) and the
     # circumsolar excess (to the sun); L_edge is the mean of the outer circle's nodes above the horizon
     ns = settings.circumsolar_sectors
@@ -312,17 +333,20 @@ def patch_radiance(sky, patches: SkyPatches, states: SkyStates, weights=None, se
     circumsolar = np.einsum("tq,tqr->tr", qwt, excess)
     # patch mean of the capped sky from the stratified samples (each patch's n_sub samples are contiguous):
     # the mean of the spectra, contracted, then the few samples inside the disc corrected to their cap
-    out = _contract(mean * f_sky[:, None, :], W)                             # (T, P, R)
+    mean *= f_sky[:, None, :]                                                # a fresh array: scaled in place
+    out = _contract(mean, W)                                                 # (T, P, R)
     if ti.size:
         Lin = _contract(Lin_s * f_sky[ti], W)                                # (k, R)
         np.add.at(out, (ti, si // n_sub), wn.reshape(-1)[si][:, None] * (np.minimum(Lin, l_edge[ti]) - Lin))
-    dni = (np.asarray(sky.direct_normal(states), dtype=float) * f_sun) @ W
+    dni = _contract(np.asarray(sky.direct_normal(states), dtype=float) * f_sun, W)
     return out, dni, circumsolar
 
 
 def _contract(X, W):
-    """``X @ W`` for (..., C) values and a (C, R) contraction; when W ends with the identity (the all-sky model's
-    spectral columns) those columns are copied instead of multiplied (the same values)."""
+    """``X @ W`` for (..., C) values and a (C, R) contraction (``W`` None: ``X`` itself); when W ends with the identity
+    those columns are copied instead of multiplied (the same values)."""
+    if W is None:
+        return X
     C, R = W.shape
     if R > C and np.array_equal(W[:, R - C:], np.eye(C)):
         out = np.empty(X.shape[:-1] + (R,))

@@ -190,6 +190,21 @@ def cie_patch_shape(patches):
     return f / (f * patches.vector[:, 2]).sum()
 
 
+_SAMPLES = {}
+
+
+def _samples(patches, samples):
+    """``patches.subsample(samples)`` with the weights normalised per patch, kept per patches object."""
+    key = (id(patches), samples)
+    hit = _SAMPLES.get(key)
+    if hit is None or hit[0] is not patches:
+        d, w = patches.subsample(samples)
+        hit = _SAMPLES[key] = (patches, d, w / w.sum(axis=1, keepdims=True))
+        while len(_SAMPLES) > 8:
+            _SAMPLES.pop(next(iter(_SAMPLES)))
+    return hit[1], hit[2]
+
+
 def perez_patch_shape(patches, sun_direction, epsilon, delta, valid=None, samples=4):
     """Per-step patch radiance of the all-weather sky, normalised to unit horizontal irradiance [sr-1].
 
@@ -217,13 +232,30 @@ def perez_patch_shape(patches, sun_direction, epsilon, delta, valid=None, sample
     """
     s = np.asarray(sun_direction, dtype=float)
     T = s.shape[0]
-    d, w = patches.subsample(int(samples))                         # (P, n, 3), (P, n)
-    w = w / w.sum(axis=1, keepdims=True)
+    d, w = _samples(patches, int(samples))                         # (P, n, 3), (P, n) normalised per patch
+    P, n = w.shape
     cz = np.clip(s[:, 2], -1.0, 1.0)
     coef = perez_sky_coefficients(epsilon, delta, np.arccos(np.clip(cz, 0.0, 1.0)))   # (T, 5)
-    cg = np.einsum("pnk,tk->tpn", d, s)                             # (T, P, n)
-    rel = perez_relative_radiance(d[None, :, :, 2], cg, coef[:, None, None, :])
-    lp = np.einsum("tpn,pn->tp", rel, w)
+    cg = np.matmul(s, d.reshape(-1, 3).T)                           # (T, P n)
+    ct = d[..., 2].reshape(-1)
+    if np.all(ct > 0):          # the sky's samples: perez_relative_radiance in place, one (T, P n) array at a time
+        a, b, cc, dd, e = (coef[:, i, None] for i in range(5))
+        np.clip(cg, -1.0, 1.0, out=cg)
+        grad = np.exp(b / np.maximum(ct, 0.01))
+        grad *= a
+        grad += 1.0
+        ind = np.arccos(cg)
+        ind *= dd
+        np.exp(ind, out=ind)
+        ind *= cc
+        ind += 1.0
+        cg *= e * cg
+        ind += cg
+        ind *= grad
+        rel = np.maximum(ind, 0.0, out=ind)
+    else:
+        rel = perez_relative_radiance(ct, cg, coef[:, None, :])
+    lp = np.einsum("tpn,pn->tp", rel.reshape(T, P, n), w)
     h = lp @ patches.vector[:, 2]
     ok = h > 0
     if valid is not None:
