@@ -5,6 +5,7 @@ the glazing or the zone model:
 
     python benchmarks/bench_bestest_cases.py [--jobs N] [--json OUT.json] [--cases 600 610 ...] [--zone-models 5r1c]
     python benchmarks/bench_bestest_cases.py --steps      # the ISO 52016-1 corrections one after another
+    python benchmarks/bench_bestest_cases.py --hypotheses # the alternatives measured for the remaining misses
 
 Runs, with both zone models (ISO 13790 5R1C and ISO 52016-1) unless ``--zone-models`` picks one, the integrator
 route (one integrator year per room geometry: south windows, south with overhang, east/west windows, east/west with
@@ -45,6 +46,8 @@ def main(argv=None):
                     help="the weather route's transposition (default perez, as widesky thermal bestest)")
     ap.add_argument("--steps", action="store_true",
                     help="instead: the ISO 52016-1 corrections one after another (docs/validation/thermal-bestest-cases.md table)")
+    ap.add_argument("--hypotheses", action="store_true",
+                    help="instead: the ISO 52016-1 alternatives measured for the remaining misses (same page)")
     args = ap.parse_args(argv)
     refs = reference_results(args.data_dir)
 
@@ -57,6 +60,8 @@ def main(argv=None):
     times = {"integrator years": time.perf_counter() - t0}
     if args.steps:
         return _steps(args, poas, refs)
+    if args.hypotheses:
+        return _steps(args, poas, refs, HYPOTHESES, HYPOTHESIS_COLUMNS)
     runs = [(m, route) for m in args.zone_models for route in ("integrator", "weather")]
     results = {}
     for m, route in runs:
@@ -116,12 +121,24 @@ COLUMNS = [("600", "annual_heating"), ("600", "annual_cooling"), ("640", "peak_h
            ("950FF", "max_temperature"), ("950FF", "mean_temperature")]
 
 
-def _steps(args, poas, refs):
-    """Print, per route, the ISO 52016-1 run with the corrections of :data:`STEPS` added one after another."""
+HYPOTHESES = [("default", {}), ("view factors, script-F (eps 0.9)", dict(longwave="view")),
+              ("absorbed solar on the panes", dict(glass="panes")), ("lost share 0.035 (table)", dict(lost="table")),
+              ("air node at site density", dict(air="site")), ("Walton (TARP) h_ci", dict(convection="tarp")),
+              ("TARP + table + site air", dict(convection="tarp", lost="table", air="site"))]
+"""The alternatives measured for the remaining misses (``--hypotheses``; ``bestest.ISO52016_OPTIONS``)."""
+HYPOTHESIS_COLUMNS = [("600", "annual_heating"), ("640", "peak_heating"), ("670", "peak_heating"),
+                      ("900", "annual_cooling"), ("910", "annual_heating"), ("950", "peak_cooling"),
+                      ("950FF", "min_temperature"), ("950FF", "max_temperature")]
+
+
+def _steps(args, poas, refs, rows=None, columns=None):
+    """Print, per route, the ISO 52016-1 run with the corrections of :data:`STEPS` added one after another (or the
+    ``rows`` of (name, options) given, with ``columns``)."""
+    rows, columns = rows or STEPS, columns or COLUMNS
     for route in ("weather", "integrator"):
-        print(f"| step ({route}) | " + " | ".join(f"{c} {q.replace('_', ' ')}" for c, q in COLUMNS) + " | outside |")
-        print("|---|" + "---|" * (len(COLUMNS) + 1))
-        for name, opt in STEPS:
+        print(f"| step ({route}) | " + " | ".join(f"{c} {q.replace('_', ' ')}" for c, q in columns) + " | outside |")
+        print("|---|" + "---|" * (len(columns) + 1))
+        for name, opt in rows:
             vals, out = {}, 0
             for c in args.cases:
                 r = run_case(c, args.data_dir, poa=poas[case_geometry(c)] if route == "integrator" else None,
@@ -130,7 +147,7 @@ def _steps(args, poas, refs):
                     vals[c, v.quantity] = v
                     out += not v.inside
             cells = []
-            for key in COLUMNS:
+            for key in columns:
                 v = vals.get(key)
                 cells.append("-" if v is None else (f"{v.value:.2f}" if v.inside else f"**{v.value:.2f}**"))
             print(f"| {name} | " + " | ".join(cells) + f" | {out} |")

@@ -3,7 +3,7 @@ acceptance limits (annual loads, 140-2020/2023 Addendum b Tables A3-1..4 as list
 Modelica Buildings User's Guide in ../shared/data/bestest) and the six reference programs' range
 (peak loads; the guide lists no peak limits). Weather: Denver Intl AP TMY3, the file the
 140-2020 cases and their published results use. Two irradiance routes: the weather file's
-Hay-Davies transposition (seconds) and widesky's integrator (the default pipeline: the all-sky model at the
+Perez transposition (seconds) and widesky's integrator (the default pipeline: the all-sky model at the
 file's DNI and DHI, as every command; one 8760-step run shared by all cases, a few minutes).
 
 Measured figures that fall outside are marked xfail (strict: a fix makes them fail loudly) with
@@ -43,10 +43,10 @@ def _refs():
 
 
 OUTSIDE = {
-    # Hay-Davies puts 3 % less on the south wall than the integrator and Perez; the heavy case's cooling
-    # (and its stored heat before the coldest night) is the most sensitive to it
-    ("weather", "900", "annual_cooling"): "2.06 MWh < 2.35 (Hay-Davies south irradiance)",
-    ("weather", "900", "peak_heating"): "2.83 kW > 2.78 (programs' max; Hay-Davies)",
+    # the weather route's Perez transposition (the default since issue 38; Hay-Davies put 3 % less on the south wall
+    # and gave 2.06 MWh and 2.83 kW) lands where the integrator does: 5R1C's heavy room is too damped on both routes
+    ("weather", "900", "annual_cooling"): "2.25 MWh < 2.35 (5R1C, Perez)",
+    ("weather", "900", "peak_heating"): "2.81 kW > 2.78 (programs' max; 5R1C, Perez)",
     # Since the one pipeline (issue 33) the integrator route runs the all-sky default; with the room's real windows
     # (issue 38: two 3 m x 2 m south windows, bestest_geometry) and the all-sky distribution of 2026-12-05 its south
     # wall sits at Perez's level (1368 kWh m-2 against 1369), yet Case 900 still misses these two: the heavyweight

@@ -98,7 +98,7 @@ def test_surface_irradiance_against_pvlib_haydavies():
     ghi = dni * np.cos(np.radians(zen)) + dhi
     dne = np.full(n, 1361.0)
     tilts, azs = [90.0, 90.0, 30.0, 0.0], [180.0, 90.0, 200.0, 0.0]
-    ours = surface_irradiance(tilts, azs, zen, saz, dni, dhi, ghi, dne, albedo=0.2)
+    ours = surface_irradiance(tilts, azs, zen, saz, dni, dhi, ghi, dne, albedo=0.2, transposition="hay-davies")
     for j, (t, a) in enumerate(zip(tilts, azs)):
         sky = pvlib.irradiance.haydavies(t, a, dhi, dni, dne, zen, saz)
         ground = pvlib.irradiance.get_ground_diffuse(t, ghi, albedo=0.2)
@@ -108,12 +108,13 @@ def test_surface_irradiance_against_pvlib_haydavies():
 
 
 def test_aoi_and_symmetry_under_sunless_sky():
-    """No sun (dni = 0): a building's four walls receive the same whatever their azimuth."""
+    """No sun (dni = 0): a building's four walls receive the same whatever their azimuth (Hay-Davies: isotropic
+    without beam; Perez keeps an overcast sky's faint circumsolar part, tests/test_thermal_perez.py)."""
     assert aoi(90, 180, 0, 123) == pytest.approx(90.0)
     n = 50
     r = surface_irradiance([90] * 4, [0, 90, 180, 270], np.full(n, 40.0),
                            np.linspace(90, 270, n), np.zeros(n), np.full(n, 150.0),
-                           np.full(n, 150.0), np.full(n, 1361.0))
+                           np.full(n, 150.0), np.full(n, 1361.0), transposition="hay-davies")
     assert r["poa_global"] == pytest.approx(np.repeat(r["poa_global"][:, :1], 4, axis=1), rel=1e-12)
 
 

@@ -43,14 +43,16 @@ from widesky.core.paths import data_file
 from widesky.irradiance import (SKY_DEFAULTS, PragueSky, Simulation, dni_extra, fixed_offset_tz, read_epw,
                                 solar_position, sun_times)
 
-from .bestest_geometry import bestest_building, window_shading
+from .bestest_geometry import ROOM, bestest_building, window_shading
 from .exterior import exterior_coefficients, hourly_u_value, wind_at_height
 from .gains import building_scene, group_weights, irradiance_by_surface, rated_glazing_response, result_in_band_share
-from .glazing import Gap, GlazingUnit, layer_from_broadband
+from .glazing import ANGLES, Gap, GlazingUnit, layer_from_broadband
 from .loads import R_SE, glazing_g_table, opaque_gains, sky_losses, window_gains
+from .optics import hemispherical
 from .surface import sky_temperature, surface_irradiance
 from .zone import ZoneParameters, simulate_5r1c
-from .zone_iso52016 import EN673_MEAN_TEMPERATURE, SIGMA, Element, Layer, simulate_iso52016
+from .zone_iso52016 import (EN673_MEAN_TEMPERATURE, SIGMA, Element, Layer, box_view_factors, radiant_exchange,
+                            simulate_iso52016)
 
 __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_modelica_record",
            "case_definition", "window_unit", "reference_results", "run_case", "BestestCase",
@@ -58,7 +60,8 @@ __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_mod
            "layer_resistance", "EXTERIOR_MODELS", "CASE_SPECS", "CaseSpec", "SETBACK", "VENT_SCHEDULE",
            "MEAN_TEMPERATURE_RANGE", "LOAD_CASES", "SOURCES", "Verdict", "verdicts", "case_geometry",
            "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS",
-           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "setback_substeps"]
+           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "setback_substeps",
+           "interior_longwave"]
 
 
 @dataclass(frozen=True)
@@ -120,6 +123,7 @@ the User's Guide tables that :func:`reference_results` reads."""
 GROUND_REFLECTANCE = 0.2          # ASHRAE 140-2020 7.2.1
 INTERNAL_RADIATIVE_FRACTION = 0.6  # ASHRAE 140-2020 7.2.1: 200 W, 60 % radiative
 INTERIOR_SOLAR_ABSORPTANCE = 0.6   # ASHRAE 140-2020 7.2.1: interior surfaces
+INTERIOR_EMISSIVITY = 0.9          # ASHRAE 140-2020 7.2.1: interior surfaces' infrared emissivity
 INTERIOR_SOLAR_DISTRIBUTION = {
     "south": {"floor": 0.642, "ceiling": 0.167, "east": 0.038, "west": 0.038, "north": 0.053, "south": 0.027,
               "lost": 0.035},
@@ -560,24 +564,25 @@ _SHADING_CACHE = {}
 
 
 def _shading_factors(case: BestestCase, zenith, azimuth):
-    """(T, S) sunlit share and (S,) sky and ground view shares per wall of the case (1 where the
-    wall has no shaded window), by ray casting its devices (:func:`window_shading`)."""
+    """(T, S) sunlit share and (S,) sky, ground and horizon-band view shares per wall of the case (1 where
+    the wall has no shaded window), by ray casting its devices (:func:`window_shading`)."""
     S = len(case.walls) + 1
     layout, shading = case_geometry(case)
     if shading is None:
-        return np.ones((len(zenith), S)), np.ones(S), np.ones(S)
+        return np.ones((len(zenith), S)), np.ones(S), np.ones(S), np.ones(S)
     key = (layout, shading, hash(np.asarray(zenith).tobytes()), hash(np.asarray(azimuth).tobytes()))
     if key not in _SHADING_CACHE:
         b = bestest_building(layout, shading)
         f = window_shading(b, zenith, azimuth)
-        sunlit, sky, gnd = np.ones((len(zenith), S)), np.ones(S), np.ones(S)
+        sunlit, sky, gnd, hor = np.ones((len(zenith), S)), np.ones(S), np.ones(S), np.ones(S)
         az_win = {s.label: s.azimuth for s in b.surfaces if s.kind == "window"}
         for j, lab in enumerate(f["labels"]):
             i = int(np.argmin([abs((w[0] - az_win[lab] + 180) % 360 - 180) for w in case.walls]))
             sunlit[:, i], sky[i], gnd[i] = f["sunlit"][:, j], f["sky_view"][j], f["ground_view"][j]
+            hor[i] = f["horizon_view"][j]
         if len(_SHADING_CACHE) > 8:
             _SHADING_CACHE.clear()
-        _SHADING_CACHE[key] = (sunlit, sky, gnd)
+        _SHADING_CACHE[key] = (sunlit, sky, gnd, hor)
     return _SHADING_CACHE[key]
 
 
@@ -595,9 +600,19 @@ def solar_escape_fraction(tau_diffuse, window_area, interior_area, absorptance):
     return rho * p / (1.0 - rho * (1.0 - p))
 
 
-def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterior="hourly"):
-    """Hourly solar gains of a case [W] split by element, from the weather (Hay-Davies) or from
-    the integrator (``poa``, see :func:`integrator_irradiance`).
+def horizon_g(angles, g):
+    """g [1] of a vertical window for light from the horizon band: ``g(theta)`` averaged over the band's
+    azimuths with the weight ``cos theta`` (the band's light reaches the glass at ``theta`` = its azimuth from
+    the window's normal), ``int g cos / int cos`` over 0-90 deg."""
+    th = np.linspace(0.0, 90.0, 901)
+    w = np.cos(np.radians(th))
+    return float(np.trapezoid(np.interp(th, angles, g) * w, th) / np.trapezoid(w, th))
+
+
+def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterior="hourly",
+               transposition="perez"):
+    """Hourly solar gains of a case [W] split by element, from the weather (Perez or Hay-Davies) or
+    from the integrator (``poa``, see :func:`integrator_irradiance`).
 
     Parameters
     ----------
@@ -615,11 +630,17 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
         ``"hourly"``: outside surface coefficients per hour from the wind and air temperature
         (:mod:`widesky.thermal.exterior`), with the U-values, sky loss and absorbed-solar share they give;
         ``"constant"``: ISO 13790's fixed R_se = 0.04 (EN 673's h_e = 23 for the window).
+    transposition : str
+        The weather route's transposition (:data:`widesky.thermal.surface.TRANSPOSITIONS`): ``"perez"``
+        (Perez et al. 1990, default) or ``"hay-davies"``.
 
     Shading devices (Cases 610, 630 ...): on the weather route the window's beam (with the
     circumsolar part) is scaled by its sunlit share, its isotropic sky and ground-reflected light by
-    its view of the sky and of the ground that the devices leave, all by ray casting the devices
-    (:func:`widesky.thermal.bestest_geometry.window_shading`); the light the devices reflect and
+    its view of the sky and of the ground that the devices leave, the Perez horizon band by its view
+    of the band 0-6.5 deg above the horizon (cosine-weighted), all by ray casting the devices
+    (:func:`widesky.thermal.bestest_geometry.window_shading`); the horizon band passes the glass at
+    :func:`horizon_g` (its light comes in at grazing elevation from every azimuth of the window's front),
+    the isotropic sky and the ground's at the hemispherical g; the light the devices reflect and
     their shade on the opaque walls are left out. On the integrator route they are in the scene
     (``poa`` must be computed for the case's geometry, :func:`case_geometry`).
 
@@ -647,7 +668,8 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
                                  sp["zenith"].to_numpy(), sp["azimuth"].to_numpy(),
                                  weather["dni"].to_numpy(), weather["dhi"].to_numpy(),
                                  weather["ghi"].to_numpy(),
-                                 dni_extra(sp["earth_sun_distance"].to_numpy()), GROUND_REFLECTANCE)
+                                 dni_extra(sp["earth_sun_distance"].to_numpy()), GROUND_REFLECTANCE,
+                                 transposition=transposition)
     ang, g, g_d, tau_d = _window_g(case.window) if g_table is None else g_table
     esc = solar_escape_fraction(tau_d, case.window_area, case.interior_area,
                                 INTERIOR_SOLAR_ABSORPTANCE)
@@ -659,9 +681,11 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     if poa is not None:
         window = poa["window_gain"][case.window.name] * case.window_area * (1 - esc)
     else:
-        sunlit, sky_v, gnd_v = _shading_factors(case, sp["zenith"].to_numpy(),
-                                                sp["azimuth"].to_numpy())
-        diffuse_w = irr["poa_sky_diffuse"] * sky_v + irr["poa_ground_diffuse"] * gnd_v
+        sunlit, sky_v, gnd_v, hor_v = _shading_factors(case, sp["zenith"].to_numpy(),
+                                                       sp["azimuth"].to_numpy())
+        hor = irr["poa_horizon"]
+        diffuse_w = ((irr["poa_sky_diffuse"] - hor) * sky_v + irr["poa_ground_diffuse"] * gnd_v
+                     + hor * hor_v * (horizon_g(ang, g) / g_d))
         window = window_gains(win_area, irr["poa_direct"] * sunlit, diffuse_w, irr["aoi"], ang, g,
                               g_d).sum(1)
         window *= 1 - esc
@@ -810,14 +834,71 @@ def interior_solar_distribution(case: BestestCase, elements):
     return share / share.sum()
 
 
+def interior_longwave(case: BestestCase, elements):
+    """(E, E) long-wave exchange conductances between the elements' inside surfaces [W K-1]
+    (:func:`~widesky.thermal.zone_iso52016.radiant_exchange`): the view factors of the 8 m x 6 m x 2.7 m box
+    (:func:`~widesky.thermal.zone_iso52016.box_view_factors`), a wall's share split between its opaque part and its
+    window by area (coplanar: no view), emissivity 0.9 of the opaque surfaces (ASHRAE 140-2020 7.2.1: interior
+    infrared emissivity) and the glass's own (the records' absIR_b), linearised at 20 degC."""
+    faces = ("floor", "ceiling", "north", "east", "south", "west")
+    F6 = box_view_factors(*ROOM)
+    face = [("ceiling" if el.kind == "roof" else "floor" if el.kind == "floor" else el.name.split()[-1])
+            for el in elements]
+    area = np.array([el.area for el in elements])
+    idx = np.array([faces.index(f) for f in face])
+    gross = np.array([area[idx == k].sum() for k in range(6)])
+    F = F6[idx][:, idx] * (area / gross[idx])[None, :]
+    eps_glass = case.window.layers[-1].emissivity_back
+    eps = np.array([eps_glass if el.kind == "window" else INTERIOR_EMISSIVITY for el in elements])
+    return radiant_exchange(area, F, eps)
+
+
 ISO52016_OPTIONS = {"solar": ("ashrae140", "area"), "convection": ("direction", "fixed", "tarp"),
-                    "gaps": ("hourly", "en673"), "substeps": (4, 1)}
+                    "gaps": ("hourly", "en673"), "substeps": (4, 1), "longwave": ("star", "view"),
+                    "glass": ("g", "panes"), "lost": ("enclosure", "table"), "air": ("sea_level", "site")}
 """Choices of the ISO 52016-1 run (first: the default): where the transmitted solar lands
 (:data:`INTERIOR_SOLAR_DISTRIBUTION` or by opaque area), the inside convection of floor and ceiling (by the heat
 flow's direction, or fixed by kind), the windows' gap conductance (at the hour's temperature, or EN 673's) and the
 sub-steps per hour (4: 15-min implicit steps with the weather's instantaneous values interpolated, the Case 640/940
 set-point ramp followed within its hour (:func:`setback_substeps`) and the hourly means reported; 1: one step an
-hour, the Case 640 ramp hour at its mean 15 degC, the results at the hour's end)."""
+hour, the Case 640 ramp hour at its mean 15 degC, the results at the hour's end). ``"tarp"``: Walton's correlations
+for every inside surface instead. The alternatives measured and not kept (docs/validation/thermal-bestest-cases.md,
+hypothesis table): ``longwave="view"`` (:func:`interior_longwave`, view factors and script-F instead of ISO 52016-1's
+area-weighted star), ``glass="panes"`` (:func:`_window_panes`: the solar absorbed in the panes on the window's
+nodes, only the transmitted part spread by the table), ``lost="table"`` (the table's 0.035 lost back out through
+the windows instead of the enclosure formula's 0.028) and ``air="site"`` (the air node's rho c at the site's
+density, 0.828 of 1200 J m-3 K-1)."""
+
+
+def _window_panes(c: BestestCase, elements, g_gain, poa_global, lost):
+    """The window gain of :func:`case_gains` (g: transmitted plus the inward-flowing part of the absorbed) split
+    into the transmitted light, which the room's surfaces absorb (less the share that leaves again), and the solar
+    absorbed in each pane, put on the window's outer (first pane) and inner (last pane) surface node, whose flow
+    inward the zone's own network then decides. ``g_gain`` (T,) [W]: the g-value gain before any loss back out;
+    ``lost`` [1]: the transmitted share lost back out. Returns ``solar_in`` (T,) [W] and ``surface_gains`` (T, E, 2)
+    [W].
+    The split uses the unit's hemispherical transmittance and per-pane absorptance over its g (EN 410 layer model,
+    flat spectrum as the records are broadband); a single pane's absorbed solar goes half to each face. Windows
+    share it by area times their wall's incident irradiance."""
+    flat = np.array([280.0, 2500.0]), np.ones(2)
+    o = c.window.optics(ANGLES, flat[0])
+    t_d = float(hemispherical(ANGLES, o["transmittance"][:, 0]))
+    a_d = np.array([float(hemispherical(ANGLES, a[:, 0])) for a in o["absorbed"]])
+    g_d = float(hemispherical(ANGLES, o["shgc"][:, 0]))
+    solar_in = g_gain * t_d / g_d * (1 - lost)
+    absorbed = g_gain[:, None] * a_d[None, :] / g_d         # (T, panes) [W]
+    out, inn = (absorbed[:, 0], absorbed[:, -1]) if len(a_d) > 1 else (0.5 * absorbed[:, 0], 0.5 * absorbed[:, 0])
+    T, E = len(g_gain), len(elements)
+    sg = np.zeros((T, E, 2))
+    wins = [i for i, el in enumerate(elements) if el.kind == "window"]
+    names = ["north", "east", "south", "west"]
+    weight = np.stack([elements[i].area * poa_global[:, names.index(elements[i].name.split()[-1])]
+                       for i in wins], 1)
+    share = weight / np.maximum(weight.sum(1, keepdims=True), 1e-9)
+    for k, i in enumerate(wins):
+        sg[:, i, 0] = out * share[:, k]
+        sg[:, i, 1] = inn * share[:, k]
+    return solar_in, sg
 
 
 def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, options=None):
@@ -828,6 +909,17 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, o
         opt[k] = v
     els = iso52016_elements(c, data_dir, hourly_gaps=opt["gaps"] == "hourly")
     dist = interior_solar_distribution(c, els) if opt["solar"] == "ashrae140" else None
+    lw = interior_longwave(c, els) if opt["longwave"] == "view" else None
+    # the share of the transmitted solar lost back out through the windows: case_gains' enclosure formula, or the
+    # ASHRAE 140 table's beside its distribution
+    esc = solar_escape_fraction(_window_g(c.window)[3], c.window_area, c.interior_area, INTERIOR_SOLAR_ABSORPTANCE)
+    lost = INTERIOR_SOLAR_DISTRIBUTION[c.spec.layout]["lost"] if (
+        opt["solar"] == "ashrae140" and opt["lost"] == "table") else esc
+    solar_in, panes = gains["window"] * (1 - lost) / (1 - esc), None
+    if opt["glass"] == "panes":
+        solar_in, panes = _window_panes(c, els, gains["window"] / (1 - esc), gains["poa_global"], lost)
+    # the air node's rho c at the site's density, as the infiltration's (0.5 h-1 -> the case file's airRat)
+    rho_c = RHO_C_AIR * (c.air_changes / 0.5 if opt["air"] == "site" else 1.0)
     ta = weather["temp_air"].to_numpy()
     v = weather["wind_speed"].to_numpy()
     n_wall = len(c.walls)
@@ -843,21 +935,22 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, o
     if opt["substeps"] > 1 and c.spec.control == "setback":
         heat = setback_substeps(weather.index, opt["substeps"])
     return simulate_iso52016(els, ta, gains["temp_sky"], np.stack(h_ce, 1), np.stack(h_re, 1),
-                             np.stack(sol, 1), gains["window"], c.internal_gains, h_ve, heat, cool,
+                             np.stack(sol, 1), solar_in, c.internal_gains, h_ve, heat, cool,
                              volume=c.zone.floor_area * c.height,
                              internal_radiative_fraction=INTERNAL_RADIATIVE_FRACTION,
-                             air_capacity_per_volume=RHO_C_AIR, warmup_steps=warmup_steps,
+                             air_capacity_per_volume=rho_c, warmup_steps=warmup_steps,
                              temp_start=20.0, solar_distribution=dist, convection=opt["convection"],
-                             substeps=opt["substeps"])
+                             substeps=opt["substeps"], longwave=lw, surface_gains=panes)
 
 
 def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None,
-             exterior="hourly", zone_model="iso52016", iso52016_options=None):
+             exterior="hourly", zone_model="iso52016", iso52016_options=None, transposition="perez"):
     """Simulate ASHRAE 140 Case ``case`` for a weather year (hourly, 8760 steps).
 
     ``weather``: a key of :data:`WEATHER_FILES`, or a (data, site) pair as :func:`load_weather`.
     ``poa``: per-surface irradiance from :func:`integrator_irradiance` (same weather and the
-    case's :func:`case_geometry`) instead of the weather-only Hay-Davies route. ``exterior``:
+    case's :func:`case_geometry`) instead of the weather-only route, whose transposition is ``transposition``
+    (``"perez"``, default, or ``"hay-davies"``, :func:`case_gains`). ``exterior``:
     outside surface coefficients, see :func:`case_gains`. Set-points and ventilation follow the
     case's control (:func:`setpoint_schedules`). ``zone_model``: ``"iso52016"`` (the default: ISO
     52016-1's balance per element, :mod:`widesky.thermal.zone_iso52016`, with the
@@ -877,7 +970,7 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
     """
     c = case if isinstance(case, BestestCase) else case_definition(case, data_dir)
     weather, site = load_weather(weather, data_dir) if isinstance(weather, str) else weather
-    gains = case_gains(c, weather, site, g_table, poa, exterior)
+    gains = case_gains(c, weather, site, g_table, poa, exterior, transposition)
     phi_sol = gains["window"] + gains["opaque"] - gains["sky_loss"]
     heat, cool, h_ve = setpoint_schedules(c, weather.index)
     if zone_model not in ZONE_MODELS:

@@ -14,7 +14,8 @@ ISO 52016-1 (section 6.5) instead keeps one set of nodes per construction elemen
   radiative part; ``convection="fixed"`` takes roofs as upward and floors as downward, ``"direction"`` the
   direction of each step, ``"tarp"`` Walton's correlations instead, :data:`CONVECTION`)
   and long-wave exchange with the other surfaces through the area-weighted mean inside surface temperature
-  (``h_ri = 5.13`` W m-2 K-1, 52016-1 6.5.6.3);
+  (``h_ri = 5.13`` W m-2 K-1, 52016-1 6.5.6.3), or (``longwave``) by view factors and grey script-F
+  (:func:`box_view_factors`, :func:`radiant_exchange`);
 * the air node: convection from the surfaces, ventilation, the convective share of the gains and the
   ideal heating or cooling that holds it at its set-point.
 
@@ -37,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["Layer", "Element", "H_RI", "H_CI", "H_CI_UP", "H_CI_DOWN", "CONVECTION", "simulate_iso52016",
-           "element_nodes", "window_resistance"]
+           "element_nodes", "window_resistance", "radiant_exchange", "box_view_factors"]
 
 SIGMA = 5.670374419e-8
 
@@ -143,6 +144,81 @@ def window_resistance(element: Element, mean_temperature=EN673_MEAN_TEMPERATURE)
     return element.resistance + sum(1.0 / (hg + 4 * SIGMA * eps * mean_temperature ** 3) for hg, eps in element.gaps)
 
 
+def _f_parallel(x, y, d):
+    """View factor between two aligned parallel x-by-y rectangles at distance d [1] (Incropera, Table 13.2)."""
+    x, y = x / d, y / d
+    a, b = np.sqrt(1 + x * x), np.sqrt(1 + y * y)
+    return 2 / (np.pi * x * y) * (0.5 * np.log((1 + x * x) * (1 + y * y) / (1 + x * x + y * y))
+                                  + x * b * np.arctan(x / b) + y * a * np.arctan(y / a)
+                                  - x * np.arctan(x) - y * np.arctan(y))
+
+
+def _f_perpendicular(x, y, z):
+    """View factor from an x-by-y rectangle to a perpendicular x-by-z one sharing the edge x [1] (Incropera,
+    Table 13.2)."""
+    h, w = z / x, y / x
+    s = h * h + w * w
+    t = ((1 + w * w) * (1 + h * h) / (1 + s) * (w * w * (1 + s) / ((1 + w * w) * s)) ** (w * w)
+         * (h * h * (1 + s) / ((1 + h * h) * s)) ** (h * h))
+    return (w * np.arctan(1 / w) + h * np.arctan(1 / h) - np.sqrt(s) * np.arctan(1 / np.sqrt(s))
+            + 0.25 * np.log(t)) / (np.pi * w)
+
+
+def box_view_factors(width, depth, height):
+    """(6, 6) view factors between the inside faces of a rectangular room [1], order floor, ceiling, north,
+    east, south, west (``width`` along the north and south walls, ``depth`` along the east and west walls,
+    ``height`` [m]); rows sum to 1."""
+    dims = {"floor": (width, depth), "ceiling": (width, depth), "north": (width, height),
+            "south": (width, height), "east": (depth, height), "west": (depth, height)}
+    opposite = {"floor": "ceiling", "ceiling": "floor", "north": "south", "south": "north", "east": "west",
+                "west": "east"}
+    gap = {"floor": height, "ceiling": height, "north": depth, "south": depth, "east": width, "west": width}
+    names = ("floor", "ceiling", "north", "east", "south", "west")
+    F = np.zeros((6, 6))
+    for i, a in enumerate(names):
+        for j, b in enumerate(names):
+            if a == b:
+                continue
+            if opposite[a] == b:
+                F[i, j] = _f_parallel(*dims[a], gap[a])
+            else:
+                common = (set(_edges(a, width, depth, height)) & set(_edges(b, width, depth, height))).pop()
+                other_a = dims[a][0] * dims[a][1] / common[1]
+                other_b = dims[b][0] * dims[b][1] / common[1]
+                F[i, j] = _f_perpendicular(common[1], other_a, other_b)
+    return F
+
+
+def _edges(face, width, depth, height):
+    """The four edges of a box face as (name, length) (the name is the pair of faces meeting there)."""
+    sides = {"floor": ("north", "south", "east", "west"), "ceiling": ("north", "south", "east", "west"),
+             "north": ("floor", "ceiling", "east", "west"), "south": ("floor", "ceiling", "east", "west"),
+             "east": ("floor", "ceiling", "north", "south"), "west": ("floor", "ceiling", "north", "south")}
+    length = {frozenset(("floor", "north")): width, frozenset(("floor", "south")): width,
+              frozenset(("ceiling", "north")): width, frozenset(("ceiling", "south")): width,
+              frozenset(("floor", "east")): depth, frozenset(("floor", "west")): depth,
+              frozenset(("ceiling", "east")): depth, frozenset(("ceiling", "west")): depth}
+    return [(frozenset((face, o)), length.get(frozenset((face, o)), height)) for o in sides[face]]
+
+
+def radiant_exchange(area, view_factors, emissivity, temperature=20.0):
+    """(E, E) long-wave exchange conductances between inside surfaces [W K-1], grey and diffuse, by the radiosity
+    method (Hottel's script-F), linearised at ``temperature`` [degC].
+
+    ``area`` (E,) [m2], ``view_factors`` (E, E) [1] (rows summing to 1; zero between coplanar surfaces),
+    ``emissivity`` (E,) [1]. The net long-wave flow out of surface i is ``sum_j G_ij theta_j`` [W] (rows of G sum to
+    zero): ``G = 4 sigma T^3 diag(A eps) (I - F (I - diag(1 - eps) F)^-1 diag(eps))``.
+    """
+    a, F, eps = (np.asarray(v, float) for v in (area, view_factors, emissivity))
+    E = len(a)
+    if F.shape != (E, E) or not np.allclose(F.sum(1), 1.0, atol=1e-6):
+        raise ValueError(f"view_factors must be ({E}, {E}) with rows summing to 1")
+    if np.any((eps <= 0) | (eps > 1)):
+        raise ValueError(f"emissivity must be in (0, 1], got {eps!r}")
+    q = (a * eps)[:, None] * (np.eye(E) - F @ np.linalg.solve(np.eye(E) - (1 - eps)[:, None] * F, np.diag(eps)))
+    return 4 * SIGMA * (temperature + 273.15) ** 3 * q
+
+
 def element_nodes(element: Element):
     """Node conductances and capacities of one element, outside surface first.
 
@@ -170,7 +246,8 @@ def element_nodes(element: Element):
 def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, solar_in, phi_int,
                       h_ve, heating_setpoint, cooling_setpoint, *, volume, internal_radiative_fraction=0.5,
                       air_capacity_per_volume=1200.0, timestep=3600.0, warmup_steps=0, temp_start=20.0,
-                      solar_distribution=None, convection="fixed", substeps=1):
+                      solar_distribution=None, convection="fixed", substeps=1, longwave=None,
+                      surface_gains=None):
     """Run the ISO 52016-1 hourly balance of one zone (module doc).
 
     Parameters
@@ -214,6 +291,13 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         the hour's integrals and schedules (``solar_out``, ``solar_in``, ``phi_int``, ``h_ve``, set-points) are
         held over the step. Results are the step's means over its sub-steps (``temp_air``, ``temp_surface``,
         ``heating``, ``cooling``). 1 (default): one implicit step per step, the results at its end.
+    longwave : array_like, optional
+        (E, E) long-wave exchange conductances between the inside surfaces [W K-1] (rows summing to zero, e.g.
+        :func:`radiant_exchange` from the room's view factors); default: ISO 52016-1's exchange through the
+        area-weighted mean inside surface temperature with ``H_RI``.
+    surface_gains : array_like, optional
+        (T, E, 2) heat [W] added at each element's outside (``[..., 0]``) and inside (``[..., 1]``) surface node,
+        held over the step: e.g. the solar absorbed in a window's outer and inner pane.
 
     Returns
     -------
@@ -239,6 +323,9 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     ts, hce, hre = steps(temp_sky, "temp_sky"), steps(h_ce, "h_ce", True), steps(h_re, "h_re", True)
     sol_out, sol_in = steps(solar_out, "solar_out", True), steps(solar_in, "solar_in")
     pint, hve = steps(phi_int, "phi_int"), steps(h_ve, "h_ve")
+    sgain = np.zeros((T, E, 2)) if surface_gains is None else np.asarray(surface_gains, float)
+    if sgain.shape != (T, E, 2):
+        raise ValueError(f"surface_gains has shape {sgain.shape}, expected {(T, E, 2)}")
     sub_set = [np.asarray(a, float) for a in (heating_setpoint, cooling_setpoint)]
     per_sub = [isinstance(substeps, (int, np.integer)) and substeps > 1 and a.shape == (T * substeps,)
                for a in sub_set]
@@ -261,7 +348,7 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         def hold(a):
             return np.repeat(a, n_sub, axis=0)
         te, ts, hce, hre = interp(te), interp(ts), interp(np.asarray(hce)), interp(np.asarray(hre))
-        sol_out, sol_in, pint, hve = (hold(np.asarray(a)) for a in (sol_out, sol_in, pint, hve))
+        sol_out, sol_in, pint, hve, sgain = (hold(np.asarray(a)) for a in (sol_out, sol_in, pint, hve, sgain))
         hs, cs = (a if sub else hold(np.asarray(a)) for a, sub in zip((hs, cs), per_sub))
         if np.any(hs > cs):
             raise ValueError("heating_setpoint must be <= cooling_setpoint")
@@ -299,9 +386,15 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         couple(inside[i], 0, H_CI[el.kind] * el.area)
     # long-wave exchange through the area-weighted mean inside surface temperature:
     # q_i = h_ri A_i (theta_i - sum_k A_k theta_k / A_tot)
-    for i, el in enumerate(elements):
-        K[inside[i], inside] -= H_RI * el.area * area / a_tot
-        K[inside[i], inside[i]] += H_RI * el.area
+    if longwave is None:
+        for i, el in enumerate(elements):
+            K[inside[i], inside] -= H_RI * el.area * area / a_tot
+            K[inside[i], inside[i]] += H_RI * el.area
+    else:
+        lw = np.asarray(longwave, float)
+        if lw.shape != (E, E) or not np.allclose(lw.sum(1), 0.0, atol=1e-6 * np.abs(lw).max()):
+            raise ValueError(f"longwave must be ({E}, {E}) conductances with rows summing to zero")
+        K[np.ix_(inside, inside)] += lw
     f_sky = np.array([0.5 * (1 + np.cos(np.radians(el.tilt))) for el in elements])
     exposed = np.array([el.exposed for el in elements])
     alpha = np.array([0.0 if el.kind == "window" or not el.exposed else el.absorptance for el in elements])
@@ -314,6 +407,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     rhs[:, outside] += (hce * area * te[:, None] + hre * area * (sky * ts[:, None] + (1 - sky) * te[:, None])
                         + alpha * area * sol_out)
     rhs[:, 0] += hve * te + (1 - internal_radiative_fraction) * pint
+    rhs[:, outside] += sgain[:, :, 0]
+    rhs[:, inside] += sgain[:, :, 1]
     rhs[:, inside] += (internal_radiative_fraction * pint)[:, None] * area / a_tot
     if solar_distribution is None:
         share = np.where(opaque, area, 0.0) if opaque.any() else area
