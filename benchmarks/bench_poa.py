@@ -18,7 +18,7 @@ end to end); ``--dask N`` casts the rays on a local Dask cluster of N worker pro
 
 Faces x hours per second and memory against the face count (issue 36)::
 
-     python benchmarks/bench_poa.py --scaling 20000,100000,200000,1000000 [--pieces 2] [--max-file-gb 9]
+     python benchmarks/bench_poa.py --scaling 20000,100000,200000,1000000 [--pieces 2] [--max-file-gb 9] [--reduce]
 
 runs each size in its own process (peak resident memory of that process: ``ru_maxrss``), streamed to an HDF5 file
 (``WIDESKY_TMPDIR`` or the system's temporary folder, removed after), in blocks of faces
@@ -26,7 +26,9 @@ runs each size in its own process (peak resident memory of that process: ``ru_ma
 ``--max-file-gb`` runs only its first ``--pieces`` blocks of faces (the whole scene built and ray-cast against, the
 rest of the faces not computed: "in pieces"), and its time is extrapolated per face, said so. Prints faces x hours
 per second, CPU per face (the main process; the ray casting: its descendants'), peak RSS, and the
-exponent of CPU against faces fitted over the sizes; see :func:`scaling`.
+exponent of CPU against faces fitted over the sizes; see :func:`scaling`. ``--reduce`` runs each size reduce-only
+(``OutputOptions(arrays=False, angles=False, consumer=FaceSums(...))``: per-face annual sums of the three
+responses' three parts and global [kWh m-2], no (T, F) output; "in pieces" by the same file-size rule).
 
 The per-step sky cost (issue 36): ``--sky-steps [--repeat 2] [--baseline-core PATH]`` times the sky stage alone
 against a per-state baseline (see :func:`sky_steps`).
@@ -280,8 +282,9 @@ class _DescendantCPU:
         return float(sum(self.seen.values()))
 
 
-def _scale_worker(faces, jobs, output, pieces, face_block):
-    """One size of ``--scaling`` in this process: prints a JSON line."""
+def _scale_worker(faces, jobs, output, pieces, face_block, reduce=False):
+    """One size of ``--scaling`` in this process: prints a JSON line. ``reduce``: a reduce-only run (per-face
+    annual sums of every response's parts, :class:`widesky.irradiance.sink.FaceSums`; no (T, F) output)."""
     import dataclasses
     import json
     import resource
@@ -329,8 +332,14 @@ def _scale_worker(faces, jobs, output, pieces, face_block):
     load0 = os.getloadavg()[0]
     kids = _DescendantCPU()
     t0 = time.perf_counter()
+    if reduce:
+        from widesky.irradiance.sink import FaceSums
+        sums = FaceSums(scene.n_faces)                     # hourly steps
+        out_opt = OutputOptions(angles=False, arrays=False, consumer=sums)
+    else:
+        out_opt = OutputOptions(path=output)
     res = poa_irradiance(scene, sky, states, responses=resp, times=times,
-                         run=RunOptions(n_jobs=jobs, face_block=face_block), output=OutputOptions(path=output))
+                         run=RunOptions(n_jobs=jobs, face_block=face_block), output=out_opt)
     sec = time.perf_counter() - t0
     ru1 = resource.getrusage(resource.RUSAGE_SELF)
     cpu_rays = kids.total()
@@ -347,6 +356,7 @@ def _scale_worker(faces, jobs, output, pieces, face_block):
         "peak_rss_mb": ru1.ru_maxrss / 1024, "rss_before_run_mb": rss0 / 1024, "file_gb": size / 1e9,
         "sky_s": tm["sky"], "sky_cpu": sky_cpu[0], "write_cpu": flush_cpu[0], "product_s": tm["product"],
         "rays_s": tm["rays"], "rays_wait_s": tm["rays_wait"], "n_rays": tm["n_rays"], "load_before": load0,
+        "reduce": bool(reduce), "consumer_s": tm.get("consumer", 0.0),
         "load_after": os.getloadavg()[0]}), flush=True)
     return 0
 
@@ -372,6 +382,8 @@ def scaling(args):
                str(args.jobs), "--worker-output", out, "--pieces", str(pieces)]
         if args.face_block:
             cmd += ["--face-block", str(args.face_block)]
+        if args.reduce:
+            cmd += ["--reduce"]
         env = dict(os.environ, OPENBLAS_NUM_THREADS=str(args.blas_threads))
         p = subprocess.run(cmd, capture_output=True, text=True, cwd=work, env=env)
         if os.path.exists(out):
@@ -401,7 +413,7 @@ def scaling(args):
         x = np.log([r["faces"] for r in rows])
         for key, v in (("ray casting", lambda r: r["cpu_rays"]),
                        ("products", lambda r: r["cpu_main"] - r["sky_cpu"] - r["write_cpu"]),
-                       ("file writing", lambda r: r["write_cpu"]),
+                       *(() if rows[-1].get("reduce") else (("file writing", lambda r: r["write_cpu"]),)),
                        ("all", lambda r: r["cpu_rays"] + r["cpu_main"] - r["sky_cpu"])):
             y = np.log([v(r) / r["faces_done"] * r["faces"] for r in rows])
             print(f"exponent of the {key} CPU (whole scene: per-face CPU x faces) against faces: "
@@ -411,9 +423,9 @@ def scaling(args):
     rays = big["cpu_rays"] / d * F
     write = big["write_cpu"] / d * F
     main_f = (big["cpu_main"] - big["sky_cpu"]) / d * F
-    for label, m in (("with the file", main_f),
-                     ("without the file writing (a projection only: a run always keeps broadband's parts, aoi and "
-                      "sun visibility)", main_f - write)):
+    for label, m in ((("reduce-only: per-face annual sums, no (T, F) output (OutputOptions(arrays=False, "
+                       "angles=False, consumer=FaceSums))", main_f),) if big.get("reduce") else
+                     (("with the file", main_f), ("without the file writing (a projection only)", main_f - write))):
         wall = max(rays / max(n - 1, 1), m) + big["sky_cpu"]
         print(f"projection, {F:,} faces x {big['hours']} h on {n} cores, {label}: rays {rays:,.0f} s CPU -> "
               f"{rays / (n - 1):,.0f} s on {n - 1} worker processes; main process {m:,.0f} s CPU beside them; sky "
@@ -646,6 +658,8 @@ def main(argv=None):
     ap.add_argument("--blas-threads", type=int, default=1,
                     help="OPENBLAS_NUM_THREADS of the --scaling runs (1: the cores are busy casting rays)")
     ap.add_argument("--scale-worker", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--reduce", action="store_true",
+                    help="--scaling: reduce-only runs (per-face annual sums of every part, no (T, F) output)")
     ap.add_argument("--sky-steps", action="store_true",
                     help="the per-step sky cost against the per-state baseline (see sky_steps)")
     ap.add_argument("--baseline-core", default=None,
@@ -657,7 +671,7 @@ def main(argv=None):
     if args.worker:
         return _worker(args.worker, args.faces, args.jobs, args.worker_output)
     if args.scale_worker:
-        return _scale_worker(args.faces, args.jobs, args.worker_output, args.pieces, args.face_block)
+        return _scale_worker(args.faces, args.jobs, args.worker_output, args.pieces, args.face_block, args.reduce)
     if args.scaling:
         return scaling(args)
     if args.compare:

@@ -43,7 +43,7 @@ def assemble_blocks(ctx: ProductContext, cols, plan, sink, scene, states, sky_te
             continue
         block = sink.block(b0, b1, f0, f1)
         upb = np.nonzero(up[b0:b1])[0]
-        if upb.size:                               # beam angle of incidence of every face
+        if upb.size and "aoi" in block:            # beam angle of incidence of every face
             cz = dot3(sun_dir32[b0 + upb], face_nT)
             np.clip(cz, -1.0, 1.0, out=cz)
             np.arccos(cz, out=cz)
@@ -165,7 +165,8 @@ def assemble_parts(ctx: ProductContext, resp, col_of, plan, terms, block, rows, 
             currents[name] = GlobalParts(tot, np.zeros(Tc, np.float32), np.zeros_like(tot))
         for p in keep:
             block[(name, p)][rows] = tot if p == "global" else means[p]
-    block["sun_visible"][rows] = f(terms["vis"])
+    if "sun_visible" in block:
+        block["sun_visible"][rows] = f(terms["vis"])
     if ctx.spectral:
         J, C = ctx.J, ctx.C
         s0 = sp[J]

@@ -82,8 +82,6 @@ def stored_parts(names, parts):
     unknown = sorted(set(map(str, parts)) - set(names))
     if unknown:
         raise ValueError(f"parts names response(s) {unknown} that are not computed; responses: {list(names)}")
-    if "broadband" in parts:
-        raise ValueError("parts: 'broadband' always keeps its three parts (poa_direct ... poa_ground_diffuse)")
     out = []
     for n in names:
         v = parts.get(n, PARTS)
@@ -185,7 +183,7 @@ def output_plan(scene, sky, states, settings, resp, output, face_block=None, n_c
     kept_names = [n for n, st in zip(names, stored) if st]
 
     # blocks of faces, each run end to end
-    n_arr = len(keys) + 2 + (4 * C if output.spectral else 0)
+    n_arr = len(keys) + 2 * bool(getattr(output, "angles", True)) + (4 * C if output.spectral else 0)
     consumer_faces = takes_faces(output.consumer)
     if output.consumer is not None and not consumer_faces:
         if face_block is not None and int(face_block) < F:

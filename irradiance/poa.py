@@ -132,7 +132,8 @@ def poa_irradiance(scene: Scene, sky, states: SkyStates, *, responses=None, sett
         t_sky_ahead = sky_terms.seconds if (pending is not None and pending.running) else 0.0
         sink = Sink(plan.keys, T, scene.n_faces, sky.n_channels,
                     None if output.path is None else os.fspath(output.path), plan.kept_names, plan.kept_units,
-                    FaceTable.from_scene(scene), output.spectral, output.compression, stored=plan.kept_parts)
+                    FaceTable.from_scene(scene), output.spectral, output.compression, stored=plan.kept_parts,
+                    angles=output.angles, arrays=output.arrays)
         grouped = None if whole else group_normals(scene)
         t_prod = t_consumer = t_wait = t_cast = 0.0
         n_rays = n_bins = 0

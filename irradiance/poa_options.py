@@ -15,6 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Optional
 
+import numpy as np
+
 from .allsky import AllSkyOptions
 from .optics import DEFAULT_NODES
 
@@ -79,7 +81,7 @@ class OutputOptions:
     spectral : bool
         Also keep the spectral parts (T, F, C) [W m-2 nm-1] (broadband, no optics; large).
     parts : dict of str to str or sequence of str, optional
-        Per response (not "broadband") the parts to keep, from "direct", "sky_diffuse",
+        Per response ("broadband" included) the parts to keep, from "direct", "sky_diffuse",
         "ground_diffuse" and "global" (default: the three parts, "global" read as their sum). A
         response kept as ``"global"`` alone is stored as one (T, F) array, the float32 sum of its
         three face-mean parts (the same numbers ``get(name, "global")`` gives from a full run), so
@@ -89,12 +91,23 @@ class OutputOptions:
         "global" only (or not at all) without an angle x wavelength optic take the fused product:
         sky and reflected light through one matrix per optic, ``X @ (D + R x reflection optic)``,
         averaged over each face's points before the product (equal to the three-part sum within
-        float32 rounding: tests/test_poa_parts.py).
+        float32 rounding: tests/test_poa_parts.py). A response not kept is absent from
+        ``result.responses`` (so is "broadband" kept as ``()``: ``poa_global`` ... are then unavailable).
+    angles : bool
+        Keep the beam's angle of incidence ``"aoi"`` [deg] and the sun visibility ``"sun_visible"`` [1]
+        per face and step (default True). False computes neither: they are absent from the result
+        (``result.aoi`` is a ValueError) and from a consumer's ``block``; two (T, F) arrays fewer.
+    arrays : bool
+        Keep the (T, F) arrays in the result (default True). False: the kept parts (and, with ``angles``,
+        aoi and sun visibility) are computed block by block into reused buffers for ``consumer`` only
+        and the result holds none of them (a reduce-only run, whose memory does not grow with the period:
+        e.g. :class:`widesky.irradiance.sink.FaceSums`, per-face period sums [kWh m-2]). Needs a consumer;
+        not with ``path`` nor ``spectral``.
     consumer : callable, optional
         Called once per chunk of daylight steps, when the chunk is assembled, as
         ``consumer(steps, block, rows, currents)``: ``steps`` (Tc,) step indices; ``block`` dict key
         -> (n, F) float32 arrays of the current output block (the kept parts as ``(name, part)``,
-        ``"aoi"`` [deg] and ``"sun_visible"`` [1]), the chunk's values at rows ``rows`` (Tc,);
+        ``"aoi"`` [deg] and ``"sun_visible"`` [1] when ``angles``), the chunk's values at rows ``rows`` (Tc,);
         ``currents`` dict name -> :class:`widesky.irradiance.poa.GlobalParts` of every response the fused
         product serves and of every response kept for the consumer only (the fused product's factors, so
         a consumer can use them without a copy; other kept globals are in ``block``). The arrays are
@@ -114,6 +127,8 @@ class OutputOptions:
     path: Any = None
     spectral: bool = False
     parts: Optional[dict] = None
+    angles: bool = True
+    arrays: bool = True
     consumer: Optional[Callable] = None
     block_steps: Optional[int] = None
     compression: Optional[str] = None
@@ -124,6 +139,19 @@ class OutputOptions:
             raise TypeError(f"parts: expected a dict response name -> parts, got {type(self.parts).__name__}")
         if self.consumer is not None and not callable(self.consumer):
             raise TypeError(f"consumer: expected a callable, got {type(self.consumer).__name__}")
+        for name in ("angles", "arrays"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise TypeError(f"{name}: expected True or False, got {getattr(self, name)!r}")
+        if not self.arrays:
+            if self.consumer is None:
+                raise ValueError("arrays=False keeps no (T, F) arrays: give a consumer that reduces them "
+                                 "(e.g. widesky.irradiance.sink.FaceSums)")
+            if self.path is not None:
+                raise ValueError(f"arrays=False writes no arrays: path={self.path!r} would hold none (leave "
+                                 "path unset, or keep arrays=True to stream them there)")
+            if self.spectral:
+                raise ValueError("arrays=False with spectral=True: the spectral parts are kept only as arrays "
+                                 "(keep arrays=True)")
         if self.block_steps is not None and int(self.block_steps) < 1:
             raise ValueError(f"block_steps={self.block_steps} must be >= 1 (steps)")
         if self.compression not in COMPRESSIONS:

@@ -16,7 +16,8 @@ File layout (HDF5 through h5py; ``format = "widesky.poa"``, ``format_version = 1
                             (format_version 2: a response run with ``parts=`` keeps only the parts
                             named in the root attribute ``parts``, JSON dict name -> list, "global"
                             among them; version 1 files hold the three parts of every response)
-    /aoi, /sun_visible      (T, F) float32 [deg] (NaN at night), [1]
+    /aoi, /sun_visible      (T, F) float32 [deg] (NaN at night), [1] (absent from a run with
+                            ``angles=False``: format_version 2, root attribute ``angles`` false)
     /spectral/<part>        (T, F, C) float32 [W m-2 nm-1] (spectral runs only)
     /wavelengths, /channel_edges   (C,), (C+1,) [nm]
 
@@ -247,30 +248,47 @@ class POAResult:
         return {n: self.get(n, "global") for n in self.responses[1:]}
 
     @property
+    def has_angles(self):
+        """True when the result keeps ``aoi`` and ``sun_visible`` (not a run with ``angles=False``)."""
+        return self._aoi is not None
+
+    def _angles(self, name):
+        a = {"aoi": self._aoi, "sun_visible": self._sun_visible}[name]
+        if a is None:
+            raise ValueError(f"{name} was not kept (poa_irradiance(output=OutputOptions(angles=False)))")
+        return a
+
+    @property
     def aoi(self):
         """(T, F) beam angle of incidence [deg]; NaN with the sun below the horizon."""
-        return np.asarray(self._aoi[:])
+        return np.asarray(self._angles("aoi")[:])
 
     @property
     def sun_visible(self):
         """(T, F) fraction of each face's points that see the sun [1]."""
-        return np.asarray(self._sun_visible[:])
+        return np.asarray(self._angles("sun_visible")[:])
 
     def face_columns(self, name, faces):
         """(T, len(faces)) of ``"aoi"`` [deg] or ``"sun_visible"`` [1] for some faces, reading only those
         columns from a file-backed result."""
-        arrays = {"aoi": self._aoi, "sun_visible": self._sun_visible}
+        arrays = ("aoi", "sun_visible")
         if name not in arrays:
             raise ValueError(f"face_columns: name must be one of {sorted(arrays)}, got {name!r}")
-        return self._read(arrays[name], np.asarray(faces))
+        return self._read(self._angles(name), np.asarray(faces))
+
+    def _shape(self):
+        for a in (self._aoi, *self._data.values()):
+            if a is not None:
+                return tuple(a.shape[:2])
+        return len(self.states), len(self.faces)
 
     @property
     def n_steps(self):
-        return int(self._aoi.shape[0])
+        return int(self._shape()[0])
 
     @property
     def n_faces(self):
-        return int(self._aoi.shape[1])
+        return int(self._shape()[1])
 
     # the old names of the face arrays
     @property
@@ -315,7 +333,8 @@ class POAResult:
                     [self.get(r, p, steps=slice(a, min(T, a + step))) @ Mn for a in range(0, T, step)]
                     or [np.zeros((0, Mn.shape[1]))])
         for q, p in zip(self.QUANTITIES, ("global", "direct", "sky_diffuse", "ground_diffuse")):
-            out[q] = out[f"broadband:{p}"]
+            if f"broadband:{p}" in out:            # (those kept)
+                out[q] = out[f"broadband:{p}"]
         return out
 
     def to_pvlib(self, face=None, group=None, response="broadband"):
@@ -344,9 +363,9 @@ class POAResult:
         data = {}
         for p in ("global",) + PARTS:
             data[f"poa_{p}"] = self.get(response, p, faces=idx) @ w
-        aoi = self._read(self._aoi, idx)
-        data["aoi"] = aoi @ w
-        data["sun_visible"] = self._read(self._sun_visible, idx) @ w
+        if self.has_angles:
+            data["aoi"] = self._read(self._aoi, idx) @ w
+            data["sun_visible"] = self._read(self._sun_visible, idx) @ w
         return pd.DataFrame(data, index=self.times)
 
     # -- file ------------------------------------------------------------------------------------
@@ -357,13 +376,14 @@ class POAResult:
         with atomic_h5(path) as f:
             w = H5Writer(f, self.responses, self.units, self.faces, self.n_steps,
                          spectral_channels=None if self.spectral is None else len(self.wavelengths),
-                         compression=compression, parts=self.stored_parts)
+                         compression=compression, parts=self.stored_parts, angles=self.has_angles)
             step = max(1, (64 << 20) // max(1, 4 * self.n_faces * (len(self._data) + 2)))
             for t0 in range(0, self.n_steps, step):
                 t1 = min(self.n_steps, t0 + step)
                 block = {k: np.asarray(v[t0:t1]) for k, v in self._data.items()}
-                block["aoi"] = np.asarray(self._aoi[t0:t1])
-                block["sun_visible"] = np.asarray(self._sun_visible[t0:t1])
+                if self.has_angles:
+                    block["aoi"] = np.asarray(self._aoi[t0:t1])
+                    block["sun_visible"] = np.asarray(self._sun_visible[t0:t1])
                 if self.spectral is not None:
                     for p, a in self.spectral.items():
                         block[("spectral", p)] = np.asarray(a[t0:t1])
@@ -398,7 +418,7 @@ class POAResult:
         scaling = _read_scaling(f["scaling"]) if "scaling" in f else None
         provenance = json.loads(f.attrs.get("provenance", "{}"))
         data = {(r, p): f["poa"][r][p] for r in responses for p in ALL_PARTS if p in f["poa"][r]}
-        aoi, vis = f["aoi"], f["sun_visible"]
+        aoi, vis = (f["aoi"], f["sun_visible"]) if "aoi" in f else (None, None)
         spectral = ({p: f["spectral"][p] for p in f["spectral"]} if "spectral" in f else None)
         wl = f["wavelengths"][:] if "wavelengths" in f else None
         edges = f["channel_edges"][:] if "channel_edges" in f else None
@@ -431,7 +451,7 @@ class POAResult:
         lo, hi = (int(idx.min()), int(idx.max()) + 1) if idx.size else (0, 0)
 
         def cut(a):
-            return np.asarray(a[t0:t1, lo:hi])[:, idx - lo]
+            return None if a is None else np.asarray(a[t0:t1, lo:hi])[:, idx - lo]
 
         data = {k: cut(v) for k, v in self._data.items()}
         fc = self.faces
@@ -501,7 +521,7 @@ class H5Writer:
     """
 
     def __init__(self, f, responses, units, faces, n_steps, spectral_channels=None,
-                 compression=None, parts=None):
+                 compression=None, parts=None, angles=True):
         self.f = f
         T, F = int(n_steps), len(faces)
         if compression not in (None, "lzf", "gzip"):
@@ -509,8 +529,10 @@ class H5Writer:
         kept = {r: tuple((parts or {}).get(r, PARTS)) for r in responses}
         full = all(v == PARTS for v in kept.values())
         f.attrs["format"] = FORMAT
-        # files with every response's three parts stay readable by version-1 readers
-        f.attrs["format_version"] = 1 if full else FORMAT_VERSION
+        # files with every response's three parts (and the angles) stay readable by version-1 readers
+        f.attrs["format_version"] = 1 if full and angles else FORMAT_VERSION
+        if not angles:
+            f.attrs["angles"] = False
         f.attrs["responses"] = json.dumps(list(responses))
         f.attrs["units"] = json.dumps(dict(units))
         f.attrs["parts"] = json.dumps(list(PARTS) if full else {r: list(v) for r, v in kept.items()})
@@ -526,9 +548,10 @@ class H5Writer:
             gr.attrs["unit"] = units[r]
             for p in kept[r]:
                 self.ds[(r, p)] = gr.create_dataset(p, shape=(T, F), fillvalue=0.0, **kw)
-        self.ds["aoi"] = f.create_dataset("aoi", shape=(T, F), fillvalue=np.nan, **kw)
-        self.ds["aoi"].attrs["unit"] = "deg"
-        self.ds["sun_visible"] = f.create_dataset("sun_visible", shape=(T, F), fillvalue=0.0, **kw)
+        if angles:
+            self.ds["aoi"] = f.create_dataset("aoi", shape=(T, F), fillvalue=np.nan, **kw)
+            self.ds["aoi"].attrs["unit"] = "deg"
+            self.ds["sun_visible"] = f.create_dataset("sun_visible", shape=(T, F), fillvalue=0.0, **kw)
         if spectral_channels:
             C = int(spectral_channels)
             gs = f.create_group("spectral")

@@ -16,7 +16,7 @@ import numpy as np
 from .integrator import lazy_zeros
 from .result import PARTS, H5Writer, POAResult, atomic_h5
 
-__all__ = ["Sink", "run_provenance"]
+__all__ = ["Sink", "run_provenance", "FaceSums"]
 
 
 IN_MEMORY_BYTES = 2 << 30
@@ -33,11 +33,15 @@ class Sink:
     result larger than :data:`IN_MEMORY_BYTES`)."""
 
     def __init__(self, keys, T, F, C, path, resp_names, units, faces, spectral, compression=None,
-                 stored=None):
+                 stored=None, angles=True, arrays=True):
+        # angles: keep "aoi" and "sun_visible"; arrays False: the blocks are buffers for the consumer only
+        # (nothing kept, nothing written)
         self.keys, self.T, self.F, self.C = keys, T, F, C
+        self.angles, self.arrays = bool(angles), bool(arrays)
+        self.geo = ["aoi", "sun_visible"] if self.angles else []
         self.temporary = None
-        if path is None:
-            n_arr = len(keys) + 2 + (len(PARTS) + 1) * C * bool(spectral)
+        if path is None and self.arrays:
+            n_arr = len(keys) + len(self.geo) + (len(PARTS) + 1) * C * bool(spectral)
             if 4 * T * F * n_arr > IN_MEMORY_BYTES:
                 import tempfile
                 fd, path = tempfile.mkstemp(prefix="widesky-result-", suffix=".h5",
@@ -47,10 +51,11 @@ class Sink:
         self.path, self.writer, self.ctx = path, None, None
         self.spectral = spectral
         self.resp_names, self.units, self.faces = resp_names, units, faces
-        if path is None:
-            self.full = {k: lazy_zeros((T, F), np.float32) for k in keys}
-            self.full["aoi"] = lazy_zeros((T, F), np.float32)
-            self.full["sun_visible"] = lazy_zeros((T, F), np.float32)
+        self.full = None
+        if not self.arrays:
+            pass
+        elif path is None:
+            self.full = {k: lazy_zeros((T, F), np.float32) for k in [*keys, *self.geo]}
             if spectral:
                 for p in PARTS + ("global",):
                     self.full[("spectral", p)] = lazy_zeros((T, F, C), np.float32)
@@ -58,22 +63,23 @@ class Sink:
             self.ctx = atomic_h5(path)
             f = self.ctx.__enter__()
             self.writer = H5Writer(f, resp_names, units, faces, T, C if spectral else None,
-                                   compression, parts=stored)
+                                   compression, parts=stored, angles=self.angles)
 
     def block(self, b0, b1, f0=0, f1=None):
         """dict key -> (b1 - b0, f1 - f0) zeroed arrays (aoi NaN) to fill for steps b0:b1 of the faces f0:f1
         (default all)."""
         n = b1 - b0
         f1 = self.F if f1 is None else f1
-        if self.writer is None:
+        if self.full is not None:
             out = {k: v[b0:b1, f0:f1] for k, v in self.full.items()}
-            out["aoi"][:] = np.nan
+            if "aoi" in out:
+                out["aoi"][:] = np.nan
             return out
         # one set of block buffers, reused (fresh multi-100-MB arrays per block cost seconds of
         # page faults); contiguous (n, f1 - f0) views of them
         m = f1 - f0
         if getattr(self, "_buf", None) is None or self._buf_size < n * m:
-            shape = {k: (n * m,) for k in [*self.keys, "aoi", "sun_visible"]}
+            shape = {k: (n * m,) for k in [*self.keys, *self.geo]}
             if self.spectral:
                 shape.update({("spectral", p): (n * m * self.C,) for p in PARTS + ("global",)})
             self._buf = {k: lazy_zeros(v, np.float32) for k, v in shape.items()}
@@ -114,11 +120,93 @@ class Sink:
                     atexit.register(lambda p=self.temporary: os.path.exists(p) and os.unlink(p))
             return res
         full = self.full
+        if full is None:                           # arrays=False: the consumer holds the reductions
+            return POAResult(responses=[], units={}, data={}, aoi=None, sun_visible=None, faces=self.faces,
+                             times=times, states=states, scaling=scaling, provenance=provenance,
+                             wavelengths=wavelengths, channel_edges=channel_edges, timings=timings)
         spec = ({p: full[("spectral", p)] for p in PARTS + ("global",)} if self.spectral else None)
         return POAResult(responses=self.resp_names, units=self.units, data={k: full[k] for k in self.keys},
-                         aoi=full["aoi"], sun_visible=full["sun_visible"], faces=self.faces, times=times,
+                         aoi=full.get("aoi"), sun_visible=full.get("sun_visible"), faces=self.faces, times=times,
                          states=states, scaling=scaling, provenance=provenance, spectral=spec,
                          wavelengths=wavelengths, channel_edges=channel_edges, timings=timings)
+
+
+class FaceSums:
+    """A consumer (:class:`~widesky.irradiance.poa_options.OutputOptions`) that sums every kept part of every
+    response per face over the period: the irradiation [kWh m-2] (a response in A m-2: [kAh m-2]), with no
+    (T, F) output (``OutputOptions(consumer=FaceSums(...), arrays=False)``: a reduce-only run).
+
+    Per chunk it adds ``sum_t w_t x E[t, f] / 1000`` (float32 within a chunk, float64 across chunks) for each
+    ``(response, part)`` of the block
+    (a response kept with its three parts also gets their sum as "global") and the global part of each
+    response handed over in ``currents`` only (kept as ``()`` or served by the fused product and not in the
+    block: ``w . diffuse + (w dni) . beam``, no (Tc, F) temporary). It takes ``faces=``, so runs in blocks of
+    faces (``RunOptions(face_block=...)``) fill the faces' columns block by block.
+
+    Parameters
+    ----------
+    n_faces : int
+        Faces of the scene.
+    step_hours : float or array_like
+        Duration of each step [h]: a number, or (T,) per step (default 1: hourly steps).
+
+    Attributes
+    ----------
+    sums : dict
+        ``(response, part)`` -> (F,) float64 period sum [kWh m-2] (or [kAh m-2]).
+    """
+
+    def __init__(self, n_faces, step_hours=1.0):
+        self.n_faces = int(n_faces)
+        if self.n_faces < 0:
+            raise ValueError(f"n_faces={n_faces} must be >= 0")
+        w = np.asarray(step_hours, dtype=float)
+        if w.ndim > 1 or not np.all(np.isfinite(w)) or np.any(w < 0):
+            raise ValueError(f"step_hours={step_hours!r}: expected a finite number >= 0 [h] or (T,) of them")
+        self.step_hours = w
+        self.sums = {}
+
+    def _add(self, key, faces, value):
+        if key not in self.sums:
+            self.sums[key] = np.zeros(self.n_faces)
+        self.sums[key][faces] += value
+
+    def __call__(self, steps, block, rows, currents, faces=None):
+        faces = slice(0, self.n_faces) if faces is None else faces
+        steps = np.asarray(steps)
+        if self.step_hours.ndim == 1 and steps.size and int(steps.max()) >= self.step_hours.size:
+            raise ValueError(f"FaceSums: step_hours has {self.step_hours.size} steps, the run at least "
+                             f"{int(steps.max()) + 1}")
+        # float32 products over a chunk's steps (a few hundred at most), accumulated over chunks in float64
+        w = ((np.full(steps.size, float(self.step_hours)) if self.step_hours.ndim == 0
+              else self.step_hours[steps]) / 1000.0).astype(np.float32)
+        per = {}
+        for k, v in block.items():
+            if isinstance(k, tuple) and k[0] != "spectral":
+                s = (w @ v[rows]).astype(np.float64)
+                self._add(k, faces, s)
+                per.setdefault(k[0], {})[k[1]] = s
+        for name, got in per.items():
+            if "global" not in got and set(PARTS) <= set(got):
+                self._add((name, "global"), faces, sum(got[p] for p in PARTS))
+        for name, gp in currents.items():
+            if name not in per:
+                s = (w @ gp.diffuse).astype(np.float64)
+                s += w * gp.dni @ gp.beam
+                self._add((name, "global"), faces, s)
+
+    def table(self, faces=None):
+        """pandas DataFrame, one row per face, one column ``"<response>:<part>"`` per sum [kWh m-2]; with
+        ``faces`` (:class:`widesky.irradiance.result.FaceTable`) its group, side, area [m2], tilt and azimuth
+        [deg] first."""
+        import pandas as pd
+        cols = {}
+        if faces is not None:
+            cols.update(group=np.asarray(faces.group_names, dtype=object)[faces.group], side=faces.side,
+                        area_m2=faces.area, tilt_deg=faces.tilt, azimuth_deg=faces.azimuth)
+        for (r, p), v in self.sums.items():
+            cols[f"{r}:{p}"] = v
+        return pd.DataFrame(cols, index=pd.RangeIndex(self.n_faces, name="face"))
 
 
 def run_provenance(settings, optic_nodes, sky, extra=None):

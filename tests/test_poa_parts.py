@@ -150,7 +150,7 @@ def test_bad_parts():
     scene = _scene()
     sky = UniformSky(radiance=0.05, dni=0.9)
     r = _responses(_fresnel)
-    for parts, msg in (({"zz": "global"}, "not computed"), ({"broadband": "global"}, "always keeps"),
+    for parts, msg in (({"zz": "global"}, "not computed"), ({"broadband": "total"}, "each part must be one of"),
                        ({"a": "total"}, "each part must be one of"), ({"a": []}, "no consumer reads them"),
                        ("global", "expected a dict")):
         with pytest.raises((ValueError, TypeError), match=msg):

@@ -18,8 +18,12 @@ qe, transmittance or weight), band-averaged over each 40 nm channel; its parts a
 
 Output by suffix: ``.h5``/``.hdf5`` the full result (:class:`widesky.irradiance.POAResult`, per face, step,
 response and part; streamed to the file during the run, :meth:`POAResult.load` reads it), or
-``.csv`` the area-weighted mean of every part per face group (or of one ``--group``). Outputs are
-written atomically; the output folder is checked before any computation.
+``.csv`` the area-weighted mean of every part per face group (or of one ``--group``). ``--face-sums`` (a
+``.csv`` output) writes instead one row per face: its group, side, area [m2], tilt and azimuth [deg] and the
+period's irradiation of every response's parts, ``<response>:<part>`` [kWh m-2] (a response in A m-2: [kAh m-2]),
+from a reduce-only run that keeps no per-step arrays (:class:`widesky.irradiance.sink.FaceSums`; memory does not
+grow with the period: for scenes too large for a per-step result). Outputs are written atomically; the output
+folder is checked before any computation.
 """
 
 from __future__ import annotations
@@ -56,6 +60,9 @@ def register(subparsers) -> None:
     p.add_argument("--two-sided", action="store_true", help="also analyse the back of every face")
     p.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores)")
     p.add_argument("--group", default=None, help="with a .csv output: only this face group")
+    p.add_argument("--face-sums", action="store_true",
+                   help="with a .csv output: one row per face, the period's irradiation of every part "
+                        "[kWh m-2], no per-step arrays kept (for large scenes)")
     p.add_argument("-o", "--output", required=True,
                    help="output: .h5/.hdf5 (full result per face) or .csv (per face group)")
     p.set_defaults(func=_run)
@@ -95,6 +102,11 @@ def _check_args(args):
         raise ValueError(f"--tolerance {args.tolerance}: outside the valid range > 0")
     if args.group is not None and not str(args.output).lower().endswith(".csv"):
         raise ValueError("--group selects a face group of a .csv output")
+    if args.face_sums and not str(args.output).lower().endswith(".csv"):
+        raise ValueError(f"--face-sums: --output {args.output!r} must be a .csv file (one row per face)")
+    if args.face_sums and args.group is not None:
+        raise ValueError(f"--face-sums with --group {args.group!r}: the per-face table holds every face and "
+                         "its group; give one of them")
 
 
 def _responses(args):
@@ -168,6 +180,31 @@ def _write_csv(res, path, group=None):
         pd.DataFrame(cols, index=res.times).to_csv(tmp)
 
 
+def step_hours(times):
+    """(T,) duration of each step [h]: the time to the next step, the last step as long as the one before
+    (one step: 1 h)."""
+    t = np.asarray(times.as_unit("ns").asi8 if hasattr(times, "as_unit") else times, dtype=np.int64)
+    if t.size < 2:
+        return np.ones(t.size)
+    d = np.diff(t) / 3.6e12
+    return np.append(d, d[-1])
+
+
+def _face_sums(sim, responses, path, provenance):
+    """A reduce-only run: per face the period's sum of every part [kWh m-2], written to ``path`` (CSV, atomic)."""
+    from widesky.core.atomic import atomic_write
+    from widesky.irradiance.poa import OutputOptions, poa_irradiance
+    from widesky.irradiance.sink import FaceSums
+    kw = sim.integrator_arguments(None)
+    sums = FaceSums(sim.scene.n_faces, step_hours=step_hours(kw["times"]))
+    out = OutputOptions(angles=False, arrays=False, consumer=sums,
+                        provenance={"sky": sim.description, **provenance})
+    res = poa_irradiance(sim.scene, sim.sky_source, responses=responses, output=out, **kw)
+    with atomic_write(path) as tmp:
+        sums.table(res.faces).to_csv(tmp)
+    return res
+
+
 def _run(args) -> int:
     from widesky.commands.scene_args import integrator_settings
     from widesky.irradiance.scene import make_scene
@@ -190,9 +227,12 @@ def _run(args) -> int:
     sim = simulation(args, scene, integrator_settings(args))
     states, note = sim.states, sim.description
     _refuse_huge(len(states), scene.n_faces, len(responses), "the run")
-    res = sim.run(responses, output=args.output if kind == "h5" else None,
-                  provenance={"command": "widesky poa " + " ".join(sys.argv[2:])})
-    if kind == "csv":
+    prov = {"command": "widesky poa " + " ".join(sys.argv[2:])}
+    if args.face_sums:
+        res = _face_sums(sim, responses, args.output, prov)
+    else:
+        res = sim.run(responses, output=args.output if kind == "h5" else None, provenance=prov)
+    if kind == "csv" and not args.face_sums:
         _write_csv(res, args.output, args.group)
     if res.scaling is not None:
         lit = states.sun_elevation > 0
