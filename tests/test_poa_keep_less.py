@@ -230,3 +230,18 @@ def test_cli_face_sums_bad_input(roof, tmp_path, capsys, extra, out, msg):
     err = capsys.readouterr().err
     assert msg in err and err.count("\n") == 1 and "Traceback" not in err
     assert not any(tmp_path.iterdir())
+
+
+def test_step_hours_of_a_typical_year():
+    """A TMY3/EPW year joins months of different years: its times step backwards (and years ahead) at month
+    boundaries, so each step's length is the series' median interval (1 h), not the time to the next record.
+    (The shipped Denver TMY3 file made `widesky poa --face-sums` refuse its own step lengths before.)"""
+    import pandas as pd
+    from widesky.commands.poa import step_hours
+    jan = pd.date_range("1995-01-01 01:00", periods=744, freq="h", tz="Etc/GMT+7")
+    feb = pd.date_range("1991-02-01 01:00", periods=672, freq="h", tz="Etc/GMT+7")
+    mar = pd.date_range("2003-03-01 01:00", periods=744, freq="h", tz="Etc/GMT+7")
+    w = step_hours(jan.append(feb).append(mar))
+    assert w.shape == (2160,) and np.all(w == 1.0)
+    half = pd.date_range("2021-06-21", periods=5, freq="30min", tz="UTC")
+    assert np.all(step_hours(half) == 0.5) and step_hours(half[:1]).tolist() == [1.0]

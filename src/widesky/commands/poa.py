@@ -181,13 +181,15 @@ def _write_csv(res, path, group=None):
 
 
 def step_hours(times):
-    """(T,) duration of each step [h]: the time to the next step, the last step as long as the one before
-    (one step: 1 h)."""
+    """(T,) duration of each step [h]: the series' median interval between consecutive times (one step: 1 h),
+    the rule pvsim uses. Not the time to the next step: a typical-year file (TMY3, EPW) joins months of
+    different years, so its times step backwards or years ahead at month boundaries."""
     t = np.asarray(times.as_unit("ns").asi8 if hasattr(times, "as_unit") else times, dtype=np.int64)
     if t.size < 2:
         return np.ones(t.size)
     d = np.diff(t) / 3.6e12
-    return np.append(d, d[-1])
+    d = d[d > 0]
+    return np.full(t.size, float(np.median(d)) if d.size else 1.0)
 
 
 def _face_sums(sim, responses, path, provenance):
