@@ -19,7 +19,9 @@ in CPU time (``time.process_time``) and wall time, median of ``--repeat`` pairs:
   small      calls below ``auto``'s old 20,000-value threshold: 300 directions x 55 channels, scattered
              over the upper hemisphere and clustered within about 8 deg, by the direct path
              (``method="direct"``) and by ``auto`` (which builds a table of only the cells in the range of
-             the call's angles where that is cheaper).
+             the call's angles where that is cheaper);
+  one        a single direction x 55 channels by the direct path, 200 calls per timing (the Python
+             wrapper's per-call cost, about 45 us, included: what a caller of one direction pays).
 
 Per-core ratio = baseline time per value / candidate time per value, both on one thread; the CPU-time
 ratio is the fair one on a shared machine (a long baseline run gets less of a core than a short one).
@@ -27,6 +29,7 @@ OpenMP's idle workers are told to sleep (OMP_WAIT_POLICY=PASSIVE unless set) so 
 leave no spinning thread charged to the 1-thread measurements.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_sky.py [--repeat 7] [--resolution 1000] [--json out.json]
+                                                          [--small-only]  (only the small and one-direction calls)
 """
 
 from __future__ import annotations
@@ -100,6 +103,7 @@ def main(argv=None):
     ap.add_argument("--resolution", type=int, default=1000)
     ap.add_argument("--baseline-stride", type=int, default=40, help="baseline on every Nth image direction")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--small-only", action="store_true", help="skip the images (the direct-path rows only)")
     ap.add_argument("--cache", default=os.environ.get("WIDESKY_BENCH_CACHE", tempfile.gettempdir()))
     args = ap.parse_args(argv)
 
@@ -126,7 +130,7 @@ def main(argv=None):
         return run, bo
 
     sub = np.ascontiguousarray(dirs[:: args.baseline_stride])
-    for name, state in (("daylight", STATE), ("twilight", TWILIGHT)):
+    for name, state in (() if args.small_only else (("daylight", STATE), ("twilight", TWILIGHT))):
         base, bo = baseline_for(state, sub)
         base()
         ours = skymodel.sky_radiance(m, sub, **state)
@@ -160,6 +164,22 @@ def main(argv=None):
             r["max_rel_diff"] = float(np.max(np.abs(skymodel.sky_radiance(m, D, **STATE, method=method) - bo))
                                       / np.abs(bo).max())
             res[f"small_{name}_{method}"] = r
+    # one direction, direct path: 200 calls per timing (the baseline on the same direction, 200 calls)
+    one, reps = np.ascontiguousarray(scattered[:1]), 200
+    base1, bo1 = baseline_for(STATE, one)
+
+    def base_one():
+        for _ in range(reps):
+            base1()
+
+    def cand_one():
+        for _ in range(reps):
+            skymodel.sky_radiance(m, one, **STATE, method="direct", threads=1)
+    r = interleaved(base_one, reps * C, cand_one, reps * C, max(args.repeat, 9))
+    r["path"] = KERNEL_INFO.get("path")
+    r["max_rel_diff"] = float(np.max(np.abs(skymodel.sky_radiance(m, one, **STATE, method="direct") - bo1))
+                              / np.abs(bo1).max())
+    res["one_direct"] = r
     res["load_average_end"] = load_average()
 
     print(f"baseline: {BASELINE_NAME}; dataset {res['dataset_MB']:.1f} MB; image {args.resolution}^2 "
@@ -169,12 +189,18 @@ def main(argv=None):
     for key, label in (("daylight_1t", "daylight, table, 1 thread"), ("daylight_2t", "daylight, table, 2 threads"),
                        ("twilight_1t", "twilight -2.5 deg, 1 thread"), ("twilight_2t", "twilight -2.5 deg, 2 threads"),
                        ("small_scattered_direct", "300 scattered, direct"), ("small_scattered_auto", "300 scattered, auto"),
-                       ("small_clustered_direct", "300 clustered, direct"), ("small_clustered_auto", "300 clustered, auto")):
+                       ("small_clustered_direct", "300 clustered, direct"), ("small_clustered_auto", "300 clustered, auto"),
+                       ("one_direct", "1 direction, direct (per call)")):
+        if key not in res:
+            continue
         r = res[key]
         print(f"{label:34s} {r['baseline_cpu_ns']:11.1f} {r['cpu_ns']:8.2f} {r['ratio_cpu']:8.1f}x {r['ratio_wall']:9.1f}x "
               f"{r['call_wall_s'] * 1e3:8.2f} ms  (path {r['path']})")
-    print(f"agreement with the baseline (max abs difference / max value): daylight {res['daylight_max_rel_diff']:.1e}, "
-          f"twilight {res['twilight_max_rel_diff']:.1e}")
+    if not args.small_only:
+        print(f"agreement with the baseline (max abs difference / max value): daylight "
+              f"{res['daylight_max_rel_diff']:.1e}, twilight {res['twilight_max_rel_diff']:.1e}")
+    print("agreement, direct path: " + ", ".join(f"{k} {res[k]['max_rel_diff']:.1e}" for k in
+                                                 ("small_scattered_direct", "small_clustered_direct", "one_direct")))
     if args.json:
         Path(args.json).write_text(json.dumps(res, indent=1))
     return res
