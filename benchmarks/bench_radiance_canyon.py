@@ -22,13 +22,29 @@ by the light's radiance); a glow of radius 0 is reached only by the ambient calc
 is ``-ab 1`` and one reflection ``-ab 2``, the sun's direct ``-ab 0`` and one reflection ``-ab 1``; gendaymtx's
 ``-c`` comes before ``-d``/``-s``; a numpy product of the matrices replaces the single-threaded dctimestep.
 
-Usage:  python benchmarks/bench_radiance_canyon.py [--stride N] [--tolerance 0.02] [--jobs N]
-        [--radiance WORKDIR [--bounces 5] [--ad 4096]]
+Issue 36 times both codes on the same canyon refined to about ``--faces`` sensor faces (``--faces 1000`` and
+``--faces 10000``), one run each: CPU time of each (widesky: this process plus its pool workers, sampled with
+psutil, since the forkserver's workers are not our children; Radiance: ``resource.getrusage(RUSAGE_CHILDREN)``
+around each command, plus the numpy products) and wall time, then the per-group agreement; ``--json FILE`` keeps
+both codes' results, per-face annual values and timings, and ``--table FILE ...`` prints the docs' table from
+such files. ``--five-phase`` gives Radiance's usual lean annual method: the sun's direct light from suns at the
+patch centres (rcontrib ``-ab 0``), everything else from the sky daylight coefficients (``-ab bounces + 1``)
+times the sky matrix with the sun put into its patches, minus the sun patches' direct view (``-ab 1``); without
+it the sun's reflections are traced to each of the 2,305 suns (issue 39's converged reference, about 1.6 s CPU
+per point at one bounce). The five-phase subtraction is what limits Radiance's per-face precision here: the
+sun patches' direct view comes from two independent sample sets (measured: 10 % rms per face at ``-ad 256``,
+2.0 % at 4,096, about 1 % at 16,384 and 65,536).
+
+Usage:  python benchmarks/bench_radiance_canyon.py [--faces 90] [--stride N] [--tolerance 0.02] [--jobs N]
+        [--radiance WORKDIR [--bounces 5] [--ad 4096] [--five-phase]] [--json FILE]
+        python benchmarks/bench_radiance_canyon.py --table FILE [FILE ...]
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import resource
 import time
 
 import numpy as np
@@ -117,16 +133,18 @@ def canyon_scene(street=12.0, height=12.0, depth=12.0, length=96.0, sensor=12.0,
 
 
 def widesky_canyon(built, weather="data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw", tolerance=0.02, jobs=None,
-                   stride=1):
-    """Annual irradiation [kWh m-2] per group and part: dict group -> dict part -> value; and the run's seconds."""
+                   stride=1, per_face=None):
+    """Annual irradiation [kWh m-2] per group and part: dict group -> dict part -> value; and the run's seconds
+    (dict ``wall``, ``cpu``: this process's and its descendants' CPU time, worker pools included). ``per_face``:
+    a dict that receives each sensor face's annual global [kWh m-2] (key ``global``)."""
     from widesky.irradiance.integrator import IntegratorSettings
     from widesky.irradiance.simulation import Simulation
     scene = built["scene"]
     sim = Simulation(scene, weather=weather, settings=IntegratorSettings.for_tolerance(tolerance), n_jobs=jobs)
     steps = None if stride == 1 else slice(None, None, stride)
-    t0 = time.perf_counter()
-    res = sim.run(steps=steps)
-    secs = time.perf_counter() - t0
+    with _DescendantCPU() as clock:
+        res = sim.run(steps=steps)
+    secs = clock.seconds
     area = scene.face_area
     out = {}
     for g, name in enumerate(GROUPS):
@@ -134,7 +152,59 @@ def widesky_canyon(built, weather="data:weather/USA_CO_Denver.Intl.AP.725650_TMY
         a = area[m] / area[m].sum()
         out[name] = {p: float(np.sum(getattr(res, f"poa_{p}")[:, m] @ a)) * stride / 1000.0
                      for p in ("direct", "sky_diffuse", "ground_diffuse", "global")}
+    if per_face is not None:
+        per_face.update({p: np.asarray(getattr(res, f"poa_{p}"), dtype=float).sum(0) * stride / 1000.0
+                         for p in ("direct", "sky_diffuse", "ground_diffuse", "global")})
     return out, secs
+
+
+def _cpu():
+    """CPU seconds of this process (all threads) plus its finished, waited-for children (worker pools, Radiance)."""
+    ch = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + ch.ru_utime + ch.ru_stime
+
+
+class _DescendantCPU:
+    """Wall and CPU seconds of a block: this process plus every descendant (a forkserver's pool workers are not
+    our children, so ``RUSAGE_CHILDREN`` misses them; a thread samples their cumulative CPU every 0.1 s, the
+    last sample before a worker exits counts: at most 0.1 s lost per worker)."""
+
+    def __enter__(self):
+        import threading
+        import psutil
+        self._me, self._seen, self._stop = psutil.Process(), {}, threading.Event()
+        self._known = {p.pid for p in self._me.children(recursive=True)}
+        self._t0, self._c0 = time.perf_counter(), _cpu()
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+        self._thread.start()
+        return self
+
+    def _sample(self):
+        import psutil
+        while not self._stop.wait(0.1):
+            for p in self._me.children(recursive=True):
+                if p.pid in self._known:
+                    continue
+                try:
+                    t = p.cpu_times()
+                    self._seen[(p.pid, p.create_time())] = (t.user + t.system, p.ppid(), p)
+                except psutil.Error:
+                    pass
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+        wall = time.perf_counter() - self._t0
+        mine = _cpu() - self._c0            # this process and the children it reaped: not sampled again
+        pid = self._me.pid
+        others = sum(c for c, ppid, p in self._seen.values() if not (ppid == pid and not p.is_running()))
+        self.seconds = {"wall": wall, "cpu": mine + others}
+        return False
+
+
+def subdivision_for(faces):
+    """``canyon_scene``'s ``subdivide`` for about ``faces`` sensor faces (5 patches x n x n quads x 2 triangles)."""
+    return max(1, round(math.sqrt(faces / 10.0)))
 
 
 def _radiance_env():
@@ -159,14 +229,19 @@ def _read_matrix(data):
     return np.frombuffer(body, dtype="<f8", count=rows * cols * comp).reshape(rows, cols, comp)
 
 
-def radiance_canyon(built, epw, workdir, mf=4, bounces=5, ad=4096, lw=1e-4):
+def radiance_canyon(built, epw, workdir, mf=4, bounces=5, ad=4096, lw=1e-4, five_phase=False, per_face=None):
     """Radiance daylight coefficients of the same scene and weather: annual [kWh m-2] per group and part.
 
     Sky: rfluxmtx (Reinhart MF ``mf`` + ground glow) x gendaymtx's Perez all-weather sky (``-O1`` broadband
     radiance, ground glow 0: the ground is a 10 km polygon of the scene's albedo). Sun: rcontrib over suns at the
     Reinhart patch centres (radius 0.533 deg, 5-phase style) x gendaymtx ``-5 0.533 -d``. ``direct + sky`` from
     the runs without reflections (sun ``-ab 0``, sky ``-ab 1``: a glow with radius 0 is seen through the ambient
-    calculation only), reflected light = converged (``bounces`` more) minus those.
+    calculation only), reflected light = converged (``bounces`` more) minus those. ``five_phase``: the sun's
+    reflections from the sky coefficients (``-ab bounces + 1`` minus ``-ab 1``) times gendaymtx's sun-only patch
+    matrix (``-d``) instead of rcontrib ``-ab bounces`` over the 2,305 suns.
+
+    Returns the dict group -> part -> value and the timings: a list of (step, wall [s], CPU [s]) per Radiance
+    command and matrix product. ``per_face``: a dict that receives each sensor face's annual global (``global``).
     """
     import subprocess
     from pathlib import Path
@@ -176,8 +251,12 @@ def radiance_canyon(built, epw, workdir, mf=4, bounces=5, ad=4096, lw=1e-4):
     wd = Path(workdir)
     wd.mkdir(parents=True, exist_ok=True)
 
-    def run(cmd, stdin=None, out=None):
+    timings = []
+
+    def run(cmd, stdin=None, out=None, label=None):
+        t0, c0 = time.perf_counter(), _cpu()
         r = subprocess.run(cmd, input=stdin, capture_output=True, env=env, cwd=wd, check=False)
+        timings.append((label or cmd[0], time.perf_counter() - t0, _cpu() - c0))
         if r.returncode != 0:
             raise RuntimeError(f"{cmd[0]} failed: {r.stderr.decode(errors='replace')[-400:]}")
         if out is not None:
@@ -212,33 +291,59 @@ def radiance_canyon(built, epw, workdir, mf=4, bounces=5, ad=4096, lw=1e-4):
     dc = {}
     for ab in (1, bounces + 1):
         out = run(["rfluxmtx", "-I+", "-y", str(N), "-ab", str(ab), *common, "-fad", "-", "sky.rad", "-i",
-                   "scene.oct"], stdin=rays)
+                   "scene.oct"], stdin=rays, label=f"rfluxmtx sky -ab {ab}")
         dc[("sky", ab)] = _read_matrix(out)[..., 0]
-    for ab in (0, bounces):
+    for ab in (0,) if five_phase else (0, bounces):
         out = run(["rcontrib", "-I+", "-y", str(N), "-ab", str(ab), *common, "-dc", "1", "-dt", "0", "-dj", "0", "-st", "1",
                    "-ss", "0", "-e", f"MF:{mf}", "-f", "reinhart.cal", "-b", "rbin", "-bn", "Nrbins",
-                   "-m", "solar", "-fad", "sun.oct"], stdin=rays)
+                   "-m", "solar", "-fad", "sun.oct"], stdin=rays, label=f"rcontrib suns -ab {ab}")
         dc[("sun", ab)] = _read_matrix(out)[..., 0]              # coefficients: per unit source radiance
     run(["epw2wea", str(epw), "year.wea"])
     sky = _read_matrix(run(["gendaymtx", "-O1", "-m", str(mf), "-g", "0", "0", "0", "-c", "1", "1", "1", "-s",
-                            "-od", "year.wea"]))[..., 0]
+                            "-od", "year.wea"], label="gendaymtx sky"))[..., 0]
     sun = _read_matrix(run(["gendaymtx", "-O1", "-m", str(mf), "-5", "0.533", "-c", "1", "1", "1", "-d",
-                            "-od", "year.wea"]))[..., 0]
+                            "-od", "year.wea"], label="gendaymtx suns"))[..., 0]
+    if five_phase:                                               # the sun in its patches, ground glow 0
+        sun_patch = _read_matrix(run(["gendaymtx", "-O1", "-m", str(mf), "-g", "0", "0", "0", "-c", "1", "1", "1",
+                                      "-d", "-od", "year.wea"], label="gendaymtx sun patches"))[..., 0]
+    t0, c0 = time.perf_counter(), _cpu()
     direct_sky = dc[("sun", 0)] @ sun + dc[("sky", 1)] @ sky                           # (N, T) [W m-2]
-    total = dc[("sun", bounces)] @ sun + dc[("sky", bounces + 1)] @ sky
+    if five_phase:
+        total = direct_sky + (dc[("sky", bounces + 1)] - dc[("sky", 1)]) @ (sky + sun_patch)
+    else:
+        total = dc[("sun", bounces)] @ sun + dc[("sky", bounces + 1)] @ sky
+    timings.append(("matrix products (numpy)", time.perf_counter() - t0, _cpu() - c0))
     face = {"direct_sky": direct_sky.sum(1) / 1000.0, "reflected": (total - direct_sky).sum(1) / 1000.0,
             "global": total.sum(1) / 1000.0}
     k = sc.samples_per_face
+    if per_face is not None:
+        per_face.update({p: v.reshape(-1, k).mean(1) for p, v in face.items()})
     out = {}
     for gi, name in enumerate(GROUPS):
         m = sc.face_group == gi
         a = sc.face_area[m] / sc.face_area[m].sum()
         out[name] = {p: float(v.reshape(-1, k).mean(1)[m] @ a) for p, v in face.items()}
-    return out
+    return out, timings
+
+
+def _table(runs):
+    """The issue-36 markdown table from the ``--json`` records of several runs (one line per run)."""
+    lines = ["| sensor faces | Radiance | widesky CPU (wall) | Radiance CPU (wall) | **CPU ratio** | "
+             "annual global per group, widesky / Radiance - 1 |", "|---|---|---|---|---|---|"]
+    for r in runs:
+        w, q, st = r["widesky_seconds"], r["radiance_seconds"], r["settings"]
+        diffs = [r["widesky"][g]["global"] / r["radiance"][g]["global"] - 1 for g in GROUPS]
+        method = "five-phase" if st["five_phase"] else "suns traced"
+        lines.append(f"| {r['faces']:,} | {method}, `-ab {st['bounces'] + 1} -ad {st['ad']}` | "
+                     f"{w['cpu']:.1f} s ({w['wall']:.0f} s) | {q['cpu']:.0f} s ({q['wall']:.0f} s) | "
+                     f"**{q['cpu'] / w['cpu']:.1f}x** | {min(diffs):+.1%} to {max(diffs):+.1%} |")
+    return "\n".join(lines)
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--faces", type=int, default=90,
+                    help="about this many sensor faces (the sensor patches refined; default 90)")
     ap.add_argument("--stride", type=int, default=1)
     ap.add_argument("--tolerance", type=float, default=0.02)
     ap.add_argument("--jobs", type=int, default=None)
@@ -246,10 +351,23 @@ def main(argv=None):
                     help="also run the Radiance cross-check (pyradiance) in this folder")
     ap.add_argument("--bounces", type=int, default=5)
     ap.add_argument("--ad", type=int, default=4096)
+    ap.add_argument("--five-phase", action="store_true",
+                    help="Radiance's sun reflections from the sky coefficients (the usual lean annual method)")
+    ap.add_argument("--json", default=None, metavar="FILE", help="write both codes' results and timings here")
+    ap.add_argument("--table", nargs="+", default=None, metavar="JSON",
+                    help="print the issue-36 table of earlier --json runs and exit")
     a = ap.parse_args(argv)
-    built = canyon_scene()
-    res, secs = widesky_canyon(built, tolerance=a.tolerance, jobs=a.jobs, stride=a.stride)
-    print(f"widesky, Denver TMY3, {built['scene'].n_faces} faces, {secs:.0f} s")
+    if a.table:
+        import json
+        print(_table([json.load(open(f)) for f in a.table]))
+        return
+    if a.faces < 10:
+        raise SystemExit(f"--faces {a.faces}: must be at least 10 (5 sensor patches of 2 triangles)")
+    built = canyon_scene(subdivide=subdivision_for(a.faces))
+    n_faces = built["scene"].n_faces
+    w_face, r_face = {}, {}
+    res, secs = widesky_canyon(built, tolerance=a.tolerance, jobs=a.jobs, stride=a.stride, per_face=w_face)
+    print(f"widesky, Denver TMY3, {n_faces} faces, {secs['wall']:.1f} s wall, {secs['cpu']:.1f} s CPU")
     print("| group | direct | sky | reflected | global | [kWh m-2 a-1] |")
     print("|---|---|---|---|---|---|")
     for g, r in res.items():
@@ -261,10 +379,15 @@ def main(argv=None):
               "pip install pyradiance==1.3.1)")
         return
     from widesky.core.paths import data_reference
-    t0 = time.perf_counter()
-    rad = radiance_canyon(built, data_reference("data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"), a.radiance,
-                          bounces=a.bounces, ad=a.ad)
-    print(f"Radiance (pyradiance), {time.perf_counter() - t0:.0f} s; widesky / Radiance - 1:")
+    t0, c0 = time.perf_counter(), _cpu()
+    rad, timings = radiance_canyon(built, data_reference("data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"),
+                                   a.radiance, bounces=a.bounces, ad=a.ad, five_phase=a.five_phase, per_face=r_face)
+    rsecs = {"wall": time.perf_counter() - t0, "cpu": _cpu() - c0}
+    print(f"Radiance (pyradiance), {rsecs['wall']:.1f} s wall, {rsecs['cpu']:.1f} s CPU (children included); "
+          f"{'five-phase' if a.five_phase else 'suns traced'}, -ab {a.bounces} (sky {a.bounces + 1}), -ad {a.ad}:")
+    for label, wall, cpu in timings:
+        print(f"  {label}: {wall:.1f} s wall, {cpu:.1f} s CPU")
+    print(f"CPU ratio Radiance / widesky {rsecs['cpu'] / secs['cpu']:.1f}x, wall {rsecs['wall'] / secs['wall']:.1f}x")
     print("| group | widesky direct + sky | Radiance | diff | widesky reflected | Radiance | diff | global diff |")
     print("|---|---|---|---|---|---|---|---|")
     for g, r in res.items():
@@ -273,6 +396,16 @@ def main(argv=None):
         print(f"| {g} | {ds:.1f} | {q['direct_sky']:.1f} | {ds / q['direct_sky'] - 1:+.1%} | "
               f"{r['ground_diffuse']:.1f} | {q['reflected']:.1f} | "
               f"{r['ground_diffuse'] / max(q['reflected'], 1e-9) - 1:+.1%} | {r['global'] / q['global'] - 1:+.1%} |")
+    if a.json:
+        import json
+        with open(a.json, "w") as f:
+            json.dump({"faces": n_faces, "widesky": res, "widesky_seconds": secs, "radiance": rad,
+                       "radiance_seconds": rsecs, "radiance_steps": timings,
+                       "per_face": {"widesky": {p: v.tolist() for p, v in w_face.items()},
+                                    "radiance": {p: v.tolist() for p, v in r_face.items()}},
+                       "face_group": built["scene"].face_group.tolist(),
+                       "settings": {"bounces": a.bounces, "ad": a.ad, "five_phase": a.five_phase,
+                                    "tolerance": a.tolerance, "jobs": a.jobs, "stride": a.stride}}, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -126,14 +126,36 @@ def _reflector_sun(geometry, r: Reflectors, sun_dirs, bins, sun_count, sun_cell,
     """The sun on the points of a later reflection, sampled as for the first (per shading cell one ray towards
     a sun bin drawn ~ steps x clear-sky DNI x cos(binned normal, sun)); the lit ones add their weight to
     ``ground_sun`` (G, n) or ``reflect_sun`` (G, n B) in place. Returns the number of rays cast."""
-    S, B = sun_dirs.shape[0], bins.shape[0]
-    if r.pt.size == 0 or S == 0 or G == 0:
+    if r.pt.size == 0 or sun_dirs.shape[0] == 0 or G == 0:
         return 0
-    n = ground_sun.shape[1]
-    cnt = np.ones(S) if sun_count is None else np.asarray(sun_count, dtype=float)
-    el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
     ob = np.zeros(r.pt.size, dtype=np.int64)                         # ground: bin 0 (up)
     ob[~r.ground] = np.argmax(r.tn[~r.ground] @ bins.T, axis=1)
+    return _cell_sun(geometry, r.x, r.tn, ob, r.ident, r.w_sun, r.ground, r.pt, sun_dirs, bins, sun_count,
+                     sun_cell, G, ground_sun, reflect_sun)
+
+
+def _cell_sun(geometry, x, tn, ob, ident, w, on_g, pt, sun_dirs, bins, sun_count, sun_cell, G, ground_sun,
+              reflect_sun):
+    """Per shading cell one ray from each reflecting point towards a sun bin of the cell, drawn ~ steps x
+    clear-sky DNI x cos(binned normal ``ob``, sun) with the point's identity ``ident``; the lit points in front
+    of their sun add their weight ``w`` at their analysis point ``pt`` to ``ground_sun`` (G, n) (``on_g``) or
+    ``reflect_sun`` (G, n B) at their orientation bin, in place. Returns the number of rays cast.
+
+    The points are visited grouped by orientation bin (a stable sort, made once): each bin's draw is one
+    ``searchsorted`` on a contiguous block, and every (analysis point, bin) sum adds its terms in the points'
+    given order, so the result is the same, bit for bit, as visiting them in that order bin by bin. Where the
+    points have few distinct normals (planar scenes) the in-front test is a table of (normal, sun) products,
+    the same products as point by point."""
+    n, B = ground_sun.shape[1], bins.shape[0]
+    cnt = np.ones(sun_dirs.shape[0]) if sun_count is None else np.asarray(sun_count, dtype=float)
+    el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
+    order = np.argsort(ob.astype(np.int16 if B < 1 << 15 else np.int64), kind="stable")     # a radix sort
+    ob, x32, tn, ident = ob[order], x[order].astype(np.float32), tn[order], ident[order]
+    w, on_g, pt = w[order], on_g[order], pt[order]
+    edges = np.searchsorted(ob, np.arange(B + 1))                    # bin b's points: edges[b]:edges[b + 1]
+    present = np.nonzero(edges[1:] > edges[:-1])[0]
+    out_g, out_r = pt, pt * B + ob
+    normals, nid = _distinct_rows(tn)
     n_rays = 0
     for g in range(G):
         cg = np.nonzero(sun_cell == g)[0]
@@ -142,24 +164,51 @@ def _reflector_sun(geometry, r: Reflectors, sun_dirs, bins, sun_count, sun_cell,
         wq = (cnt[cg] * _clear_dni(el_b[cg]))[None, :] * np.maximum(bins @ sun_dirs[cg].T, 0.0)
         cdf = np.cumsum(wq, axis=1)                                   # (B, C_g)
         tot = cdf[:, -1]
-        j = np.nonzero(tot[ob] > 0)[0]
-        u = np.mod(0.5 + (r.ident[j] + 7919 * (g + 1)) * 0.6180339887498949, 1.0)
-        pick = np.empty(j.size, dtype=np.int64)
-        for b in np.unique(ob[j]):
-            m = ob[j] == b
-            pick[m] = np.minimum(np.searchsorted(cdf[b], u[m] * tot[b], side="right"), cg.size - 1)
-        sd = sun_dirs[cg[pick]]
-        front = np.nonzero(np.sum(r.tn[j] * sd, axis=1) > 0)[0]
+        use = present[tot[present] > 0]
+        if use.size == 0:
+            continue
+        table = nid is not None and normals.shape[0] * cg.size < ob.size // 4   # the in-front test as a table
+        if use.size == present.size:                                 # every point draws: no gathers
+            j, sizes = None, edges[use + 1] - edges[use]
+            idj, tnj = ident, (nid if table else tn)
+        else:
+            sizes = edges[use + 1] - edges[use]
+            j = np.repeat(edges[use] - np.cumsum(sizes) + sizes, sizes) + np.arange(int(sizes.sum()))
+            idj, tnj = ident[j], (nid[j] if table else tn[j])
+        u = np.mod(0.5 + (idj + 7919 * (g + 1)) * 0.6180339887498949, 1.0)
+        pick = np.empty(u.size, dtype=np.int64)
+        a = 0
+        for b, m in zip(use, sizes):
+            pick[a:a + m] = np.searchsorted(cdf[b], u[a:a + m] * tot[b], side="right")
+            a += m
+        np.minimum(pick, cg.size - 1, out=pick)
+        if table:
+            ahead = np.sum(normals[:, None, :] * sun_dirs[cg][None, :, :], axis=2) > 0     # (normals, C_g)
+            front = np.nonzero(ahead[tnj, pick])[0]
+        else:
+            front = np.nonzero(np.sum(tnj * sun_dirs[cg[pick]], axis=1) > 0)[0]
         if front.size == 0:
             continue
-        jj = j[front]
-        lit = ~cast_rays(geometry, r.x[jj].astype(np.float32), sd[front].astype(np.float32), occluded=True)
+        jj = front if j is None else j[front]
+        lit = ~cast_rays(geometry, x32[jj], sun_dirs[cg[pick[front]]].astype(np.float32), occluded=True)
         n_rays += front.size
-        wl = r.w_sun[jj] * lit
-        on_g = r.ground[jj]
-        ground_sun[g] += _fbincount(r.pt[jj[on_g]], weights=wl[on_g], minlength=n)
-        reflect_sun[g] += _fbincount(r.pt[jj[~on_g]] * B + ob[jj[~on_g]], weights=wl[~on_g], minlength=n * B)
+        k = jj[lit]
+        kg = k[on_g[k]]
+        ks = k[~on_g[k]]
+        ground_sun[g] += _fbincount(out_g[kg], weights=w[kg], minlength=n)
+        reflect_sun[g] += _fbincount(out_r[ks], weights=w[ks], minlength=n * B)
     return n_rays
+
+
+def _distinct_rows(v):
+    """(distinct rows of ``v`` (m, 3), index (n,) of each row among them), found through one float key per row
+    and checked exactly; (None, None) where two distinct rows share a key or there are more than 4,096."""
+    key = v @ np.array([0.7548776662466927, 0.5698402909980532, 0.3176519753432651])
+    _, first, nid = np.unique(key, return_index=True, return_inverse=True)
+    rows = v[first]
+    if rows.shape[0] > 4096 or not np.array_equal(rows[nid], v):
+        return None, None
+    return rows, nid.reshape(-1)
 
 
 def _second_identity(ids):
@@ -343,39 +392,12 @@ def reflected_sun(geometry, b: Bounce, sun_dirs, bins, sun_count, sun_cell, n, i
     n_rays = 0
     sel_scene, tn, r_pt, r_share, r_rho = b.sel_scene, b.tn, b.r_pt, b.r_share, b.r_rho
     if S and b.ri.size and G:
-        cnt = np.ones(S) if sun_count is None else np.asarray(sun_count, dtype=float)
-        el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
         r_ob = np.zeros(b.ri.size, dtype=np.int64)                   # ground: bin 0 (up)
         r_ob[sel_scene] = np.argmax(tn[sel_scene] @ bins.T, axis=1)
-        live = (r_share > 0) & (r_rho > 0)
-        for g in range(G):
-            cg = np.nonzero(sun_cell == g)[0]
-            if cg.size == 0:
-                continue
-            wq = (cnt[cg] * _clear_dni(el_b[cg]))[None, :] * np.maximum(bins @ sun_dirs[cg].T, 0.0)
-            cdf = np.cumsum(wq, axis=1)                               # (B, C_g)
-            tot = cdf[:, -1]
-            ok = live & (tot[r_ob] > 0)
-            j = np.nonzero(ok)[0]
-            u = np.mod(0.5 + (ident[j] + 7919 * (g + 1)) * 0.6180339887498949, 1.0)
-            pick = np.empty(j.size, dtype=np.int64)
-            for ob in np.unique(r_ob[j]):                             # per orientation bin
-                m = r_ob[j] == ob
-                pick[m] = np.minimum(np.searchsorted(cdf[ob], u[m] * tot[ob], side="right"),
-                                     cg.size - 1)
-            sd = sun_dirs[cg[pick]]
-            front = np.sum(tn[j] * sd, axis=1) > 0
-            lit = np.zeros(j.size, dtype=bool)
-            jf = np.nonzero(front)[0]
-            if jf.size:
-                lit[jf] = ~cast_rays(geometry, b.x[j[jf]].astype(np.float32),
-                                     sd[jf].astype(np.float32), occluded=True)
-                n_rays += jf.size
-            wl = r_share[j] * r_rho[j] * lit
-            on_g = ~sel_scene[j]
-            ground_sun[g] = _fbincount(r_pt[j[on_g]], weights=wl[on_g], minlength=n)
-            reflect_sun[g] = _fbincount(r_pt[j[~on_g]] * B + r_ob[j[~on_g]],
-                                         weights=wl[~on_g], minlength=n * B)
+        live = np.nonzero((r_share > 0) & (r_rho > 0))[0]
+        n_rays += _cell_sun(geometry, b.x[live], tn[live], r_ob[live], ident[live], r_share[live] * r_rho[live],
+                            ~sel_scene[live], r_pt[live], sun_dirs, bins, sun_count, sun_cell, G, ground_sun,
+                            reflect_sun)
     if np.any(extra > 0):
         # sliver patches of the lower hemisphere: their ground share at the band's mean sunlit
         # share of the point's ground hits

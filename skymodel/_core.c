@@ -14,7 +14,9 @@
  *
  * Two radiance paths:
  *   direct: per direction the angle lookups are done once and reused for every channel and
- *           configuration (the reference's work, reorganised).
+ *           configuration (the reference's work, reorganised): only the configurations of non-zero
+ *           weight, directions sorted by sun knot in chunks, and (AVX2/FMA, chosen at run time) four
+ *           channels per vector from a channel-contiguous copy of the coefficients in range.
  *   table:  for a fixed sky state with the sun above the horizon, the weighted sum over
  *           configurations of emph(zero) * sum_r sun_r(gamma) zen_r(zero) is, inside each cell of
  *           (sun knots) x (union of zenith and emphasis knots), a polynomial
