@@ -30,6 +30,11 @@ leave no spinning thread charged to the 1-thread measurements.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_sky.py [--repeat 7] [--resolution 1000] [--json out.json]
                                                           [--small-only]  (only the small and one-direction calls)
+                                                          [--auto-sweep]  (auto's choice against both paths)
+
+``--auto-sweep`` times both paths and ``auto`` on calls below 20,000 values (4, 16 and 55 channels, 8 to
+5,000 directions in clusters 0.5 to 30 deg wide, sun at 5 and 33.3 deg, one thread) and reports how much
+slower auto's pick is than the faster path: the check of the cost model ``table_pays`` in _core.c.
 """
 
 from __future__ import annotations
@@ -90,6 +95,43 @@ def interleaved(base, base_values, cand, cand_values, repeat):
                 call_wall_s=float(np.median(c[:, 1])), call_wall_s_all=c[:, 1].tolist())
 
 
+def auto_sweep(m, repeat):
+    """auto against the faster of the direct and table paths, CPU time (median of ``repeat`` calls each)."""
+    rng = np.random.default_rng(2)
+
+    def cpu(fn):
+        fn()
+        t = []
+        for _ in range(repeat):
+            t.append(timed(fn)[0])
+        return float(np.median(t))
+    load0, rows = load_average(), []
+    for el in (33.3, 5.0):
+        state = dict(STATE, sun_elevation=el)
+        for nc in (55, 16, 4):
+            for n in sorted({max(1000 // nc, 8), 19999 // nc}):
+                for spread in (0.5, 2.0, 8.0, 30.0):
+                    z, a = np.radians(40.0), np.radians(200.0)
+                    v = np.array([np.sin(z) * np.sin(a), np.sin(z) * np.cos(a), np.cos(z)])
+                    v = v + np.radians(spread) * rng.normal(size=(n, 3))
+                    D = np.ascontiguousarray(v / np.linalg.norm(v, axis=1)[:, None])
+                    t = {meth: cpu(lambda meth=meth: skymodel.sky_radiance(m, D, **state, channels=np.arange(nc),
+                                                                            method=meth, threads=1))
+                         for meth in ("direct", "table", "auto")}
+                    skymodel.sky_radiance(m, D, **state, channels=np.arange(nc), threads=1)
+                    pick = "table" if KERNEL_INFO.get("path") == 2 else "direct"
+                    slow = t[pick] / min(t["direct"], t["table"])
+                    rows.append(slow)
+                    print(f"sun {el:4.1f} deg  {nc:2d} channels  {n:5d} directions  {spread:4.1f} deg: direct "
+                          f"{t['direct'] * 1e6:6.0f} us, table {t['table'] * 1e6:6.0f} us, auto picks {pick:6s} "
+                          f"({slow:.2f}x the faster)", flush=True)
+    rows = np.array(rows)
+    print(f"auto's pick / the faster path: mean {rows.mean():.3f}, worst {rows.max():.2f}, "
+          f"{int((rows > 1.05).sum())} of {rows.size} more than 5 % slower; load average {load0:.1f} -> "
+          f"{load_average():.1f}")
+    return {"auto_slowdown": rows.tolist()}
+
+
 def load_average():
     try:
         return os.getloadavg()[0]
@@ -104,12 +146,15 @@ def main(argv=None):
     ap.add_argument("--baseline-stride", type=int, default=40, help="baseline on every Nth image direction")
     ap.add_argument("--json", default=None)
     ap.add_argument("--small-only", action="store_true", help="skip the images (the direct-path rows only)")
+    ap.add_argument("--auto-sweep", action="store_true", help="only the check of auto's choice (table_pays)")
     ap.add_argument("--cache", default=os.environ.get("WIDESKY_BENCH_CACHE", tempfile.gettempdir()))
     args = ap.parse_args(argv)
 
     path = dataset(Path(args.cache))
     m = skymodel.load_dataset(path)
     m.load()
+    if args.auto_sweep:
+        return auto_sweep(m, max(args.repeat, 9))
     d, mask = fisheye_directions(args.resolution)
     dirs = np.ascontiguousarray(d[mask])
     n, C = dirs.shape[0], m.n_channels

@@ -1403,6 +1403,31 @@ static int interval_of(double q, const double *b, int n)
     return i;
 }
 
+/* n floats from src to dst (float32 output rows, contiguous): non-temporal (streaming) stores where dst is
+ * 16-byte aligned, so the output's cache lines are written without being read first (an image's output does
+ * not fit a cache: the read doubles its memory traffic); the caller fences (nt_fence) before the output is
+ * read. Elsewhere a plain copy. The values are the staged ones, bit for bit. */
+static void nt_copy_f32(float *restrict dst, const float *restrict src, size_t n)
+{
+#ifdef DIRECT_VEC
+    while (n && ((uintptr_t)dst & 15)) *dst++ = *src++, --n;
+    for (; n >= 16; n -= 16, dst += 16, src += 16) {
+        _mm_stream_ps(dst, _mm_loadu_ps(src));
+        _mm_stream_ps(dst + 4, _mm_loadu_ps(src + 4));
+        _mm_stream_ps(dst + 8, _mm_loadu_ps(src + 8));
+        _mm_stream_ps(dst + 12, _mm_loadu_ps(src + 12));
+    }
+#endif
+    memcpy(dst, src, n * sizeof(float));
+}
+
+static inline void nt_fence(void)
+{
+#ifdef DIRECT_VEC
+    _mm_sfence();
+#endif
+}
+
 static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, Py_ssize_t n, void *out,
                       int is_double, const int64_t *rows)
 {
@@ -1415,16 +1440,26 @@ static int table_eval(const table_t *t, const geom_t *geo, const double *dirs, P
     const Py_ssize_t chunk = EVAL_BLOCK;
     Py_ssize_t nchunks = (n + chunk - 1) / chunk, c;
     int fail = 0;
+    /* float32 rows in order, beyond a cache's worth: each block evaluated into a staging buffer (a cache's
+     * worth, reused) and streamed to the output */
+    const int stream = !is_double && !rows && n * (Py_ssize_t)t->nc >= (Py_ssize_t)1 << 20;
 #pragma omp parallel reduction(|| : fail) if (n * (Py_ssize_t)t->nc >= PAR_MIN_WORK / 8)
     {
         double *acc = malloc(sizeof(double) * 4 * (t->nc > 0 ? t->nc : 1));
-        if (!acc) fail = 1;
+        float *stage = stream ? malloc(sizeof(float) * chunk * (t->nc > 0 ? t->nc : 1)) : NULL;
+        if (!acc || (stream && !stage)) fail = 1;
 #pragma omp for schedule(static)
         for (c = 0; c < nchunks; ++c) {
-            if (!acc) continue;
+            if (!acc || (stream && !stage)) continue;
             Py_ssize_t i0 = c * chunk, i1 = i0 + chunk < n ? i0 + chunk : n;
-            eval_chunk(t, &ag, &az, geo, dirs, i0, (int)(i1 - i0), out, is_double, acc, rows);
+            if (stream) {
+                eval_chunk(t, &ag, &az, geo, dirs + 3 * i0, 0, (int)(i1 - i0), stage, 0, acc, NULL);
+                nt_copy_f32((float *)out + (size_t)i0 * t->nc, stage, (size_t)(i1 - i0) * t->nc);
+            } else
+                eval_chunk(t, &ag, &az, geo, dirs, i0, (int)(i1 - i0), out, is_double, acc, rows);
         }
+        if (stream) nt_fence();
+        free(stage);
         free(acc);
     }
     free(ag.start);
@@ -1737,16 +1772,27 @@ static int twilight_eval(const comp_t *m, const geom_t *geo, const int64_t *cfg_
     {
         Py_ssize_t b, nb = (n + EVAL_BLOCK - 1) / EVAL_BLOCK;
         const tw_tab_t TT = {tab, mix_start, mix_ch, mix_coef, slot, nc};
+        /* float32 rows in order, beyond a cache's worth: staged per block and streamed (as table_eval) */
+        const int stream = !is_double && !rows && n * (Py_ssize_t)nc >= (Py_ssize_t)1 << 20;
 #pragma omp parallel if (n * (Py_ssize_t)nc >= PAR_MIN_WORK / 8)
         {
             double *acc = malloc(sizeof(double) * (nc > 0 ? nc : 1));
+            float *stage = stream ? malloc(sizeof(float) * EVAL_BLOCK * (nc > 0 ? nc : 1)) : NULL;
+            const int ok = acc && (!stream || stage);
 #pragma omp for schedule(static)
             for (b = 0; b < nb; ++b) {
-                if (!acc) continue;
+                if (!ok) continue;
                 const Py_ssize_t i0 = b * EVAL_BLOCK;
-                tw_eval_block(&TT, d, i0, (int)(n - i0 < EVAL_BLOCK ? n - i0 : EVAL_BLOCK), out, is_double, acc, rows);
+                const int cnt = (int)(n - i0 < EVAL_BLOCK ? n - i0 : EVAL_BLOCK);
+                if (stream) {
+                    tw_eval_block(&TT, d + i0, 0, cnt, stage, 0, acc, NULL);
+                    nt_copy_f32((float *)out + (size_t)i0 * nc, stage, (size_t)cnt * nc);
+                } else
+                    tw_eval_block(&TT, d, i0, cnt, out, is_double, acc, rows);
             }
-            if (!acc) fail = -1;
+            if (stream) nt_fence();
+            if (!ok) fail = -1;
+            free(stage);
             free(acc);
         }
     }
@@ -2072,33 +2118,38 @@ static PyObject *py_check_dirs(PyObject *self, PyObject *args)
 }
 
 /* auto's choice for a smaller call (sun above the horizon): the table when building the cells in the range
- * of the call's angles and evaluating them costs less than the direct path. Costs in CPU time measured
- * for the x86-64-v3 build (benchmarks/bench_sky.py): table build about 0.1 ns per (cell, channel,
- * configuration, rank + 8), evaluation about 1 ns per value and 20 ns per direction; direct about 0.22 ns
- * per (value, configuration, 3 rank + 4), or with its AVX2 path 0.07 ns plus its copy of the coefficients
- * in range, 0.1 ns per (knot, channel, configuration, rank). Both paths give the reference's values to
- * rounding. */
+ * of the call's angles and evaluating them costs less than the direct path. CPU times fitted (least squares,
+ * relative) to 288 timed calls of the x86-64-v3 build, one thread: the 61 MB benchmark dataset and the
+ * tests' small one, 4, 16 and 55 channels, 8 to 5,000 directions, clusters 0.5 to 30 deg wide, sun at 5,
+ * 33 and 70 deg. Checked by benchmarks/bench_sky.py --auto-sweep: auto's pick takes 1.009x the faster path's
+ * time on average, worst 1.16x (the previous estimate: 8 of 48 picks wrong, up to 1.8x). Table: per (channel,
+ * configuration) its zenith factors at the padded merged knot columns in range and, per sun row, their rank
+ * sums and corner products, 0.079 ns per (column, (R + 8) per row + R + 1); 2.3 ns per value, 7 ns per
+ * direction, and 16 us a call more than the direct path (allocations, lookups). Direct (AVX2): 0.031 ns per
+ * (value, configuration, 3 R + 4), its copy of the coefficients in range 0.19 ns per (knot, channel,
+ * configuration, rank), 85 ns per direction; without AVX2, 0.22 ns per (value, configuration, 3 R + 4).
+ * Both paths give the reference's values to rounding. */
 static int table_pays(const comp_t *m, const geom_t *geo, const double *dirs, Py_ssize_t n, int ncfg, int nc)
 {
     double rg[4];
     angle_range(geo, dirs, n, rg);
     if (!(isfinite(rg[0]) && isfinite(rg[1]) && isfinite(rg[2]) && isfinite(rg[3]))) return 0;
-    /* cells in range: sun intervals x zenith/emphasis intervals (counted over the larger knot set, the merged
-     * set being at most their sum) plus the margin table_build_signed adds */
-    const double *zb = m->zb;
-    int nz = m->nz;
-    if (m->emph && m->ne > nz) zb = m->eb, nz = m->ne;
+    /* sun rows in range plus the margin table_build_signed adds; merged zenith/emphasis columns in range
+     * (at most the sum of both knot sets' intervals), padded as the build pads them (whole vectors + 8) */
     const double rows = interval_of(rg[1], m->sb, m->ns) - interval_of(rg[0], m->sb, m->ns) + 3;
-    double cols = interval_of(rg[3], zb, nz) - interval_of(rg[2], zb, nz) + 3;
-    if (m->emph) cols *= 2.0;
+    const double zcols = interval_of(rg[3], m->zb, m->nz) - interval_of(rg[2], m->zb, m->nz);
+    double cols = zcols + 3;
+    if (m->emph) cols += interval_of(rg[3], m->eb, m->ne) - interval_of(rg[2], m->eb, m->ne);
+    const int nup = (m->nz + (m->emph ? m->ne : 0) + 7) & ~3;
+    const double pad = cols + 7 < nup ? cols + 7 : nup;
     const double R = m->rank;
-    const double table = rows * cols * nc * ncfg * (R + 8) * 0.1 + (double)n * nc * 1.0 + (double)n * 20.0;
+    const double table = 0.079 * nc * ncfg * pad * (rows * (R + 8) + R + 1) + 2.34 * (double)n * nc +
+                         7.1 * (double)n + 16000.0;
     double direct = (double)n * nc * ncfg * (3 * R + 4) * 0.22;
 #ifdef DIRECT_VEC
-    if (direct_vec_ok() && 6 * n >= m->ns + m->nz) {
-        double zr = interval_of(rg[3], m->zb, m->nz) - interval_of(rg[2], m->zb, m->nz) + 2;
-        direct = (double)n * nc * ncfg * (3 * R + 4) * 0.07 + (rows - 1 + zr) * nc * ncfg * R * 0.1;
-    }
+    if (direct_vec_ok() && 6 * n >= m->ns + m->nz)
+        direct = 0.031 * (double)n * nc * ncfg * (3 * R + 4) + 0.19 * (rows - 1 + zcols + 2) * nc * ncfg * R +
+                 85.0 * (double)n;
 #endif
     return table < direct;
 }

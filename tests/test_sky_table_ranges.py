@@ -96,3 +96,25 @@ def test_table_paths_do_not_depend_on_the_thread_count(models):
                     one = f(m, dirs, *state, method="table", threads=1)
                     two = f(m, dirs, *state, method="table", threads=2)
                 np.testing.assert_array_equal(one, two)
+
+
+@pytest.mark.filterwarnings("ignore::widesky.skymodel.SkyStateClampedWarning")
+def test_streamed_float32_output_equals_the_rounded_float64_values(models):
+    """Above 2**20 float32 values in order, the daytime and twilight tables stream each block of rows to the
+    output (non-temporal stores from 16-byte boundaries, plain copies at the edges): the same values as the
+    float64 output rounded to float32, bit for bit, into outputs starting 0 to 3 floats past a 16-byte
+    boundary, on 1 and 2 threads, and nothing written outside the output."""
+    m = models["full"]
+    dirs, _ = fisheye_disc(600, "up", 150.0)
+    n, nc = dirs.shape[0], m.n_channels
+    assert n * nc >= 2**20
+    for state, off in ((STATES[0], 0), (STATES[0], 1), (STATES[0], 2), (STATES[0], 3), ((-2.5, 150.0, 47.0, 0.37), 1)):
+        ref = skymodel.sky_radiance(m, dirs, *state, method="table").astype(np.float32)
+        buf = np.full(n * nc + 8, np.nan, np.float32)
+        start = off + (-buf.ctypes.data // 4) % 4  # off floats past a 16-byte boundary
+        out = buf[start:start + n * nc].reshape(n, nc)
+        for threads in (1, 2):
+            out[...] = np.nan
+            skymodel.sky_radiance(m, dirs, *state, method="table", dtype=np.float32, out=out, threads=threads)
+            np.testing.assert_array_equal(out, ref)
+        assert np.isnan(buf[:start]).all() and np.isnan(buf[start + n * nc:]).all()
