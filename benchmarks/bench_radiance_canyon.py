@@ -35,8 +35,16 @@ per point at one bounce). The five-phase subtraction is what limits Radiance's p
 sun patches' direct view comes from two independent sample sets (measured: 10 % rms per face at ``-ad 256``,
 2.0 % at 4,096, about 1 % at 16,384 and 65,536).
 
+``--global-only``: widesky keeps what Radiance's side produces, the hourly global per face (no parts, aoi nor sun
+visibility: ``OutputOptions(parts={"broadband": ("global",)}, angles=False)``, the fused product; per face equal to
+the three parts' sum within float32 rounding). ``--radiance-from SAVED.json``: Radiance's results and times from
+an earlier ``--json`` run of the same scene (its faces and groups are checked) instead of running it again (14 min
+CPU at 10,000 faces); the JSON and the table say so. Time with ``OPENBLAS_NUM_THREADS=1``: OpenBLAS's default
+threads spin-wait on this 2-core machine and add seconds of CPU to widesky's products.
+
 Usage:  python benchmarks/bench_radiance_canyon.py [--faces 90] [--stride N] [--tolerance 0.02] [--jobs N]
-        [--radiance WORKDIR [--bounces 5] [--ad 4096] [--five-phase]] [--json FILE]
+        [--global-only] [--radiance WORKDIR [--bounces 5] [--ad 4096] [--five-phase] | --radiance-from SAVED.json]
+        [--json FILE]
         python benchmarks/bench_radiance_canyon.py --table FILE [FILE ...]
 """
 
@@ -133,28 +141,35 @@ def canyon_scene(street=12.0, height=12.0, depth=12.0, length=96.0, sensor=12.0,
 
 
 def widesky_canyon(built, weather="data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw", tolerance=0.02, jobs=None,
-                   stride=1, per_face=None):
+                   stride=1, per_face=None, global_only=False):
     """Annual irradiation [kWh m-2] per group and part: dict group -> dict part -> value; and the run's seconds
     (dict ``wall``, ``cpu``: this process's and its descendants' CPU time, worker pools included). ``per_face``:
-    a dict that receives each sensor face's annual global [kWh m-2] (key ``global``)."""
+    a dict that receives each sensor face's annual irradiation per part [kWh m-2]. ``global_only``: keep what
+    Radiance's side keeps, the hourly global per face only (``OutputOptions(parts={"broadband": ("global",)},
+    angles=False)``: the fused product, no parts, aoi nor sun visibility; global within float32 rounding)."""
+    from widesky.irradiance import OutputOptions, poa_irradiance
     from widesky.irradiance.integrator import IntegratorSettings
     from widesky.irradiance.simulation import Simulation
     scene = built["scene"]
     sim = Simulation(scene, weather=weather, settings=IntegratorSettings.for_tolerance(tolerance), n_jobs=jobs)
     steps = None if stride == 1 else slice(None, None, stride)
+    parts = ("global",) if global_only else ("direct", "sky_diffuse", "ground_diffuse", "global")
     with _DescendantCPU() as clock:
-        res = sim.run(steps=steps)
+        if global_only:
+            res = poa_irradiance(scene, sim.sky_source, **sim.integrator_arguments(steps),
+                                 output=OutputOptions(parts={"broadband": ("global",)}, angles=False))
+        else:
+            res = sim.run(steps=steps)
     secs = clock.seconds
     area = scene.face_area
     out = {}
     for g, name in enumerate(GROUPS):
         m = scene.face_group == g
         a = area[m] / area[m].sum()
-        out[name] = {p: float(np.sum(getattr(res, f"poa_{p}")[:, m] @ a)) * stride / 1000.0
-                     for p in ("direct", "sky_diffuse", "ground_diffuse", "global")}
+        out[name] = {p: float(np.sum(getattr(res, f"poa_{p}")[:, m] @ a)) * stride / 1000.0 for p in parts}
     if per_face is not None:
         per_face.update({p: np.asarray(getattr(res, f"poa_{p}"), dtype=float).sum(0) * stride / 1000.0
-                         for p in ("direct", "sky_diffuse", "ground_diffuse", "global")})
+                         for p in parts})
     return out, secs
 
 
@@ -334,7 +349,9 @@ def _table(runs):
         w, q, st = r["widesky_seconds"], r["radiance_seconds"], r["settings"]
         diffs = [r["widesky"][g]["global"] / r["radiance"][g]["global"] - 1 for g in GROUPS]
         method = "five-phase" if st["five_phase"] else "suns traced"
-        lines.append(f"| {r['faces']:,} | {method}, `-ab {st['bounces'] + 1} -ad {st['ad']}` | "
+        method += ", saved run" if r.get("radiance_from") else ""
+        keep = "; widesky hourly global only, as Radiance" if st.get("global_only") else ""
+        lines.append(f"| {r['faces']:,} | {method}, `-ab {st['bounces'] + 1} -ad {st['ad']}`{keep} | "
                      f"{w['cpu']:.1f} s ({w['wall']:.0f} s) | {q['cpu']:.0f} s ({q['wall']:.0f} s) | "
                      f"**{q['cpu'] / w['cpu']:.1f}x** | {min(diffs):+.1%} to {max(diffs):+.1%} |")
     return "\n".join(lines)
@@ -353,6 +370,11 @@ def main(argv=None):
     ap.add_argument("--ad", type=int, default=4096)
     ap.add_argument("--five-phase", action="store_true",
                     help="Radiance's sun reflections from the sky coefficients (the usual lean annual method)")
+    ap.add_argument("--global-only", action="store_true",
+                    help="widesky keeps the hourly global per face only, as Radiance's side (no parts, no angles)")
+    ap.add_argument("--radiance-from", default=None, metavar="JSON",
+                    help="take Radiance's results and times from this earlier --json run of the same scene "
+                         "(checked: faces and groups) instead of running Radiance again")
     ap.add_argument("--json", default=None, metavar="FILE", help="write both codes' results and timings here")
     ap.add_argument("--table", nargs="+", default=None, metavar="JSON",
                     help="print the issue-36 table of earlier --json runs and exit")
@@ -366,23 +388,66 @@ def main(argv=None):
     built = canyon_scene(subdivide=subdivision_for(a.faces))
     n_faces = built["scene"].n_faces
     w_face, r_face = {}, {}
-    res, secs = widesky_canyon(built, tolerance=a.tolerance, jobs=a.jobs, stride=a.stride, per_face=w_face)
-    print(f"widesky, Denver TMY3, {n_faces} faces, {secs['wall']:.1f} s wall, {secs['cpu']:.1f} s CPU")
+    saved = None
+    if a.radiance_from:
+        import json
+        saved = json.load(open(a.radiance_from))
+        if saved["faces"] != n_faces or saved["face_group"] != built["scene"].face_group.tolist():
+            raise SystemExit(f"--radiance-from {a.radiance_from}: its scene ({saved['faces']} faces) is not this "
+                             f"one ({n_faces} faces at --faces {a.faces}); give the --json of a run at these --faces")
+        if saved["settings"]["stride"] != a.stride:
+            raise SystemExit(f"--radiance-from {a.radiance_from}: its run used --stride {saved['settings']['stride']}, "
+                             f"not --stride {a.stride}; give the same --stride")
+    res, secs = widesky_canyon(built, tolerance=a.tolerance, jobs=a.jobs, stride=a.stride, per_face=w_face,
+                               global_only=a.global_only)
+    print(f"widesky, Denver TMY3, {n_faces} faces, {secs['wall']:.1f} s wall, {secs['cpu']:.1f} s CPU"
+          + (", hourly global per face only" if a.global_only else ""))
     print("| group | direct | sky | reflected | global | [kWh m-2 a-1] |")
     print("|---|---|---|---|---|---|")
     for g, r in res.items():
-        print(f"| {g} | {r['direct']:.1f} | {r['sky_diffuse']:.1f} | {r['ground_diffuse']:.1f} | {r['global']:.1f} | |")
-    if a.radiance is None:
+        print(f"| {g} | " + " | ".join(f"{r[p]:.1f}" if p in r else "-" for p in
+                                       ("direct", "sky_diffuse", "ground_diffuse", "global")) + " | |")
+    if saved is not None:
+        rad, rsecs, timings = (saved[k] for k in ("radiance", "radiance_seconds", "radiance_steps"))
+        r_face = saved["per_face"]["radiance"]
+        print(f"Radiance from {a.radiance_from} (an earlier run of this scene): {rsecs['cpu']:.1f} s CPU")
+        print(f"CPU ratio Radiance / widesky {rsecs['cpu'] / secs['cpu']:.1f}x")
+        for g, r in res.items():
+            print(f"| {g} | global diff {r['global'] / rad[g]['global'] - 1:+.1%} |")
+    elif a.radiance is None:
         return
-    if _radiance_env() is None:
+    elif _radiance_env() is None:
         print("Radiance cross-check skipped: pyradiance is not installed (an optional benchmark dependency: "
               "pip install pyradiance==1.3.1)")
         return
+    else:
+        rad, rsecs, timings = _run_radiance(built, a, r_face)
+        _print_radiance(a, res, secs, rad, rsecs, timings)
+    if a.json:
+        import json
+        st = saved["settings"] if saved is not None else {"bounces": a.bounces, "ad": a.ad, "five_phase": a.five_phase}
+        with open(a.json, "w") as f:
+            json.dump({"faces": n_faces, "widesky": res, "widesky_seconds": secs, "radiance": rad,
+                       "radiance_seconds": rsecs, "radiance_steps": timings, "radiance_from": a.radiance_from,
+                       "per_face": {"widesky": {p: v.tolist() for p, v in w_face.items()},
+                                    "radiance": {p: np.asarray(v).tolist() for p, v in r_face.items()}},
+                       "face_group": built["scene"].face_group.tolist(),
+                       "settings": {"bounces": st["bounces"], "ad": st["ad"], "five_phase": st["five_phase"],
+                                    "tolerance": a.tolerance, "jobs": a.jobs, "stride": a.stride,
+                                    "global_only": a.global_only}}, f, indent=1)
+
+
+def _run_radiance(built, a, r_face):
+    """Radiance's run for ``main``: (results per group, seconds, per-step timings)."""
     from widesky.core.paths import data_reference
     t0, c0 = time.perf_counter(), _cpu()
     rad, timings = radiance_canyon(built, data_reference("data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"),
                                    a.radiance, bounces=a.bounces, ad=a.ad, five_phase=a.five_phase, per_face=r_face)
-    rsecs = {"wall": time.perf_counter() - t0, "cpu": _cpu() - c0}
+    return rad, {"wall": time.perf_counter() - t0, "cpu": _cpu() - c0}, timings
+
+
+def _print_radiance(a, res, secs, rad, rsecs, timings):
+    """Radiance's times and the per-group agreement (parts where widesky kept them)."""
     print(f"Radiance (pyradiance), {rsecs['wall']:.1f} s wall, {rsecs['cpu']:.1f} s CPU (children included); "
           f"{'five-phase' if a.five_phase else 'suns traced'}, -ab {a.bounces} (sky {a.bounces + 1}), -ad {a.ad}:")
     for label, wall, cpu in timings:
@@ -392,20 +457,14 @@ def main(argv=None):
     print("|---|---|---|---|---|---|---|---|")
     for g, r in res.items():
         q = rad[g]
+        if "direct" not in r:                                    # --global-only
+            print(f"| {g} | - | {q['direct_sky']:.1f} | | - | {q['reflected']:.1f} | | "
+                  f"{r['global'] / q['global'] - 1:+.1%} |")
+            continue
         ds = r["direct"] + r["sky_diffuse"]
         print(f"| {g} | {ds:.1f} | {q['direct_sky']:.1f} | {ds / q['direct_sky'] - 1:+.1%} | "
               f"{r['ground_diffuse']:.1f} | {q['reflected']:.1f} | "
               f"{r['ground_diffuse'] / max(q['reflected'], 1e-9) - 1:+.1%} | {r['global'] / q['global'] - 1:+.1%} |")
-    if a.json:
-        import json
-        with open(a.json, "w") as f:
-            json.dump({"faces": n_faces, "widesky": res, "widesky_seconds": secs, "radiance": rad,
-                       "radiance_seconds": rsecs, "radiance_steps": timings,
-                       "per_face": {"widesky": {p: v.tolist() for p, v in w_face.items()},
-                                    "radiance": {p: v.tolist() for p, v in r_face.items()}},
-                       "face_group": built["scene"].face_group.tolist(),
-                       "settings": {"bounces": a.bounces, "ad": a.ad, "five_phase": a.five_phase,
-                                    "tolerance": a.tolerance, "jobs": a.jobs, "stride": a.stride}}, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -175,11 +175,16 @@ def _cell_sun(geometry, x, tn, ob, ident, w, on_g, pt, sun_dirs, bins, sun_count
             sizes = edges[use + 1] - edges[use]
             j = np.repeat(edges[use] - np.cumsum(sizes) + sizes, sizes) + np.arange(int(sizes.sum()))
             idj, tnj = ident[j], (nid[j] if table else tn[j])
-        u = np.mod(0.5 + (idj + 7919 * (g + 1)) * 0.6180339887498949, 1.0)
+        u = (idj + 7919 * (g + 1)).astype(np.float64, copy=False)     # the draw, in place: the same
+        u *= 0.6180339887498949                                        # operations in the same order;
+        u += 0.5                                                       # u - floor(u) is exact (Sterbenz),
+        u -= np.floor(u)                                               # so equal to np.mod(u, 1), 5x faster
         pick = np.empty(u.size, dtype=np.int64)
         a = 0
         for b, m in zip(use, sizes):
-            pick[a:a + m] = np.searchsorted(cdf[b], u[a:a + m] * tot[b], side="right")
+            ub = u[a:a + m]
+            ub *= tot[b]
+            pick[a:a + m] = np.searchsorted(cdf[b], ub, side="right")
             a += m
         np.minimum(pick, cg.size - 1, out=pick)
         if table:
@@ -189,8 +194,11 @@ def _cell_sun(geometry, x, tn, ob, ident, w, on_g, pt, sun_dirs, bins, sun_count
             front = np.nonzero(np.sum(tnj * sun_dirs[cg[pick]], axis=1) > 0)[0]
         if front.size == 0:
             continue
+        every = front.size == pick.size                                # every point faces its sun: no gathers
         jj = front if j is None else j[front]
-        lit = ~cast_rays(geometry, x32[jj], sun_dirs[cg[pick[front]]].astype(np.float32), occluded=True)
+        sd32 = sun_dirs[cg].astype(np.float32)                         # cast, then gathered: the same values
+        lit = ~cast_rays(geometry, x32 if every and j is None else x32[jj], sd32[pick if every else pick[front]],
+                         occluded=True)
         n_rays += front.size
         k = jj[lit]
         kg = k[on_g[k]]
