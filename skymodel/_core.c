@@ -196,6 +196,140 @@ static inline void put(void *out, size_t i, double v, int is_double)
 /* output row of direction i: rows[i] where the caller scatters into an image, else i */
 #define OUT_ROW(rows, i) ((rows) ? (size_t)(rows)[i] : (size_t)(i))
 
+/* The direct path's channel-contiguous copy of the coefficients, kept across calls (one entry, at most
+ * DCACHE_MAX_BYTES): the second call in a row with the same coefficient arrays, configurations of non-zero
+ * weight (in order) and channels copies every knot once into the entry, and later such calls skip the copy
+ * (the same numbers read in the same order: the same bits). Managed under the GIL (py_radiance): the entry
+ * holds weak references to the coefficient arrays, so a freed or replaced dataset never matches; users
+ * counts the calls reading it with the GIL released, and an entry replaced while read is freed by its last
+ * reader. */
+#define DCACHE_MAX_BYTES ((size_t)64 << 20)
+typedef struct {
+    const float *sun, *zen, *emph;
+    int ns, nz, ne, rank, nch, nact, nc;
+    int64_t *cfg, *chi; /* [nact] configurations of non-zero weight, [nc] channels */
+} dkey_t;
+typedef struct {
+    dkey_t k;
+    PyObject *ref[3]; /* weak references to the sun, zenith and emphasis arrays (ref[2] NULL without) */
+    double *buf;      /* sun [nact][ns][rank][nc4] double, then zenith [nact][nz][rank][nc4] and emphasis
+                         [nact][ne][nc4] float */
+    int users, filled, orphan;
+} dcache_t;
+static dcache_t *dc_cur = NULL; /* the entry (GIL) */
+static dkey_t dc_seen;          /* the previous call's key (GIL) */
+
+static void dkey_free(dkey_t *k)
+{
+    free(k->cfg);
+    free(k->chi);
+    k->cfg = k->chi = NULL;
+}
+
+static int dkey_make(dkey_t *k, const comp_t *m, const int64_t *cfg_base, const double *cfg_w, int ncfg,
+                     const int64_t *chi, int nc)
+{
+    *k = (dkey_t){m->sun, m->zen, m->emph, m->ns, m->nz, m->emph ? m->ne : 0, m->rank, m->nch, 0, nc, NULL, NULL};
+    k->cfg = malloc(sizeof(int64_t) * (ncfg > 0 ? ncfg : 1));
+    k->chi = malloc(sizeof(int64_t) * (nc > 0 ? nc : 1));
+    if (!k->cfg || !k->chi) {
+        dkey_free(k);
+        return -1;
+    }
+    for (int c = 0; c < ncfg; ++c)
+        if (cfg_w[c] != 0.0) k->cfg[k->nact++] = cfg_base[c];
+    if (nc > 0) memcpy(k->chi, chi, sizeof(int64_t) * nc);
+    return 0;
+}
+
+static int dkey_eq(const dkey_t *a, const dkey_t *b)
+{
+    return a->cfg && b->cfg && a->sun == b->sun && a->zen == b->zen && a->emph == b->emph && a->ns == b->ns &&
+           a->nz == b->nz && a->ne == b->ne && a->rank == b->rank && a->nch == b->nch && a->nact == b->nact &&
+           a->nc == b->nc && !memcmp(a->cfg, b->cfg, sizeof(int64_t) * a->nact) &&
+           !memcmp(a->chi, b->chi, sizeof(int64_t) * a->nc);
+}
+
+/* doubles of an entry's buffer (the layout of radiance_direct_vec's copy, every knot) */
+static size_t dcache_doubles(const dkey_t *k)
+{
+    size_t nc4 = 4 * (size_t)((k->nc + 3) / 4), kr = (size_t)k->rank * nc4;
+    size_t nsun = (size_t)k->nact * k->ns * kr, nzen = (size_t)k->nact * k->nz * kr;
+    size_t nemph = (size_t)k->nact * k->ne * nc4;
+    return nsun + (nzen + nemph + 1) / 2;
+}
+
+static void dcache_free(dcache_t *e)
+{
+    for (int i = 0; i < 3; ++i) Py_XDECREF(e->ref[i]);
+    dkey_free(&e->k);
+    free(e->buf);
+    free(e);
+}
+
+/* the entry for a direct-path call (GIL held), NULL for none: the current one, or a new one for this call
+ * to fill (the key seen in the previous call too), to be handed back with dcache_put */
+static dcache_t *dcache_get(const comp_t *m, PyObject *const *arr, const int64_t *cfg_base, const double *cfg_w,
+                            int ncfg, const int64_t *chi, int nc)
+{
+    dkey_t k;
+    if (nc < 1 || dkey_make(&k, m, cfg_base, cfg_w, ncfg, chi, nc) < 0) return NULL;
+    if (k.nact == 0) {
+        dkey_free(&k);
+        return NULL;
+    }
+    if (dc_cur && dkey_eq(&dc_cur->k, &k)) {
+        int alive = 1;
+        for (int i = 0; i < 3; ++i)
+            alive &= (dc_cur->ref[i] ? PyWeakref_GetObject(dc_cur->ref[i]) : Py_None) == arr[i];
+        if (alive) {
+            dkey_free(&k);
+            dc_cur->users++;
+            return dc_cur;
+        }
+    }
+    if (!dkey_eq(&dc_seen, &k) || dcache_doubles(&k) * sizeof(double) > DCACHE_MAX_BYTES) {
+        dkey_free(&dc_seen);
+        dc_seen = k;
+        return NULL;
+    }
+    dcache_t *e = calloc(1, sizeof(*e));
+    if (!e) {
+        dkey_free(&k);
+        return NULL;
+    }
+    e->k = k;
+    e->users = 1;
+    for (int i = 0; i < 3; ++i)
+        if (arr[i] != Py_None && !(e->ref[i] = PyWeakref_NewRef(arr[i], NULL))) {
+            PyErr_Clear();
+            dcache_free(e);
+            return NULL;
+        }
+    return e;
+}
+
+/* hands back an entry from dcache_get (GIL held): a new one, filled, replaces the current one */
+static void dcache_put(dcache_t *e)
+{
+    if (!e) return;
+    e->users--;
+    if (e != dc_cur && !e->orphan) {
+        if (!e->filled) {
+            dcache_free(e);
+            return;
+        }
+        if (dc_cur) {
+            if (dc_cur->users)
+                dc_cur->orphan = 1;
+            else
+                dcache_free(dc_cur);
+        }
+        dc_cur = e;
+    }
+    if (e->orphan && e->users == 0) dcache_free(e);
+}
+
 #if defined(__GNUC__) && defined(__x86_64__)
 #define DIRECT_VEC 1
 #include <immintrin.h>
@@ -415,11 +549,39 @@ static int direct_vec_ok(void)
     return ok;
 }
 
+/* the configurations' coefficients at knots kn[0..1] (sun), kn[2..3] (zenith), kn[4..5] (emphasis),
+ * channel-contiguous into tbuf (T->nc4 set; the layout of dcache_t's buffer) */
+static void direct_copy(const direct_plan_t *P, const comp_t *m, const int *kn, direct_t_t *T, double *tbuf)
+{
+    const float **row = P->row;
+    size_t kr = (size_t)m->rank * T->nc4;
+    size_t nsun = (size_t)P->nact * m->ns * kr, nzen = (size_t)P->nact * m->nz * kr;
+    double *ts = tbuf;
+    float *tz = (float *)(tbuf + nsun), *te = tz + nzen;
+    for (int c = 0; c < P->nact; ++c)
+        for (int b = 0; b < P->nb; ++b) {
+            const float *const *q = row + ((size_t)c * P->nb + b) * 12;
+            for (int r = 0; r < m->rank; ++r) {
+                direct_transpose4d(q, (size_t)r * m->ns + kn[0], kn[1] - kn[0] + 1,
+                                  ts + ((size_t)c * m->ns + kn[0]) * kr + (size_t)r * T->nc4 + 4 * (size_t)b, kr);
+                direct_transpose4(q + 4, (size_t)r * m->nz + kn[2], kn[3] - kn[2] + 1,
+                                  tz + ((size_t)c * m->nz + kn[2]) * kr + (size_t)r * T->nc4 + 4 * (size_t)b, kr);
+            }
+            if (m->emph)
+                direct_transpose4(q + 8, kn[4], kn[5] - kn[4] + 1,
+                                  te + ((size_t)c * m->ne + kn[4]) * T->nc4 + 4 * (size_t)b, T->nc4);
+        }
+    T->sun = ts;
+    T->zen = tz;
+    T->emph = te;
+}
+
 /* Returns 0 when done, -1 when the vector path does not apply (no AVX2/FMA, fewer than two knots in a
- * lookup, no memory): the scalar path then runs. */
+ * lookup, no memory): the scalar path then runs. dc: the cached copy (dcache_get; filled here when new),
+ * or NULL. */
 static int radiance_direct_vec(const comp_t *m, const geom_t *geo, const int64_t *cfg_base, const double *cfg_w,
                                int ncfg, const int64_t *chi, int nc, const double *dirs, Py_ssize_t n, void *out,
-                               int is_double, double sign, const int64_t *rows)
+                               int is_double, double sign, const int64_t *rows, dcache_t *dc)
 {
     if (!direct_vec_ok() || nc < 1 || m->ns < 2 || m->nz < 2 || (m->emph && m->ne < 2)) return -1;
     direct_plan_t P;
@@ -460,7 +622,21 @@ static int radiance_direct_vec(const comp_t *m, const geom_t *geo, const int64_t
      * zenith and emphasis tables); a direction whose knots fall outside (none should) takes the path that
      * reads the dataset's rows, which gives the same values */
     int kn[6] = {0, m->ns - 1, 0, m->nz - 1, 0, m->emph ? m->ne - 1 : 0};
-    {
+    int cached = 0; /* T is the cache entry's copy of every knot */
+    if (dc && P.nact == dc->k.nact && T.nc4 == 4 * ((dc->k.nc + 3) / 4)) {
+        if (!dc->filled && (dc->buf = malloc(sizeof(double) * dcache_doubles(&dc->k))) != NULL) {
+            direct_copy(&P, m, kn, &T, dc->buf);
+            dc->filled = 1;
+        }
+        if (dc->filled) {
+            size_t kr = (size_t)m->rank * T.nc4;
+            T.sun = dc->buf;
+            T.zen = (float *)(dc->buf + (size_t)P.nact * m->ns * kr);
+            T.emph = (float *)T.zen + (size_t)P.nact * m->nz * kr;
+            cached = 1;
+        }
+    }
+    if (!cached) {
         double rg[4];
         angle_range(geo, dirs, n, rg);
         if (rg[0] == rg[0] && rg[2] == rg[2]) {
@@ -469,34 +645,15 @@ static int radiance_direct_vec(const comp_t *m, const geom_t *geo, const int64_t
             if (m->emph) kn[4] = interval_of(rg[2], m->eb, m->ne), kn[5] = interval_of(rg[3], m->eb, m->ne) + 1;
         }
     }
-    if (P.nact > 0 && 6 * n >= m->ns + m->nz) {
+    if (!cached && P.nact > 0 && 6 * n >= m->ns + m->nz) {
         size_t kr = (size_t)m->rank * T.nc4;
         size_t nsun = (size_t)P.nact * m->ns * kr, nzen = (size_t)P.nact * m->nz * kr;
         size_t nemph = m->emph ? (size_t)P.nact * m->ne * T.nc4 : 0;
         tbuf = ws_acquire(nsun + (nzen + nemph + 1) / 2); /* reused block: no fresh pages */
-        if (tbuf) {
-            double *ts = tbuf;
-            float *tz = (float *)(tbuf + nsun), *te = tz + nzen;
-            for (int c = 0; c < P.nact; ++c)
-                for (int b = 0; b < P.nb; ++b) {
-                    const float *const *q = row + ((size_t)c * P.nb + b) * 12;
-                    for (int r = 0; r < m->rank; ++r) {
-                        direct_transpose4d(q, (size_t)r * m->ns + kn[0], kn[1] - kn[0] + 1,
-                                          ts + ((size_t)c * m->ns + kn[0]) * kr + (size_t)r * T.nc4 + 4 * (size_t)b, kr);
-                        direct_transpose4(q + 4, (size_t)r * m->nz + kn[2], kn[3] - kn[2] + 1,
-                                          tz + ((size_t)c * m->nz + kn[2]) * kr + (size_t)r * T.nc4 + 4 * (size_t)b, kr);
-                    }
-                    if (m->emph)
-                        direct_transpose4(q + 8, kn[4], kn[5] - kn[4] + 1,
-                                          te + ((size_t)c * m->ne + kn[4]) * T.nc4 + 4 * (size_t)b, T.nc4);
-                }
-            T.sun = ts;
-            T.zen = tz;
-            T.emph = te;
-        }
+        if (tbuf) direct_copy(&P, m, kn, &T, tbuf);
     }
     Py_ssize_t i;
-    if (tbuf) {
+    if (tbuf || cached) {
         /* windows of directions (two per thread-sized share, 128 to 1024), each ordered by its sun interval
          * (a counting sort) so that consecutive directions reuse the same sun coefficients from cache; the
          * order does not change any value */
@@ -581,11 +738,13 @@ static int radiance_direct_vec(const comp_t *m, const geom_t *geo, const int64_t
 static void radiance_direct(const comp_t *m, const geom_t *geo, const int64_t *cfg_base,
                             const double *cfg_w, int ncfg, const int64_t *chi, int nc,
                             const double *dirs, Py_ssize_t n, void *out, int is_double, double sign,
-                            const int64_t *rows)
+                            const int64_t *rows, dcache_t *dc)
 {
 #ifdef DIRECT_VEC
-    if (radiance_direct_vec(m, geo, cfg_base, cfg_w, ncfg, chi, nc, dirs, n, out, is_double, sign, rows) == 0)
+    if (radiance_direct_vec(m, geo, cfg_base, cfg_w, ncfg, chi, nc, dirs, n, out, is_double, sign, rows, dc) == 0)
         return;
+#else
+    (void)dc;
 #endif
     Py_ssize_t i;
 #pragma omp parallel for schedule(static) if (n * (Py_ssize_t)nc * ncfg >= PAR_MIN_WORK)
@@ -2032,6 +2191,9 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
         int twilight = use_table && m.emph && geo.use_shadow;
         int err = 0;
         Py_ssize_t nmix = 0, nvisited = 0;
+        dcache_t *dc = NULL; /* the direct path's cached coefficient copy */
+        if (!use_table) dc = dcache_get(&m, o, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
+                                        (const int64_t *)b[8].b.buf, nc);
         Py_BEGIN_ALLOW_THREADS
         set_threads(nthreads);
         if (twilight) {
@@ -2043,7 +2205,7 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
                 use_table = twilight = 0;
                 radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                                 (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
-                                is_double, sign, rows);
+                                is_double, sign, rows, NULL);
             }
         } else if (use_table) {
             table_t t;
@@ -2054,7 +2216,7 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
                 use_table = 0;
                 radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                                 (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
-                                is_double, sign, rows);
+                                is_double, sign, rows, NULL);
             } else if (!err) {
                 nmix = t.nmix;
                 err = table_eval(&t, &geo, (const double *)b[9].b.buf, n, b[10].b.buf, is_double, rows);
@@ -2063,9 +2225,10 @@ static PyObject *py_radiance(PyObject *self, PyObject *args)
         } else {
             radiance_direct(&m, &geo, (const int64_t *)b[6].b.buf, (const double *)b[7].b.buf, ncfg,
                             (const int64_t *)b[8].b.buf, nc, (const double *)b[9].b.buf, n, b[10].b.buf,
-                            is_double, sign, rows);
+                            is_double, sign, rows, dc);
         }
         Py_END_ALLOW_THREADS
+        dcache_put(dc);
         if (err) {
             PyErr_NoMemory();
             goto done;

@@ -18,6 +18,8 @@ values outside the dataset's grids are clamped exactly as the reference does, an
 
 from __future__ import annotations
 
+import bisect
+import math
 import sys
 import threading
 import warnings
@@ -79,11 +81,12 @@ directions_from_angles = direction_from_zenith
 def _reference_lookup(q, grid):
     """Reference knot lookup (clamped): (index, factor)."""
     n = len(grid)
-    q = min(max(q, grid[0]), grid[-1])
-    k = int(np.searchsorted(grid, q, side="right"))
+    q = min(max(float(q), float(grid[0])), float(grid[-1]))  # Python floats: the same IEEE arithmetic, faster
+    k = bisect.bisect_right(grid, q)  # as searchsorted(side="right"), without its per-call overhead
     if k >= n:
         return n - 1, 0.0
-    return k - 1, (q - grid[k - 1]) / (grid[k] - grid[k - 1])
+    lo = float(grid[k - 1])
+    return k - 1, (q - lo) / (float(grid[k]) - lo)
 
 
 def _config_weights(model: SkyModel, visibility, albedo, altitude_param, elevation_deg):
@@ -156,8 +159,12 @@ def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, 
         v = flat[bad]
         what = "a zero vector" if np.all(v == 0) else f"a non-finite (or overflowing) vector {v}"
         raise ValueError(f"directions contain {what}")
-    state = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in
-                                  (sun_elevation, sun_azimuth, visibility, albedo, altitude)))
+    sc = (sun_elevation, sun_azimuth, visibility, albedo, altitude)
+    if all(type(x) is float or type(x) is int for x in sc):  # one plain-number state: checks without arrays
+        v = [float(x) for x in sc]
+        if all(map(math.isfinite, v)) and v[2] > 0 and v[4] >= 0:
+            return flat, dirs.shape[:-1], tuple(np.array(x) for x in v)
+    state = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in sc))
     names = ("sun_elevation [deg]", "sun_azimuth [deg]", "visibility [km]", "albedo", "altitude [m]")
     for name, arr in zip(names, state):
         if not np.isfinite(arr).all():
