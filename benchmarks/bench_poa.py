@@ -519,29 +519,10 @@ class PerStateSky:
         return getattr(self.sky, name)
 
     def radiance(self, directions, states):
-        from widesky import skymodel
         d = np.asarray(directions, dtype=float)
-        T, N = d.shape[0], d.shape[1]
-        out = np.empty((T, N, self.n_channels))
         q = self.elevation_quantum
         el = np.round(states.sun_elevation / q) * q if q > 0 else states.sun_elevation
-        key = np.stack([el, states.visibility, states.albedo, states.altitude], axis=1)
-        _, inverse = np.unique(key, axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        for g in range(inverse.max() + 1 if T else 0):
-            members = np.nonzero(inverse == g)[0]
-            ref = members[0]
-            delta = np.radians(states.sun_azimuth[ref] - states.sun_azimuth[members])
-            cd, sd = np.cos(delta)[:, None], np.sin(delta)[:, None]
-            dm = d[members]
-            rot = np.stack([dm[..., 0] * cd + dm[..., 1] * sd, -dm[..., 0] * sd + dm[..., 1] * cd, dm[..., 2]],
-                           axis=-1)
-            vals = skymodel.sky_radiance(self.model, rot.reshape(-1, 3), float(el[ref]),
-                                         float(states.sun_azimuth[ref]), float(states.visibility[ref]),
-                                         float(states.albedo[ref]), float(states.altitude[ref]),
-                                         channels=self.channels, threads=self.threads)
-            out[members] = np.asarray(vals).reshape(members.size, N, self.n_channels)
-        return out
+        return self.sky._radiance_per_state(d, el, states)       # PragueSky's per-state path (images use it)
 
     def direct_normal(self, states):
         from widesky import skymodel
