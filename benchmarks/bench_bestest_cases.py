@@ -6,6 +6,7 @@ the glazing or the zone model:
     python benchmarks/bench_bestest_cases.py [--jobs N] [--json OUT.json] [--cases 600 610 ...] [--zone-models 5r1c]
     python benchmarks/bench_bestest_cases.py --steps      # the ISO 52016-1 corrections one after another
     python benchmarks/bench_bestest_cases.py --hypotheses # the alternatives measured for the remaining misses
+    python benchmarks/bench_bestest_cases.py --vent       # the night fan's schedule and flow, shifted and scaled
 
 Runs, with both zone models (ISO 13790 5R1C and ISO 52016-1) unless ``--zone-models`` picks one, the integrator
 route (one integrator year per room geometry: south windows, south with overhang, east/west windows, east/west with
@@ -48,8 +49,13 @@ def main(argv=None):
                     help="instead: the ISO 52016-1 corrections one after another (docs/validation/thermal-bestest-cases.md table)")
     ap.add_argument("--hypotheses", action="store_true",
                     help="instead: the ISO 52016-1 alternatives measured for the remaining misses (same page)")
+    ap.add_argument("--vent", action="store_true",
+                    help="instead: Cases 650, 650FF, 950, 950FF with the night fan's hour shifted and its flow "
+                         "scaled (same page, fourth pass)")
     args = ap.parse_args(argv)
     refs = reference_results(args.data_dir)
+    if args.vent and args.cases == list(CASES):
+        args.cases = list(VENT_CASES)
 
     t0 = time.perf_counter()
     poas = {}
@@ -62,6 +68,8 @@ def main(argv=None):
         return _steps(args, poas, refs)
     if args.hypotheses:
         return _steps(args, poas, refs, HYPOTHESES, HYPOTHESIS_COLUMNS)
+    if args.vent:
+        return _vent(args, poas, refs)
     runs = [(m, route) for m in args.zone_models for route in ("integrator", "weather")]
     results = {}
     for m, route in runs:
@@ -124,7 +132,8 @@ COLUMNS = [("600", "annual_heating"), ("600", "annual_cooling"), ("640", "peak_h
 HYPOTHESES = [("default", {}), ("view factors, script-F (eps 0.9)", dict(longwave="view")),
               ("absorbed solar on the panes", dict(glass="panes")), ("lost share 0.035 (table)", dict(lost="table")),
               ("air node at site density", dict(air="site")), ("Walton (TARP) h_ci", dict(convection="tarp")),
-              ("TARP + table + site air", dict(convection="tarp", lost="table", air="site"))]
+              ("TARP + table + site air", dict(convection="tarp", lost="table", air="site")),
+              ("lost share of the transmitted light only", dict(lost="transmitted"))]
 """The alternatives measured for the remaining misses (``--hypotheses``; ``bestest.ISO52016_OPTIONS``)."""
 HYPOTHESIS_COLUMNS = [("600", "annual_heating"), ("640", "peak_heating"), ("670", "peak_heating"),
                       ("900", "annual_cooling"), ("910", "annual_heating"), ("950", "peak_cooling"),
@@ -152,6 +161,69 @@ def _steps(args, poas, refs, rows=None, columns=None):
                 cells.append("-" if v is None else (f"{v.value:.2f}" if v.inside else f"**{v.value:.2f}**"))
             print(f"| {name} | " + " | ".join(cells) + f" | {out} |")
         print()
+    return 0
+
+
+VENT_CASES = ("650", "650FF", "950", "950FF")
+VENT_HYPOTHESES = [
+    ("as specified: 18:00-07:00, 469 W K-1", {}),
+    ("one hour early: 17:00-06:00", dict(shift=-1)),
+    ("one hour late: 19:00-08:00", dict(shift=1)),
+    ("472.5 W K-1 (case file: 1409 m3 h-1 x 1.2 kg m-3 x 1006)", dict(conductance=1409.0 / 3600 * 1.2 * 1006)),
+    ("570 W K-1 (1700 m3 h-1 at 1.2 kg m-3: no altitude adjustment)", dict(conductance=1700.0 / 3600 * 1.2 * 1006)),
+]
+"""The night fan of Cases 650/950 (``--vent``): the Standard's schedule and the altitude-adjusted flow, the schedule
+an hour off either way, and the flow as the case files' Modelica run has it and without the altitude adjustment."""
+VENT_COLUMNS = [("650", "annual_cooling"), ("650", "peak_cooling"), ("650FF", "min_temperature"),
+                ("650FF", "max_temperature"), ("950", "annual_cooling"), ("950", "peak_cooling"),
+                ("950FF", "min_temperature"), ("950FF", "max_temperature"), ("950FF", "mean_temperature")]
+
+
+def _vent_schedules(orig, shift=0, conductance=None):
+    """``orig`` (``bestest.setpoint_schedules``) with the fan's hours moved by ``shift`` [h] and its conductance
+    [W K-1] replaced (measurement only)."""
+    import numpy as np
+    import pandas as pd
+    from widesky.thermal import bestest
+    v = bestest.VENT_SCHEDULE
+
+    def schedules(case, index):
+        heat, cool, h_ve = orig(case, index)
+        if case.spec.control not in ("vent", "vent_free"):
+            return heat, cool, h_ve
+        hour = (np.asarray((index - pd.Timedelta(hours=1)).hour) - shift) % 24
+        on = (hour >= v["on"]) | (hour < v["off"])
+        fan = h_ve.max() - float(case.zone.h_ve) if conductance is None else conductance
+        if case.spec.control == "vent":
+            cool = np.where(on, np.inf, v["cooling_set_point"])
+        return heat, cool, float(case.zone.h_ve) + np.where(on, fan, 0.0)
+    return schedules
+
+
+def _vent(args, poas, refs):
+    """Print, per route, the vent cases with each of :data:`VENT_HYPOTHESES`."""
+    from widesky.thermal import bestest
+    orig = bestest.setpoint_schedules
+    try:
+        for route in ("weather", "integrator"):
+            print(f"| night fan ({route}) | " + " | ".join(f"{c} {q.replace('_', ' ')}" for c, q in VENT_COLUMNS)
+                  + " | outside |")
+            print("|---|" + "---|" * (len(VENT_COLUMNS) + 1))
+            for name, kw in VENT_HYPOTHESES:
+                bestest.setpoint_schedules = _vent_schedules(orig, **kw)
+                vals, out = {}, 0
+                for c in args.cases:
+                    r = run_case(c, args.data_dir, poa=poas[case_geometry(c)] if route == "integrator" else None,
+                                 transposition=args.transposition)
+                    for v in verdicts(c, r, refs):
+                        vals[c, v.quantity] = v
+                        out += not v.inside
+                cells = ["-" if (v := vals.get(k)) is None else (f"{v.value:.2f}" if v.inside else f"**{v.value:.2f}**")
+                         for k in VENT_COLUMNS]
+                print(f"| {name} | " + " | ".join(cells) + f" | {out} |")
+            print()
+    finally:
+        bestest.setpoint_schedules = orig
     return 0
 
 

@@ -220,6 +220,37 @@ def test_iso52016_substeps_are_finer_implicit_steps():
         simulate_iso52016(els, te, ts, hce, 4.5, 0.0, 0.0, 0.0, 12.0, 20.0, 24.0, substeps=0, **kw)
 
 
+def test_iso52016_night_fan_switches_at_the_hour_with_the_substep_outdoor_air():
+    """Case 950's fan with 15-min sub-steps: the ventilation conductance of an hour (infiltration plus fan in the
+    hours beginning 18..06) holds over its four sub-steps, switching at the hour's start, and the air it brings
+    enters at the outdoor temperature of each sub-step's end (interpolated from the hour ends), as the same balance
+    run by hand at the 15-min step (1e-9). The hour-end temperature held instead, or the fan switched a sub-step
+    late, give other results (> 0.01 K)."""
+    from widesky.thermal.zone_iso52016 import simulate_iso52016
+    els, n, T = _substep_zone(), 4, 72
+    start = (np.arange(T) + 23) % 24                                   # hour ends 00:00.. -> hours beginning 23..
+    on = (start >= 18) | (start < 7)
+    assert on.reshape(3, 24).sum(1).tolist() == [13, 13, 13]
+    hve = 18.0 + 470.0 * on
+    te = 5.0 + 10.0 * np.sin(2 * np.pi * np.arange(T) / 24.0)
+    kw = dict(volume=40.0, internal_radiative_fraction=0.6, temp_start=18.0)
+    args = (els, te, te - 12.0, 10.0, 4.5, 0.0, 0.0, 200.0, hve, -np.inf, np.inf)
+    r = simulate_iso52016(*args, substeps=n, **kw)["temp_air"]
+
+    def interp(a):
+        prev = np.concatenate([a[:1], a[:-1]])
+        return (prev[:, None] + (np.arange(1, n + 1) / n) * (a - prev)[:, None]).ravel()
+
+    def fine(t_out, h):
+        f = simulate_iso52016(els, t_out, interp(te - 12.0), 10.0, 4.5, 0.0, 0.0, 200.0, h, -np.inf, np.inf,
+                              timestep=3600.0 / n, **kw)["temp_air"]
+        return f.reshape(T, n).mean(1)
+    assert r == pytest.approx(fine(interp(te), np.repeat(hve, n)), rel=1e-9, abs=1e-9)
+    late = np.roll(np.repeat(hve, n), 1)                               # the switch one sub-step late
+    assert np.abs(r - fine(interp(te), late)).max() > 0.01
+    assert np.abs(r - fine(np.repeat(te, n), np.repeat(hve, n))).max() > 0.01
+
+
 def test_iso52016_substeps_converge():
     """Free floating under a daily sine of outdoor air: the hourly step's error against 60 sub-steps (1 min) is
     four times that of 15-min sub-steps (implicit Euler, first order: 0.48 and 0.11 K)."""

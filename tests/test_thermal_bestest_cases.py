@@ -140,6 +140,9 @@ def test_schedules_640_650():
     assert np.all(cool[day] == 27.0) and np.all(np.isposinf(cool[~day]))
     fan = 1200.0 * 1700.0 * (0.414 / 0.5) / 3600.0
     assert hve[~day] == pytest.approx(c.zone.h_ve + fan) and hve[day] == pytest.approx(c.zone.h_ve)
+    assert (~day).sum() == 13                                                # 18:00-07:00: 13 hours
+    # the case files' Modelica run (Case950.mo, revision of 12 May 2022): 1409 m3 h-1 at 1.2 kg m-3, cp 1006
+    assert fan == pytest.approx(1409.0 / 3600.0 * 1.2 * 1006.0, rel=0.01)
     heat, cool, _ = setpoint_schedules(case_definition("600FF"), idx)
     assert np.all(np.isneginf(heat)) and np.all(np.isposinf(cool))
 
@@ -410,6 +413,25 @@ def test_interior_longwave_of_the_room():
     assert G[names.index("floor"), names.index("floor")] / 48.0 == pytest.approx(4.93, abs=0.02)
     with pytest.raises(ValueError, match="iso52016 option"):
         _iso_weather("600", longwave="sideways")
+
+
+@pytest.mark.reference
+def test_lost_share_of_the_transmitted_light():
+    """The share of the window's g-value gain lost back out through the windows: the enclosure formula's
+    ``rho p / (1 - rho (1 - p))`` (rho 0.4, p = tau_d 12 / 171.6) on the whole gain, the table's 0.035, or the
+    formula's share of the transmitted light only (tau_d / g_d of the gain: Win600's absorbed part, 9.6 % of g_d,
+    flows in as heat and cannot leave by reflection)."""
+    from widesky.thermal.bestest import _window_g, case_definition, lost_share
+    c = case_definition("900")
+    _, _, g_d, tau_d = _window_g(c.window)
+    p = tau_d * 12.0 / 171.6
+    esc = 0.4 * p / (1 - 0.4 * (1 - p))
+    assert lost_share(c) == pytest.approx((esc, esc), rel=1e-12) and esc == pytest.approx(0.0276, abs=5e-4)
+    assert lost_share(c, "table") == pytest.approx((0.035, esc), rel=1e-12)
+    assert lost_share(c, "transmitted") == pytest.approx((esc * tau_d / g_d, esc), rel=1e-12)
+    assert 1 - tau_d / g_d == pytest.approx(0.096, abs=0.002)
+    with pytest.raises(ValueError, match="lost="):
+        lost_share(c, "sideways")
 
 
 @pytest.mark.reference

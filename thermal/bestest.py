@@ -61,7 +61,7 @@ __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_mod
            "MEAN_TEMPERATURE_RANGE", "LOAD_CASES", "SOURCES", "Verdict", "verdicts", "case_geometry",
            "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS",
            "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "setback_substeps",
-           "interior_longwave"]
+           "interior_longwave", "lost_share"]
 
 
 @dataclass(frozen=True)
@@ -109,8 +109,10 @@ from 08:00 to 23:00; cooling 27 degC all hours."""
 VENT_SCHEDULE = {"flow": 1700.0, "on": 18, "off": 7, "cooling_set_point": 27.0}
 """Case 650/950 (140-2020 7.2.2.1.5): a vent fan of 1700 m3 h-1 [m3 h-1] on from 18:00 to 07:00
 (besides the infiltration; no fan heat), altitude-adjusted as the infiltration is (0.5 h-1 at sea
-level -> the case file's ``airRat``); heating off; cooling to 27 degC from 07:00 to 18:00 only.
-650FF and 950FF: the same fan, no heating and no cooling."""
+level -> the case file's ``airRat``): 469.2 W K-1 at rho c 1200 J m-3 K-1 (the case files' Modelica run, Case950.mo
+of 12 May 2022: 1409 m3 h-1 at 1.2 kg m-3 and 1006 J kg-1 K-1, 472.5 W K-1); heating off; cooling to 27 degC from
+07:00 to 18:00 only. The hours are the weather's (ending at its index): the fan runs in the 13 hours beginning
+18:00-06:00, cooling in the 11 beginning 07:00-17:00. 650FF and 950FF: the same fan, no heating and no cooling."""
 MEAN_TEMPERATURE_RANGE = {"600FF": (24.3, 26.1), "650FF": (17.6, 18.9), "900FF": (24.5, 25.7),
                           "950FF": (14.4, 15.0)}
 """Annual mean zone air temperature [degC], the reference programs' range (minimum, maximum)
@@ -855,7 +857,8 @@ def interior_longwave(case: BestestCase, elements):
 
 ISO52016_OPTIONS = {"solar": ("ashrae140", "area"), "convection": ("direction", "fixed", "tarp"),
                     "gaps": ("hourly", "en673"), "substeps": (4, 1), "longwave": ("star", "view"),
-                    "glass": ("g", "panes"), "lost": ("enclosure", "table"), "air": ("sea_level", "site")}
+                    "glass": ("g", "panes"), "lost": ("enclosure", "table", "transmitted"),
+                    "air": ("sea_level", "site")}
 """Choices of the ISO 52016-1 run (first: the default): where the transmitted solar lands
 (:data:`INTERIOR_SOLAR_DISTRIBUTION` or by opaque area), the inside convection of floor and ceiling (by the heat
 flow's direction, or fixed by kind), the windows' gap conductance (at the hour's temperature, or EN 673's) and the
@@ -866,8 +869,27 @@ for every inside surface instead. The alternatives measured and not kept (docs/v
 hypothesis table): ``longwave="view"`` (:func:`interior_longwave`, view factors and script-F instead of ISO 52016-1's
 area-weighted star), ``glass="panes"`` (:func:`_window_panes`: the solar absorbed in the panes on the window's
 nodes, only the transmitted part spread by the table), ``lost="table"`` (the table's 0.035 lost back out through
-the windows instead of the enclosure formula's 0.028) and ``air="site"`` (the air node's rho c at the site's
-density, 0.828 of 1200 J m-3 K-1)."""
+the windows instead of the enclosure formula's 0.028), ``lost="transmitted"`` (the enclosure formula's share taken
+off the transmitted light only, ``tau_d / g_d`` of the g-value gain, not off the absorbed part that flows in as heat:
+:func:`lost_share`) and ``air="site"`` (the air node's rho c at the site's density, 0.828 of 1200 J m-3 K-1)."""
+
+
+def lost_share(case: BestestCase, lost="enclosure"):
+    """(lost, esc): the share of the window's g-value gain [1] that the ISO 52016-1 run takes off as lost back out
+    through the windows (``lost``: a choice of :data:`ISO52016_OPTIONS`), and the share :func:`case_gains` took off
+    (the enclosure formula :func:`solar_escape_fraction`, on the whole g-value gain). ``"enclosure"``: the same;
+    ``"table"``: :data:`INTERIOR_SOLAR_DISTRIBUTION`'s lost share; ``"transmitted"``: the enclosure formula's share
+    of the transmitted light only, ``esc tau_d / g_d`` (hemispherical; the inward-flowing absorbed part of g is heat
+    from the panes, which no reflection sends back out)."""
+    _, _, g_d, tau_d = _window_g(case.window)
+    esc = solar_escape_fraction(tau_d, case.window_area, case.interior_area, INTERIOR_SOLAR_ABSORPTANCE)
+    if lost == "table":
+        return INTERIOR_SOLAR_DISTRIBUTION[case.spec.layout]["lost"], esc
+    if lost == "transmitted":
+        return esc * tau_d / g_d, esc
+    if lost != "enclosure":
+        raise ValueError(f"lost={lost!r} not one of {ISO52016_OPTIONS['lost']}")
+    return esc, esc
 
 
 def _window_panes(c: BestestCase, elements, g_gain, poa_global, lost):
@@ -911,12 +933,11 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, o
     dist = interior_solar_distribution(c, els) if opt["solar"] == "ashrae140" else None
     lw = interior_longwave(c, els) if opt["longwave"] == "view" else None
     # the share of the transmitted solar lost back out through the windows: case_gains' enclosure formula, or the
-    # ASHRAE 140 table's beside its distribution
-    esc = solar_escape_fraction(_window_g(c.window)[3], c.window_area, c.interior_area, INTERIOR_SOLAR_ABSORPTANCE)
-    lost = INTERIOR_SOLAR_DISTRIBUTION[c.spec.layout]["lost"] if (
-        opt["solar"] == "ashrae140" and opt["lost"] == "table") else esc
+    # ASHRAE 140 table's beside its distribution, or the formula's on the transmitted light only (lost_share)
+    lost, esc = lost_share(c, "enclosure" if opt["lost"] == "table" and opt["solar"] != "ashrae140" else opt["lost"])
     solar_in, panes = gains["window"] * (1 - lost) / (1 - esc), None
-    if opt["glass"] == "panes":
+    if opt["glass"] == "panes":                   # _window_panes takes the lost share off the transmitted part itself
+        lost = esc if opt["lost"] == "transmitted" else lost
         solar_in, panes = _window_panes(c, els, gains["window"] / (1 - esc), gains["poa_global"], lost)
     # the air node's rho c at the site's density, as the infiltration's (0.5 h-1 -> the case file's airRat)
     rho_c = RHO_C_AIR * (c.air_changes / 0.5 if opt["air"] == "site" else 1.0)
