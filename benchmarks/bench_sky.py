@@ -21,7 +21,10 @@ in CPU time (``time.process_time``) and wall time, median of ``--repeat`` pairs:
              (``method="direct"``) and by ``auto`` (which builds a table of only the cells in the range of
              the call's angles where that is cheaper);
   one        a single direction x 55 channels by the direct path, 200 calls per timing (the Python
-             wrapper's per-call cost, about 45 us, included: what a caller of one direction pays).
+             wrapper's per-call cost, about 15 us, included: what a caller of one direction pays).
+
+The direct path's kernel (AVX-512 where the processor has it, else AVX2; ``_core.direct_impl``) is named in
+the output and the JSON; ``--direct-kernel avx2`` times the AVX2 kernel on an AVX-512 machine.
 
 Per-core ratio = baseline time per value / candidate time per value, both on one thread; the CPU-time
 ratio is the fair one on a shared machine (a long baseline run gets less of a core than a short one).
@@ -31,6 +34,7 @@ leave no spinning thread charged to the 1-thread measurements.
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_sky.py [--repeat 7] [--resolution 1000] [--json out.json]
                                                           [--small-only]  (only the small and one-direction calls)
                                                           [--auto-sweep]  (auto's choice against both paths)
+                                                          [--direct-kernel auto|avx2|avx512]
 
 ``--auto-sweep`` times both paths and ``auto`` on calls below 20,000 values (4, 16 and 55 channels, 8 to
 5,000 directions in clusters 0.5 to 30 deg wide, sun at 5 and 33.3 deg, one thread) and reports how much
@@ -147,9 +151,15 @@ def main(argv=None):
     ap.add_argument("--json", default=None)
     ap.add_argument("--small-only", action="store_true", help="skip the images (the direct-path rows only)")
     ap.add_argument("--auto-sweep", action="store_true", help="only the check of auto's choice (table_pays)")
+    ap.add_argument("--direct-kernel", choices=("auto", "avx2", "avx512"), default="auto",
+                    help="the direct path's vector kernel (default: AVX-512 where available)")
     ap.add_argument("--cache", default=os.environ.get("WIDESKY_BENCH_CACHE", tempfile.gettempdir()))
     args = ap.parse_args(argv)
 
+    try:
+        _core.direct_impl({"auto": 0, "avx2": 1, "avx512": 2}[args.direct_kernel])
+    except ValueError:
+        ap.error(f"--direct-kernel {args.direct_kernel}: not available on this processor")
     path = dataset(Path(args.cache))
     m = skymodel.load_dataset(path)
     m.load()
@@ -226,10 +236,11 @@ def main(argv=None):
                               / np.abs(bo1).max())
     res["one_direct"] = r
     res["load_average_end"] = load_average()
+    res["direct_kernel"] = {0: "scalar", 1: "AVX2", 2: "AVX-512"}[_core.direct_impl(0)]  # (and back to auto)
 
     print(f"baseline: {BASELINE_NAME}; dataset {res['dataset_MB']:.1f} MB; image {args.resolution}^2 "
-          f"({n} directions in the disc) x {C} channels; load average {res['load_average_start']:.1f} -> "
-          f"{res['load_average_end']:.1f}")
+          f"({n} directions in the disc) x {C} channels; direct-path kernel {res['direct_kernel']}; load average "
+          f"{res['load_average_start']:.1f} -> {res['load_average_end']:.1f}")
     print(f"{'case':34s} {'base ns/val':>11s} {'ns/val':>8s} {'CPU ratio':>9s} {'wall ratio':>10s} {'call wall':>10s}")
     for key, label in (("daylight_1t", "daylight, table, 1 thread"), ("daylight_2t", "daylight, table, 2 threads"),
                        ("twilight_1t", "twilight -2.5 deg, 1 thread"), ("twilight_2t", "twilight -2.5 deg, 2 threads"),

@@ -78,29 +78,51 @@ directions_from_angles = direction_from_zenith
 """Former name of :func:`direction_from_zenith` (which says which angle it takes), kept for callers."""
 
 
+_GRID_LISTS: dict = {}  # id(grid) -> (grid, its bytes, its values as Python floats): a model's grids
+
+
+def _grid_list(grid):
+    """A grid's values as a list of Python floats, kept while the array and its bytes stay the same."""
+    if not isinstance(grid, np.ndarray):
+        return [float(x) for x in grid]
+    raw = grid.tobytes()
+    hit = _GRID_LISTS.get(id(grid))
+    if hit is not None and hit[0] is grid and hit[1] == raw:
+        return hit[2]
+    if len(_GRID_LISTS) >= 64:
+        _GRID_LISTS.clear()
+    values = [float(x) for x in grid.ravel()]
+    _GRID_LISTS[id(grid)] = (grid, raw, values)
+    return values
+
+
 def _reference_lookup(q, grid):
     """Reference knot lookup (clamped): (index, factor)."""
-    n = len(grid)
-    q = min(max(float(q), float(grid[0])), float(grid[-1]))  # Python floats: the same IEEE arithmetic, faster
-    k = bisect.bisect_right(grid, q)  # as searchsorted(side="right"), without its per-call overhead
+    g = _grid_list(grid)  # Python floats: the same IEEE arithmetic, faster than numpy scalars
+    n = len(g)
+    q = min(max(float(q), g[0]), g[-1])
+    k = bisect.bisect_right(g, q)  # as searchsorted(side="right"), without its per-call overhead
     if k >= n:
         return n - 1, 0.0
-    lo = float(grid[k - 1])
-    return k - 1, (q - lo) / (float(grid[k]) - lo)
+    lo = g[k - 1]
+    return k - 1, (q - lo) / (g[k] - lo)
 
 
 def _config_weights(model: SkyModel, visibility, albedo, altitude_param, elevation_deg):
     """Corner configurations and weights of the nested interpolation (visibility, albedo, altitude,
     elevation); a level whose factor is < 1e-6 keeps its lower branch only, as the reference does."""
-    grids = (model.visibilities, model.albedos, model.altitudes, model.elevations)
-    queries = (visibility, albedo, altitude_param, elevation_deg)
-    corners = [(0, 1.0)]
-    for grid, q in zip(grids, queries):
+    cfg, wts = [0], [1.0]
+    for grid, q in ((model.visibilities, visibility), (model.albedos, albedo), (model.altitudes, altitude_param),
+                    (model.elevations, elevation_deg)):
         i, f = _reference_lookup(q, grid)
-        hi = min(i + 1, len(grid) - 1)
-        branches = [(i, 1.0)] if f < 1e-6 else [(i, 1.0 - f), (hi, f)]
-        corners = [(base * len(grid) + j, w * wj) for base, w in corners for j, wj in branches]
-    return (np.array([c for c, _ in corners], dtype=np.int64), np.array([w for _, w in corners], dtype=np.float64))
+        n = len(grid)
+        if f < 1e-6:  # one branch of weight 1: the weights unchanged (w * 1.0 is w)
+            cfg = [c * n + i for c in cfg]
+        else:
+            hi, g = min(i + 1, n - 1), 1.0 - f
+            cfg = [c * n + j for c in cfg for j in (i, hi)]
+            wts = [x for w in wts for x in (w * g, w * f)]
+    return np.array(cfg, dtype=np.int64), np.array(wts, dtype=np.float64)
 
 
 def _trans_weights(model: SkyModel, visibility, altitude_param):
@@ -147,8 +169,10 @@ def channel_indices(model: SkyModel, channels=None, wavelengths=None):
     return ch
 
 
-def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude, what, unit=False):
-    """``unit`` (private, the renderer's own directions): unit vectors by construction, not checked."""
+def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude, what, unit=False,
+             plain=False):
+    """``unit`` (private, the renderer's own directions): unit vectors by construction, not checked.
+    ``plain``: a state of plain numbers comes back as a tuple of floats (one state, S = ()), not 0-d arrays."""
     dirs = np.asarray(directions, dtype=np.float64)
     if dirs.ndim < 1 or dirs.shape[-1] != 3:
         raise ValueError(f"directions must have shape (..., 3), got {dirs.shape}")
@@ -163,7 +187,7 @@ def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, 
     if all(type(x) is float or type(x) is int for x in sc):  # one plain-number state: checks without arrays
         v = [float(x) for x in sc]
         if all(map(math.isfinite, v)) and v[2] > 0 and v[4] >= 0:
-            return flat, dirs.shape[:-1], tuple(np.array(x) for x in v)
+            return flat, dirs.shape[:-1], (tuple(v) if plain else tuple(np.array(x) for x in v))
     state = np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in sc))
     names = ("sun_elevation [deg]", "sun_azimuth [deg]", "visibility [km]", "albedo", "altitude [m]")
     for name, arr in zip(names, state):
@@ -179,12 +203,14 @@ def _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, 
 def _check_clamp(model: SkyModel, el, vis, alb, alt, quantity):
     """Names of sky-state parameters outside the dataset's ranges (for the warning / flag)."""
     out = []
-    checks = (("visibility", vis, model.visibility_range, "km"), ("albedo", alb, model.albedo_range, ""),
-              ("sun_elevation", el, model.elevation_range, "deg"))
-    for name, v, (lo, hi), unit in checks:
+    checks = (("visibility", vis, model.visibilities, "km"), ("albedo", alb, model.albedos, ""),
+              ("sun_elevation", el, model.elevations, "deg"))
+    for name, v, grid, unit in checks:
+        g = _grid_list(grid)  # the grid's ends as floats, as model.visibility_range etc. give them
+        lo, hi = g[0], g[-1]
         if v < lo - 1e-9 or v > hi + 1e-9:
             out.append(f"{name}={v:g} {unit} outside the dataset's range [{lo:g}, {hi:g}]")
-    lo, hi = model.altitude_range
+    hi = _grid_list(model.altitudes)[-1]
     if alt > hi + 1e-9:
         out.append(f"altitude={alt:g} m above the dataset's highest altitude {hi:g} m")
     return out
@@ -207,13 +233,14 @@ def _check_trans_clamp(model: SkyModel, vis, alt):
 def _state_params(el_deg, az_deg, alt):
     """Reference sky-state parameters: radians in the reference's azimuth convention, the altitude
     parameter (with the 50 m safety altitude) and the solar elevation at the view point [deg]."""
-    el = np.radians(el_deg)
-    az_math = np.radians(90.0 - az_deg)  # compass (clockwise from north) -> from +x (east) towards +y (north)
+    # math.radians / math.degrees: x * (pi / 180) and x * (180 / pi), numpy's radians and degrees to the bit
+    el = math.radians(el_deg)
+    az_math = math.radians(90.0 - az_deg)  # compass (clockwise from north) -> from +x (east) towards +y (north)
     d = (alt + PLANET_RADIUS) + SAFETY_ALTITUDE
     altitude_param = max(d - PLANET_RADIUS, 0.0)
     sz = np.sin(el)
-    elevation_view = 0.5 * np.pi - np.arccos(np.clip(sz, -1.0, 1.0))
-    return el, az_math, altitude_param, np.degrees(elevation_view)
+    elevation_view = 0.5 * np.pi - np.arccos(min(max(sz, -1.0), 1.0))  # sz is finite: np.clip's value, faster
+    return el, az_math, altitude_param, math.degrees(elevation_view)
 
 
 def reference_angles(directions, sun_elevation, sun_azimuth, altitude=0.0):
@@ -279,7 +306,7 @@ def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, vis
     direction in ``out`` (shape (n_rows, C), one sky state), so an image is filled without a scatter copy;
     the renderer's directions are unit vectors by construction and are not checked again."""
     dirs, dshape, state = _prepare(model, directions, sun_elevation, sun_azimuth, visibility, albedo, altitude,
-                                   kind, unit=rows is not None)
+                                   kind, unit=rows is not None, plain=True)
     chi_sel = channel_indices(model, channels, wavelengths)
     if kind == "radiance":
         sun, zen, emph = model.radiance_coefficients()
@@ -290,7 +317,8 @@ def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, vis
         emph = None
         breaks = (model.pol_sun_breaks, model.pol_zenith_breaks, None)
         rank = model.pol_rank
-    S = state[0].shape
+    plain = type(state[0]) is float  # one state of plain numbers (floats, not arrays)
+    S = () if plain else state[0].shape
     C = chi_sel.size
     if rows is None:
         res = _output(S + dshape + (C,), dtype, out)
@@ -305,8 +333,8 @@ def _evaluate_component(model, kind, directions, sun_elevation, sun_azimuth, vis
     flags = np.zeros(S, dtype=bool)
     msgs = []
     nch = model.n_channels
-    for si, idx in enumerate(np.ndindex(S)):
-        el_deg, az_deg, vis, alb, alt = (float(a[idx]) for a in state)
+    for si, idx in enumerate(np.ndindex(S) if S else ((),)):
+        el_deg, az_deg, vis, alb, alt = state if plain else (float(a[idx]) for a in state)
         m = _check_clamp(model, el_deg, vis, alb, alt, kind)
         if m:
             flags[idx] = True
