@@ -2647,18 +2647,44 @@ static PyObject *py_check_dirs(PyObject *self, PyObject *args)
     return PyLong_FromSsize_t(bad);
 }
 
+/* accel_init's bucket count on the distinct knots of a[0..na) and b[0..nb) merged (both ascending; b may be
+ * NULL): the size of the cell-lookup index table_eval builds at every call */
+static double accel_buckets(const double *a, int na, const double *b, int nb)
+{
+    int i = 0, j = 0, cnt = 0;
+    double first = 0.0, prev = 0.0, dmin = INFINITY;
+    while (i < na || j < nb) {
+        const double q = (j >= nb || (i < na && a[i] <= b[j])) ? a[i++] : b[j++];
+        if (cnt == 0) {
+            first = q, cnt = 1;
+        } else if (q > prev) {
+            dmin = q - prev < dmin ? q - prev : dmin;
+            ++cnt;
+        }
+        prev = q;
+    }
+    const double span = prev - first;
+    dmin = dmin < span ? dmin : span;
+    const double want = dmin > 0 ? 8.0 * span / dmin : 0.0;
+    return want > 65536.0 ? 65536.0 : (want > 8.0 * cnt ? (double)(int)want : 8.0 * cnt);
+}
+
 /* auto's choice for a smaller call (sun above the horizon): the table when building the cells in the range
- * of the call's angles and evaluating them costs less than the direct path. CPU times fitted (least squares,
- * relative) to 288 timed calls of the x86-64-v3 build, one thread: the 61 MB benchmark dataset and the
- * tests' small one, 4, 16 and 55 channels, 8 to 5,000 directions, clusters 0.5 to 30 deg wide, sun at 5,
- * 33 and 70 deg. Checked by benchmarks/bench_sky.py --auto-sweep: auto's pick takes 1.009x the faster path's
- * time on average, worst 1.16x (the previous estimate: 8 of 48 picks wrong, up to 1.8x). Table: per (channel,
- * configuration) its zenith factors at the padded merged knot columns in range and, per sun row, their rank
- * sums and corner products, 0.079 ns per (column, (R + 8) per row + R + 1); 2.3 ns per value, 7 ns per
- * direction, and 16 us a call more than the direct path (allocations, lookups). Direct (AVX2): 0.031 ns per
- * (value, configuration, 3 R + 4), its copy of the coefficients in range 0.19 ns per (knot, channel,
- * configuration, rank), 85 ns per direction; without AVX2, 0.22 ns per (value, configuration, 3 R + 4).
- * Both paths give the reference's values to rounding. */
+ * of the call's angles and evaluating them costs less than the direct path. CPU times [ns] fitted (least
+ * squares of the relative error, non-negative) to 480 timed calls, one thread (benchmarks/bench_sky.py
+ * --fit-auto: random calls of 1 to 55 channels, 8 to 5,000 directions and 256 to 20,000 values in clusters
+ * 0.5 to 30 deg wide anywhere above the horizon, sun at 5 to 70 deg; the embedded dataset, the 61 MB
+ * benchmark dataset and the tests' small one). Table: per (channel, configuration) its zenith and emphasis
+ * factors at the padded merged knot columns in range, 1.0 per (column, R + 1), and per sun row their rank
+ * sums and corner products, 0.104 per (column, row, R + 8); 0.46 per value, 13.6 per direction; 19.9 us a
+ * call and 1.12 per bucket of the cell lookups' index (accel_init: up to 65,536 per knot set, 27-45 us on
+ * the benchmark and embedded datasets). Direct, with its kept copy of the coefficients (a repeated state, as
+ * calls in a sequence of sky states are): per (direction, configuration, 3 R + 4) and vector of channels,
+ * AVX2 kernel 0.163 per four channels, AVX-512 kernel 0.242 per eight and 0.160 for a last four; per
+ * (direction, configuration) 4.2 (AVX2) or 4.4 (AVX-512); per direction 38 or 46; 18.0 or 17.5 us a call.
+ * Without AVX2 (not refitted): 0.22 per (value, configuration, 3 R + 4) and the AVX2 kernel's other terms.
+ * Checked by benchmarks/bench_sky.py --auto-sweep (other calls). Both paths give the reference's values to
+ * rounding. */
 static int table_pays(const comp_t *m, const geom_t *geo, const double *dirs, Py_ssize_t n, int ncfg, int nc)
 {
     double rg[4];
@@ -2672,20 +2698,21 @@ static int table_pays(const comp_t *m, const geom_t *geo, const double *dirs, Py
     if (m->emph) cols += interval_of(rg[3], m->eb, m->ne) - interval_of(rg[2], m->eb, m->ne);
     const int nup = (m->nz + (m->emph ? m->ne : 0) + 7) & ~3;
     const double pad = cols + 7 < nup ? cols + 7 : nup;
-    const double R = m->rank;
-    const double table = 0.079 * nc * ncfg * pad * (rows * (R + 8) + R + 1) + 2.34 * (double)n * nc +
-                         7.1 * (double)n + 16000.0;
-    double direct = (double)n * nc * ncfg * (3 * R + 4) * 0.22;
+    const double R = m->rank, w = (double)nc * ncfg * pad, dn = (double)n;
+    const double buckets = accel_buckets(m->sb, m->ns, NULL, 0) +
+                           accel_buckets(m->zb, m->nz, m->emph ? m->eb : NULL, m->emph ? m->ne : 0);
+    const double table = 1.0 * w * (R + 1) + 0.104 * w * rows * (R + 8) + 0.46 * dn * nc + 13.6 * dn + 19900.0 +
+                         1.12 * buckets;
+    const double per_cfg = dn * ncfg * (3 * R + 4); /* the kernel's work per channel vector */
+    double direct = 0.22 * per_cfg * nc + 4.2 * dn * ncfg + 38.0 * dn + 18000.0;
 #ifdef DIRECT_VEC
-    if (direct_vec_ok() && 6 * n >= m->ns + m->nz) {
-        direct = 0.031 * (double)n * nc * ncfg * (3 * R + 4) + 0.19 * (rows - 1 + zcols + 2) * nc * ncfg * R +
-                 85.0 * (double)n;
-        /* the AVX-512 kernel: 0.67x the AVX2 kernel's time on its channels in vectors of eight (10.7 against
-         * 16.0 ns a value, 5,000 directions x 55 channels); a last block of four runs as in the AVX2 kernel */
-        if (direct_use_512()) {
-            const int nc4 = 4 * ((nc + 3) / 4), c4 = nc4 & 4;
-            direct *= (0.67 * (nc4 - c4) + c4) / nc4;
-        }
+    if (direct_vec_ok()) {
+        const int nc4 = 4 * ((nc + 3) / 4), c4 = nc4 & 4;
+        if (direct_use_512())
+            direct = 0.242 * per_cfg * ((nc4 - c4) / 8) + 0.160 * per_cfg * (c4 / 4) + 4.4 * dn * ncfg + 46.0 * dn +
+                     17500.0;
+        else
+            direct = 0.163 * per_cfg * (nc4 / 4) + 4.2 * dn * ncfg + 38.0 * dn + 18000.0;
     }
 #endif
     return table < direct;
