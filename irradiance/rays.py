@@ -6,6 +6,7 @@ deterministic secondary directions, sun-position bins and the reflector shading 
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
@@ -205,15 +206,59 @@ def reflector_points(geometry, origins, directions, t_hit, prim):
     adjacent wall) and then off the surface along the seen normal (for grazing rays).
     """
     eps = geometry["ray_offset"]
-    tn = np.zeros((prim.size, 3))
-    tn[prim < 0] = (0.0, 0.0, 1.0)
     scene = prim >= 0
-    tn_s = geometry["triangle_normals"][prim[scene]]
-    flip = np.sum(tn_s * directions[scene], axis=1) > 0
-    tn[scene] = np.where(flip[:, None], -tn_s, tn_s)
+    if np.any(scene):       # every row's normal and in-front test (row by row, the same values), then selected
+        tn = np.take(geometry["triangle_normals"], np.where(scene, prim, 0), axis=0)
+        p = tn * directions
+        flip = (p[:, 0] + p[:, 1]) + p[:, 2] > 0         # numpy's sum over the axis of 3, in its order
+        np.negative(tn, out=tn, where=(flip & scene)[:, None])
+    else:
+        tn = np.empty((prim.size, 3))
+    tn[~scene] = (0.0, 0.0, 1.0)
     back = np.minimum(eps, 0.5 * t_hit)
-    x = origins + (t_hit - back)[:, None] * directions + eps * tn
+    x = (t_hit - back)[:, None] * directions            # origins + this + eps tn, in that order
+    x += origins
+    x += eps * tn
     return x, tn
+
+
+def _distinct_rows(v):
+    """(distinct rows of ``v`` (m, 3) float64, index (n,) of each row among them), bit for bit (signed zeros
+    apart): one 64-bit key per row from its bits, hashed (``pandas.factorize``), then checked; (None, None) where
+    two rows with different bits share a key or there are more than 4,096."""
+    v = np.ascontiguousarray(v, dtype=np.float64)
+    b = v.view(np.uint64)
+    key = np.zeros(b.shape[0], dtype=np.uint64)
+    for j, c in enumerate((0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9)):
+        key ^= b[:, j]
+        key ^= key >> np.uint64(31)                   # the high bits (sign, exponent) mixed into the low ones
+        key *= np.uint64(c)
+    nid, uniq = pd.factorize(key)
+    if uniq.size > 4096:
+        return None, None
+    rows = np.empty((uniq.size, 3))
+    rows[nid] = v
+    if not np.array_equal(np.take(rows, nid, axis=0).view(np.uint64), b):
+        return None, None
+    return rows, nid
+
+
+def _by_distinct_rows(f, v):
+    """``f(v)`` for a row-wise function ``f`` of (m, 3) rows (each output row a function of its input row alone),
+    evaluated once per distinct row of ``v`` and gathered: the same values where ``v`` (planar scenes) has few
+    distinct rows (normals). ``f`` may return a tuple of arrays. A lone distinct row is evaluated twice, so that
+    a matrix product with it stays numpy's matrix-matrix product (BLAS gemm, whose rows do not depend on the
+    others'), not the matrix-vector path, whose rounding differs (``tests/test_raystages_sun.py``); one row in
+    ``v`` is evaluated as it is."""
+    if v.shape[0] < 2:
+        return f(v)
+    rows, nid = _distinct_rows(v)
+    if rows is None or 4 * rows.shape[0] > v.shape[0]:
+        return f(v)
+    if rows.shape[0] == 1:
+        rows = np.repeat(rows, 2, axis=0)
+    out = f(rows)
+    return tuple(np.take(o, nid, axis=0) for o in out) if isinstance(out, tuple) else np.take(out, nid, axis=0)
 
 
 def _cosine_directions(normals, ids):
@@ -223,9 +268,19 @@ def _cosine_directions(normals, ids):
     ray's secondary direction depends only on its identity (deterministic, independent of chunking).
     """
     ids = np.asarray(ids, dtype=np.float64)
-    u1 = np.mod(0.5 + ids * 0.7548776662466927, 1.0)
-    u2 = np.mod(0.5 + ids * 0.5698402909980532, 1.0)
-    r, phi = np.sqrt(u1), 2 * np.pi * u2
-    local = np.column_stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(1 - u1, 0.0))])
-    t, b = orthonormal_frame(normals)
-    return local[:, :1] * t + local[:, 1:2] * b + local[:, 2:3] * normals
+    # u = frac(0.5 + ids c): u - floor(u) is exact (Sterbenz), so equal to numpy.mod(u, 1) and faster; in place
+    u1 = ids * 0.7548776662466927
+    u1 += 0.5
+    u1 -= np.floor(u1)
+    phi = ids * 0.5698402909980532
+    phi += 0.5
+    phi -= np.floor(phi)
+    phi *= 2 * np.pi
+    r = np.sqrt(u1)
+    z = np.subtract(1, u1, out=u1)
+    np.sqrt(np.maximum(z, 0.0, out=z), out=z)
+    t, b = _by_distinct_rows(orthonormal_frame, np.asarray(normals, dtype=float))
+    out = (r * np.cos(phi))[:, None] * t               # x t + y b + z n, in that order
+    out += (r * np.sin(phi))[:, None] * b
+    out += z[:, None] * normals
+    return out

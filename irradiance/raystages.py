@@ -9,7 +9,10 @@
 4. :func:`sun_visibility` -- one ray per point and sun-position bin.
 
 The physics and the sampling are described in :mod:`widesky.irradiance.raycast`; these functions only name
-its steps. All are pure numpy functions of their arrays and the scene's geometry dictionary.
+its steps. All are pure functions of their arrays and the scene's geometry dictionary: numpy, and for the
+reflected sun's per-point draw and sums a small C kernel (:mod:`widesky.irradiance._raysun`, array in, array out,
+numpy's operations in numpy's order). The numbers are those of the numpy code before issue 36's speed-up, bit for
+bit (``tests/test_raystages_sun.py``, ``tests/test_raystages_kernels.py``).
 """
 
 from __future__ import annotations
@@ -18,9 +21,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import _raysun
 from .optics import optic_terms
 from .patches import cosine_weights
-from .rays import _clear_dni, _cosine_directions, _fbincount, cast_rays, reflector_points, shade_cells
+from .rays import (_by_distinct_rows, _clear_dni, _cosine_directions, _fbincount, cast_rays, reflector_points,
+                   shade_cells)
 
 _UP = np.array([0.0, 0.0, 1.0])
 
@@ -78,16 +83,18 @@ class Reflectors(NamedTuple):
                            # factors of scene surfaces carry no albedo later)
 
 
-def _next_reflectors(geometry, x, d, t_hit, prim, w, alb, pt, ident, ground_albedo):
+def _next_reflectors(geometry, x, d, t_hit, prim, w, alb, pt, ident, ground_albedo, rows=None):
     """The next level's :class:`Reflectors`: where the rays ``x + t d`` of a level's reflecting points end
     (``prim`` >= 0: that scene triangle at ``t_hit``; -1: the ground plane at ``t_hit``). The path weight ``w``
     is multiplied by the reflectance reached; the ground's albedo is left to the integrator on a path's first
-    ground reflection (``alb``) and is the nominal ``ground_albedo`` [1] on its second and later ones."""
+    ground reflection (``alb``) and is the nominal ``ground_albedo`` [1] on its second and later ones.
+    ``rows``: the rays' rows of ``x`` and ``d`` (default: all, in order), so the callers gather them once."""
     on_g = prim < 0
     rho = np.where(on_g, np.where(alb, ground_albedo, 1.0), geometry["reflectance"][np.maximum(prim, 0)])
     w2 = w * rho
     k = np.nonzero(w2 > 0)[0]
-    x2, tn2 = reflector_points(geometry, x[k], d[k], t_hit[k], prim[k])
+    kx = k if rows is None else rows[k]
+    x2, tn2 = reflector_points(geometry, np.take(x, kx, axis=0), np.take(d, kx, axis=0), t_hit[k], prim[k])
     alb2 = alb[k] | on_g[k]
     w_sun = w2[k] * np.where(alb2 & ~on_g[k], ground_albedo, 1.0)
     return Reflectors(x2, tn2, on_g[k], pt[k], w2[k], alb2, _second_identity(ident[k]), w_sun)
@@ -110,7 +117,7 @@ def _reflector_sky(geometry, patches, r: Reflectors, follow, ground_albedo, grou
         free = prim < 0
     else:
         free = ~cast_rays(geometry, r.x, d, tmax, occluded=True)
-    q = np.where(free & ~down, patches.index(d), -1)
+    q = _patch_index(patches, d, free & ~down)
     for target, m in ((ground_sky, r.alb), (reflect_sky, ~r.alb)):
         ok = m & (q >= 0)
         target += _fbincount(r.pt[ok] * P + q[ok], weights=r.w[ok], minlength=n * P).reshape(n, P)
@@ -118,8 +125,8 @@ def _reflector_sky(geometry, patches, r: Reflectors, follow, ground_albedo, grou
         return None, r.pt.size
     h = np.nonzero((prim >= 0) | down)[0]                       # a scene surface, or the ground
     t_h = np.where(prim[h] >= 0, t[h], tmax[h])
-    return (_next_reflectors(geometry, r.x[h], d[h], t_h, prim[h], r.w[h], r.alb[h], r.pt[h], r.ident[h],
-                             ground_albedo), r.pt.size)
+    return (_next_reflectors(geometry, r.x, d, t_h, prim[h], r.w[h], r.alb[h], r.pt[h], r.ident[h],
+                             ground_albedo, rows=h), r.pt.size)
 
 
 def _reflector_sun(geometry, r: Reflectors, sun_dirs, bins, sun_count, sun_cell, G, ground_sun, reflect_sun):
@@ -129,34 +136,43 @@ def _reflector_sun(geometry, r: Reflectors, sun_dirs, bins, sun_count, sun_cell,
     if r.pt.size == 0 or sun_dirs.shape[0] == 0 or G == 0:
         return 0
     ob = np.zeros(r.pt.size, dtype=np.int64)                         # ground: bin 0 (up)
-    ob[~r.ground] = np.argmax(r.tn[~r.ground] @ bins.T, axis=1)
+    ob[~r.ground] = _by_distinct_rows(lambda t: np.argmax(t @ bins.T, axis=1),
+                                      np.compress(~r.ground, r.tn, axis=0))
     return _cell_sun(geometry, r.x, r.tn, ob, r.ident, r.w_sun, r.ground, r.pt, sun_dirs, bins, sun_count,
                      sun_cell, G, ground_sun, reflect_sun)
 
 
+#: Reflecting points per block of :func:`_cell_sun` (every cell's rays of a block in one Embree call).
+_SUN_BLOCK = 8192
+#: Buckets of the draw's search tables (the C kernel's ``NBUCKET``).
+_SUN_BUCKETS = 1024
+
+
 def _cell_sun(geometry, x, tn, ob, ident, w, on_g, pt, sun_dirs, bins, sun_count, sun_cell, G, ground_sun,
-              reflect_sun):
+              reflect_sun, rows=None):
     """Per shading cell one ray from each reflecting point towards a sun bin of the cell, drawn ~ steps x
     clear-sky DNI x cos(binned normal ``ob``, sun) with the point's identity ``ident``; the lit points in front
     of their sun add their weight ``w`` at their analysis point ``pt`` to ``ground_sun`` (G, n) (``on_g``) or
     ``reflect_sun`` (G, n B) at their orientation bin, in place. Returns the number of rays cast.
 
-    The points are visited grouped by orientation bin (a stable sort, made once): each bin's draw is one
-    ``searchsorted`` on a contiguous block, and every (analysis point, bin) sum adds its terms in the points'
-    given order, so the result is the same, bit for bit, as visiting them in that order bin by bin. Where the
-    points have few distinct normals (planar scenes) the in-front test is a table of (normal, sun) products,
-    the same products as point by point."""
+    The points are visited grouped by orientation bin (a stable sort, made once), and every (analysis point,
+    bin) sum of a cell adds its terms in the points' given order from zero, then to the cell's row, so the result
+    is the same, bit for bit, as visiting them in that order bin by bin, cell by cell. The per-point work (the
+    draw, the in-front test, packing the rays, the sums of the lit ones) is :mod:`widesky.irradiance._raysun`'s,
+    numpy's operations in numpy's order, over blocks of :data:`_SUN_BLOCK` points (every cell's draws of a
+    block while its points are in cache; one Embree call per block). ``rows``: the points' rows of ``x`` and
+    ``tn`` (default: all, in order), so that they are gathered once."""
     n, B = ground_sun.shape[1], bins.shape[0]
     cnt = np.ones(sun_dirs.shape[0]) if sun_count is None else np.asarray(sun_count, dtype=float)
     el_b = np.degrees(np.arcsin(np.clip(sun_dirs[:, 2], -1.0, 1.0)))
     order = np.argsort(ob.astype(np.int16 if B < 1 << 15 else np.int64), kind="stable")     # a radix sort
-    ob, x32, tn, ident = ob[order], x[order].astype(np.float32), tn[order], ident[order]
-    w, on_g, pt = w[order], on_g[order], pt[order]
-    edges = np.searchsorted(ob, np.arange(B + 1))                    # bin b's points: edges[b]:edges[b + 1]
+    ob = ob[order]
+    edges = np.searchsorted(ob, np.arange(B + 1)).astype(np.int64)  # bin b's points: edges[b]:edges[b + 1]
     present = np.nonzero(edges[1:] > edges[:-1])[0]
-    out_g, out_r = pt, pt * B + ob
-    normals, nid = _distinct_rows(tn)
-    n_rays = 0
+    # the active cells: their sun bins' cumulative weights per orientation bin, the bins drawn from, the search
+    # tables (numpy's searchsorted of the same products u tot at u = k / _SUN_BUCKETS, as the kernel forms them)
+    cells, cdfs, tots, uses, tabs, sds = [], [], [], [], [], []
+    ku = np.arange(_SUN_BUCKETS + 1) / _SUN_BUCKETS
     for g in range(G):
         cg = np.nonzero(sun_cell == g)[0]
         if cg.size == 0:
@@ -167,56 +183,62 @@ def _cell_sun(geometry, x, tn, ob, ident, w, on_g, pt, sun_dirs, bins, sun_count
         use = present[tot[present] > 0]
         if use.size == 0:
             continue
-        table = nid is not None and normals.shape[0] * cg.size < ob.size // 4   # the in-front test as a table
-        if use.size == present.size:                                 # every point draws: no gathers
-            j, sizes = None, edges[use + 1] - edges[use]
-            idj, tnj = ident, (nid if table else tn)
-        else:
-            sizes = edges[use + 1] - edges[use]
-            j = np.repeat(edges[use] - np.cumsum(sizes) + sizes, sizes) + np.arange(int(sizes.sum()))
-            idj, tnj = ident[j], (nid[j] if table else tn[j])
-        u = (idj + 7919 * (g + 1)).astype(np.float64, copy=False)     # the draw, in place: the same
-        u *= 0.6180339887498949                                        # operations in the same order;
-        u += 0.5                                                       # u - floor(u) is exact (Sterbenz),
-        u -= np.floor(u)                                               # so equal to np.mod(u, 1), 5x faster
-        pick = np.empty(u.size, dtype=np.int64)
-        a = 0
-        for b, m in zip(use, sizes):
-            ub = u[a:a + m]
-            ub *= tot[b]
-            pick[a:a + m] = np.searchsorted(cdf[b], ub, side="right")
-            a += m
-        np.minimum(pick, cg.size - 1, out=pick)
-        if table:
-            ahead = np.sum(normals[:, None, :] * sun_dirs[cg][None, :, :], axis=2) > 0     # (normals, C_g)
-            front = np.nonzero(ahead[tnj, pick])[0]
-        else:
-            front = np.nonzero(np.sum(tnj * sun_dirs[cg[pick]], axis=1) > 0)[0]
-        if front.size == 0:
+        cells.append((7919 * (g + 1), g, cg.size))
+        cdfs.append(cdf.reshape(-1))
+        tots.append(tot)
+        uses.append(use)
+        tabs.extend(np.searchsorted(cdf[b], ku * tot[b], side="right") for b in use)
+        sds.append(sun_dirs[cg])
+    if not cells:
+        return 0
+    i64 = lambda v: np.ascontiguousarray(v, dtype=np.int64)           # noqa: E731
+    cell_k, cell_g, cell_C = (i64(c) for c in zip(*cells))
+    cdf_off = i64(np.cumsum([0] + [c.size for c in cdfs[:-1]]))
+    sd_off = i64(np.cumsum([0] + list(cell_C[:-1])))
+    use_off = i64(np.cumsum([0] + [u.size for u in uses]))
+    use_all, tot_all, cdf_all = i64(np.concatenate(uses)), np.concatenate(tots), np.concatenate(cdfs)
+    tab_all = np.ascontiguousarray(np.concatenate(tabs), dtype=np.int32)
+    sd_all = np.ascontiguousarray(np.concatenate(sds), dtype=np.float64)
+    sd32_all = sd_all.astype(np.float32)                               # cast, then gathered: the same values
+    xr = order if rows is None else rows[order]
+    x32 = np.take(x, xr, axis=0).astype(np.float32)       # (row gathers by numpy.take: the same rows, faster)
+    tn = np.ascontiguousarray(np.take(tn, xr, axis=0), dtype=np.float64)
+    ident = ident[order]
+    ident_float = ident.dtype.kind == "f"
+    ident = np.ascontiguousarray(ident, dtype=np.float64 if ident_float else np.int64)
+    w = np.ascontiguousarray(w[order], dtype=np.float64)
+    on_g = np.ascontiguousarray(on_g[order], dtype=bool)
+    pt = pt[order].astype(np.int64, copy=False)
+    out_g, out_r = pt, pt * B + ob.astype(np.int64, copy=False)
+    m, Gc = x32.shape[0], len(cells)
+    cap = min(m, _SUN_BLOCK) * Gc
+    xo, do = np.empty((cap, 3), np.float32), np.empty((cap, 3), np.float32)
+    jj, gid = np.empty(cap, np.int64), np.empty(cap, np.int32)
+    tmp_g, tmp_r = np.zeros((G, n)), np.zeros((G, n * B))
+    n_rays = 0
+    for a0 in range(0, m, _SUN_BLOCK):
+        a1 = min(a0 + _SUN_BLOCK, m)
+        front = _raysun.draw(a0, a1, ident, ident_float, edges, cell_k, cell_g, cell_C, cdf_off, sd_off, use_off,
+                             use_all, tot_all, cdf_all, tab_all, sd_all, sd32_all, tn, x32, xo, do, jj, gid)
+        if front == 0:
             continue
-        every = front.size == pick.size                                # every point faces its sun: no gathers
-        jj = front if j is None else j[front]
-        sd32 = sun_dirs[cg].astype(np.float32)                         # cast, then gathered: the same values
-        lit = ~cast_rays(geometry, x32 if every and j is None else x32[jj], sd32[pick if every else pick[front]],
-                         occluded=True)
-        n_rays += front.size
-        k = jj[lit]
-        kg = k[on_g[k]]
-        ks = k[~on_g[k]]
-        ground_sun[g] += _fbincount(out_g[kg], weights=w[kg], minlength=n)
-        reflect_sun[g] += _fbincount(out_r[ks], weights=w[ks], minlength=n * B)
+        occ = np.ascontiguousarray(cast_rays(geometry, xo[:front], do[:front], occluded=True), dtype=bool)
+        n_rays += front
+        _raysun.accumulate(front, jj, gid, occ, on_g, out_g, out_r, w, G, tmp_g, tmp_r)
+    # each cell's sums added to its row once (a row holds no -0.0, so adding a cell's zeros changes nothing)
+    ground_sun += tmp_g
+    reflect_sun += tmp_r
     return n_rays
 
 
-def _distinct_rows(v):
-    """(distinct rows of ``v`` (m, 3), index (n,) of each row among them), found through one float key per row
-    and checked exactly; (None, None) where two distinct rows share a key or there are more than 4,096."""
-    key = v @ np.array([0.7548776662466927, 0.5698402909980532, 0.3176519753432651])
-    _, first, nid = np.unique(key, return_index=True, return_inverse=True)
-    rows = v[first]
-    if rows.shape[0] > 4096 or not np.array_equal(rows[nid], v):
-        return None, None
-    return rows, nid.reshape(-1)
+def _patch_index(patches, d, sel):
+    """``numpy.where(sel, patches.index(d), -1)``, the index computed for the selected rows only (row by row:
+    the same values)."""
+    q = np.full(sel.shape[0], -1, dtype=np.int64)
+    k = np.nonzero(sel)[0]
+    if k.size:
+        q[k] = patches.index(np.take(d, k, axis=0))
+    return q
 
 
 def _second_identity(ids):
@@ -233,20 +255,22 @@ def primary_rays(geometry, origins, normals, buried, patches, dirs, wcell):
     """Cast the primary rays; returns the :class:`PrimaryRays`."""
     P = patches.n_patches
     n = origins.shape[0]
-    exact = np.concatenate([cosine_weights(patches, normals),
-                            cosine_weights(patches, normals, lower=True)], axis=1)   # (n, 2P)
+    exact = _by_distinct_rows(lambda v: np.concatenate([cosine_weights(patches, v),
+                                                        cosine_weights(patches, v, lower=True)], axis=1),
+                              normals)                                              # (n, 2P)
     flat = dirs.reshape(-1, 3)
     w = np.maximum(normals @ flat.T, 0.0) * wcell.reshape(-1)[None, :]               # (n, 2PK)
     w[buried] = 0.0
-    fi, si = np.nonzero(w > 0)
-    o, d = origins[fi], flat[si]
+    cast = w > 0
+    fi, si = np.nonzero(cast)
+    o, d = np.take(origins, fi, axis=0), np.take(flat, si, axis=0)
     down = d[:, 2] < 0
     maxd = np.full(fi.size, np.inf)
     gz = geometry["ground_z"]
     maxd[down] = np.maximum((gz - o[down, 2]) / d[down, 2], 1e-9)
     hit = np.full((n, 2 * P * dirs.shape[1]), -2, dtype=np.int32)
     prim, dist = cast_rays(geometry, o, d, maxd, distance=True)
-    hit[fi, si] = prim
+    hit[cast] = prim                                   # the (fi, si) of nonzero(cast), in its order
     return PrimaryRays(exact, flat, w, fi, si, o, d, down, maxd, hit, prim, dist)
 
 
@@ -285,7 +309,7 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     ri = np.nonzero(refl_ray)[0]
     sel_scene = prim[ri] >= 0
     t_hit = np.where(sel_scene, pr.dist[ri], pr.maxd[ri])
-    x, tn = reflector_points(geometry, pr.o[ri], pr.d[ri], t_hit, prim[ri])
+    x, tn = reflector_points(geometry, np.take(pr.o, ri, axis=0), np.take(pr.d, ri, axis=0), t_hit, prim[ri])
     sd = _cosine_directions(tn, (fi[ri] + first) * (2 * P * K) + si[ri])
     smax = np.full(ri.size, np.inf)
     sdown = sd[:, 2] < 0
@@ -296,18 +320,20 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
         s_free = s_prim < 0
     else:
         s_free = ~cast_rays(geometry, x, sd, smax, occluded=True)
-    s_patch = np.where(s_free & ~sdown, patches.index(sd), -1)   # secondary ray's sky patch
+    s_patch = _patch_index(patches, sd, s_free & ~sdown)   # secondary ray's sky patch
     s_ground = s_free & sdown
     exact = pr.exact
     w3 = pr.w.reshape(n, 2 * P, K)
     wsum = w3.sum(axis=2)
     with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.where(wsum[..., None] > 0, exact[..., None] * w3 / wsum[..., None], 0.0)
+        share = exact[..., None] * w3                  # np.where(wsum > 0, exact w3 / wsum, 0), in place
+        np.divide(share, wsum[..., None], out=share)
+        share[~(wsum > 0)] = 0.0
     miss = pr.hit.reshape(n, 2 * P, K) == -1
     sky = np.sum(share[:, :P] * miss[:, :P], axis=2)
     ground_geo = np.sum(share[:, P:] * miss[:, P:], axis=(1, 2))
     r_pt = fi[ri]
-    r_share = share.reshape(n, -1)[r_pt, si[ri]]
+    r_share = np.take(share.reshape(-1), r_pt * share.shape[1] * K + si[ri])    # share[r_pt, si]
     r_rho = np.ones(ri.size)
     r_rho[sel_scene] = geometry["reflectance"][prim[ri[sel_scene]]]
     to_sky = s_patch >= 0
@@ -346,7 +372,7 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
     if wg.size:
         td = _cosine_directions(np.broadcast_to(_UP, (wg.size, 3)), g2_id)
         t_free = ~cast_rays(geometry, g2_x, td, np.full(wg.size, np.inf), occluded=True)
-        q = np.where(t_free, patches.index(td), -1)
+        q = _patch_index(patches, td, t_free)
         ok = q >= 0
         ground_sky += _fbincount(g2_pt[ok] * P + q[ok], weights=g2_w[ok], minlength=n * P).reshape(n, P)
     deep = []
@@ -357,8 +383,8 @@ def reflected_sky(geometry, pr: PrimaryRays, patches, K, normals, buried, first,
         h = np.nonzero(((s_prim >= 0) | s_ground) & (w1 > 0))[0]
         t_h = np.where(s_prim[h] >= 0, s_dist[h], smax[h])
         ident1 = (fi[ri[h]] + first) * (2 * P * K) + si[ri[h]]
-        level = _next_reflectors(geometry, x[h], sd[h], t_h, s_prim[h], w1[h], ~sel_scene[h], r_pt[h], ident1,
-                                 ground_albedo)
+        level = _next_reflectors(geometry, x, sd, t_h, s_prim[h], w1[h], ~sel_scene[h], r_pt[h], ident1,
+                                 ground_albedo, rows=h)
         for depth in range(2, reflections + 1):
             deep.append(level)
             level, n_cast = _reflector_sky(geometry, patches, level, depth < reflections, ground_albedo,
@@ -401,11 +427,12 @@ def reflected_sun(geometry, b: Bounce, sun_dirs, bins, sun_count, sun_cell, n, i
     sel_scene, tn, r_pt, r_share, r_rho = b.sel_scene, b.tn, b.r_pt, b.r_share, b.r_rho
     if S and b.ri.size and G:
         r_ob = np.zeros(b.ri.size, dtype=np.int64)                   # ground: bin 0 (up)
-        r_ob[sel_scene] = np.argmax(tn[sel_scene] @ bins.T, axis=1)
+        r_ob[sel_scene] = _by_distinct_rows(lambda t: np.argmax(t @ bins.T, axis=1),
+                                            np.compress(sel_scene, tn, axis=0))
         live = np.nonzero((r_share > 0) & (r_rho > 0))[0]
-        n_rays += _cell_sun(geometry, b.x[live], tn[live], r_ob[live], ident[live], r_share[live] * r_rho[live],
+        n_rays += _cell_sun(geometry, b.x, tn, r_ob[live], ident[live], r_share[live] * r_rho[live],
                             ~sel_scene[live], r_pt[live], sun_dirs, bins, sun_count, sun_cell, G, ground_sun,
-                            reflect_sun)
+                            reflect_sun, rows=live)
     if np.any(extra > 0):
         # sliver patches of the lower hemisphere: their ground share at the band's mean sunlit
         # share of the point's ground hits
@@ -457,7 +484,8 @@ def sun_visibility(geometry, origins, normals, buried, sun_dirs):
         return vis, 0
     cs = normals @ sun_dirs.T
     ok = (cs > 0) & ~buried[:, None] & (sun_dirs[:, 2] > 0)[None, :]
-    pf, ps = np.nonzero(ok)
+    per_point = np.count_nonzero(ok, axis=1)                          # the pairs in row-major order
     o32, d32 = origins.astype(np.float32), sun_dirs.astype(np.float32)
-    vis[pf, ps] = ~cast_rays(geometry, o32[pf], d32[ps], occluded=True)
-    return vis, pf.size
+    ps = np.nonzero(ok.reshape(-1))[0] % S
+    vis[ok] = ~cast_rays(geometry, np.repeat(o32, per_point, axis=0), np.take(d32, ps, axis=0), occluded=True)
+    return vis, int(per_point.sum())
