@@ -7,6 +7,7 @@ the glazing or the zone model:
     python benchmarks/bench_bestest_cases.py --steps      # the ISO 52016-1 corrections one after another
     python benchmarks/bench_bestest_cases.py --hypotheses # the alternatives measured for the remaining misses
     python benchmarks/bench_bestest_cases.py --vent       # the night fan's schedule and flow, shifted and scaled
+    python benchmarks/bench_bestest_cases.py --zone-models iso52016 --option convection=tarp-iso15099  # a choice
 
 Runs, with both zone models (ISO 13790 5R1C and ISO 52016-1) unless ``--zone-models`` picks one, the integrator
 route (one integrator year per room geometry: south windows, south with overhang, east/west windows, east/west with
@@ -29,8 +30,8 @@ import time
 import warnings
 
 from widesky.thermal.facade import atomic_write
-from widesky.thermal.bestest import (CASES, SOURCES, ZONE_MODELS, case_geometry, integrator_irradiance,
-                                     reference_results, run_case, verdicts)
+from widesky.thermal.bestest import (CASES, ISO52016_OPTIONS, SOURCES, ZONE_MODELS, case_geometry,
+                                     integrator_irradiance, reference_results, run_case, verdicts)
 
 SHORT = {"acceptance": "acceptance (140-2023 Add. b A3)", "programs": "6 programs",
          "programs_mean": "programs (staRes.meanT)"}
@@ -41,7 +42,11 @@ def main(argv=None):
     ap.add_argument("--cases", nargs="+", default=list(CASES))
     ap.add_argument("--jobs", type=int, default=1, help="ray-casting processes of the integrator (default 1)")
     ap.add_argument("--data-dir", default=None)
-    ap.add_argument("--json", default=None, help="write the integrator route's 5R1C results here")
+    ap.add_argument("--json", default=None, help="write the integrator route's 5R1C results here (without 5R1C: "
+                                                  "the ISO 52016-1 results of both routes)")
+    ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                    help="an ISO 52016-1 choice of bestest.ISO52016_OPTIONS for the whole table, e.g. "
+                         "convection=tarp-iso15099 (repeatable)")
     ap.add_argument("--zone-models", nargs="+", default=list(ZONE_MODELS), choices=ZONE_MODELS)
     ap.add_argument("--transposition", default="perez", choices=("perez", "hay-davies"),
                     help="the weather route's transposition (default perez, as widesky thermal bestest)")
@@ -53,6 +58,14 @@ def main(argv=None):
                     help="instead: Cases 650, 650FF, 950, 950FF with the night fan's hour shifted and its flow "
                          "scaled (same page, fourth pass)")
     args = ap.parse_args(argv)
+    options = {}
+    for kv in args.option:
+        k, _, v = kv.partition("=")
+        choices = ISO52016_OPTIONS.get(k, ())
+        value = next((c for c in choices if str(c) == v), None)
+        if value is None:
+            ap.error(f"--option {kv!r}: expected KEY=VALUE with KEY and VALUE of {ISO52016_OPTIONS}")
+        options[k] = value
     refs = reference_results(args.data_dir)
     if args.vent and args.cases == list(CASES):
         args.cases = list(VENT_CASES)
@@ -75,7 +88,8 @@ def main(argv=None):
     for m, route in runs:
         t0 = time.perf_counter()
         results[m, route] = {c: run_case(c, args.data_dir, poa=poas[case_geometry(c)] if route == "integrator"
-                                         else None, zone_model=m, transposition=args.transposition)
+                                         else None, zone_model=m, transposition=args.transposition,
+                                         iso52016_options=options or None)
                              for c in args.cases}
         times[f"{m}, {route} route, {len(args.cases)} cases"] = time.perf_counter() - t0
 
@@ -108,9 +122,15 @@ def main(argv=None):
     print("time [s]: " + "; ".join(f"{k} {v:.1f}" for k, v in times.items())
           + f" ({len(poas)} geometries, {args.jobs} process(es))")
     print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items()))
+    def figures(res):
+        return {c: {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
+                    if k not in ("hourly", "case")} for c, r in res.items()}
     if args.json and ("5r1c", "integrator") in results:
-        saved = {c: {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
-                     if k not in ("hourly", "case")} for c, r in results["5r1c", "integrator"].items()}
+        text = json.dumps(figures(results["5r1c", "integrator"]), indent=1).encode()
+        atomic_write(args.json, lambda fh: fh.write(text))
+    elif args.json and ("iso52016", "integrator") in results:
+        saved = {"options": {k: str(v) for k, v in options.items()},
+                 **{route: figures(results["iso52016", route]) for route in ("integrator", "weather")}}
         text = json.dumps(saved, indent=1).encode()
         atomic_write(args.json, lambda fh: fh.write(text))
     return 0
@@ -133,7 +153,8 @@ HYPOTHESES = [("default", {}), ("view factors, script-F (eps 0.9)", dict(longwav
               ("absorbed solar on the panes", dict(glass="panes")), ("lost share 0.035 (table)", dict(lost="table")),
               ("air node at site density", dict(air="site")), ("Walton (TARP) h_ci", dict(convection="tarp")),
               ("TARP + table + site air", dict(convection="tarp", lost="table", air="site")),
-              ("lost share of the transmitted light only", dict(lost="transmitted"))]
+              ("lost share of the transmitted light only", dict(lost="transmitted")),
+              ("ISO 52016-1 Table 25 by direction (the default before the fifth pass)", dict(convection="direction"))]
 """The alternatives measured for the remaining misses (``--hypotheses``; ``bestest.ISO52016_OPTIONS``)."""
 HYPOTHESIS_COLUMNS = [("600", "annual_heating"), ("640", "peak_heating"), ("670", "peak_heating"),
                       ("900", "annual_cooling"), ("910", "annual_heating"), ("950", "peak_cooling"),

@@ -43,7 +43,7 @@ from widesky.core.paths import data_file
 from widesky.irradiance import (SKY_DEFAULTS, PragueSky, Simulation, dni_extra, fixed_offset_tz, read_epw,
                                 solar_position, sun_times)
 
-from .bestest_geometry import ROOM, bestest_building, window_shading
+from .bestest_geometry import ROOM, WINDOW, bestest_building, window_shading
 from .exterior import exterior_coefficients, hourly_u_value, wind_at_height
 from .gains import building_scene, group_weights, irradiance_by_surface, rated_glazing_response, result_in_band_share
 from .glazing import ANGLES, Gap, GlazingUnit, layer_from_broadband
@@ -792,7 +792,8 @@ def iso52016_elements(case: BestestCase, data_dir=None, hourly_gaps=True):
     """The case's construction elements for :func:`~widesky.thermal.zone_iso52016.simulate_iso52016`:
     N, E, S, W walls (opaque areas), roof, floor (its outside facing outdoor air, no sun: the raised
     floor of the detailed models), one window per glazed wall; layers from the detailed models' records
-    (Case 600FF's, or Case 900's wall and floor); the window's surface-to-surface resistance from its EN 673
+    (Case 600FF's, or Case 900's wall and floor); windows 2 m high (140-2020's 3 m x 2 m); the window's
+    surface-to-surface resistance from its EN 673
     gaps (:meth:`~widesky.thermal.glazing.GlazingUnit.gap_conductances`) and the panes' conduction."""
     ff = _data_file("bestest/detailed_Cases6xx_Case600FF.mo", data_dir)
     if case.spec.mass == "900":
@@ -821,7 +822,7 @@ def iso52016_elements(case: BestestCase, data_dir=None, hourly_gaps=True):
     for az, _, aw in case.walls:
         if aw > 0:
             els.append(Element(f"window {names.get(round(az), az)}", "window", aw, 90.0, resistance=r_panes,
-                               gaps=gaps, emissivity=eps))
+                               gaps=gaps, emissivity=eps, height=WINDOW["height"]))
     return els
 
 
@@ -855,17 +856,20 @@ def interior_longwave(case: BestestCase, elements):
     return radiant_exchange(area, F, eps)
 
 
-ISO52016_OPTIONS = {"solar": ("ashrae140", "area"), "convection": ("direction", "fixed", "tarp"),
+ISO52016_OPTIONS = {"solar": ("ashrae140", "area"), "convection": ("tarp-iso15099", "direction", "fixed", "tarp"),
                     "gaps": ("hourly", "en673"), "substeps": (4, 1), "longwave": ("star", "view"),
                     "glass": ("g", "panes"), "lost": ("enclosure", "table", "transmitted"),
                     "air": ("sea_level", "site")}
 """Choices of the ISO 52016-1 run (first: the default): where the transmitted solar lands
-(:data:`INTERIOR_SOLAR_DISTRIBUTION` or by opaque area), the inside convection of floor and ceiling (by the heat
-flow's direction, or fixed by kind), the windows' gap conductance (at the hour's temperature, or EN 673's) and the
-sub-steps per hour (4: 15-min implicit steps with the weather's instantaneous values interpolated, the Case 640/940
-set-point ramp followed within its hour (:func:`setback_substeps`) and the hourly means reported; 1: one step an
-hour, the Case 640 ramp hour at its mean 15 degC, the results at the hour's end). ``"tarp"``: Walton's correlations
-for every inside surface instead. The alternatives measured and not kept (docs/validation/thermal-bestest-cases.md,
+(:data:`INTERIOR_SOLAR_DISTRIBUTION` or by opaque area), the inside convection (``"tarp-iso15099"``, the default
+since the fifth pass: EnergyPlus's default inside model as EnergyPlus applies it, Walton's TARP correlations on the
+opaque surfaces and ISO 15099's on the windows, 2 m high, at the weather file's station pressure; ``"direction"``:
+ISO 52016-1 Table 25 with floor and ceiling by the heat flow's direction, the default before; ``"fixed"``: Table 25
+by kind; ``"tarp"``: Walton's on every surface, windows included), the windows' gap conductance (at the hour's
+temperature, or EN 673's) and the sub-steps per hour (4: 15-min implicit steps with the weather's instantaneous
+values interpolated, the Case 640/940 set-point ramp followed within its hour (:func:`setback_substeps`) and the
+hourly means reported; 1: one step an hour, the Case 640 ramp hour at its mean 15 degC, the results at the hour's
+end). The alternatives measured and not kept (docs/validation/thermal-bestest-cases.md,
 hypothesis table): ``longwave="view"`` (:func:`interior_longwave`, view factors and script-F instead of ISO 52016-1's
 area-weighted star), ``glass="panes"`` (:func:`_window_panes`: the solar absorbed in the panes on the window's
 nodes, only the transmitted part spread by the table), ``lost="table"`` (the table's 0.035 lost back out through
@@ -961,7 +965,8 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, o
                              internal_radiative_fraction=INTERNAL_RADIATIVE_FRACTION,
                              air_capacity_per_volume=rho_c, warmup_steps=warmup_steps,
                              temp_start=20.0, solar_distribution=dist, convection=opt["convection"],
-                             substeps=opt["substeps"], longwave=lw, surface_gains=panes)
+                             substeps=opt["substeps"], longwave=lw, surface_gains=panes,
+                             air_pressure=weather["pressure"].to_numpy() if "pressure" in weather else 101325.0)
 
 
 def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None,

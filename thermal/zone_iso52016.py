@@ -12,7 +12,8 @@ ISO 52016-1 (section 6.5) instead keeps one set of nodes per construction elemen
 * on each inside surface, convection to the air (``h_ci``: 2.5 W m-2 K-1 walls and windows; horizontal
   surfaces 5.0 with the heat flowing upward, 0.7 downward: ISO 52016-1 Table 25 / ISO 6946's R_si less its
   radiative part; ``convection="fixed"`` takes roofs as upward and floors as downward, ``"direction"`` the
-  direction of each step, ``"tarp"`` Walton's correlations instead, :data:`CONVECTION`)
+  direction of each step, ``"tarp"`` Walton's correlations instead, ``"tarp-iso15099"`` Walton's on the opaque
+  surfaces and ISO 15099's on the windows, EnergyPlus's default, :data:`CONVECTION`)
   and long-wave exchange with the other surfaces through the area-weighted mean inside surface temperature
   (``h_ri = 5.13`` W m-2 K-1, 52016-1 6.5.6.3), or (``longwave``) by view factors and grey script-F
   (:func:`box_view_factors`, :func:`radiant_exchange`);
@@ -38,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["Layer", "Element", "H_RI", "H_CI", "H_CI_UP", "H_CI_DOWN", "CONVECTION", "simulate_iso52016",
-           "element_nodes", "window_resistance", "radiant_exchange", "box_view_factors"]
+           "element_nodes", "window_resistance", "radiant_exchange", "box_view_factors", "iso15099_window_convection"]
 
 SIGMA = 5.670374419e-8
 
@@ -51,13 +52,15 @@ H_CI_UP, H_CI_DOWN = 5.0, 0.7
 """Inside convective coefficient [W m-2 K-1] of a horizontal surface with the heat flowing upward (a floor warmer
 than the air, a ceiling colder than it) and downward (ISO 52016-1 Table 25; ISO 6946:2017 Table 7's R_si 0.10 and
 0.17 less the radiative part)."""
-CONVECTION = ("direction", "fixed", "tarp")
+CONVECTION = ("direction", "fixed", "tarp", "tarp-iso15099")
 """Inside convection: ``"direction"`` takes h_ci of floors and ceilings by the direction of the heat flow each step
 (H_CI_UP / H_CI_DOWN; walls and windows H_CI), ``"fixed"`` the element kind's :data:`H_CI` (floor downward, roof
 upward), ``"tarp"`` Walton's (1983) natural-convection correlations of every surface from the previous step's
 surface-air difference dT [K] (TARP, EnergyPlus's default inside algorithm): vertical ``1.31 |dT|^(1/3)``,
 unstable horizontal ``9.482 |dT|^(1/3) / (7.238 - |cos tilt|)``, stable ``1.810 |dT|^(1/3) / (1.382 + |cos tilt|)``
-[W m-2 K-1]."""
+[W m-2 K-1]; ``"tarp-iso15099"`` EnergyPlus's default inside algorithm as EnergyPlus applies it: TARP on the opaque
+surfaces and ISO 15099:2003 8.3.2.2's natural convection on the windows (:func:`iso15099_window_convection`; the
+window's ``Element.height`` and the air's pressure)."""
 EN673_MEAN_TEMPERATURE = 283.0
 """Mean gap temperature of EN 673's rating [K]."""
 MAX_SUBLAYER = 0.05
@@ -101,6 +104,9 @@ class Element:
         Outside long-wave emissivity [1].
     exposed : bool
         False: the outside surface faces outdoor air without sun or sky (e.g. a raised floor).
+    height : float
+        A window's height [m] (the length of ISO 15099's inside convection, ``convection="tarp-iso15099"``);
+        0: not given.
     """
 
     name: str
@@ -113,6 +119,7 @@ class Element:
     absorptance: float = 0.6
     emissivity: float = 0.9
     exposed: bool = True
+    height: float = 0.0
 
     def __post_init__(self):
         if self.kind not in H_CI:
@@ -137,6 +144,56 @@ def _tarp(dt, tilt):
     if unstable:
         return max(9.482 * a / (7.238 - abs(cos_s)), 0.1)
     return max(1.810 * a / (1.382 + abs(cos_s)), 0.1)
+
+
+AIR_MOLAR_MASS = 28.97
+"""Molar mass of air [kg kmol-1] (ISO 15099:2003 Annex B, Table B.1)."""
+GAS_CONSTANT = 8314.462
+"""Universal gas constant [J kmol-1 K-1]."""
+
+
+def iso15099_window_convection(dt, tilt, height, temp_air, pressure=101325.0):
+    """Natural convection on a window's inside surface [W m-2 K-1] by ISO 15099:2003 8.3.2.2, as EnergyPlus's TARP
+    inside algorithm (its default) applies it to windows: EnergyPlus's ConvectionCoefficients.cc computes a surface
+    under TARP by Walton's correlations (``CalcASHRAEDetailedIntConvCoeff``, :func:`_tarp`) unless its
+    construction is a window, which gets this (``CalcISO15099WindowIntConvCoeff``).
+
+    ``dt`` surface minus air [K], ``tilt`` of the window's outward normal [deg] (90 vertical), ``height`` the
+    window's height H [m], ``temp_air`` the room air [degC], ``pressure`` the air's [Pa]. With the mean film
+    temperature ``T_f = T_air + dt / 4`` [K] and ISO 15099 Annex B's air at it (conductivity
+    ``k = 2.873e-3 + 7.76e-5 T_f`` W m-1 K-1, viscosity ``mu = 3.723e-6 + 4.94e-8 T_f`` Pa s, specific heat
+    ``c_p = 1002.7376 + 1.2324e-2 T_f`` J kg-1 K-1, density ``rho = p M / (R T_f)``)::
+
+        Ra = rho^2 H^3 g c_p |dt| / (T_f mu k),   h = Nu k / H
+
+    where the inside surface's tilt ``theta`` is the window's (``180 - tilt`` when the glass is warmer than the air)
+    and ``Nu`` is ``0.13 Ra^(1/3)`` for ``theta < 15``; ``0.56 (Ra sin theta)^(1/4)`` for ``15 <= theta <= 90`` up
+    to ``Ra_cv = 2.5e5 (exp(0.72 theta) / sin theta)^(1/5)`` (theta in degrees), beyond it
+    ``0.13 (Ra^(1/3) - Ra_cv^(1/3)) + 0.56 (Ra_cv sin theta)^(1/4)``; ``0.56 (Ra sin theta)^(1/4)`` with
+    ``Ra sin theta`` held within 1e5-1e11 for ``90 < theta <= 179``; ``0.58 Ra^(1/5)`` (Ra up to 1e11) above 179.
+    A vertical window is laminar (Ra_cv 1.1e11): h about 2.2 W m-2 K-1 for a 2 m pane 10 K from the air at
+    sea level. EnergyPlus's lower limit 0.1 W m-2 K-1 applies, as to its TARP surfaces.
+    """
+    g = 9.81
+    t_f = temp_air + 273.15 + 0.25 * dt
+    k = 2.873e-3 + 7.76e-5 * t_f
+    mu = 3.723e-6 + 4.94e-8 * t_f
+    cp = 1002.7376 + 1.2324e-2 * t_f
+    rho = pressure * AIR_MOLAR_MASS / (GAS_CONSTANT * t_f)
+    ra = rho ** 2 * height ** 3 * g * cp * abs(dt) / (t_f * mu * k)
+    theta = 180.0 - tilt if dt > 0 else tilt
+    s = np.sin(np.radians(tilt))
+    if theta < 15.0:
+        nu = 0.13 * ra ** (1.0 / 3.0)
+    elif theta <= 90.0:
+        ra_cv = 2.5e5 * (np.exp(0.72 * theta) / s) ** 0.2
+        nu = (0.56 * (ra * s) ** 0.25 if ra <= ra_cv
+              else 0.13 * (ra ** (1.0 / 3.0) - ra_cv ** (1.0 / 3.0)) + 0.56 * (ra_cv * s) ** 0.25)
+    elif theta <= 179.0:
+        nu = 0.56 * min(max(ra * s, 1e5), 1e11) ** 0.25
+    else:
+        nu = 0.58 * min(ra, 1e11) ** 0.2
+    return max(nu * k / height, 0.1)
 
 
 def window_resistance(element: Element, mean_temperature=EN673_MEAN_TEMPERATURE):
@@ -247,7 +304,7 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
                       h_ve, heating_setpoint, cooling_setpoint, *, volume, internal_radiative_fraction=0.5,
                       air_capacity_per_volume=1200.0, timestep=3600.0, warmup_steps=0, temp_start=20.0,
                       solar_distribution=None, convection="fixed", substeps=1, longwave=None,
-                      surface_gains=None):
+                      surface_gains=None, air_pressure=101325.0):
     """Run the ISO 52016-1 hourly balance of one zone (module doc).
 
     Parameters
@@ -282,7 +339,9 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         e.g. ASHRAE 140's table, most on the floor); default: the opaque elements by area.
     convection : str
         A key of :data:`CONVECTION`: ``"fixed"`` (default), ``"direction"`` (h_ci of floors and roofs by the
-        heat flow's direction at the end of the previous step) or ``"tarp"`` (Walton's correlations).
+        heat flow's direction at the end of the previous step), ``"tarp"`` (Walton's correlations) or
+        ``"tarp-iso15099"`` (Walton's on the opaque elements, ISO 15099's on the windows, whose ``height`` must be
+        given: EnergyPlus's default).
     substeps : int
         Sub-steps per step (ISO 52016-1 6.5.1 allows steps shorter than the hour): each step of ``timestep`` is
         solved as ``substeps`` implicit-Euler steps. The weather's instantaneous values (``temp_air_out``,
@@ -298,6 +357,9 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     surface_gains : array_like, optional
         (T, E, 2) heat [W] added at each element's outside (``[..., 0]``) and inside (``[..., 1]``) surface node,
         held over the step: e.g. the solar absorbed in a window's outer and inner pane.
+    air_pressure : array_like
+        (T,) or scalar air pressure [Pa] (ISO 15099's window convection, ``convection="tarp-iso15099"``; e.g. the
+        weather file's station pressure), held over the step.
 
     Returns
     -------
@@ -323,6 +385,12 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     ts, hce, hre = steps(temp_sky, "temp_sky"), steps(h_ce, "h_ce", True), steps(h_re, "h_re", True)
     sol_out, sol_in = steps(solar_out, "solar_out", True), steps(solar_in, "solar_in")
     pint, hve = steps(phi_int, "phi_int"), steps(h_ve, "h_ve")
+    pres = steps(air_pressure, "air_pressure")
+    if convection == "tarp-iso15099":
+        for el in elements:
+            if el.kind == "window" and not el.height > 0:
+                raise ValueError(f"window {el.name!r}: height={el.height!r} m must be > 0 with "
+                                 f"convection='tarp-iso15099'")
     sgain = np.zeros((T, E, 2)) if surface_gains is None else np.asarray(surface_gains, float)
     if sgain.shape != (T, E, 2):
         raise ValueError(f"surface_gains has shape {sgain.shape}, expected {(T, E, 2)}")
@@ -348,7 +416,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         def hold(a):
             return np.repeat(a, n_sub, axis=0)
         te, ts, hce, hre = interp(te), interp(ts), interp(np.asarray(hce)), interp(np.asarray(hre))
-        sol_out, sol_in, pint, hve, sgain = (hold(np.asarray(a)) for a in (sol_out, sol_in, pint, hve, sgain))
+        sol_out, sol_in, pint, hve, sgain, pres = (hold(np.asarray(a))
+                                                   for a in (sol_out, sol_in, pint, hve, sgain, pres))
         hs, cs = (a if sub else hold(np.asarray(a)) for a, sub in zip((hs, cs), per_sub))
         if np.any(hs > cs):
             raise ValueError("heating_setpoint must be <= cooling_setpoint")
@@ -427,7 +496,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     e0[0] = 1.0
     kinds = [el.kind for el in elements]
     horiz = [i for i, el in enumerate(elements) if convection == "direction" and el.kind in ("roof", "floor")]
-    tarp = list(range(E)) if convection == "tarp" else []
+    tarp = list(range(E)) if convection in ("tarp", "tarp-iso15099") else []
+    iso15099 = convection == "tarp-iso15099"
     wins = [i for i, el in enumerate(elements) if el.kind == "window" and el.gaps]
     for i, t in enumerate(order):
         M = base.copy()
@@ -446,7 +516,10 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
             M[b, a] -= dh
         for j in tarp:
             dt = x[inside[j]] - x[0]
-            h = _tarp(dt, elements[j].tilt)
+            if iso15099 and kinds[j] == "window":
+                h = iso15099_window_convection(dt, elements[j].tilt, elements[j].height, x[0], pres[t])
+            else:
+                h = _tarp(dt, elements[j].tilt)
             dh = (h - H_CI[kinds[j]]) * area[j]
             a, b = inside[j], 0
             M[a, a] += dh
