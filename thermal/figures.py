@@ -67,12 +67,22 @@ def fig_glazing(outdir, data_dir=None):
 
 
 def fig_bestest(outdir, integrator=None, data_dir=None):
-    """Annual loads and peaks of the cases with heating and cooling against the limits and the programs' range."""
+    """Annual loads and peaks of the cases with heating and cooling against the limits and the programs' range.
+
+    ``integrator``: the JSON of ``benchmarks/bench_bestest_cases.py --json`` (ISO 52016-1: ``{"integrator": {case:
+    figures}, "weather": {...}, "options": {...}}``, both routes plotted from it) or its older 5R1C form (``{case:
+    figures}``, the integrator route only; the weather route then run here). Figures in W and Wh as
+    :func:`~widesky.thermal.bestest.run_case` returns them, plotted in kW and MWh."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     refs = reference_results(data_dir)
-    ours = {c: run_case(c, data_dir) for c in CASES}
+    label_w, label_i = "ISO 52016-1, weather file (Perez)", "ISO 52016-1, widesky integrator"
+    if integrator is not None and "integrator" in integrator:           # both routes of the default model
+        ours, integrator = integrator["weather"], integrator["integrator"]
+    else:                                                               # run_case's default: ISO 52016-1, Perez
+        ours = {c: run_case(c, data_dir) for c in CASES}
+        label_i = "5R1C, widesky integrator"                            # the older JSON: 5R1C's integrator route
     qs = (("annual_heating", "annual heating [MWh]"), ("annual_cooling", "annual cooling [MWh]"),
           ("peak_heating", "peak heating [kW]"), ("peak_cooling", "peak cooling [kW]"))
     fig, axs = plt.subplots(4, 1, figsize=(12, 12), layout="constrained")
@@ -88,11 +98,11 @@ def fig_bestest(outdir, integrator=None, data_dir=None):
             ax.plot([i, i], [prog.min(), prog.max()], color="0.35", lw=3,
                     label="reference programs" if i == 0 else None)
             v = ours[c][q] / 1000
-            ax.plot(i - 0.12, v, "o", color="C3", label="5R1C, Hay-Davies" if i == 0 else None)
+            ax.plot(i - 0.12, v, "o", color="C3", label=label_w if i == 0 else None)
             table[(c, q)] = v
             if integrator is not None:
                 ax.plot(i + 0.12, integrator[c][q] / 1000, "s", color="C0",
-                        label="5R1C, widesky integrator" if i == 0 else None)
+                        label=label_i if i == 0 else None)
         ax.set_xticks(range(len(CASES)), CASES)
         ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3, axis="y")
