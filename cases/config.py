@@ -9,6 +9,7 @@ out of range or not among the choices is an error naming the range or the choice
 from __future__ import annotations
 
 import difflib
+import math
 import os
 import re
 import tomllib
@@ -226,6 +227,17 @@ def _unit_text(f):
     return f" in {f.unit}" if f.unit else ""
 
 
+def _finite_numbers(where, raw):
+    """Refuse nan and inf anywhere in a free-form table (TOML has them; no geometry parameter means them): named by
+    its key, before the geometry script turns it into a mesh with non-finite vertices."""
+    items = raw.items() if isinstance(raw, dict) else enumerate(raw) if isinstance(raw, list) else ()
+    for key, value in items:
+        name = f"{where}.{key}" if isinstance(raw, dict) else f"{where}[{key}]"
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ConfigError(f"{name} = {value}: expected a finite number")
+        _finite_numbers(name, value)
+
+
 def _value(where, f: Field, raw, folder: Path):
     if f.kind in ("float", "int"):
         return _number(where, f, raw)
@@ -265,6 +277,7 @@ def _value(where, f: Field, raw, folder: Path):
     if f.kind == "table":
         if not isinstance(raw, dict):
             raise ConfigError(f"{where}: expected a table")
+        _finite_numbers(where, raw)
         return dict(raw)
     if f.kind == "list":
         items = [raw] if isinstance(raw, str) else raw

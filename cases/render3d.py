@@ -155,6 +155,8 @@ def render_scene(vertices, triangles, face_values, *, vmin, vmax, view="south-we
         ax.imshow(np.asarray(scene_img), interpolation="none")
         ax.set_axis_off()
         name = view if isinstance(view, str) else f"azimuth {view[0]:.0f} deg, elevation {view[1]:.0f} deg"
+        if view == "top":
+            name = "top (north up)"     # looked at from the south, nearly straight down: a plan's orientation
         fig.text(0.01, 1.0 - 0.08 / (h_in + 0.45), title or f"view from the {name}", va="top", fontsize=12)
         for i, (side, cmap, a, b) in enumerate(bars):
             x0 = (w_in + 0.18 + 1.15 * i) / fw

@@ -22,7 +22,7 @@ import numpy as np
 
 import widesky.irradiance as ir
 from widesky import pvsim
-from widesky.core.atomic import plain_mode
+from widesky.core.atomic import interrupts_deferred, plain_mode, raise_if_interrupted
 from widesky.irradiance import Response
 from widesky.irradiance.simulation import weather_path
 from widesky.thermal import sky_temperature
@@ -303,13 +303,18 @@ def _atomic_folder(dest: Path, fill):
         fill(tmp)
         dump_json(tmp / REPORT_MARKER, {"written_by": "widesky run", "folder": dest.name})
         _check_output(dest)                       # again: the folder may have changed during the computation
+        raise_if_interrupted()                    # a Ctrl-C that a library swallowed: put nothing in place
         old = None
-        if dest.exists():
-            old = dest.with_name(f".{dest.name}.old-{os.getpid()}")
-            os.rename(dest, old)
-        os.rename(tmp, dest)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        try:
+            with interrupts_deferred():           # both renames or neither: never the earlier report moved away alone
+                raise_if_interrupted()
+                if dest.exists():
+                    old = dest.with_name(f".{dest.name}.old-{os.getpid()}")
+                    os.rename(dest, old)
+                os.rename(tmp, dest)
+        finally:
+            if old is not None and not tmp.exists():   # the new report is in place (a Ctrl-C raised after it too)
+                shutil.rmtree(old, ignore_errors=True)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

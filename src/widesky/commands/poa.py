@@ -138,9 +138,13 @@ def _period_steps(args):
     import pandas as pd
     try:
         step = pd.Timedelta(args.step)
+    except (ValueError, TypeError):
+        raise ValueError(f"--step {args.step!r}: not a duration; expected a number and a unit, e.g. 1h, 15min "
+                         "or 30s") from None
+    try:
         span = pd.Timestamp(args.end) - pd.Timestamp(args.start)
     except (ValueError, TypeError) as e:
-        raise ValueError(f"--start/--end/--step: {e}") from None
+        raise ValueError(f"--start {args.start!r} / --end {args.end!r}: {e}") from None
     if step <= pd.Timedelta(0):
         raise ValueError(f"--step {args.step}: must be positive")
     return int(span / step)
@@ -177,7 +181,7 @@ def _write_csv(res, path, group=None):
             for g, name in groups:
                 cols[f"{name}:{r}:poa_{p}"] = agg[f"{r}:{p}"][:, g]
     with atomic_write(path) as tmp:
-        pd.DataFrame(cols, index=res.times).to_csv(tmp)
+        pd.DataFrame(cols, index=res.times).to_csv(tmp, index_label="time")
 
 
 def step_hours(times):

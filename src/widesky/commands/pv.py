@@ -269,6 +269,8 @@ def _yield(args) -> int:
         raise ValueError(f"--group {g!r} not one of {y.groups}")
     frames = {n: ty.series[g] for n, ty in y.technologies.items()}
     df = pd.concat(frames, axis=1) if len(frames) > 1 else next(iter(frames.values()))
+    if df.columns.nlevels == 1:                        # one technology: a named first column, not an empty header
+        df.index.name = df.index.name or "time"
     _write_text(args.output, df.to_csv(float_format="%.6g"))
     t = summary_table(y, g)
     for n, r in t.iterrows():

@@ -33,8 +33,17 @@ def _run(args) -> int:
     from widesky.cases.runner import run_case
 
     if args.list:
-        for name in list_cases():
-            print(name)
+        import tomllib
+
+        from widesky.cases import CASES_DIR
+        names = list_cases()
+        width = max(map(len, names), default=0)
+        for name in names:            # each with its report's title: what it shows, not only its folder name
+            try:
+                title = tomllib.loads((CASES_DIR / name / "case.toml").read_text(encoding="utf-8"))["case"]["title"]
+            except (OSError, KeyError, TypeError, tomllib.TOMLDecodeError):
+                title = ""
+            print(f"{name:{width}s}  {title}".rstrip())
         return 0
     if args.schema:
         for section, fields in SCHEMA.items():

@@ -106,7 +106,7 @@ def _render(args):
     targets = [out]
     if out.suffix.lower() == ".png" and not args.no_exr:
         targets.append(check_output_path(out.with_suffix(".exr"), "--output (its .exr)"))
-    model = skymodel.load_dataset(args.dataset)
+    model = skymodel.load_dataset(_dataset_file(args.dataset, "--dataset"))
     lo, hi = model.elevation_range
     if not lo <= args.elevation <= hi:
         # a clamped sun elevation would render another sun position than the one asked for: refuse it (the other
@@ -148,10 +148,21 @@ def _render(args):
     return 0
 
 
+def _dataset_file(path, option):
+    """``path`` unchanged, or a ValueError naming ``option`` and what a dataset is, where no file is there."""
+    from pathlib import Path
+
+    if path is not None and not Path(path).expanduser().exists():
+        raise ValueError(f"{option} {str(path)!r}: no such file; expected a Prague Sky Model dataset (.dat): leave it "
+                         "out for the embedded one, or name your copy of an official dataset (not shipped: "
+                         "docs/skymodel.md) or one of widesky's (skymodel/data/polarised.dat in a checkout)")
+    return path
+
+
 def _info(args):
     from widesky import skymodel
 
-    model = skymodel.load_dataset(args.dataset)
+    model = skymodel.load_dataset(_dataset_file(args.dataset, "dataset"))
     if args.load:
         t0 = time.perf_counter()
         model.load()

@@ -164,4 +164,21 @@ def simulation(args, scene, settings, sky_source=None) -> Simulation:
                          coerce_year=args.coerce_year, **kw)
     for w in sim.warnings:
         print(f"widesky: warning: {w}", file=sys.stderr)
+    if args.weather is not None and not args.clear_sky:
+        warn_if_unmeasured(sim, args.weather, "; --clear-sky says so on purpose")
     return sim
+
+
+def warn_if_unmeasured(sim, weather, hint=""):
+    """Warn on stderr where a weather file lacks the DNI or DHI column, so that ``sim`` runs on the unscaled clear
+    sky (a CSV with a misspelt column did so silently), naming the missing columns and those widesky does not
+    know."""
+    rows = sim.input.weather
+    missing = [c for c in ("dni", "dhi") if rows is not None and c not in rows.columns]
+    if sim.input.measured is None and missing:
+        from widesky.irradiance.weather import WEATHER_COLUMNS
+        others = [str(c) for c in rows.columns if str(c) not in WEATHER_COLUMNS]
+        print(f"widesky: warning: weather file {str(weather)!r} gives no {' and no '.join(missing)} column: "
+              f"the clear sky of its steps is used, not scaled to measurements (an upper bound{hint})"
+              + (f"; columns widesky does not know: {', '.join(others)}" if others else ""),
+              file=sys.stderr)

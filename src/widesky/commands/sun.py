@@ -90,9 +90,14 @@ costs about 1 kB of memory while the NREL SPA runs)."""
 def _check_period_size(start, end, step):
     """Refuse a period of more than MAX_POSITIONS steps before computing anything (naming the options)."""
     try:
-        t0, t1, dt = pd.Timestamp(start), pd.Timestamp(end), pd.to_timedelta(step)
+        dt = pd.to_timedelta(step)
+    except (ValueError, TypeError, OverflowError):
+        raise ValueError(f"--step {step!r}: not a duration; expected a number and a unit, e.g. 1h, 15min "
+                         "or 30s") from None
+    try:
+        t0, t1 = pd.Timestamp(start), pd.Timestamp(end)
     except (ValueError, OverflowError) as exc:
-        raise ValueError(f"--start {start!r} / --end {end!r} / --step {step!r}: {exc}") from None
+        raise ValueError(f"--start {start!r} / --end {end!r}: {exc}") from None
     if dt <= pd.Timedelta(0):
         raise ValueError(f"--step {step!r}: must be positive")
     n = (t1.tz_localize(None) if t1.tzinfo else t1) - (t0.tz_localize(None) if t0.tzinfo else t0)
@@ -193,6 +198,6 @@ def _skystates(args) -> int:
         from widesky.core.atomic import atomic_outputs
 
         with atomic_outputs(args.csv) as (tmp,):
-            states.to_csv(tmp)
+            states.to_csv(tmp, index_label="time")
         print(f"wrote {args.csv}")
     return 0

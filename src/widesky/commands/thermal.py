@@ -73,7 +73,9 @@ def register(subparsers) -> None:
                     help="transposition of --sky weather: Perez et al. 1990 (default) or Hay-Davies 1980")
     lo.add_argument("--route", default="spectral", choices=("spectral", "rated"),
                     help="window gains from the spectral-angular g or the rated AM1.5 g(angle)")
-    lo.add_argument("--output", required=True, help="hourly CSV of zone heating, cooling and solar [W]")
+    lo.add_argument("--output", required=True,
+                    help="hourly CSV of zone heating, cooling and solar gains [W] (the solar gains as ISO 13790 "
+                         "11.3.5 counts them: net of the long-wave loss to the sky, so below zero at night)")
     lo.add_argument("--facade-map", help="PLY coloured by the annual incident shortwave per face "
                                          "[kWh m-2], with a per-face CSV beside it")
     lo.add_argument("--context", action="append", default=[], metavar="MESH",
@@ -314,13 +316,34 @@ def _overlap(a, b):
     return True
 
 
+def _convex_hull(pts):
+    """The convex hull of 2-D points ``pts`` ((N, 2) [m]) as its vertices in counter-clockwise order (Andrew's
+    monotone chain; collinear points dropped). numpy only: scipy is a test and build extra, not installed for users."""
+    pts = np.unique(np.asarray(pts, dtype=float), axis=0)  # sorted by x, then y
+    if len(pts) < 3:
+        return pts
+
+    def chain(points):
+        out = []
+        for p in points:
+            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
+                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
+                out.pop()
+            out.append(p)
+        return out
+
+    lower, upper = chain(pts), chain(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
 def _check_context_boxes(args, building):
     """Refuse a ``--context-box`` that overlaps the building's footprint (after ``--rotation``)."""
-    from scipy.spatial import ConvexHull
+    if not args.context_box:
+        return
     xy = np.asarray(building.vertices)[:, :2]
     walls = np.unique(np.concatenate([s.faces for s in building.surfaces if s.kind != "shading"]))
     pts = xy[np.unique(np.asarray(building.faces)[walls])]
-    foot = pts[ConvexHull(pts).vertices]
+    foot = _convex_hull(pts)
     for text, (x, y, w, d, _h) in zip(args.context_box, args.context_boxes):
         box = np.array([[x, y], [x + w, y], [x + w, y + d], [x, y + d]])
         if _overlap(box, foot):
@@ -362,10 +385,16 @@ def _loads(args) -> int:
     _check_context_boxes(args, b)
     context = _context(args)
     w = read_weather(args.weather)
+    data = w.data
+    lacking = [c for c in ("temp_air", *(("dni", "dhi", "ghi") if args.sky == "weather" else ()))
+               if c not in data.columns]
+    if lacking:
+        raise ValueError(f"--weather {str(args.weather)!r}: the file gives no {', '.join(lacking)} column; "
+                         "thermal loads needs temp_air [degC]" + (", and dni, dhi and ghi [W m-2] with --sky weather"
+                                                                 if args.sky == "weather" else ""))
     units = standard_units(args.data_dir, solar_control=True)
     unit = units[args.glazing]
     cons = _constructions(args.glazing, unit)
-    data = w.data
     surf = [s for s in b.surfaces if s.kind != "shading"]
     window_gain = None
     if args.sky == "weather":
@@ -385,6 +414,8 @@ def _loads(args) -> int:
         sim = Simulation(scene, weather=w, n_jobs=args.jobs, progress=sys.stderr.isatty())
         for msg in sim.warnings:
             print(f"widesky: warning: {msg}", file=sys.stderr)
+        from widesky.commands.sky_args import warn_if_unmeasured
+        warn_if_unmeasured(sim, args.weather)
         resp = (glazing_response(unit, f"{args.glazing}:spectral") if args.route == "spectral"
                 else rated_glazing_response(unit, *read_solar_spectrum(args.data_dir),
                                             f"{args.glazing}:rated"))
@@ -398,6 +429,7 @@ def _loads(args) -> int:
     out = pd.concat({"heating_W": lr.heating, "cooling_W": lr.cooling, "solar_W": lr.zone_solar},
                     axis=1)
     out.columns = [f"{z}:{q}" for q, z in out.columns]
+    out.index.name = out.index.name or "time"         # a named first column, not an empty header
     write_face_csv(args.output, out)
     if args.facade_map:
         # annual incident global per mesh face [kWh m-2] (per result face on the integrator route,
@@ -436,6 +468,10 @@ def _study(args) -> int:
         raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
     out = check_output_folder(args.output, "--output")    # created only once the results are ready
     args.weather = _weather_file(args.weather)
+    from widesky.irradiance import read_weather
+    if "temp_air" not in read_weather(args.weather).data.columns:   # before minutes of ray casting, not after
+        raise ValueError(f"--weather {str(args.weather)!r}: the file gives no temp_air column; thermal study needs "
+                         "temp_air [degC]")
     from widesky.thermal.study import standard_units
     units = standard_units(args.data_dir, solar_control=args.solar_control)
     r = glazing_study(args.weather, units, n_jobs=args.jobs, progress=sys.stderr.isatty(),

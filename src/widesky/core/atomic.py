@@ -15,7 +15,58 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["check_output_path", "atomic_outputs", "atomic_write", "plain_mode"]
+__all__ = ["check_output_path", "atomic_outputs", "atomic_write", "plain_mode", "mark_interrupted",
+           "clear_interrupted", "raise_if_interrupted", "interrupts_deferred"]
+
+# Set by the command line's Ctrl-C handler (widesky.cli.main). Python drops an exception raised where it cannot be
+# propagated (a weakref callback, a __del__, a library that catches KeyboardInterrupt), so a Ctrl-C can be lost and
+# the command run on; every commit checks this flag first, so that an interrupted command writes nothing.
+_INTERRUPTED = False
+
+
+def mark_interrupted() -> None:
+    """Record a Ctrl-C (SIGINT): from now on every commit of :func:`atomic_outputs` raises KeyboardInterrupt."""
+    global _INTERRUPTED
+    _INTERRUPTED = True
+
+
+def clear_interrupted() -> None:
+    """Forget a recorded Ctrl-C (at the start of a command)."""
+    global _INTERRUPTED
+    _INTERRUPTED = False
+
+
+def raise_if_interrupted() -> None:
+    """Raise KeyboardInterrupt where a Ctrl-C was recorded (:func:`mark_interrupted`) even if it was swallowed."""
+    if _INTERRUPTED:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def interrupts_deferred():
+    """Hold back Ctrl-C (SIGINT) for the few renames of a commit, so that they happen all or none: a Ctrl-C in
+    between is recorded (:func:`mark_interrupted`) and raised as KeyboardInterrupt once they are done. A Python-level
+    handler, not a signal mask: the kernel may hand the signal to any thread (BLAS, the ray caster's), and Python
+    runs the handler in the main thread whichever received it. Outside the main thread it changes nothing."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+
+    def hold(signum, frame):
+        pending.append(signum)
+        mark_interrupted()
+
+    previous = signal.signal(signal.SIGINT, hold)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous if previous is not None else signal.default_int_handler)
+    if pending:
+        raise KeyboardInterrupt
 
 
 def check_output_path(path, option="--output", suffixes=None) -> Path:
@@ -73,8 +124,11 @@ def atomic_outputs(*paths):
             os.chmod(name, 0o666 & ~_umask())  # as a plain open() would create it, not mkstemp's 0600
             temps.append(Path(name))
         yield temps
-        for t, d in zip(temps, dests):
-            os.replace(t, d)
+        raise_if_interrupted()      # a Ctrl-C that a library swallowed: commit nothing
+        with interrupts_deferred():
+            raise_if_interrupted()
+            for t, d in zip(temps, dests):
+                os.replace(t, d)
     except BaseException:
         for t in temps:
             with contextlib.suppress(OSError):

@@ -37,8 +37,9 @@ _CHECKOUT = Path(__file__).resolve().parents[3]      # src/widesky/core/paths.py
 _REPO_SIBLING = (_CHECKOUT.parent / "shared" / "data") if (_CHECKOUT / "pyproject.toml").is_file() else None
 """``../shared/data`` beside a source checkout; None for an installed package (no checkout around it)."""
 
-_WHERE = ("pass data_dir=..., set WIDESKY_DATA_DIR, or place the reference data at ../shared/data beside the "
-          "source checkout (docs/data-sources.md lists each file and where to get it)")
+_WHERE = ("name it with --data-dir on the command line where the command has that option (data_dir=... in "
+          "Python), set WIDESKY_DATA_DIR, or place the reference data at ../shared/data beside the source checkout "
+          "(docs/data-sources.md lists each file and where to get it)")
 
 
 class DataNotFoundError(FileNotFoundError):

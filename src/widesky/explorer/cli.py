@@ -51,7 +51,10 @@ def parse_response(item, model):
         raise ValueError(f"--response {item!r}: expected NAME=FILE or NAME:UNIT=FILE")
     if unit not in UNITS:
         raise ValueError(f"--response {item!r}: unit {unit!r} is not one of {', '.join(UNITS)}")
-    r = Response.from_csv(path, name=name, unit=unit)
+    try:
+        r = Response.from_csv(path, name=name, unit=unit)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"--response {item!r}: {exc}") from None
     edges = model.channel_edges
     return name, (r.channel_weights(edges[:-1], edges[1:]), UNITS[unit])
 
@@ -66,10 +69,18 @@ def _run(args) -> int:
             raise ValueError(f"{opt} {value}: expected 0 (all cores) or a positive number of threads")
     if not args.save_budget >= 0:
         raise ValueError(f"--save-budget {args.save_budget}: expected megabytes >= 0")
+    from pathlib import Path
     for d in args.dataset_dir:
-        from pathlib import Path
         if not Path(d).is_dir():
             raise ValueError(f"--dataset-dir {d}: not a folder")
+    if Path(args.output_dir).exists() and not Path(args.output_dir).is_dir():
+        raise ValueError(f"--output-dir {args.output_dir!r} is a file: give a folder (created at the first save)")
+    for opt, pair, lo, hi, unit in (("--wavelength-range", args.wavelength_range, 0.0, float("inf"), "nm"),
+                                    ("--visibility-range", args.visibility_range, 0.0, float("inf"), "km"),
+                                    ("--albedo-range", args.albedo_range, 0.0, 1.0, "[1]")):
+        if pair is not None and not (lo <= pair[0] <= pair[1] <= hi and pair[1] < float("inf")):
+            where = f"in [{lo:g}, {hi:g}]" if hi < float("inf") else f">= {lo:g}"
+            raise ValueError(f"{opt} {pair[0]:g} {pair[1]:g}: expected finite LO <= HI, {where} {unit}")
     part = {k: tuple(v) for k, v in (("wavelength_range", args.wavelength_range),
                                       ("visibility", args.visibility_range), ("albedo", args.albedo_range))
             if v is not None}

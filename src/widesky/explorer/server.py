@@ -65,7 +65,7 @@ import numpy as np
 import pandas as pd
 
 from widesky import skymodel
-from widesky.core.atomic import atomic_write
+from widesky.core.atomic import atomic_write, clear_interrupted
 from widesky.irradiance import Site
 from widesky.skymodel.render import check_render_memory, render_sky, write_exr, write_png
 
@@ -725,7 +725,7 @@ def serve(explorer: Explorer, port=8765, open_browser=True, quiet=True):
     try:
         srv.serve_forever()
     except KeyboardInterrupt:
-        pass
+        clear_interrupted()     # Ctrl-C is how the explorer stops: a normal end (exit status 0), not an interrupt
     finally:
         srv.server_close()
     return 0
