@@ -66,6 +66,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -221,7 +222,11 @@ def _chunk_task(geometry, origins, normals, buried, mf, k, sun_dirs, bins, first
 
 
 def _hold_geometry(geometry):
-    """Process-pool initializer: keep the scene's geometry in this worker (shipped once per worker)."""
+    """Process-pool initializer: keep the scene's geometry in this worker (shipped once per worker); a Ctrl-C
+    ends the worker at once, printing nothing (the parent, interrupted too, drops the pool and says so in one line).
+    """
+    from widesky._pool_signals import quiet_interrupt     # not in the parent: its import sets the handler
+    signal.signal(signal.SIGINT, quiet_interrupt)
     _WORKER_GEOMETRY.clear()
     _WORKER_GEOMETRY[geometry["key"]] = geometry
 
@@ -236,7 +241,7 @@ def _pool_context():
     methods = multiprocessing.get_all_start_methods()
     if "forkserver" in methods:
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload([__name__])
+        ctx.set_forkserver_preload(["widesky._pool_signals", __name__])   # the quiet Ctrl-C first
         return ctx
     return multiprocessing.get_context("spawn")
 

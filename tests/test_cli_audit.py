@@ -131,6 +131,37 @@ def test_a_swallowed_ctrl_c_writes_nothing_and_exits_130(tmp_path, monkeypatch, 
     assert (tmp_path / "after.csv").read_text() == "ok\n"
 
 
+def test_a_ctrl_c_swallowed_while_the_commands_import_stops_the_command(tmp_path, monkeypatch, capsys):
+    """Ctrl-C in the first second (the command modules' imports), swallowed by a library's bare ``except``: the
+    command does not run on to overwrite the user's file (it did: ``timeout -s INT 0.7 widesky thermal loads ...``
+    wrote its CSV); one line, status 130."""
+    real = cli.build_parser
+    user = tmp_path / "states.csv"
+    user.write_text("the user's own table\n")
+
+    def swallowing_imports(argv):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(1000):
+                pass
+        except KeyboardInterrupt:
+            pass                            # a bare except in some import
+        return real(argv)
+    monkeypatch.setattr(cli, "build_parser", swallowing_imports)
+    code = cli.main(["sun", "skystates", str(JUNE), "--csv", str(user)])
+    assert code == 130 and capsys.readouterr().err == "widesky: interrupted\n"
+    assert user.read_text() == "the user's own table\n"
+
+
+def test_ray_caster_helpers_end_quietly_on_ctrl_c():
+    """The ray caster's pool helpers (and its fork server, which imports this module first) exit at once on SIGINT
+    with status 130 and print nothing: no traceback per helper under the parent's one line."""
+    code = ("import os, signal, time, widesky._pool_signals\n"
+            "os.kill(os.getpid(), signal.SIGINT)\ntime.sleep(5)\nprint('not reached')")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 128 + signal.SIGINT and r.stdout == "" and r.stderr == ""
+
+
 def test_a_recorded_interrupt_keeps_the_previous_report(tmp_path):
     """The report folder's commit checks the record too: the earlier report stays in place, the new one is gone."""
     from widesky.cases.runner import REPORT_MARKER, _atomic_folder

@@ -8,6 +8,8 @@ import importlib
 import os
 import sys
 
+from widesky.core.atomic import raise_if_interrupted
+
 # The front ends that contribute subcommands (the app layer: they sit above the packages they drive); each
 # module exposes ``register(subparsers)``. A module that does not exist is skipped; any other import error is
 # raised.
@@ -146,15 +148,20 @@ def main(argv=None) -> int:
         print("widesky: error: 'widesky build' is now 'widesky solver' (the reference solver's tools: solve, "
               "validate, fit-gases); to build a dataset: widesky dataset build", file=sys.stderr)
         return 2
-    parser = build_parser(argv)
-    args = parser.parse_args(argv)
     with _interrupt_guard():
+        try:
+            # imports the command modules (numpy, pandas ...: about a second); a library's bare ``except`` may
+            # swallow a Ctrl-C raised in an import, so the recorded one is checked as well
+            parser = build_parser(argv)
+            raise_if_interrupted()
+        except KeyboardInterrupt:             # Ctrl-C while starting: nothing was done
+            print("widesky: interrupted", file=sys.stderr)
+            return 130
+        args = parser.parse_args(argv)
         return _run(args)
 
 
 def _run(args) -> int:
-    from widesky.core.atomic import raise_if_interrupted
-
     try:
         status = int(args.func(args) or 0)
         raise_if_interrupted()      # a Ctrl-C swallowed on the way (see _interrupt_guard): still an interrupt
