@@ -407,7 +407,10 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
         :func:`widesky.irradiance.read_weather`): its steps, per-step visibility (or aerosol optical depth)
         and albedo.
     start, end : str or datetime-like, optional
-        Period [start, end) (naive times in the site's zone); with a weather file, a part of it.
+        Period [start, end) (naive times in the site's zone); with a weather file, a part of it: the steps
+        whose interval starts in [start, end), whatever the file's label (an EPW or TMY3 hour, labelled
+        with its end t, covers [t - 1 h, t): a full year [Jan 1, Jan 1 of the next year) keeps all 8760
+        hours, the last one labelled Jan 1 00:00 of the next year, i.e. Dec 31 24:00).
     step : str or pandas.Timedelta
         Interval length for a site's period, e.g. "1h", "15min" (weather files carry their own).
     model : object, optional
@@ -447,9 +450,15 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
         wd = source if isinstance(source, WeatherData) else read_weather(source)
         data = wd.data
         if start is not None or end is not None:
-            lo = data.index.min() if start is None else wd.site.localize([start])[0]
-            hi = None if end is None else wd.site.localize([end])[0]
-            keep = (data.index >= lo) & (True if hi is None else data.index < hi)
+            # a step belongs to the period by its interval, not by its label: the interval starts in [start, end)
+            # (as time_range's steps of a site's period); an end-labelled hour (EPW, TMY3) ending at `end`
+            # is the period's last, and one ending at `start` is the hour before it
+            begins = data.index - {"left": pd.Timedelta(0), "center": wd.step / 2, "right": wd.step}[wd.label]
+            keep = np.ones(len(data), bool)
+            if start is not None:
+                keep &= begins >= wd.site.localize([start])[0]
+            if end is not None:
+                keep &= begins < wd.site.localize([end])[0]
             data = data[keep]
             if data.empty:
                 years = sorted(set(wd.data.index.year))

@@ -22,7 +22,7 @@ from .system import WATERFALL_STAGES, YieldResult
 from .technologies import perovskite_silicon_tandem
 
 __all__ = ["summary_table", "monthly_spectral_factor", "visibility_spectral_factor", "hourly_spectral_factors",
-           "waterfall_table", "summary_text", "plot_comparison", "write_comparison", "bandgap_sweep"]
+           "waterfall_table", "period_text", "summary_text", "plot_comparison", "write_comparison", "bandgap_sweep"]
 
 _MIN_POA = 50.0   # W m-2: hourly distributions only count steps above this
 
@@ -125,12 +125,28 @@ def visibility_spectral_factor(y: YieldResult, group=None, bins=(20, 30, 40, 60,
     return df
 
 
+def period_text(times):
+    """The steps of a run as text: their number and the first and last timestamps (interval labels) as given;
+    a series not in time order (a typical year, TMY or IWEC, whose months come from different years) says so
+    and names its years, since its last label can come before its first."""
+    n = 0 if times is None else len(times)
+    if n == 0:
+        return f"{n} steps"
+    times = pd.DatetimeIndex(times)
+    if times.is_monotonic_increasing:
+        return f"{n} steps {times[0]} .. {times[-1]}"
+    if times.year.min() == times.year.max():      # one year, out of order: its earliest and latest
+        return f"{n} steps not in time order, {times.min()} .. {times.max()}"
+    return (f"{n} steps of a typical year (records of {times.year.min()}..{times.year.max()}, not in time order; "
+            f"in file order {times[0]} .. {times[-1]})")
+
+
 def summary_text(y: YieldResult, group=None, note=""):
     """A short plain-text summary of the comparison."""
     g = _group(y, group)
     t = summary_table(y, g)
     mon = monthly_spectral_factor(y, g)
-    lines = [f"widesky pv compare: group {g!r}, {len(y.times)} steps {y.times[0]} .. {y.times[-1]}"
+    lines = [f"widesky pv compare: group {g!r}, {period_text(y.times)}"
              + (f" ({note})" if note else "")]
     best = t["specific_yield"].idxmax()
     lines.append(f"highest specific yield: {t.loc[best, 'label']} {t.loc[best, 'specific_yield']:.0f} kWh/kWp")

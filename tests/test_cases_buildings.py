@@ -447,13 +447,13 @@ def test_energy_balance_closes_on_a_week(facade_week):
 
 @pytest.mark.slow
 def test_shipped_facade_case_is_an_annual_study(tmp_path):
-    """The shipped case: the Denver TMY3 year (8759 hourly steps), office schedules, frames, blinds and the sky's
+    """The shipped case: the Denver TMY3 year (8760 hourly steps), office schedules, frames, blinds and the sky's
     long-wave loss; its energy balance closes (the sum of gains and losses equals heating minus cooling less the
     storage, to 1e-6 of the throughput; the mass stores under 0.5 % of the heating over the year); every chart of
     its report (the facade balance, spectral against rated per month, monthly loads) shows its result files."""
     rep = cases.run_case(SHIPPED / "facade", tmp_path / "r", n_jobs=1, progress=False, log=lambda m: None)
     ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
-    assert len(ts) == 8759 and "building:temp_sky [degC]" in ts
+    assert len(ts) == 8760 and "building:temp_sky [degC]" in ts
     ids = set(_check_charts(rep))
     assert {"facade-balance", "spectral-rated", "loads-monthly", "window-gain", "cooling-daily"} <= ids
     html = (rep / "index.html").read_text()

@@ -212,6 +212,33 @@ def test_comparison_outputs(run, tmp_path):
         pvsim.compare.summary_table(y, "nope")
 
 
+def test_summary_states_a_typical_years_period_honestly(run):
+    """A typical year (TMY3, IWEC) takes each month from its own year: read without moving it to one year, its
+    last label (the hour ending 1 Jan 00:00 of December's year + 1) can come before its first. The summary must
+    not print an end before its start as a period: it says "typical year", names the years and gives the labels
+    in file order; a series in time order keeps "N steps first .. last"."""
+    import dataclasses
+
+    from widesky.irradiance import read_weather
+    from widesky.irradiance.simulation import weather_path
+    y = run[1]
+    first = pvsim.compare.summary_text(y, "roof").splitlines()[0]
+    assert f"{len(y.times)} steps {y.times[0]} .. {y.times[-1]}" in first and "typical" not in first
+    denver = read_weather(weather_path("data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw")).data.index  # as read
+    assert not denver.is_monotonic_increasing
+    text = pvsim.compare.period_text(denver)
+    assert text == (f"8760 steps of a typical year (records of {denver.year.min()}..{denver.year.max()}, not in "
+                    f"time order; in file order {denver[0]} .. {denver[-1]})")
+    # the same through the summary: the run's times with its first steps moved one year on (months of two years)
+    mixed = y.times[:3] + pd.DateOffset(years=1)
+    mixed = mixed.append(y.times[3:])
+    first = pvsim.compare.summary_text(dataclasses.replace(y, times=mixed), "roof").splitlines()[0]
+    assert "steps of a typical year (records of 2021..2022, not in time order" in first
+    # one year out of order (a shuffled CSV): its earliest and latest label
+    assert pvsim.compare.period_text(y.times[::-1]) == (f"{len(y.times)} steps not in time order, "
+                                                      f"{y.times[0]} .. {y.times[-1]}")
+
+
 # --- command line --------------------------------------------------------------------------------
 
 def _cli(argv, capsys):

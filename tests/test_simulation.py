@@ -198,3 +198,16 @@ def test_ctrl_c_is_one_line_and_status_130(monkeypatch, capsys):
     err = capsys.readouterr().err
     assert code == 130 and err == "widesky: interrupted\n"
     assert not Path("/tmp/never-written.h5").exists()
+
+
+def test_a_typical_year_runs_all_its_8760_hours():
+    """The shipped Denver TMY3 year (EPW hours labelled with their end, 1 Jan 01:00 .. 31 Dec 24:00) moved to
+    2023 gives 8760 steps for the period [2023-01-01, 2024-01-01): the hour ending at 24:00 on 31 Dec (labelled
+    2024-01-01 00:00) is the year's last, not outside it; and a day is its 24 hours ending 01:00 .. 24:00."""
+    path = "data:weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw"
+    year = sky_input(path, "2023-01-01", "2024-01-01", coerce_year=2023, warn=False)
+    assert len(year.states) == len(year.weather) == 8760
+    assert str(year.states.times[0]) == "2023-01-01 01:00:00-07:00"
+    assert str(year.states.times[-1]) == "2024-01-01 00:00:00-07:00"
+    day = sky_input(path, "2023-06-21", "2023-06-22", coerce_year=2023, warn=False).states.times
+    assert len(day) == 24 and day[0].hour == 1 and str(day[-1]) == "2023-06-22 00:00:00-07:00"

@@ -203,3 +203,27 @@ def test_real_dataset_object_provides_the_ranges(tmp_path):
     np.testing.assert_array_equal(s["visibility"], [20.0, 60.0, 131.8])
     g = group_sky_states(s, model=model)
     assert g.n_evaluated == int((~s["below_min"]).sum())
+
+
+@pytest.mark.parametrize("label, shift", [("right", "1h"), ("left", "0h"), ("center", "30min")])
+def test_a_period_holds_the_steps_whose_interval_starts_in_it(label, shift):
+    """Weather steps belong to a period [start, end) by their interval, whatever the label: a full year of
+    end-labelled hours (EPW, TMY3: the hour ending Jan 1 01:00 .. the one ending Dec 31 24:00) is 8760 steps,
+    not 8759; a start-labelled series keeps start <= t < end. The steps chosen are exactly those of a site's
+    period with the same label (time_range), here in the southern hemisphere at UTC+2, where Dec 31 24:00
+    local is 22:00 UTC."""
+    from widesky.irradiance.location import fixed_offset_tz, time_range
+    from widesky.irradiance.weather import WeatherData
+    site = Site(-33.97, 18.60, 46.0, fixed_offset_tz(2), "Cape Town")
+    labels = pd.date_range("2021-01-01", periods=8760, freq="1h", tz=site.tz) + pd.Timedelta(shift)
+    wd = WeatherData(pd.DataFrame({"visibility": 40.0}, index=labels), site, label, pd.Timedelta("1h"))
+    for start, end, n in (("2021-01-01", "2022-01-01", 8760), ("2021-12-31", "2022-01-01", 24),
+                          ("2021-06-21 06:00", "2021-06-21 18:00", 12)):
+        s = irradiance.sky_states_for(wd, start, end, model=GROUND_MODEL, warn=False)
+        assert len(s) == n, (label, start, end)
+        assert s.times.equals(time_range(start, end, "1h", tz=site.tz, label=label))
+    year = irradiance.sky_states_for(wd, "2021-01-01", "2022-01-01", model=GROUND_MODEL, warn=False).times
+    assert year[-1] == pd.Timestamp("2021-12-31 23:00", tz=site.tz) + pd.Timedelta(shift)
+    # the period's bounds alone: from start to the file's end, and from the file's start to end
+    assert len(irradiance.sky_states_for(wd, "2021-12-31", None, model=GROUND_MODEL, warn=False)) == 24
+    assert len(irradiance.sky_states_for(wd, None, "2021-01-02", model=GROUND_MODEL, warn=False)) == 24
