@@ -14,6 +14,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from widesky.irradiance import PRESETS
+from widesky.irradiance.skystate import interval_months, interval_starts
 from widesky.pvsim import WATERFALL_STAGES, SystemSpec, pvwatts_inverter
 from widesky.skymodel.render import render_sky, write_exr, write_png
 
@@ -85,7 +86,8 @@ def _write_series(run: CaseRun, folder: Path):
     if run.thermal is not None:
         cols.update(thermal_columns(run.thermal))
     df = pd.DataFrame(cols, index=res.times)
-    df.index.name = "time (interval start)"
+    # the column says what the times label: a weather file's hours are stamped with their end (EPW, TMY3)
+    df.index.name = f"time (interval {dict(left='start', right='end', center='middle')[run.label]})"
     df.to_csv(folder / "timeseries.csv", float_format="%.4g")
     written = ["timeseries.csv"]
     try:
@@ -164,7 +166,7 @@ def _pv_section(run: CaseRun, book: ChartBook, nums):
     y = run.pv
     groups = run.pv_groups
     rows, monthly = [], {}
-    months = y.times.month
+    months = interval_months(y.times, run.label, pd.Timedelta(hours=run.step_hours))    # by the interval's start
     month_names = sorted(set(months))
     for name, nm in nums.items():
         w = nm["waterfall"]
@@ -199,7 +201,8 @@ def _pv_section(run: CaseRun, book: ChartBook, nums):
             title="Monthly specific yield (AC) per technology", xlabel="month", ylabel="specific yield [kWh/kWp]",
             source={"file": "timeseries.csv",
                     "columns": {nm["label"]: f"plant:{n}:ac [W]" for n, nm in nums.items()},
-                    "how": "sum over the steps of each month x step hours / 1000 / rating [kWp]"},
+                    "how": "sum over the steps of each month (by the interval's start) x step hours / 1000 / "
+                           "rating [kWp]"},
             meta={"rating_kwp": {nm["label"]: nm["kwp"] for nm in nums.values()},
                   "step_hours": next(iter(nums.values()))["step_hours"], "months": [int(m) for m in month_names]})
     pv = run.config["pv"]
@@ -317,7 +320,8 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
 
     # sky of the report hour: spectral EXR and PNG
     stage(2)
-    st = res.times[run.hour_index]
+    hour_step = pd.Timedelta(hours=run.step_hours)
+    st = interval_starts(res.times[run.hour_index:run.hour_index + 1], run.label, hour_step)[0]   # the hour's start
     sp_el, sp_az = run.hour_sun
     sky_r = render_sky(run.dataset.model, sun_elevation=sp_el, sun_azimuth=sp_az,
                        visibility=cfg["sky"]["visibility"], albedo=cfg["sky"]["albedo"], resolution=SKY_RESOLUTION)
@@ -392,12 +396,14 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
     compare = _compare_section([run, *others], folder, book) if others else ""
     if others:
         files.append("sites.csv")
-    months = res.times.month
+    # a step's month and day are its interval's start's (an EPW hour ending 1 Feb 00:00 is January's)
+    begins = interval_starts(res.times, run.label, pd.Timedelta(hours=run.step_hours))
+    months = np.asarray(begins.month)
     month_names = sorted(set(months))
     glob_cols = {lab: f"{lab}:poa_global [W m-2]" for lab in labels}
     monthly = {lab: [float(parts_total["poa_global"][lab][months == m].sum() * run.step_hours / 1000) for m in month_names]
                for lab in labels}
-    day = res.times.tz_localize(None).normalize()                    # local calendar days
+    day = begins.tz_localize(None).normalize()                       # local calendar days
     days = pd.Index(sorted(set(day)))
     daily = {lab: pd.Series(parts_total["poa_global"][lab] * run.step_hours / 1000, index=day).groupby(level=0).sum()
              .reindex(days).to_numpy() for lab in labels}
@@ -408,13 +414,14 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
             "monthly-insolation", [month_label[m - 1] for m in month_names], monthly,
             title="Monthly insolation per group", xlabel="month", ylabel="insolation [kWh m-2]",
             source={"file": "timeseries.csv", "columns": glob_cols,
-                    "how": "sum over the steps of each month (local time) x step hours / 1000"},
+                    "how": "sum over the steps of each month (local time, by the interval's start) x step hours "
+                           "/ 1000"},
             meta={"step_hours": run.step_hours, "months": [int(m) for m in month_names]}))
     charts.append(book.line(
         "daily-insolation", days.to_numpy(dtype="datetime64[ns]"), daily, title="Daily insolation per group",
         xlabel="date" if len(days) > 62 else "day (local time)", ylabel="insolation [kWh m-2 day-1]", dates=True,
         source={"file": "timeseries.csv", "columns": glob_cols,
-                "how": "sum over the steps of each local day x step hours / 1000"},
+                "how": "sum over the steps of each local day (by the interval's start) x step hours / 1000"},
         meta={"step_hours": run.step_hours}))
     band_means = {b: label_means(res.get(b, "global"), run.labels, area) for b in BANDS}
     band_frac = {lab: [100 * float(band_means[b][lab].sum()) / max(parts_total["poa_global"][lab].sum(), 1e-30)
@@ -426,7 +433,9 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
                 "columns": {lab: {b: f"{lab}:{b} [W m-2]" for b in BANDS} for lab in labels},
                 "global": glob_cols, "how": "100 x the band's sum over the period / the global sum"}))
     spec = label_means(hour_spectrum(run.hour).T, run.labels, area)                  # label -> (C,)
-    hour_text = f"{st:%Y-%m-%d %H:%M} ({_utc_offset(st)})"
+    st_end = st + hour_step
+    hour_text = (f"{st:%Y-%m-%d %H:%M}-{'24:00' if st_end.normalize() > st.normalize() else f'{st_end:%H:%M}'} "
+                 f"({_utc_offset(st)})")
     charts.append(book.line(
         "hour-spectrum", np.asarray(res.wavelengths, float), spec,
         title=f"Global spectral irradiance per group, {hour_text}", legend_title=f"{st:%d %b %Y %H:%M}",
@@ -483,7 +492,8 @@ PV waterfall's stages) is this divided by 0.99248, the AM1.5G share of 280-2480 
 <h2>Spectra</h2>
 {charts[-2]}
 {charts[-1]}
-<p class="note">The spectrum of the hour starting {hour_text} (local time; sun elevation {sp_el:.1f} deg, azimuth
+<p class="note">The spectrum of the hour {hour_text} (local time, the step holding <code>report.sky_time</code>;
+sun elevation {sp_el:.1f} deg, azimuth
 {sp_az:.1f} deg at mid-interval), from <code>spectral_hour.h5</code>: direct, sky-diffuse and ground-diffuse parts and
 their sum per face.</p>
 <h2>Maps</h2>

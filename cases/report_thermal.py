@@ -13,6 +13,8 @@ from html import escape
 import numpy as np
 import pandas as pd
 
+from widesky.irradiance.skystate import interval_months, interval_starts
+
 from .building_loads import ThermalRun
 from .charts import ChartBook
 
@@ -75,8 +77,13 @@ def _table(header, rows):
     return f"<table><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def _fmt_time(t):
-    return pd.Timestamp(t).strftime("%d %b %H:%M")
+def _fmt_time(t, label, step):
+    """A step's hour as its interval, e.g. "31 Dec 23:00-24:00" for the EPW hour labelled 1 Jan 00:00 (its end):
+    by the interval's start (irradiance.skystate.interval_starts), whatever the label."""
+    b = interval_starts(pd.DatetimeIndex([pd.Timestamp(t)]), label, step)[0]
+    e = b + pd.Timedelta(step)
+    end = "24:00" if e.normalize() > b.normalize() and e == e.normalize() else f"{e:%H:%M}"
+    return f"{b:%d %b %H:%M}-{end}"
 
 
 def _facade_html(th, step_hours, book):
@@ -140,10 +147,9 @@ transmission through windows (glass and frames) and opaque elements, cooling, an
 the period. Residual: in - out - stored, zero to rounding.</p>"""
 
 
-def _peaks_html(th, weather):
-    """Per zone and unit: peak heating and cooling [kW] and their dates."""
-    stamp = ("the end of the hour, local standard time, as the weather file stamps it" if weather
-             else "the start of the step, local time")
+def _peaks_html(th, weather, label, step):
+    """Per zone and unit: peak heating and cooling [kW] and their hours (as intervals)."""
+    stamp = ("local standard time, as the weather file's hours" if weather else "local time")
     summ = {name: th.loads[name].summary() for name in th.units}
     zones = list(summ[next(iter(summ))].index)
     rows = []
@@ -151,14 +157,15 @@ def _peaks_html(th, weather):
         r = [z]
         for name in th.units:
             s = summ[name].loc[z]
-            r += [f"{s['peak_heating_W'] / 1000:.1f} ({_fmt_time(s['peak_heating_time'])})",
-                  f"{s['peak_cooling_W'] / 1000:.1f} ({_fmt_time(s['peak_cooling_time'])})"]
+            r += [f"{s['peak_heating_W'] / 1000:.1f} ({_fmt_time(s['peak_heating_time'], label, step)})",
+                  f"{s['peak_cooling_W'] / 1000:.1f} ({_fmt_time(s['peak_cooling_time'], label, step)})"]
         rows.append(r)
     header = ["zone", *(f"{n}: {k} peak [kW] (at)" for n in th.units for k in ("heating", "cooling"))]
     return f"""<h3>Peak loads per zone</h3>
 {_table(header, rows)}
 <p class="note">Zone f&lt;storey&gt;_&lt;facade&gt;: the perimeter zone of that storey behind that facade (f0 the
-ground floor). The time of each peak is its step's time stamp ({stamp}); the building's peak (total) is the peak of
+ground floor). Each peak is shown as its step's interval, start-end ({stamp}; 31 Dec 23:00-24:00 is the
+year's last hour); the building's peak (total) is the peak of
 the summed load, not the sum of the zones' peaks.</p>"""
 
 
@@ -166,11 +173,12 @@ def _monthly(values, months):
     return [float(values[months == m].sum()) for m in range(1, 13)]
 
 
-def _routes_html(th, times, step_hours, book):
-    """Spectral against rated glazing gains per month (whole building, without the shading device)."""
+def _routes_html(th, times, step_hours, book, label="left"):
+    """Spectral against rated glazing gains per month (by each step's interval start; whole building, without the
+    shading device)."""
     if not th.rated_gain:
         return ""
-    month = np.asarray(times.month)
+    month = interval_months(times, label, pd.Timedelta(hours=step_hours))
     present = [m for m in range(1, 13) if np.any(month == m)]
     rows, series = [], {}
     tot = {}
@@ -194,7 +202,8 @@ def _routes_html(th, times, step_hours, book):
                     source={"file": "timeseries.csv",
                             "columns": {n: {"spectral": f"{n}:window gain unshaded spectral [W]",
                                             "rated": f"{n}:window gain unshaded rated [W]"} for n in th.units},
-                            "how": "100 (sum of spectral - sum of rated) / sum of rated over each month's steps"})
+                            "how": "100 (sum of spectral - sum of rated) / sum of rated over each month's steps "
+                                   "(by the interval's start)"})
     return f"""<h3>Spectral against rated glazing, per month</h3>
 {_table(["month", *(x for n in th.units for x in (f"{n}: gain [kWh]", f"{n}: spectral - rated [%]"))], rows)}
 {img}
@@ -205,8 +214,8 @@ is the spectrum alone: the sky's light is bluer than AM1.5 in diffuse light and 
 (solar-control) unit passes less of the near infrared than its rated g assumes (docs/thermal.md).</p>"""
 
 
-def _monthly_loads_chart(th, times, step_hours, book):
-    month = np.asarray(times.month)
+def _monthly_loads_chart(th, times, step_hours, book, label="left"):
+    month = interval_months(times, label, pd.Timedelta(hours=step_hours))    # by the interval's start
     present = [m for m in range(1, 13) if np.any(month == m)]
     series, cols = {}, {}
     for name in th.units:
@@ -219,7 +228,7 @@ def _monthly_loads_chart(th, times, step_hours, book):
                      title="Monthly heating and cooling of the building per glazing unit", xlabel="month",
                      ylabel="energy [MWh]", legend_title="glazing and load",
                      source={"file": "timeseries.csv", "columns": cols,
-                             "how": "sum over each month's steps x step hours / 1e6"})
+                             "how": "sum over each month's steps (by the interval's start) x step hours / 1e6"})
 
 
 def _use_text(th, tcfg):
@@ -274,10 +283,12 @@ def thermal_section(run, folder, book: ChartBook):
     area_text = ", ".join(f"{o} {inc[o]['area_m2']:.0f} m2 ({inc[o]['incident_kwh_m2']:.1f} kWh m-2 incident)"
                           for o in orients)
     fa = th.floor_area
+    step = pd.Timedelta(hours=run.step_hours)
     load_rows = [[name, f"{sm['cooling_kwh'] / 1000:.2f}", f"{sm['cooling_kwh'] / fa:.2f}",
                   f"{sm['peak_cooling_w'] / 1000:.1f}", f"{sm['peak_cooling_w'] / fa:.1f}",
-                  _fmt_time(sm["peak_cooling_time"]), f"{sm['heating_kwh'] / 1000:.2f}", f"{sm['heating_kwh'] / fa:.2f}",
-                  f"{sm['peak_heating_w'] / 1000:.1f}", _fmt_time(sm["peak_heating_time"])] for name, sm in summ.items()]
+                  _fmt_time(sm["peak_cooling_time"], run.label, step), f"{sm['heating_kwh'] / 1000:.2f}",
+                  f"{sm['heating_kwh'] / fa:.2f}", f"{sm['peak_heating_w'] / 1000:.1f}",
+                  _fmt_time(sm["peak_heating_time"], run.label, step)] for name, sm in summ.items()]
     times = run.result.times
     days = (times[-1] - times[0]).total_seconds() / 86400.0
     cols = {name: f"{name}:cooling [W]" for name in th.units}
@@ -288,7 +299,7 @@ def thermal_section(run, folder, book: ChartBook):
                           ylabel="cooling [kW]", dates=True, legend_title="glazing",
                           source={"file": "timeseries.csv", "columns": cols, "how": "each step's value / 1000"})
     else:
-        day = times.tz_localize(None).normalize()
+        day = interval_starts(times, run.label, step).tz_localize(None).normalize()    # by the interval's start
         series = {name: pd.Series(th.loads[name].cooling.sum(axis=1).to_numpy() * run.step_hours / 1000.0,
                                   index=day).groupby(level=0).sum() for name in th.units}
         dn = next(iter(series.values())).index.to_numpy(dtype="datetime64[ns]")
@@ -296,14 +307,15 @@ def thermal_section(run, folder, book: ChartBook):
                           title="Daily cooling energy per glazing unit", xlabel="date", ylabel="cooling [kWh day-1]",
                           dates=True, legend_title="glazing",
                           source={"file": "timeseries.csv", "columns": cols,
-                                  "how": "sum over the steps of each local day x step hours / 1000"},
+                                  "how": "sum over the steps of each local day (by the interval's start) x step "
+                                         "hours / 1000"},
                           meta={"step_hours": run.step_hours})
     annual = days > 60
-    monthly = _monthly_loads_chart(th, times, run.step_hours, book) if annual else ""
+    monthly = _monthly_loads_chart(th, times, run.step_hours, book, run.label) if annual else ""
     facade_html = _facade_html(th, run.step_hours, book)
     balance_html = _balance_html(th)
-    peaks_html = _peaks_html(th, run.config["sky"]["weather"] is not None)
-    routes_html = _routes_html(th, times, run.step_hours, book)
+    peaks_html = _peaks_html(th, run.config["sky"]["weather"] is not None, run.label, step)
+    routes_html = _routes_html(th, times, run.step_hours, book, run.label)
     weather = run.config["sky"]["weather"] is not None
     temp_text = ("the weather file's air temperature" if weather else
                  f"a cosine design day repeated (mean {tcfg['temp_air']:g} degC, range {tcfg['temp_air_range']:g} K, "

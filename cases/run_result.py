@@ -37,6 +37,7 @@ class CaseRun:
     thermal: object = None         # cases.building_loads.ThermalRun when the case has a [thermal] section
     weather: str = "clear sky"     # how the sky was driven (a phrase for the report)
     site: object = None            # irradiance.Site used (the weather file's with a weather file)
+    label: str = "left"            # what the step times label: "left" (interval start), "right" (end: EPW, TMY3)
 
 
 def dump_json(path, obj):

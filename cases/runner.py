@@ -19,12 +19,14 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 import widesky.irradiance as ir
 from widesky import pvsim
 from widesky.core.atomic import interrupts_deferred, plain_mode, raise_if_interrupted
 from widesky.irradiance import Response
 from widesky.irradiance.simulation import weather_path
+from widesky.irradiance.skystate import interval_starts
 from widesky.thermal import sky_temperature
 
 from .building_loads import (building_thermal, design_day_temperature, glazing_responses, prepare_building,
@@ -173,6 +175,17 @@ def simulation(cfg, scene, settings, n_jobs=None, progress=False, sky_source=Non
     return sim
 
 
+def report_hour(times, label, step, sky_time):
+    """Index of the step whose interval [start, start + step) holds ``sky_time`` (tz-aware), by the interval's start
+    whatever the label (:func:`widesky.irradiance.skystate.interval_starts`): an EPW or TMY3 hour labelled 10:00 is
+    09:00-10:00, so ``report.sky_time`` 09:00 (or 09:30) picks it; None when no step holds it."""
+    begins = interval_starts(times, label, step)
+    hi = int(np.searchsorted(begins, sky_time, side="right")) - 1
+    if hi < 0 or hi >= len(times) or not begins[hi] <= sky_time < begins[hi] + pd.Timedelta(step):
+        return None
+    return hi
+
+
 def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     """Validate the case in ``folder`` and compute its irradiance, yield and loads (no files written); ``cfg``:
     an already validated configuration (default: read ``folder/case.toml``)."""
@@ -188,11 +201,10 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         print(f"widesky: warning: {w}", file=sys.stderr)
     states, site, how = sim.states, sim.input.site, sim.description
     times = states.times
-    # the report's hour: the step whose interval holds report.sky_time
-    st = site.localize([cfg["report"]["sky_time"]])[0]
-    hi = int(np.searchsorted(times, st, side="right")) - 1
-    if hi < 0 or hi >= len(times) or not times[hi] <= st < times[hi] + (times[1] - times[0] if len(times) > 1
-                                                                     else np.timedelta64(1, "h")):
+    label = sim.input.label
+    step = times[1] - times[0] if len(times) > 1 else pd.Timedelta(cfg["period"]["step"])
+    hi = report_hour(times, label, step, site.localize([cfg["report"]["sky_time"]])[0])
+    if hi is None:
         raise ConfigError(f"report.sky_time = {cfg['report']['sky_time']} is not inside the period "
                           f"{cfg['period']['start']} .. {cfg['period']['end']}")
     if states.sun_elevation[hi] <= sky.min_sun_elevation:
@@ -254,7 +266,7 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
         if rows is not None and "ghi_infrared" in rows and np.isfinite(rows["ghi_infrared"].to_numpy(float)).all():
             temp_sky = sky_temperature(np.maximum(rows["ghi_infrared"].to_numpy(float), 1.0))
         thermal_run = building_thermal(res, building, tcfg, units, rated, sim.weather_series("temp_air", design),
-                                       temp_sky, label="left" if cfg["sky"]["weather"] is None else "right")
+                                       temp_sky, label=label)
         timings["thermal"] = time.perf_counter() - t4
     t2 = time.perf_counter()
     hour = sim.run(steps=slice(hi, hi + 1), spectral=True, progress=False)
@@ -265,7 +277,7 @@ def compute(folder, *, n_jobs=None, progress=True, cfg=None) -> CaseRun:
     return CaseRun(folder, cfg, scene, res, hour, hi,
                    (float(states.sun_elevation[hi]), float(states.sun_azimuth[hi])),
                    face_labels(scene, rename), step_h, sky, settings, timings, pv_result, pv_groups, thermal_run,
-                   how, site)
+                   how, site, label)
 
 
 def _surface_labels(building):

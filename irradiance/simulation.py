@@ -136,6 +136,9 @@ class SkyInput:
         DNI/DHI" or "clear sky (Prague)".
     sky_model : str
         "all-sky", "clear sky scaled to measured DNI/DHI" or "clear sky (an upper bound)".
+    label : {"left", "right", "center"}
+        What the ``states.times`` label: a site's period "left" (interval starts), a weather file its own
+        (EPW, TMY3 "right": interval ends); months and hours go by the interval's start (``interval_starts``).
     """
 
     states: SkyStates
@@ -145,6 +148,7 @@ class SkyInput:
     site: Site
     description: str
     sky_model: str
+    label: str = "left"
 
     @property
     def times(self):
@@ -234,7 +238,8 @@ def sky_input(source, start=None, end=None, step="1h", *, options: SkyOptions = 
     else:
         sky_model = "all-sky"
     where = wd.site.name or f"{wd.site.latitude:.3f}, {wd.site.longitude:.3f}"
-    return SkyInput(states, measured, spectral_model, rows, wd.site, f"{label} ({where}), {how}", sky_model)
+    return SkyInput(states, measured, spectral_model, rows, wd.site, f"{label} ({where}), {how}", sky_model,
+                    wd.label)
 
 
 class Simulation:

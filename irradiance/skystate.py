@@ -31,12 +31,13 @@ import pandas as pd
 
 from widesky.skymodel.visibility import aod_at_wavelength, visibility_from_aod550
 
-from .location import Site, time_range
+from .location import Site, _check_label, infer_step, time_range
 from .skies import SkyStates
 from .weather import WeatherData, read_weather
 
 __all__ = ["SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "sky_states_for", "GroupingSteps",
-           "DEFAULT_GROUPING", "SkyGroups", "group_sky_states", "SKY_STATE_COLUMNS"]
+           "DEFAULT_GROUPING", "SkyGroups", "group_sky_states", "SKY_STATE_COLUMNS", "interval_starts",
+           "interval_months"]
 
 
 @dataclass(frozen=True)
@@ -395,6 +396,39 @@ def group_sky_states(states: pd.DataFrame, steps: GroupingSteps = DEFAULT_GROUPI
     return SkyGroups(table, inverse, states.index, steps)
 
 
+def interval_starts(times, label, step=None) -> pd.DatetimeIndex:
+    """The start of each step's interval: the rule that puts a step in a period, a month or an hour.
+
+    A weather file's hour is labelled by its end (EPW, TMY3: "right"), so the hour labelled
+    Jan 1 00:00 is Dec 31 23:00-24:00 and belongs to December; a site's period by its start ("left").
+
+    Parameters
+    ----------
+    times : pandas.DatetimeIndex
+        Interval labels (tz-aware).
+    label : {"left", "right", "center"}
+        What each label marks: the start, end or middle of its interval.
+    step : str or pandas.Timedelta, optional
+        Interval length (e.g. "1h"); inferred from ``times`` when None (then at least 2 steps).
+
+    Returns
+    -------
+    pandas.DatetimeIndex
+        The interval starts, same length and time zone as ``times``.
+    """
+    times = pd.DatetimeIndex(times)
+    if _check_label(label) == "left":
+        return times
+    step = infer_step(times) if step is None else pd.Timedelta(step)
+    return times - (step if label == "right" else step / 2)
+
+
+def interval_months(times, label, step=None) -> np.ndarray:
+    """(T,) calendar month 1..12 of each step's interval, by its start (:func:`interval_starts`): an
+    end-labelled hour ending at 1 Feb 00:00 is January's last, one ending at 1 Jan 00:00 is December's."""
+    return np.asarray(interval_starts(times, label, step).month)
+
+
 def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visibility=50.0,
                    albedo=0.2, altitude=0.0, label="left", warn=True, prefer="visibility"):
     """Sky states for a site and period (clear sky) or for a weather file: the one path.
@@ -453,7 +487,7 @@ def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visib
             # a step belongs to the period by its interval, not by its label: the interval starts in [start, end)
             # (as time_range's steps of a site's period); an end-labelled hour (EPW, TMY3) ending at `end`
             # is the period's last, and one ending at `start` is the hour before it
-            begins = data.index - {"left": pd.Timedelta(0), "center": wd.step / 2, "right": wd.step}[wd.label]
+            begins = interval_starts(data.index, wd.label, wd.step)
             keep = np.ones(len(data), bool)
             if start is not None:
                 keep &= begins >= wd.site.localize([start])[0]

@@ -15,6 +15,8 @@ import numpy as np
 import pandas as pd
 
 from widesky.core.atomic import atomic_outputs, atomic_write
+from widesky.irradiance.location import infer_step
+from widesky.irradiance.skystate import interval_months
 
 from .plots import save_figure
 from .stream import simulate
@@ -80,13 +82,20 @@ def waterfall_table(y: YieldResult, group=None):
     return df
 
 
-def monthly_spectral_factor(y: YieldResult, group=None):
-    """Energy-weighted spectral factor [1] per calendar month (rows) and technology (columns)."""
+def _step(times):
+    """The steps' interval [time] (1 h for a single step: one hour's month needs none with a "left" label)."""
+    return infer_step(times) if len(times) > 1 else pd.Timedelta(hours=1)
+
+
+def monthly_spectral_factor(y: YieldResult, group=None, label="left"):
+    """Energy-weighted spectral factor [1] per calendar month (rows) and technology (columns); ``label``: what the
+    steps' times label ("left" their interval's start, "right" its end as in an EPW or TMY3 file, "center"): a
+    step's month is its interval's start's (the EPW hour ending 1 Feb 00:00 is January's)."""
     g = _group(y, group)
     out = {}
     for name, ty in y.technologies.items():
         s = ty.series[g]
-        m = s.index.month
+        m = interval_months(s.index, label, _step(s.index))
         num = s["effective_irradiance_front"].groupby(m).sum()
         den = s["poa_global_cover"].groupby(m).sum()
         out[name] = num / den.where(den > 0)
@@ -141,11 +150,11 @@ def period_text(times):
             f"in file order {times[0]} .. {times[-1]})")
 
 
-def summary_text(y: YieldResult, group=None, note=""):
-    """A short plain-text summary of the comparison."""
+def summary_text(y: YieldResult, group=None, note="", label="left"):
+    """A short plain-text summary of the comparison (``label`` as :func:`monthly_spectral_factor`)."""
     g = _group(y, group)
     t = summary_table(y, g)
-    mon = monthly_spectral_factor(y, g)
+    mon = monthly_spectral_factor(y, g, label)
     lines = [f"widesky pv compare: group {g!r}, {period_text(y.times)}"
              + (f" ({note})" if note else "")]
     best = t["specific_yield"].idxmax()
@@ -163,15 +172,16 @@ def summary_text(y: YieldResult, group=None, note=""):
     return "\n".join(lines) + "\n"
 
 
-def plot_comparison(y: YieldResult, path, group=None, title=None):
-    """A 2 x 2 PNG: specific yield and spectral gain per technology; monthly spectral factor; the
-    distribution of hourly spectral factors; spectral factor per visibility bin."""
+def plot_comparison(y: YieldResult, path, group=None, title=None, label="left"):
+    """A 2 x 2 PNG: specific yield and spectral gain per technology; monthly spectral factor (``label`` as
+    :func:`monthly_spectral_factor`); the distribution of hourly spectral factors; spectral factor per visibility
+    bin."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     g = _group(y, group)
     t = summary_table(y, g)
-    mon = monthly_spectral_factor(y, g)
+    mon = monthly_spectral_factor(y, g, label)
     hours = hourly_spectral_factors(y, g)
     vis = visibility_spectral_factor(y, g)
     names = list(t.index)
@@ -226,8 +236,9 @@ def _write_text(path, text):
         tmp.write_text(text)
 
 
-def write_comparison(y: YieldResult, outdir, group=None, note=""):
-    """Write ``summary.csv``, ``waterfall.csv``, ``monthly_spectral_factor.csv``,
+def write_comparison(y: YieldResult, outdir, group=None, note="", label="left"):
+    """Write ``summary.csv``, ``waterfall.csv``, ``monthly_spectral_factor.csv`` (``label`` as
+    :func:`monthly_spectral_factor`),
     ``visibility_spectral_factor.csv``, ``summary.txt`` and ``compare.png`` into ``outdir``
     (all six or none: renamed into place together once all are written, so an interrupt leaves neither a partial
     set nor a folder it created). Returns the list of paths."""
@@ -235,7 +246,7 @@ def write_comparison(y: YieldResult, outdir, group=None, note=""):
     created = [d for d in (out, *out.parents) if not d.exists()]    # the folders this call makes, deepest first
     g = _group(y, group)
     tables = (("summary.csv", summary_table(y, g)), ("waterfall.csv", waterfall_table(y, g)),
-              ("monthly_spectral_factor.csv", monthly_spectral_factor(y, g)),
+              ("monthly_spectral_factor.csv", monthly_spectral_factor(y, g, label)),
               ("visibility_spectral_factor.csv", visibility_spectral_factor(y, g)))
     paths = [out / name for name, _ in tables] + [out / "summary.txt", out / "compare.png"]
     try:
@@ -243,8 +254,8 @@ def write_comparison(y: YieldResult, outdir, group=None, note=""):
         with atomic_outputs(*paths) as temps:
             for tmp, (_, df) in zip(temps, tables):
                 tmp.write_text(df.to_csv(float_format="%.6g"))
-            temps[4].write_text(summary_text(y, g, note))
-            plot_comparison(y, temps[5], g)
+            temps[4].write_text(summary_text(y, g, note, label))
+            plot_comparison(y, temps[5], g, label=label)
     except BaseException:
         for d in created:               # only empty ones: the folders this call made, nothing of the user's
             with contextlib.suppress(OSError):

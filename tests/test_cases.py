@@ -426,10 +426,14 @@ def check_charts(rep):
     ids = [c["id"] for c in charts]
     assert sorted(re.findall(r'<figure class="chart" id="chart-([^"]+)"', html)) == sorted(ids)
     ts = pd.read_csv(rep / "timeseries.csv", index_col=0)
-    stamps = ts.index.astype(str)
+    h = _step_hours(ts.index)
+    # a step's month and day are its interval's start's: the time column says whether the stamps are starts or
+    # ends (a weather file's hours, stamped with their end: the hour stamped 1 Feb 00:00 is January's)
+    assert ts.index.name in ("time (interval start)", "time (interval end)"), ts.index.name
+    shift = pd.Timedelta(hours=h if ts.index.name == "time (interval end)" else 0.0)
+    stamps = pd.Index([str(pd.Timestamp(s) - shift) for s in ts.index])
     month = np.array([int(s[5:7]) for s in stamps])
     local_day = np.array([s[:10] for s in stamps])
-    h = _step_hours(ts.index)
     faces = pd.read_csv(rep / "faces.csv", index_col=0)
 
     def close(got, want, rtol=2e-3, atol=None, what=""):
@@ -465,7 +469,8 @@ def check_charts(rep):
             for lab, vals in series.items():
                 sel = (faces["label"] == lab).to_numpy()
                 close(vals, area[sel] @ glob[sel] / area[sel].sum(), rtol=1e-6, atol=1e-9, what=f"{cid} {lab}")
-            assert str(hour.times[0])[:16].replace(" ", "T") in c["title"].replace(" ", "T"), c["title"]
+            start = str(pd.Timestamp(str(hour.times[0])) - shift)                     # the hour's start
+            assert start[:16].replace(" ", "T") in c["title"].replace(" ", "T"), c["title"]
         elif cid == "pv-monthly-specific-yield":
             months = [_MONTHS.index(m) + 1 for m in c["categories"]]
             names = [k.split(":")[1] for k in ts.columns if k.startswith("plant:") and k.endswith(":ac [W]")]
@@ -510,7 +515,7 @@ def check_charts(rep):
                 col = ts[f"{unit}:{load} [W]"].to_numpy()
                 close(vals, [col[month == m].sum() * h / 1e6 for m in months], what=f"{cid} {name}")
         elif cid == "cooling-load":
-            assert [x[:16] for x in c["x"]] == [s[:16].replace(" ", "T") for s in stamps]
+            assert [x[:16] for x in c["x"]] == [s[:16].replace(" ", "T") for s in ts.index.astype(str)]   # labels
             for unit, vals in series.items():
                 close(vals, ts[f"{unit}:cooling [W]"].to_numpy() / 1000.0, what=f"{cid} {unit}")
         elif cid == "cooling-daily":

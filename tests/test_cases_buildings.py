@@ -605,3 +605,79 @@ def test_builtin_glazing_units_have_the_documented_values():
                                    atol=1e-9)
     with pytest.raises(ValueError, match=r"glazing 'tinted' is not valid; expected items from clear"):
         glazing_units(["tinted"])
+
+
+# ---- hours and months of end-labelled weather steps ---------------------------------------------------------
+
+def test_the_report_hour_is_the_step_holding_sky_time():
+    """report.sky_time picks the step whose interval [start, start + 1 h) holds it, whatever the label: with EPW
+    or TMY3 end labels, 09:00 and 09:59 pick the hour labelled 10:00 (09:00-10:00), 10:00 the next; with start
+    labels the hour labelled 09:00. Before the fix an end-labelled 09:00 picked the hour labelled 09:00
+    (08:00-09:00)."""
+    from widesky.cases.runner import report_hour
+    tz = "Etc/GMT+7"
+    ends = pd.date_range("2023-06-21 01:00", "2023-06-22 00:00", freq="1h", tz=tz)
+    step = pd.Timedelta("1h")
+    at = lambda s: pd.Timestamp(s, tz=tz)  # noqa: E731
+    assert ends[report_hour(ends, "right", step, at("2023-06-21 09:00"))] == at("2023-06-21 10:00")
+    assert ends[report_hour(ends, "right", step, at("2023-06-21 09:59"))] == at("2023-06-21 10:00")
+    assert ends[report_hour(ends, "right", step, at("2023-06-21 10:00"))] == at("2023-06-21 11:00")
+    assert ends[report_hour(ends, "right", step, at("2023-06-21 23:30"))] == at("2023-06-22 00:00")   # 23:00-24:00
+    assert report_hour(ends, "right", step, at("2023-06-22 00:00")) is None          # after the last hour
+    assert report_hour(ends, "right", step, at("2023-06-20 23:59")) is None
+    starts = ends - step
+    assert starts[report_hour(starts, "left", step, at("2023-06-21 09:00"))] == at("2023-06-21 09:00")
+
+
+def test_thermal_report_months_and_peak_hours_by_the_intervals_start():
+    """The thermal report's monthly loads and spectral-vs-rated months group an end-labelled series by each
+    hour's start: a synthetic building whose only load is in the hour ending 1 Feb 00:00 shows it in January; the
+    peak in the hour labelled 1 Jan 00:00 (end label) reads "31 Dec 23:00-24:00", not "01 Jan 00:00"."""
+    from types import SimpleNamespace
+
+    from widesky.cases.charts import ChartBook
+    from widesky.cases.report_thermal import _fmt_time, _monthly_loads_chart, _routes_html
+    tz = "Etc/GMT+7"
+    ends = pd.date_range("2023-01-01 01:00", "2024-01-01 00:00", freq="1h", tz=tz)
+    jan_last = ends.get_loc(pd.Timestamp("2023-02-01 00:00", tz=tz))
+    heat = np.zeros((len(ends), 1))
+    heat[jan_last] = 2e6                                            # 2 MWh in 31 Jan 23:00-24:00
+    loads = SimpleNamespace(heating=pd.DataFrame(heat, columns=["z"]),
+                            cooling=pd.DataFrame(np.zeros_like(heat), columns=["z"]))
+    gain = np.zeros((len(ends), 1))
+    gain[jan_last] = 1000.0
+    th = SimpleNamespace(units={"clear": None}, loads={"clear": loads}, bare_gain={"clear": gain},
+                         rated_gain={"clear": 2 * gain}, window_area=np.array([1.0]))
+    book = ChartBook()
+    _monthly_loads_chart(th, ends, 1.0, book, "right")
+    _routes_html(th, ends, 1.0, book, "right")
+    charts = {c["id"]: c for c in book.charts}
+    heating = charts["loads-monthly"]["series"]["clear heating"]
+    assert heating[0] == pytest.approx(2.0) and sum(heating[1:]) == 0.0
+    assert charts["spectral-rated"]["series"]["clear"][0] == pytest.approx(-50.0)
+    assert charts["spectral-rated"]["series"]["clear"][1] is None       # no February gain: NaN, written as null
+    old = ChartBook()                                               # read as start labels: February's
+    _monthly_loads_chart(th, ends, 1.0, old, "left")
+    assert old.charts[0]["series"]["clear heating"][1] == pytest.approx(2.0)
+    step = pd.Timedelta("1h")
+    assert _fmt_time(ends[-1], "right", step) == "31 Dec 23:00-24:00"
+    assert _fmt_time(ends[jan_last], "right", step) == "31 Jan 23:00-24:00"
+    assert _fmt_time(pd.Timestamp("2023-07-17 15:00", tz=tz), "left", step) == "17 Jul 15:00-16:00"
+
+
+@pytest.mark.slow
+def test_a_weather_cases_report_hour_holds_sky_time(tmp_path, facade_run):
+    """A case on an EPW (hours labelled by their end): report.sky_time 09:00 renders the hour 09:00-10:00, the
+    step labelled 10:00, with the sun at 09:30 (pvlib's independent SPA: apparent elevation and azimuth within
+    0.02 deg); before the fix it rendered 08:00-09:00 (sun at 08:30, about 10 deg lower)."""
+    import pvlib
+    _epw(tmp_path / "w.epw", facade_run, 1.0, 20.0)
+    _case(tmp_path, "facade", FACADE.format(tz="1", weather='weather = "w.epw"')
+          .replace('sky_time = "2024-06-21T12:00"', 'sky_time = "2024-06-21T09:00"'))
+    run = compute(tmp_path, n_jobs=1, progress=False)
+    t = run.result.times[run.hour_index]
+    assert t == pd.Timestamp("2024-06-21 10:00", tz=t.tz) and run.label == "right"
+    sp = pvlib.solarposition.get_solarposition(pd.DatetimeIndex([t - pd.Timedelta("30min")]), run.site.latitude,
+                                               run.site.longitude, run.site.altitude)
+    assert run.hour_sun[0] == pytest.approx(float(sp["apparent_elevation"].iloc[0]), abs=0.02)
+    assert run.hour_sun[1] == pytest.approx(float(sp["azimuth"].iloc[0]), abs=0.02)

@@ -239,6 +239,25 @@ def test_summary_states_a_typical_years_period_honestly(run):
                                                       f"{y.times[0]} .. {y.times[-1]}")
 
 
+def test_monthly_spectral_factor_groups_end_labelled_hours_by_their_start():
+    """An EPW or TMY3 hour is labelled by its end: the hour labelled 1 Feb 00:00 is 31 Jan 23:00-24:00 and is
+    January's. A synthetic end-labelled series (Jan 31 .. Feb 2, factor 1.0 everywhere but 0.5 in that last January
+    hour): with label="right" January's energy-weighted factor is (22 + 0.5) / 23 over its 23 hours in the series
+    and February's is exactly 1; read as start labels (label="left", the old grouping), the 0.5 falls in
+    February."""
+    from types import SimpleNamespace
+    tz = "Etc/GMT+7"
+    ends = pd.date_range("2023-01-31 02:00", "2023-02-03 00:00", freq="1h", tz=tz)   # 23 January hours, 47 Feb
+    eff = np.ones(len(ends))
+    eff[ends.get_loc(pd.Timestamp("2023-02-01 00:00", tz=tz))] = 0.5
+    df = pd.DataFrame({"effective_irradiance_front": eff, "poa_global_cover": 1.0}, index=ends)
+    y = SimpleNamespace(groups=["roof"], technologies={"t": SimpleNamespace(series={"roof": df})})
+    right = pvsim.compare.monthly_spectral_factor(y, "roof", label="right")["t"]
+    assert right.loc[1] == pytest.approx(22.5 / 23) and right.loc[2] == pytest.approx(1.0)
+    left = pvsim.compare.monthly_spectral_factor(y, "roof", label="left")["t"]
+    assert left.loc[1] == pytest.approx(1.0) and left.loc[2] == pytest.approx(48.5 / 49)
+
+
 # --- command line --------------------------------------------------------------------------------
 
 def _cli(argv, capsys):

@@ -227,3 +227,30 @@ def test_a_period_holds_the_steps_whose_interval_starts_in_it(label, shift):
     # the period's bounds alone: from start to the file's end, and from the file's start to end
     assert len(irradiance.sky_states_for(wd, "2021-12-31", None, model=GROUND_MODEL, warn=False)) == 24
     assert len(irradiance.sky_states_for(wd, None, "2021-01-02", model=GROUND_MODEL, warn=False)) == 24
+
+
+def test_a_steps_month_is_its_intervals_start():
+    """End-labelled hours (EPW, TMY3) are grouped by the start of their interval: the hour labelled 1 Feb 00:00
+    (31 Jan 23:00-24:00) is January's and the one labelled 1 Jan 00:00 of the next year (31 Dec 23:00-24:00) is
+    December's; a synthetic year whose last January hour alone carries a value puts it in January, not
+    February. Start-labelled and centre-labelled steps give the same months."""
+    from widesky.irradiance.skystate import interval_months, interval_starts
+    tz = "Etc/GMT+7"
+    ends = pd.date_range("2023-01-01 01:00", "2024-01-01 00:00", freq="1h", tz=tz)        # 8760 EPW labels
+    assert len(ends) == 8760
+    m = interval_months(ends, "right")
+    assert m[ends.get_loc(pd.Timestamp("2023-02-01 00:00", tz=tz))] == 1
+    assert m[-1] == 12 and m[0] == 1
+    assert np.bincount(m, minlength=13)[1:].tolist() == [24 * d for d in (31, 28, 31, 30, 31, 30, 31, 31, 30, 31,
+                                                                         30, 31)]
+    v = np.zeros(len(ends))
+    v[ends.get_loc(pd.Timestamp("2023-02-01 00:00", tz=tz))] = 5.0               # 31 Jan 23:00-24:00
+    per_month = np.array([v[m == k].sum() for k in range(1, 13)])
+    assert per_month[0] == 5.0 and per_month[1:].sum() == 0.0
+    starts = ends - pd.Timedelta("1h")
+    assert interval_starts(ends, "right").equals(starts)
+    assert interval_starts(ends, "right", "1h").equals(starts)
+    np.testing.assert_array_equal(interval_months(starts, "left"), m)
+    np.testing.assert_array_equal(interval_months(starts + pd.Timedelta("30min"), "center", "1h"), m)
+    with pytest.raises(ValueError, match="label"):
+        interval_months(ends, "end")

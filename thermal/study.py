@@ -21,6 +21,7 @@ import pandas as pd
 
 from widesky.core.paths import runtime_file
 from widesky.irradiance import PragueSky, Simulation, read_weather
+from widesky.irradiance.skystate import interval_months
 
 from .building import ZoneSpec, box_building
 from .gains import (building_scene, glazing_response, irradiance_by_surface, rated_glazing_response,
@@ -98,7 +99,8 @@ def glazing_study(weather_path, units=None, building=None, *, sky=None, n_jobs=1
     -------
     dict
         ``effective_g``: DataFrame indexed by (unit, orientation, month) with columns ``spectral``,
-        ``rated_route``, ``rated_normal`` [1]; ``annual``: DataFrame indexed by (unit, route) with
+        ``rated_route``, ``rated_normal`` [1] (an hour's month: its interval's start's); ``annual``: DataFrame
+        indexed by (unit, route) with
         ``window_gain_kWh``, ``heating_kWh``, ``cooling_kWh``, ``peak_cooling_W``;
         ``incident``: (T, W) global on each window [W m-2]; ``times``; ``site``.
     """
@@ -120,7 +122,7 @@ def glazing_study(weather_path, units=None, building=None, *, sky=None, n_jobs=1
     incident = irr["poa_global"][:, wins]
     orient = [_orientation_name(surf[j].azimuth) for j in wins]
     area = np.array([surf[j].area for j in wins])
-    month = np.asarray(w.data.index.month)
+    month = interval_months(w.data.index, w.label, w.step)    # by the interval's start (EPW: labelled by its end)
     data = w.data
     t_sky = (sky_temperature(np.maximum(data["ghi_infrared"].to_numpy(), 1.0))
              if "ghi_infrared" in data else None)

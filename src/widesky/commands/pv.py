@@ -243,7 +243,7 @@ def _run_yield(args, techs):
                       wind_speed=c["wind_speed"], cover=c["cover"], system=c["system"],
                       reference=None if args.reference == "g173" else "widesky", reference_path=args.g173,
                       keep_currents=False, **sim.integrator_arguments())
-    return res, y, c["note"] + ("" if args.reference == "g173" else ", reference: widesky AM1.5G")
+    return res, y, c["note"] + ("" if args.reference == "g173" else ", reference: widesky AM1.5G"), sim.input.label
 
 
 def _compare(args) -> int:
@@ -251,9 +251,9 @@ def _compare(args) -> int:
     from widesky.pvsim.technologies import TECHNOLOGIES
     check_pv_args(args, "folder")
     techs = _technologies(args, list(TECHNOLOGIES))
-    res, y, note = _run_yield(args, techs)
-    paths = write_comparison(y, args.output, args.group, note)
-    sys.stdout.write(summary_text(y, args.group, note))
+    res, y, note, label = _run_yield(args, techs)
+    paths = write_comparison(y, args.output, args.group, note, label)
+    sys.stdout.write(summary_text(y, args.group, note, label))
     print(f"wrote {', '.join(str(p) for p in paths)}")
     return 0
 
@@ -263,7 +263,7 @@ def _yield(args) -> int:
     from widesky.pvsim.compare import _write_text, summary_table
     check_pv_args(args, "csv")
     techs = _technologies(args, ["perc"])
-    res, y, note = _run_yield(args, techs)
+    res, y, note, _ = _run_yield(args, techs)
     g = args.group or y.groups[0]
     if g not in y.groups:
         raise ValueError(f"--group {g!r} not one of {y.groups}")
