@@ -13,7 +13,8 @@ ISO 52016-1 (section 6.5) instead keeps one set of nodes per construction elemen
   surfaces 5.0 with the heat flowing upward, 0.7 downward: ISO 52016-1 Table 25 / ISO 6946's R_si less its
   radiative part; ``convection="fixed"`` takes roofs as upward and floors as downward, ``"direction"`` the
   direction of each step, ``"tarp"`` Walton's correlations instead, ``"tarp-iso15099"`` Walton's on the opaque
-  surfaces and ISO 15099's on the windows, EnergyPlus's default, :data:`CONVECTION`)
+  surfaces and ISO 15099's on the windows, EnergyPlus's default, :data:`CONVECTION`; evaluated at the previous
+  step's temperatures, or with ``iterate`` at the step's own, the step re-solved until they agree)
   and long-wave exchange with the other surfaces through the area-weighted mean inside surface temperature
   (``h_ri = 5.13`` W m-2 K-1, 52016-1 6.5.6.3), or (``longwave``) by view factors and grey script-F
   (:func:`box_view_factors`, :func:`radiant_exchange`);
@@ -304,7 +305,7 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
                       h_ve, heating_setpoint, cooling_setpoint, *, volume, internal_radiative_fraction=0.5,
                       air_capacity_per_volume=1200.0, timestep=3600.0, warmup_steps=0, temp_start=20.0,
                       solar_distribution=None, convection="fixed", substeps=1, longwave=None,
-                      surface_gains=None, air_pressure=101325.0):
+                      surface_gains=None, air_pressure=101325.0, iterate=0, iterate_tol=1e-3):
     """Run the ISO 52016-1 hourly balance of one zone (module doc).
 
     Parameters
@@ -361,11 +362,22 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         (T,) or scalar air pressure [Pa] (ISO 15099's window convection, ``convection="tarp-iso15099"``; e.g. the
         weather file's station pressure), held over the step.
 
+    iterate : int
+        0 (default): each step's inside convective coefficients are those at the previous step's temperatures (a
+        lag of one step). N > 0: they are then re-evaluated at the step's own solution and the step re-solved, up
+        to N times or until no coefficient changes by more than ``iterate_tol`` [W m-2 K-1] (as EnergyPlus
+        iterates its inside surface balance within the time step). Applies to ``"direction"``, ``"tarp"`` and
+        ``"tarp-iso15099"``; ``"fixed"`` has nothing to iterate.
+    iterate_tol : float
+        Convergence tolerance of ``iterate`` [W m-2 K-1].
+
     Returns
     -------
     dict of numpy.ndarray
         (T,): ``temp_air``, ``temp_surface`` (area-weighted inside surface mean) [degC], ``heating``,
-        ``cooling`` (>= 0) [W].
+        ``cooling`` (>= 0) [W]; ``h_ci_change``: (iterations + 1,) with ``iterate`` > 0 (else empty), per solve
+        of a step the largest residual ``|h_ci(x) - h_ci used|`` [W m-2 K-1] over the reported steps and
+        elements, ``x`` that solve's temperatures (entry 0: the lag of the one-solve scheme).
     """
     elements = list(elements)
     if convection not in CONVECTION:
@@ -401,6 +413,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
                                                                                       "cooling_setpoint")))
     if hs.shape == cs.shape and np.any(hs > cs):
         raise ValueError("heating_setpoint must be <= cooling_setpoint")
+    if not (isinstance(iterate, (int, np.integer)) and iterate >= 0) or not iterate_tol >= 0:
+        raise ValueError(f"iterate={iterate!r} must be an integer >= 0 and iterate_tol={iterate_tol!r} >= 0")
     if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
         raise ValueError(f"substeps={substeps!r} must be an integer >= 1")
     n_sub = int(substeps)
@@ -499,54 +513,74 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     tarp = list(range(E)) if convection in ("tarp", "tarp-iso15099") else []
     iso15099 = convection == "tarp-iso15099"
     wins = [i for i, el in enumerate(elements) if el.kind == "window" and el.gaps]
-    for i, t in enumerate(order):
-        M = base.copy()
-        M[outside, outside] += h_out[t]
-        M[0, 0] += hve[t]
+    h_base = np.array([H_CI[k] for k in kinds])
+
+    def h_conv(xs, t):
+        """(E,) inside convective coefficients [W m-2 K-1] at the node temperatures ``xs``."""
+        h = h_base.copy()
         for j in horiz:
-            # ISO 52016-1 Table 25 by the direction of the heat flow at the end of the previous step: a
-            # ceiling (roof inside, facing down) colder than the air or a floor warmer than it: upward
-            hot = x[inside[j]] > x[0]
+            # ISO 52016-1 Table 25 by the direction of the heat flow: a ceiling (roof inside, facing down)
+            # colder than the air or a floor warmer than it: upward
+            hot = xs[inside[j]] > xs[0]
             up = (not hot) if kinds[j] == "roof" else hot
-            dh = ((H_CI_UP if up else H_CI_DOWN) - H_CI[kinds[j]]) * area[j]
-            a, b = inside[j], 0
-            M[a, a] += dh
-            M[b, b] += dh
-            M[a, b] -= dh
-            M[b, a] -= dh
+            h[j] = H_CI_UP if up else H_CI_DOWN
         for j in tarp:
-            dt = x[inside[j]] - x[0]
+            dt = xs[inside[j]] - xs[0]
             if iso15099 and kinds[j] == "window":
-                h = iso15099_window_convection(dt, elements[j].tilt, elements[j].height, x[0], pres[t])
+                h[j] = iso15099_window_convection(dt, elements[j].tilt, elements[j].height, xs[0], pres[t])
             else:
-                h = _tarp(dt, elements[j].tilt)
-            dh = (h - H_CI[kinds[j]]) * area[j]
-            a, b = inside[j], 0
-            M[a, a] += dh
-            M[b, b] += dh
-            M[a, b] -= dh
-            M[b, a] -= dh
+                h[j] = _tarp(dt, elements[j].tilt)
+        return h
+
+    def with_convection(M0, h):
+        M = M0.copy()
+        dh = (h - h_base) * area
+        M[inside, inside] += dh
+        M[0, 0] += dh.sum()
+        M[inside, 0] -= dh
+        M[0, inside] -= dh
+        return M
+    variable = bool(horiz or tarp)
+    n_iter = int(iterate) if variable else 0
+    change = np.zeros(n_iter + 1 if n_iter else 0)  # per solve: the largest |h(x) - h_used| of the steps
+    for i, t in enumerate(order):
+        M0 = base.copy()
+        M0[outside, outside] += h_out[t]
+        M0[0, 0] += hve[t]
         for j in wins:
             el = elements[j]
             tm = 0.5 * (x[outside[j]] + x[inside[j]]) + 273.15      # mean gap temperature [K]
             r = el.resistance + sum(1.0 / (hg + 4 * SIGMA * eps * tm ** 3) for hg, eps in el.gaps)
             dh = (1.0 / r - 1.0 / window_resistance(el)) * area[j]
             a, b = outside[j], inside[j]
-            M[a, a] += dh
-            M[b, b] += dh
-            M[a, b] -= dh
-            M[b, a] -= dh
-        sol = np.linalg.solve(M, np.stack([rhs[t] + cdt * x, e0], 1))
-        free, unit = sol[:, 0], sol[:, 1]
-        q = 0.0
-        if free[0] < hs[t]:
-            q = (hs[t] - free[0]) / unit[0]
-        elif free[0] > cs[t]:
-            q = (cs[t] - free[0]) / unit[0]
+            M0[a, a] += dh
+            M0[b, b] += dh
+            M0[a, b] -= dh
+            M0[b, a] -= dh
+        # the coefficients at the previous step's temperatures, then (iterate) at this step's own
+        h = h_conv(x, t) if variable else h_base
+        rhs_t = np.stack([rhs[t] + cdt * x, e0], 1)
+        for k in range(n_iter + 1):
+            sol = np.linalg.solve(with_convection(M0, h) if variable else M0, rhs_t)
+            free, unit = sol[:, 0], sol[:, 1]
+            q = 0.0
+            if free[0] < hs[t]:
+                q = (hs[t] - free[0]) / unit[0]
+            elif free[0] > cs[t]:
+                q = (cs[t] - free[0]) / unit[0]
+            if not n_iter:
+                break
+            h_new = h_conv(free + q * unit, t)
+            d = float(np.abs(h_new - h).max())          # the coefficients' residual of this solve
+            if i >= n_warm:
+                change[k] = max(change[k], d)
+            if d <= iterate_tol or k == n_iter:
+                break
+            h = h_new
         x = free + q * unit
         if i >= n_warm:
             ta[t], tsurf[t], need[t] = x[0], area @ x[inside] / a_tot, q
     heat_, cool_ = np.maximum(need, 0.0), np.maximum(-need, 0.0)
     if n_sub > 1:
         ta, tsurf, heat_, cool_ = (a.reshape(T_hours, n_sub).mean(1) for a in (ta, tsurf, heat_, cool_))
-    return {"temp_air": ta, "temp_surface": tsurf, "heating": heat_, "cooling": cool_}
+    return {"temp_air": ta, "temp_surface": tsurf, "heating": heat_, "cooling": cool_, "h_ci_change": change}
