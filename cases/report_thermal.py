@@ -13,7 +13,7 @@ from html import escape
 import numpy as np
 import pandas as pd
 
-from widesky.irradiance.skystate import interval_months, interval_starts
+from widesky.irradiance.skystate import interval_months, interval_starts, interval_text
 
 from .building_loads import ThermalRun
 from .charts import ChartBook
@@ -80,10 +80,7 @@ def _table(header, rows):
 def _fmt_time(t, label, step):
     """A step's hour as its interval, e.g. "31 Dec 23:00-24:00" for the EPW hour labelled 1 Jan 00:00 (its end):
     by the interval's start (irradiance.skystate.interval_starts), whatever the label."""
-    b = interval_starts(pd.DatetimeIndex([pd.Timestamp(t)]), label, step)[0]
-    e = b + pd.Timedelta(step)
-    end = "24:00" if e.normalize() > b.normalize() and e == e.normalize() else f"{e:%H:%M}"
-    return f"{b:%d %b %H:%M}-{end}"
+    return interval_text(t, label, step)
 
 
 def _facade_html(th, step_hours, book):

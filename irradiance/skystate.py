@@ -37,7 +37,7 @@ from .weather import WeatherData, read_weather
 
 __all__ = ["SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "sky_states_for", "GroupingSteps",
            "DEFAULT_GROUPING", "SkyGroups", "group_sky_states", "SKY_STATE_COLUMNS", "interval_starts",
-           "interval_months"]
+           "interval_months", "interval_text"]
 
 
 @dataclass(frozen=True)
@@ -427,6 +427,16 @@ def interval_months(times, label, step=None) -> np.ndarray:
     """(T,) calendar month 1..12 of each step's interval, by its start (:func:`interval_starts`): an
     end-labelled hour ending at 1 Feb 00:00 is January's last, one ending at 1 Jan 00:00 is December's."""
     return np.asarray(interval_starts(times, label, step).month)
+
+
+def interval_text(time, label, step, fmt="%d %b %H:%M") -> str:
+    """One step's interval as text, start-end by its start (:func:`interval_starts`), e.g. "31 Dec 23:00-24:00"
+    for the EPW hour labelled 1 Jan 00:00 (``label="right"``, ``step="1h"``); ``fmt`` formats the start (strftime),
+    the end is its time of day, "24:00" where it is the next midnight."""
+    b = interval_starts(pd.DatetimeIndex([pd.Timestamp(time)]), label, step)[0]
+    e = b + pd.Timedelta(step)
+    end = "24:00" if e.normalize() > b.normalize() and e == e.normalize() else f"{e:%H:%M}"
+    return f"{b:{fmt}}-{end}"
 
 
 def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visibility=50.0,

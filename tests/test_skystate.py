@@ -254,3 +254,14 @@ def test_a_steps_month_is_its_intervals_start():
     np.testing.assert_array_equal(interval_months(starts + pd.Timedelta("30min"), "center", "1h"), m)
     with pytest.raises(ValueError, match="label"):
         interval_months(ends, "end")
+
+
+def test_interval_text_names_an_end_labelled_hour_by_its_interval():
+    """The EPW hour labelled 1 Jan 00:00 is 31 Dec 23:00-24:00; a start-labelled 2-hour step crossing midnight ends
+    at 01:00, not "24:00"; a centre label is half a step after the start."""
+    from widesky.irradiance.skystate import interval_text
+    t = pd.Timestamp("2024-01-01 00:00", tz="Etc/GMT+7")
+    assert interval_text(t, "right", "1h") == "31 Dec 23:00-24:00"
+    assert interval_text(t, "right", "1h", "%Y-%m-%d %H:%M") == "2023-12-31 23:00-24:00"
+    assert interval_text(pd.Timestamp("2023-06-30 23:00", tz="UTC"), "left", "2h") == "30 Jun 23:00-01:00"
+    assert interval_text(pd.Timestamp("2023-06-30 12:30", tz="UTC"), "center", "1h") == "30 Jun 12:00-13:00"

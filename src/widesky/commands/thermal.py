@@ -356,6 +356,7 @@ def _check_context_boxes(args, building):
 def _loads(args) -> int:
     import pandas as pd
     from widesky.irradiance import read_weather
+    from widesky.irradiance.skystate import interval_text
     from widesky.thermal.building import ZoneSpec, box_building
     from widesky.thermal.facade import write_face_csv, write_facade_ply
     from widesky.thermal.loads import building_loads
@@ -455,8 +456,8 @@ def _loads(args) -> int:
     s = lr.summary().loc["total"]
     print(f"{len(b.zones)} zones, {len(data)} steps ({args.sky}, {args.route}): heating "
           f"{s['heating_kWh']:.0f} kWh, cooling {s['cooling_kWh']:.0f} kWh, solar "
-          f"{s['solar_kWh']:.0f} kWh, peak cooling {s['peak_cooling_W'] / 1000:.1f} kW at "
-          f"{s['peak_cooling_time']} -> {args.output}")
+          f"{s['solar_kWh']:.0f} kWh, peak cooling {s['peak_cooling_W'] / 1000:.1f} kW in "
+          f"{interval_text(s['peak_cooling_time'], w.label, w.step, '%Y-%m-%d %H:%M')} -> {args.output}")
     return 0
 
 
