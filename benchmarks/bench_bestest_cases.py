@@ -104,15 +104,18 @@ def main(argv=None):
         vs = [verdicts(c, results[k][c], refs) for k in runs]
         for row in zip(*vs):
             cells = []
+            # three decimals on a row where two would put a value on a limit (2.394 against 2.388, not 2.39 and 2.39)
+            d = 3 if any(round(v.value, 2) in (round(v.low, 2), round(v.high, 2)) and v.low != v.high
+                         for v in row) else 2
             for k, v in zip(runs, row):
-                text = f"{v.value:.2f}"
+                text = f"{v.value:.{d}f}"
                 if not v.inside:
                     text = f"**{text}**"
                     outside[k].append(f"{c} {v.quantity}")
                 cells.append(text)
             a = row[0]
             print(f"| {c} | {a.quantity.replace('_', ' ')} [{a.unit}] | {' | '.join(cells)} | "
-                  f"{a.low:.2f}-{a.high:.2f} | {SHORT[a.source]} |")
+                  f"{a.low:.{d}f}-{a.high:.{d}f} | {SHORT[a.source]} |")
     print()
     for (m, route), out in outside.items():
         print(f"{m}, {names[route]}: {len(out)} figure(s) outside: {', '.join(out) or '-'}")

@@ -209,6 +209,11 @@ def test_cli_verdicts_and_exit_status(capsys):
     assert "OUTSIDE" in out and "900FF max_temperature" in out and "ISO 52016-1" in out and "hay-davies" in out
     assert main(["thermal", "bestest", "--case", "900FF", "--zone-model", "5r1c"]) == 1
     out = capsys.readouterr().out
+    # a load printed to three decimals, as the programs' tables give it: 950's peak cooling (known outside by 0.006
+    # kW) must not read "2.39 kW  2.05-2.39 OUTSIDE"
+    assert main(["thermal", "bestest", "--case", "950"]) == 1
+    row = next(r for r in capsys.readouterr().out.splitlines() if "peak_cooling" in r).split()
+    assert row[4:7] == ["2.054", "to", "2.388"] and len(row[2].split(".")[1]) == 3 and row[7] == "OUTSIDE"
     assert "5R1C" in out and "900FF max_temperature" in out
     assert main(["thermal", "bestest", "--case", "611"]) == 2
     assert "--case '611'" in capsys.readouterr().err

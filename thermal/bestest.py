@@ -44,7 +44,8 @@ from widesky.irradiance import (SKY_DEFAULTS, PragueSky, Simulation, dni_extra, 
                                 solar_position, sun_times)
 
 from .bestest_geometry import ROOM, WINDOW, bestest_building, window_shading
-from .exterior import exterior_coefficients, hourly_u_value, wind_at_height
+from .exterior import (ROUGHNESS_MULTIPLIER, energyplus_wind_at_height, exterior_coefficients, hourly_u_value,
+                       mowitt_forced_convection, wind_at_height, windward)
 from .gains import building_scene, group_weights, irradiance_by_surface, rated_glazing_response, result_in_band_share
 from .glazing import ANGLES, Gap, GlazingUnit, layer_from_broadband
 from .loads import R_SE, glazing_g_table, opaque_gains, sky_losses, window_gains
@@ -859,7 +860,8 @@ def interior_longwave(case: BestestCase, elements):
 ISO52016_OPTIONS = {"solar": ("ashrae140", "area"), "convection": ("tarp-iso15099", "direction", "fixed", "tarp"),
                     "gaps": ("hourly", "en673"), "substeps": (4, 1), "longwave": ("star", "view"),
                     "glass": ("g", "panes"), "lost": ("enclosure", "table", "transmitted"),
-                    "air": ("sea_level", "site"), "iterate": (0, 1, 2, 3, 5, 10, 20)}
+                    "air": ("sea_level", "site"), "iterate": (0, 1, 2, 3, 5, 10, 20),
+                    "exterior": ("iso6946", "doe2"), "longwave_out": ("iso6946", "energyplus")}
 """Choices of the ISO 52016-1 run (first: the default): where the transmitted solar lands
 (:data:`INTERIOR_SOLAR_DISTRIBUTION` or by opaque area), the inside convection (``"tarp-iso15099"``, the default
 since the fifth pass: EnergyPlus's default inside model as EnergyPlus applies it, Walton's TARP correlations on the
@@ -879,7 +881,18 @@ area-weighted star), ``glass="panes"`` (:func:`_window_panes`: the solar absorbe
 nodes, only the transmitted part spread by the table), ``lost="table"`` (the table's 0.035 lost back out through
 the windows instead of the enclosure formula's 0.028), ``lost="transmitted"`` (the enclosure formula's share taken
 off the transmitted light only, ``tau_d / g_d`` of the g-value gain, not off the absorbed part that flows in as heat:
-:func:`lost_share`) and ``air="site"`` (the air node's rho c at the site's density, 0.828 of 1200 J m-3 K-1)."""
+:func:`lost_share`) and ``air="site"`` (the air node's rho c at the site's density, 0.828 of 1200 J m-3 K-1).
+The outside surfaces (issue 38, seventh pass): ``exterior`` the outside convection, ``"iso6946"`` ISO 6946:2017 Annex
+C's ``4 + 4 v`` or ``"doe2"`` EnergyPlus's default DOE-2 model as EnergyPlus applies it
+(:func:`~widesky.thermal.exterior.doe2_convection`: Walton's natural part at the previous sub-step's outside
+surface-air difference, MoWiTT's forced part windward or leeward by the hour's wind direction against the surface's
+azimuth, the roughness multiplier of the case files' ``Rough`` 1.67 on the opaque surfaces and of ``VerySmooth`` 1.0
+on the glass, the wind at each surface's centroid, walls 1.35 m, windows 1.2 m, roof 2.7 m, by EnergyPlus's profile
+with the site's terrain as the station's, open country, as the Standard's unobstructed site at the station; the
+raised floor's underside at zero wind); ``longwave_out`` the outside long-wave exchange, ``"iso6946"``
+``eps 4 sigma T_air^3`` with the sky's share (1 + cos tilt) / 2 or ``"energyplus"`` EnergyPlus's sky, air and ground
+split linearised at the previous sub-step's surface temperature
+(:func:`~widesky.thermal.exterior.energyplus_longwave`)."""
 
 
 def lost_share(case: BestestCase, lost="enclosure"):
@@ -953,14 +966,28 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, o
     v = weather["wind_speed"].to_numpy()
     n_wall = len(c.walls)
     h_ce, h_re, sol = [], [], []
+    doe2 = opt["exterior"] == "doe2"
+    if doe2:
+        if "wind_direction" not in weather:
+            raise ValueError("iso52016 option exterior='doe2' needs the weather's wind_direction column (TMY3 EPW)")
+        w_dir = weather["wind_direction"].to_numpy()
+        compass = {"north": 0.0, "east": 90.0, "south": 180.0, "west": 270.0}
     for i, el in enumerate(els):
         height = c.height if el.kind == "roof" else 0.5 * c.height
         # the raised floor's underside: outdoor air at zero wind (the case files' conOpa, v = 0, May 2022 revision)
         wind = np.zeros_like(v) if el.kind == "floor" else wind_at_height(v, height)
         hc, hr = exterior_coefficients(wind, ta, el.emissivity)
+        if doe2:        # the smooth surface's forced part at the centroid's wind; the step adds Walton's natural part
+            z = (c.height if el.kind == "roof" else WINDOW["sill"] + 0.5 * WINDOW["height"] if el.kind == "window"
+                 else 0.5 * c.height)
+            wind = np.zeros_like(v) if el.kind == "floor" else energyplus_wind_at_height(v, z, "country")
+            side = el.name.split()[-1]
+            az = compass.get(side, 0.0) if el.kind in ("roof", "floor") or side in compass else float(side)
+            hc = mowitt_forced_convection(wind, windward(w_dir, az, np.cos(np.radians(el.tilt))))
         h_ce.append(hc)
         h_re.append(hr)
         sol.append(gains["poa_global"][:, i] if i <= n_wall else np.zeros(len(ta)))
+    rough = np.array([ROUGHNESS_MULTIPLIER["very_smooth" if el.kind == "window" else "rough"] for el in els])
     if opt["substeps"] > 1 and c.spec.control == "setback":
         heat = setback_substeps(weather.index, opt["substeps"])
     return simulate_iso52016(els, ta, gains["temp_sky"], np.stack(h_ce, 1), np.stack(h_re, 1),
@@ -970,7 +997,9 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, o
                              air_capacity_per_volume=rho_c, warmup_steps=warmup_steps,
                              temp_start=20.0, solar_distribution=dist, convection=opt["convection"],
                              substeps=opt["substeps"], longwave=lw, surface_gains=panes, iterate=opt["iterate"],
-                             air_pressure=weather["pressure"].to_numpy() if "pressure" in weather else 101325.0)
+                             air_pressure=weather["pressure"].to_numpy() if "pressure" in weather else 101325.0,
+                             exterior_convection="doe2" if doe2 else "given", roughness=rough,
+                             exterior_longwave="energyplus" if opt["longwave_out"] == "energyplus" else "given")
 
 
 def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None,

@@ -8,7 +8,9 @@ ISO 52016-1 (section 6.5) instead keeps one set of nodes per construction elemen
 * per element, the conduction between its nodes (implicit Euler on each node's heat capacity);
 * on each outside surface, convection and long-wave exchange with the outdoor air and the sky
   (``h_ce``, ``h_re``, the sky's share ``F_sky = (1 + cos tilt) / 2``; sky temperature from the weather
-  file's horizontal infrared) and the absorbed solar ``alpha I``;
+  file's horizontal infrared) and the absorbed solar ``alpha I`` (or, with ``exterior_convection="doe2"`` and
+  ``exterior_longwave="energyplus"``, EnergyPlus's DOE-2 convection and sky/air/ground long-wave split, evaluated
+  each step at the previous step's outside surface temperatures, :mod:`widesky.thermal.exterior`);
 * on each inside surface, convection to the air (``h_ci``: 2.5 W m-2 K-1 walls and windows; horizontal
   surfaces 5.0 with the heat flowing upward, 0.7 downward: ISO 52016-1 Table 25 / ISO 6946's R_si less its
   radiative part; ``convection="fixed"`` takes roofs as upward and floors as downward, ``"direction"`` the
@@ -39,7 +41,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Layer", "Element", "H_RI", "H_CI", "H_CI_UP", "H_CI_DOWN", "CONVECTION", "simulate_iso52016",
+from .exterior import doe2_convection, energyplus_longwave
+
+__all__ = ["Layer", "Element", "H_RI", "H_CI", "H_CI_UP", "H_CI_DOWN", "CONVECTION", "EXTERIOR_CONVECTION",
+           "EXTERIOR_LONGWAVE", "simulate_iso52016",
            "element_nodes", "window_resistance", "radiant_exchange", "box_view_factors", "iso15099_window_convection"]
 
 SIGMA = 5.670374419e-8
@@ -62,6 +67,13 @@ unstable horizontal ``9.482 |dT|^(1/3) / (7.238 - |cos tilt|)``, stable ``1.810 
 [W m-2 K-1]; ``"tarp-iso15099"`` EnergyPlus's default inside algorithm as EnergyPlus applies it: TARP on the opaque
 surfaces and ISO 15099:2003 8.3.2.2's natural convection on the windows (:func:`iso15099_window_convection`; the
 window's ``Element.height`` and the air's pressure)."""
+EXTERIOR_CONVECTION = ("given", "doe2")
+"""Outside convection: ``"given"`` the caller's ``h_ce``; ``"doe2"`` EnergyPlus's default DOE-2 model evaluated each
+step (:func:`widesky.thermal.exterior.doe2_convection`), ``h_ce`` being the smooth surface's forced part."""
+EXTERIOR_LONGWAVE = ("given", "energyplus")
+"""Outside long-wave: ``"given"`` the caller's ``h_re`` (sky share ``F_sky``, the rest at the air temperature);
+``"energyplus"`` EnergyPlus's sky/air/ground split linearised at the surface each step
+(:func:`widesky.thermal.exterior.energyplus_longwave`)."""
 EN673_MEAN_TEMPERATURE = 283.0
 """Mean gap temperature of EN 673's rating [K]."""
 MAX_SUBLAYER = 0.05
@@ -305,7 +317,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
                       h_ve, heating_setpoint, cooling_setpoint, *, volume, internal_radiative_fraction=0.5,
                       air_capacity_per_volume=1200.0, timestep=3600.0, warmup_steps=0, temp_start=20.0,
                       solar_distribution=None, convection="fixed", substeps=1, longwave=None,
-                      surface_gains=None, air_pressure=101325.0, iterate=0, iterate_tol=1e-3):
+                      surface_gains=None, air_pressure=101325.0, iterate=0, iterate_tol=1e-3,
+                      exterior_convection="given", roughness=None, exterior_longwave="given"):
     """Run the ISO 52016-1 hourly balance of one zone (module doc).
 
     Parameters
@@ -370,6 +383,22 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         ``"tarp-iso15099"``; ``"fixed"`` has nothing to iterate.
     iterate_tol : float
         Convergence tolerance of ``iterate`` [W m-2 K-1].
+    exterior_convection : str
+        A key of :data:`EXTERIOR_CONVECTION`. ``"given"`` (default): ``h_ce`` is the outside convective
+        coefficient. ``"doe2"``: EnergyPlus's default outside model (:func:`widesky.thermal.exterior.doe2_convection`),
+        ``h_ce`` then being the smooth surface's forced part ``h_f`` [W m-2 K-1] (MoWiTT's windward or leeward
+        correlation at the surface's wind), each sub-step's coefficient ``h_n + R_f (sqrt(h_n^2 + h_f^2) - h_n)``
+        with Walton's natural part ``h_n`` at the previous sub-step's outside surface-air difference (its outward
+        normal's tilt decides stable or unstable) and ``R_f`` from ``roughness``.
+    roughness : array_like, optional
+        (E,) roughness multipliers R_f [1] of the outside surfaces for ``exterior_convection="doe2"``
+        (:data:`widesky.thermal.exterior.ROUGHNESS_MULTIPLIER`); default 1 (very smooth).
+    exterior_longwave : str
+        A key of :data:`EXTERIOR_LONGWAVE`. ``"given"`` (default): ``h_re`` with the sky's share ``F_sky`` at the sky
+        temperature and the rest at the air's. ``"energyplus"``: ``h_re`` is ignored and each sub-step takes
+        EnergyPlus's coefficients linearised at the previous sub-step's outside surface temperature
+        (:func:`widesky.thermal.exterior.energyplus_longwave`: sky ``F_sky beta``, air ``F_sky (1 - beta)``, ground
+        ``F_gnd`` at the air temperature; the element's ``emissivity``; unexposed elements: all at the air's).
 
     Returns
     -------
@@ -382,6 +411,10 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     elements = list(elements)
     if convection not in CONVECTION:
         raise ValueError(f"convection={convection!r} not one of {CONVECTION}")
+    if exterior_convection not in EXTERIOR_CONVECTION:
+        raise ValueError(f"exterior_convection={exterior_convection!r} not one of {EXTERIOR_CONVECTION}")
+    if exterior_longwave not in EXTERIOR_LONGWAVE:
+        raise ValueError(f"exterior_longwave={exterior_longwave!r} not one of {EXTERIOR_LONGWAVE}")
     te = np.asarray(temp_air_out, float)
     T, E = len(te), len(elements)
 
@@ -484,11 +517,34 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     opaque = np.array([el.kind != "window" for el in elements])
 
     # per step: outside coefficients and ventilation on the diagonal; the right-hand side
-    h_out = (hce + hre) * area                                          # (T, E) [W K-1]
     rhs = np.zeros((T, N))
     sky = np.where(exposed, f_sky, 0.0)
-    rhs[:, outside] += (hce * area * te[:, None] + hre * area * (sky * ts[:, None] + (1 - sky) * te[:, None])
-                        + alpha * area * sol_out)
+    ext_var = exterior_convection == "doe2" or exterior_longwave == "energyplus"
+    if not ext_var:
+        h_out = (hce + hre) * area                                      # (T, E) [W K-1]
+        rhs[:, outside] += (hce * area * te[:, None] + hre * area * (sky * ts[:, None] + (1 - sky) * te[:, None])
+                            + alpha * area * sol_out)
+    else:                       # outside coefficients from the previous step's outside surface temperatures
+        rhs[:, outside] += alpha * area * sol_out
+        rough = np.ones(E) if roughness is None else np.asarray(roughness, float)
+        if rough.shape != (E,) or np.any(rough <= 0):
+            raise ValueError(f"roughness must be {E} multipliers > 0, got {roughness!r}")
+        tilt_out = np.array([el.tilt for el in elements])
+        cos_out = np.cos(np.radians(tilt_out))
+        emis = np.array([el.emissivity for el in elements])
+
+        def outside_coefficients(xs, t):
+            """(E,) [W m-2 K-1]: convective, long-wave to the sky, long-wave at the air temperature."""
+            if exterior_convection == "doe2":
+                dt = xs[outside] - te[t]
+                hc = doe2_convection(dt, cos_out, hce[t], rough)
+            else:
+                hc = np.asarray(hce[t], float)
+            if exterior_longwave == "energyplus":
+                h_sk, h_am = energyplus_longwave(xs[outside], te[t], ts[t], tilt_out, emis, exposed)
+            else:
+                h_sk, h_am = hre[t] * sky, hre[t] * (1 - sky)
+            return hc, h_sk, h_am
     rhs[:, 0] += hve * te + (1 - internal_radiative_fraction) * pint
     rhs[:, outside] += sgain[:, :, 0]
     rhs[:, inside] += sgain[:, :, 1]
@@ -545,7 +601,14 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     change = np.zeros(n_iter + 1 if n_iter else 0)  # per solve: the largest |h(x) - h_used| of the steps
     for i, t in enumerate(order):
         M0 = base.copy()
-        M0[outside, outside] += h_out[t]
+        rhs_step = rhs[t]
+        if ext_var:
+            hc, h_sk, h_am = outside_coefficients(x, t)
+            M0[outside, outside] += (hc + h_sk + h_am) * area
+            rhs_step = rhs[t].copy()
+            rhs_step[outside] += (hc + h_am) * area * te[t] + h_sk * area * ts[t]
+        else:
+            M0[outside, outside] += h_out[t]
         M0[0, 0] += hve[t]
         for j in wins:
             el = elements[j]
@@ -559,7 +622,7 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
             M0[b, a] -= dh
         # the coefficients at the previous step's temperatures, then (iterate) at this step's own
         h = h_conv(x, t) if variable else h_base
-        rhs_t = np.stack([rhs[t] + cdt * x, e0], 1)
+        rhs_t = np.stack([rhs_step + cdt * x, e0], 1)
         for k in range(n_iter + 1):
             sol = np.linalg.solve(with_convection(M0, h) if variable else M0, rhs_t)
             free, unit = sol[:, 0], sol[:, 1]

@@ -194,7 +194,7 @@ def _bestest(args) -> int:
     model = {"5r1c": "the ISO 13790 5R1C model", "iso52016": "the ISO 52016-1 hourly method"}[args.zone_model]
     sky = args.sky if args.sky == "integrator" else f"{args.sky} ({args.transposition})"
     print(f"ASHRAE 140 with {model}, weather {args.weather}, sky {sky}, exterior {args.exterior}")
-    print(f"{'case':6s} {'quantity':16s} {'widesky':>12s} {'range':>15s} {'verdict':8s} source")
+    print(f"{'case':6s} {'quantity':16s} {'widesky':>13s} {'range':>18s} {'verdict':8s} source")
     saved, outside = {}, []
     for c in cases:
         r = run_case(c, args.data_dir, weather=args.weather, poa=poas.get(case_geometry(c)),
@@ -204,8 +204,11 @@ def _bestest(args) -> int:
         saved[c]["verdicts"] = {}
         for v in verdicts(c, r, refs):
             verdict = "inside" if v.inside else "OUTSIDE"
-            print(f"{c:6s} {v.quantity:16s} {v.value:7.2f} {v.unit:4s} {v.low:7.2f}-{v.high:<7.2f} "
-                  f"{verdict:8s} {v.source}")
+            # three decimals on loads (the programs' tables give three: a value on a rounded limit reads as
+            # 2.394 against 2.054-2.388, not 2.39 against 2.05-2.39), two on temperatures
+            d = 2 if v.unit == "degC" else 3
+            rng = f"{v.low:.{d}f} to {v.high:.{d}f}"
+            print(f"{c:6s} {v.quantity:16s} {v.value:8.{d}f} {v.unit:4s} {rng:>18s} {verdict:8s} {v.source}")
             saved[c]["verdicts"][v.quantity] = {"value": v.value, "low": v.low, "high": v.high,
                                                 "unit": v.unit, "source": SOURCES[v.source],
                                                 "inside": v.inside}
