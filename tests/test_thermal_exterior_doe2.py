@@ -177,6 +177,7 @@ def test_zone_bad_values():
         simulate_iso52016(*args, volume=30.0, exterior_convection="doe2", roughness=[1.67, 1.0])
 
 
+@pytest.mark.reference
 def test_bestest_option_bad_value():
     from widesky.thermal.bestest import ISO52016_OPTIONS, run_case
     assert ISO52016_OPTIONS["exterior"][0] == "iso6946" and ISO52016_OPTIONS["longwave_out"][0] == "iso6946"
