@@ -31,7 +31,7 @@ import warnings
 import numpy as np
 
 from widesky.thermal.facade import atomic_write
-from widesky.thermal.bestest import (CASES, ISO52016_OPTIONS, SOURCES, ZONE_MODELS, case_geometry,
+from widesky.thermal.bestest import (CASES, SOURCES, ZONE_MODELS, case_geometry, parse_iso52016_option,
                                      integrator_irradiance, reference_results, run_case, verdicts)
 
 SHORT = {"acceptance": "acceptance (140-2023 Add. b A3)", "programs": "6 programs",
@@ -61,11 +61,10 @@ def main(argv=None):
     args = ap.parse_args(argv)
     options = {}
     for kv in args.option:
-        k, _, v = kv.partition("=")
-        choices = ISO52016_OPTIONS.get(k, ())
-        value = next((c for c in choices if str(c) == v), None)
-        if value is None:
-            ap.error(f"--option {kv!r}: expected KEY=VALUE with KEY and VALUE of {ISO52016_OPTIONS}")
+        try:
+            k, value = parse_iso52016_option(kv)
+        except ValueError as e:
+            ap.error(f"--option {e}")
         options[k] = value
     refs = reference_results(args.data_dir)
     if args.vent and args.cases == list(CASES):

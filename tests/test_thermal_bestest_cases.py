@@ -225,6 +225,28 @@ def test_cli_verdicts_and_exit_status(capsys):
 
 
 @pytest.mark.reference
+def test_cli_option_runs_a_measured_alternative(capsys):
+    """``--option KEY=VALUE`` runs an alternative of the validation page from the command line, as run_case does
+    with it (the lost share of the ASHRAE 140 table: 950's peak cooling 2.370 kW against the default's 2.394), and
+    refuses a bad key, value or model in one line."""
+    from widesky.cli import main
+    from widesky.thermal.bestest import parse_iso52016_option, run_case
+    assert main(["thermal", "bestest", "--case", "950", "--option", "lost=table"]) == 0
+    out = capsys.readouterr().out
+    row = next(r for r in out.splitlines() if "peak_cooling" in r).split()
+    expect = run_case("950", iso52016_options={"lost": "table"})["peak_cooling"] / 1000.0
+    assert "lost=table" in out.splitlines()[0] and float(row[2]) == pytest.approx(expect, abs=6e-4)
+    assert float(row[2]) < run_case("950")["peak_cooling"] / 1000.0 - 0.01
+    assert parse_iso52016_option("substeps=4") == ("substeps", 4)
+    for argv, msg in ((["--option", "lost=x"], "lost must be one of enclosure, table, transmitted"),
+                      (["--option", "lost"], "KEY one of solar"),
+                      (["--option", "lost=table", "--zone-model", "5r1c"], "applies to --zone-model iso52016")):
+        assert main(["thermal", "bestest", "--case", "950", *argv]) == 2
+        err = capsys.readouterr().err
+        assert msg in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.reference
 @pytest.mark.slow
 def test_610_integrator_route_inside_its_ranges():
     """The integrator route with the overhang in the scene (one integrator year of the shaded room): every

@@ -61,7 +61,7 @@ __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_mod
            "layer_resistance", "EXTERIOR_MODELS", "CASE_SPECS", "CaseSpec", "SETBACK", "VENT_SCHEDULE",
            "MEAN_TEMPERATURE_RANGE", "LOAD_CASES", "SOURCES", "Verdict", "verdicts", "case_geometry",
            "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS",
-           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "setback_substeps",
+           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "parse_iso52016_option", "setback_substeps",
            "interior_longwave", "lost_share"]
 
 
@@ -893,6 +893,19 @@ raised floor's underside at zero wind); ``longwave_out`` the outside long-wave e
 ``eps 4 sigma T_air^3`` with the sky's share (1 + cos tilt) / 2 or ``"energyplus"`` EnergyPlus's sky, air and ground
 split linearised at the previous sub-step's surface temperature
 (:func:`~widesky.thermal.exterior.energyplus_longwave`)."""
+
+
+def parse_iso52016_option(text):
+    """``"KEY=VALUE"`` -> (key, value) of :data:`ISO52016_OPTIONS` (the value in its own type, e.g. ``4`` for
+    ``substeps=4``); ValueError naming the text and what is valid otherwise."""
+    key, eq, value = str(text).partition("=")
+    if not eq or key not in ISO52016_OPTIONS:
+        raise ValueError(f"{text!r}: expected KEY=VALUE with KEY one of {', '.join(ISO52016_OPTIONS)}")
+    choices = ISO52016_OPTIONS[key]
+    for c in choices:
+        if str(c) == value:
+            return key, c
+    raise ValueError(f"{text!r}: {key} must be one of {', '.join(map(str, choices))}")
 
 
 def lost_share(case: BestestCase, lost="enclosure"):

@@ -45,6 +45,10 @@ def register(subparsers) -> None:
     b.add_argument("--zone-model", default="iso52016", choices=("5r1c", "iso52016"),
                    help="iso52016: ISO 52016-1's balance per element with the case files' layers (default); "
                         "5r1c: ISO 13790's network")
+    b.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                   help="a choice of the ISO 52016-1 run (repeatable; widesky.thermal.bestest.ISO52016_OPTIONS, "
+                        "default the first of each), e.g. exterior=doe2 or lost=table: the alternatives measured in "
+                        "docs/validation/thermal-bestest-cases.md")
     b.add_argument("--json", help="also write the results here (for python -m widesky.thermal.figures)")
     b.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     b.add_argument("--data-dir", default=None,
@@ -174,13 +178,22 @@ def _glazing(args) -> int:
 def _bestest(args) -> int:
     import json
     from widesky.thermal.bestest import (CASES, SOURCES, case_geometry, integrator_irradiance,
-                                         reference_results, run_case, verdicts)
+                                         parse_iso52016_option, reference_results, run_case, verdicts)
     from widesky.thermal.facade import atomic_write
     if args.json:
         from widesky.core.atomic import check_output_path
         check_output_path(args.json, "--json", (".json",))
     if args.jobs is not None and args.jobs < 1:
         raise ValueError(f"--jobs {args.jobs}: must be >= 1 (ray-casting processes)")
+    options = {}
+    for text in args.option:
+        try:
+            key, value = parse_iso52016_option(text)
+        except ValueError as e:
+            raise ValueError(f"--option {e}") from None
+        options[key] = value
+    if options and args.zone_model != "iso52016":
+        raise ValueError(f"--option {args.option[0]!r}: applies to --zone-model iso52016, not {args.zone_model}")
     cases = list(CASES) if args.case is None else args.case
     for c in cases:
         if c not in CASES:
@@ -193,12 +206,15 @@ def _bestest(args) -> int:
                                               progress=sys.stderr.isatty(), geometry=geo)
     model = {"5r1c": "the ISO 13790 5R1C model", "iso52016": "the ISO 52016-1 hourly method"}[args.zone_model]
     sky = args.sky if args.sky == "integrator" else f"{args.sky} ({args.transposition})"
-    print(f"ASHRAE 140 with {model}, weather {args.weather}, sky {sky}, exterior {args.exterior}")
+    chosen = "".join(f", {k}={v}" for k, v in options.items())
+    ext = f", exterior {args.exterior}" if args.zone_model == "5r1c" else ""       # --exterior is 5R1C's
+    print(f"ASHRAE 140 with {model}{chosen}, weather {args.weather}, sky {sky}{ext}")
     print(f"{'case':6s} {'quantity':16s} {'widesky':>13s} {'range':>18s} {'verdict':8s} source")
     saved, outside = {}, []
     for c in cases:
         r = run_case(c, args.data_dir, weather=args.weather, poa=poas.get(case_geometry(c)),
-                     exterior=args.exterior, zone_model=args.zone_model, transposition=args.transposition)
+                     exterior=args.exterior, zone_model=args.zone_model, transposition=args.transposition,
+                     iso52016_options=options or None)
         saved[c] = {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
                     if k not in ("hourly", "case")}
         saved[c]["verdicts"] = {}
