@@ -14,7 +14,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from widesky.irradiance import PRESETS
-from widesky.irradiance.skystate import interval_months, interval_starts, interval_text
+from widesky.irradiance.skystate import interval_months, interval_starts, interval_text, utc_offset_text
 from widesky.pvsim import WATERFALL_STAGES, SystemSpec, pvwatts_inverter
 from widesky.skymodel.render import render_sky, write_exr, write_png
 
@@ -433,7 +433,7 @@ def write_report(run: CaseRun, folder, provenance, others=None, progress=False):
                 "columns": {lab: {b: f"{lab}:{b} [W m-2]" for b in BANDS} for lab in labels},
                 "global": glob_cols, "how": "100 x the band's sum over the period / the global sum"}))
     spec = label_means(hour_spectrum(run.hour).T, run.labels, area)                  # label -> (C,)
-    hour_text = f"{interval_text(st, 'left', hour_step, '%Y-%m-%d %H:%M')} ({_utc_offset(st)})"
+    hour_text = f"{interval_text(st, 'left', hour_step, '%Y-%m-%d %H:%M')} ({utc_offset_text(st)})"
     charts.append(book.line(
         "hour-spectrum", np.asarray(res.wavelengths, float), spec,
         title=f"Global spectral irradiance per group, {hour_text}", legend_title=f"{st:%d %b %Y %H:%M}",
@@ -528,14 +528,6 @@ def _compass(az):
 
 SKY_RESOLUTION = 512
 """Pixels across the report's sky picture (and ``sky.exr``)."""
-
-
-def _utc_offset(t):
-    off = t.utcoffset()
-    if off is None:
-        return "local time"
-    m = int(off.total_seconds() // 60)
-    return f"UTC{'+' if m >= 0 else '-'}{abs(m) // 60:02d}:{abs(m) % 60:02d}"
 
 
 def _sky_figure(png, sun_el, sun_az):

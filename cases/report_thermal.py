@@ -13,7 +13,7 @@ from html import escape
 import numpy as np
 import pandas as pd
 
-from widesky.irradiance.skystate import interval_months, interval_starts, interval_text
+from widesky.irradiance.skystate import interval_months, interval_starts, interval_text, utc_offset_text
 
 from .building_loads import ThermalRun
 from .charts import ChartBook
@@ -257,13 +257,20 @@ def _use_text(th, tcfg):
 
 def thermal_section(run, folder, book: ChartBook):
     """HTML of the glazing and loads section (its charts registered in ``book``); writes ``loads.csv`` (per unit and
-    zone: heating, cooling, solar [kWh], peaks [W] and their times) into ``folder``."""
+    zone: heating, cooling, solar [kWh], peaks [W] and their hours as intervals in local time) into ``folder``."""
     th, tcfg = run.thermal, run.config["thermal"]
     summ = thermal_summary(th, run.step_hours)
     frames = []
+    step = pd.Timedelta(hours=run.step_hours)
     for name in th.units:
         df = th.loads[name].summary()
         df.insert(0, "glazing", name)
+        # a peak's hour as its interval in local time, "2023-12-31 23:00-24:00 (UTC-07:00)", not the weather file's
+        # end label of it ("2024-01-01 00:00:00-07:00", a year the file does not cover)
+        for kind in ("heating", "cooling"):
+            col = df.pop(f"peak_{kind}_time")
+            df.insert(df.columns.get_loc(f"peak_{kind}_W") + 1, f"peak_{kind}_hour",
+                      [f"{interval_text(t, run.label, step, '%Y-%m-%d %H:%M')} ({utc_offset_text(t)})" for t in col])
         frames.append(df)
     pd.concat(frames).to_csv(folder / "loads.csv", index_label="zone", float_format="%.5g")
     rated_rows = [[name, f"{r['u_value']:.2f}", f"{r['g_normal']:.3f}", f"{r['g_diffuse']:.3f}",

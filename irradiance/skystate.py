@@ -37,7 +37,7 @@ from .weather import WeatherData, read_weather
 
 __all__ = ["SkyRanges", "PSM_RANGES", "sky_ranges", "sky_states", "sky_states_for", "GroupingSteps",
            "DEFAULT_GROUPING", "SkyGroups", "group_sky_states", "SKY_STATE_COLUMNS", "interval_starts",
-           "interval_months", "interval_text"]
+           "interval_months", "interval_text", "utc_offset_text"]
 
 
 @dataclass(frozen=True)
@@ -437,6 +437,15 @@ def interval_text(time, label, step, fmt="%d %b %H:%M") -> str:
     e = b + pd.Timedelta(step)
     end = "24:00" if e.normalize() > b.normalize() and e == e.normalize() else f"{e:%H:%M}"
     return f"{b:{fmt}}-{end}"
+
+
+def utc_offset_text(time) -> str:
+    """A time's offset from UTC as text, "UTC-07:00"; "local time" for a naive time."""
+    off = pd.Timestamp(time).utcoffset()
+    if off is None:
+        return "local time"
+    m = int(off.total_seconds() // 60)
+    return f"UTC{'+' if m >= 0 else '-'}{abs(m) // 60:02d}:{abs(m) % 60:02d}"
 
 
 def sky_states_for(source, start=None, end=None, step="1h", *, model=None, visibility=50.0,

@@ -151,6 +151,14 @@ def test_facade_report_contents(facade_report):
         total = loads[(loads.glazing == unit) & (loads.index == "total")]["cooling_kWh"].iloc[0]
         assert ts[f"{unit}:cooling [W]"].sum() / 1000.0 == pytest.approx(total, rel=1e-3)
         assert f"{unit}:window gain south [W]" in ts
+    # peaks as the hour's interval in local time, inside the run's year (the EPW labels the year's last hour
+    # 1 January 00:00 of the next year; loads.csv wrote that label before)
+    import re
+    years = {str(y) for y in pd.to_datetime(ts.index.astype(str).str[:10]).year}
+    for col in ("peak_heating_hour", "peak_cooling_hour"):
+        for text in loads[col]:
+            assert re.fullmatch(r"\d{4}-\d\d-\d\d \d\d:\d\d-\d\d:\d\d \(UTC[+-]\d\d:\d\d\)", text), text
+            assert text[:4] in years, (text, years)
     # the coloured mesh: one colour per triangle, as many triangles as the scene
     import trimesh
     glb = trimesh.load(facade_report / "scene.glb", force="mesh")

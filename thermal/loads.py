@@ -288,7 +288,7 @@ class LoadsResult:
                          "solar_kWh": self.zone_solar.sum(axis=1).sum() * dt / 1000,
                          "peak_heating_W": tot_h.max(), "peak_heating_time": tot_h.idxmax(),
                          "peak_cooling_W": tot_c.max(), "peak_cooling_time": tot_c.idxmax()}
-        return pd.DataFrame(rows).T
+        return pd.DataFrame(rows).T.infer_objects()     # numbers as floats, times as datetimes
 
     def balance(self):
         """The energy balance of each zone and the building over the period [kWh] (rows: zones and
