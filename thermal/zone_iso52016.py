@@ -149,7 +149,17 @@ def _tarp(dt, tilt):
     """Natural convection of an inside surface [W m-2 K-1] (Walton 1983, TARP; EnergyPlus's default inside
     algorithm): ``dt`` surface minus air [K], ``tilt`` of the element's outward normal [deg] (the inside surface
     faces the other way)."""
-    cos_s = -np.cos(np.radians(tilt))          # inside surface's normal, upward positive
+    return _tarp_cos(dt, _inside_cos(tilt))
+
+
+def _inside_cos(tilt):
+    """The cosine of an inside surface's normal from the vertical, upward positive [1], for ``tilt`` [deg] of the
+    element's outward normal."""
+    return -np.cos(np.radians(tilt))
+
+
+def _tarp_cos(dt, cos_s):
+    """:func:`_tarp` with the inside surface's normal given as its cosine ``cos_s`` (:func:`_inside_cos`)."""
     a = abs(dt) ** (1.0 / 3.0)
     if abs(cos_s) < 1e-6:
         return max(1.31 * a, 0.1)
@@ -562,18 +572,19 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     n_warm = len(order) - T
     x = np.full(N, float(temp_start))
     ta, tsurf, need = np.empty(T), np.empty(T), np.empty(T)
-    e0 = np.zeros(N)
-    e0[0] = 1.0
     kinds = [el.kind for el in elements]
     horiz = [i for i, el in enumerate(elements) if convection == "direction" and el.kind in ("roof", "floor")]
     tarp = list(range(E)) if convection in ("tarp", "tarp-iso15099") else []
     iso15099 = convection == "tarp-iso15099"
     wins = [i for i, el in enumerate(elements) if el.kind == "window" and el.gaps]
     h_base = np.array([H_CI[k] for k in kinds])
+    cos_in = [_inside_cos(el.tilt) for el in elements]     # once, not per step (the same values)
+    r_window = {j: window_resistance(elements[j]) for j in wins}
 
     def h_conv(xs, t):
         """(E,) inside convective coefficients [W m-2 K-1] at the node temperatures ``xs``."""
         h = h_base.copy()
+        xs = xs.tolist()                                    # scalar arithmetic on floats (the same values)
         for j in horiz:
             # ISO 52016-1 Table 25 by the direction of the heat flow: a ceiling (roof inside, facing down)
             # colder than the air or a floor warmer than it: upward
@@ -585,11 +596,11 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
             if iso15099 and kinds[j] == "window":
                 h[j] = iso15099_window_convection(dt, elements[j].tilt, elements[j].height, xs[0], pres[t])
             else:
-                h[j] = _tarp(dt, elements[j].tilt)
+                h[j] = _tarp_cos(dt, cos_in[j])
         return h
 
-    def with_convection(M0, h):
-        M = M0.copy()
+    def with_convection(M0, h, in_place=False):
+        M = M0 if in_place else M0.copy()
         dh = (h - h_base) * area
         M[inside, inside] += dh
         M[0, 0] += dh.sum()
@@ -599,6 +610,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     variable = bool(horiz or tarp)
     n_iter = int(iterate) if variable else 0
     change = np.zeros(n_iter + 1 if n_iter else 0)  # per solve: the largest |h(x) - h_used| of the steps
+    rhs_t = np.zeros((N, 2))                        # the step's right-hand side and the unit heat at the air
+    rhs_t[0, 1] = 1.0
     for i, t in enumerate(order):
         M0 = base.copy()
         rhs_step = rhs[t]
@@ -614,7 +627,7 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
             el = elements[j]
             tm = 0.5 * (x[outside[j]] + x[inside[j]]) + 273.15      # mean gap temperature [K]
             r = el.resistance + sum(1.0 / (hg + 4 * SIGMA * eps * tm ** 3) for hg, eps in el.gaps)
-            dh = (1.0 / r - 1.0 / window_resistance(el)) * area[j]
+            dh = (1.0 / r - 1.0 / r_window[j]) * area[j]
             a, b = outside[j], inside[j]
             M0[a, a] += dh
             M0[b, b] += dh
@@ -622,9 +635,10 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
             M0[b, a] -= dh
         # the coefficients at the previous step's temperatures, then (iterate) at this step's own
         h = h_conv(x, t) if variable else h_base
-        rhs_t = np.stack([rhs_step + cdt * x, e0], 1)
+        rhs_t[:, 0] = rhs_step + cdt * x
         for k in range(n_iter + 1):
-            sol = np.linalg.solve(with_convection(M0, h) if variable else M0, rhs_t)
+            # the last solve of a step may take M0 itself (rebuilt each step); an iterated one needs it again
+            sol = np.linalg.solve(with_convection(M0, h, in_place=not n_iter) if variable else M0, rhs_t)
             free, unit = sol[:, 0], sol[:, 1]
             q = 0.0
             if free[0] < hs[t]:
