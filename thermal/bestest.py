@@ -61,7 +61,8 @@ __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_mod
            "layer_resistance", "EXTERIOR_MODELS", "CASE_SPECS", "CaseSpec", "SETBACK", "VENT_SCHEDULE",
            "MEAN_TEMPERATURE_RANGE", "LOAD_CASES", "SOURCES", "Verdict", "verdicts", "case_geometry",
            "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS",
-           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "parse_iso52016_option", "setback_substeps",
+           "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "parse_iso52016_option",
+           "setback_substeps",
            "interior_longwave", "lost_share"]
 
 
@@ -871,9 +872,10 @@ by kind; ``"tarp"``: Walton's on every surface, windows included), the windows' 
 temperature, or EN 673's) and the sub-steps per hour (12: 5-min implicit steps with the weather's instantaneous
 values interpolated, the Case 640/940 set-point ramp followed within its hour (:func:`setback_substeps`) and the
 hourly means reported, the default since the eighth pass: implicit Euler is first order and 15-min steps (4, the
-default before) left up to 0.42 K and 0.15 kW against the step-converged figures, 5-min steps 0.15 K and 0.05 kW
+default before) left up to 0.42 K and 0.15 kW against the step-converged figures, 5-min steps 0.14 K and 0.05 kW
 with every verdict the converged one's; 1: one step an hour, the Case 640 ramp hour at its mean 15 degC, the
-results at the hour's end) and ``iterate``, the re-solves per sub-step (0: h_ci from the previous sub-step's temperatures, as EnergyPlus
+results at the hour's end) and ``iterate``, the re-solves per sub-step (0: h_ci from the previous sub-step's
+temperatures, as EnergyPlus
 evaluates its inside coefficients once per zone time step, from the previous step's inside surface temperatures
 (``InitSurfaceHeatBalance`` -> ``InitInteriorConvectionCoeffs``); N > 0: re-evaluated at the sub-step's own
 temperatures and re-solved, at most N times or until no h_ci moves by over 1e-3 W m-2 K-1, 8 solves at most in the
