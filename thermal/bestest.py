@@ -40,8 +40,8 @@ import numpy as np
 import pandas as pd
 
 from widesky.core.paths import data_file
-from widesky.irradiance import (SKY_DEFAULTS, PragueSky, Simulation, dni_extra, fixed_offset_tz, read_epw,
-                                solar_position, sun_times)
+from widesky.irradiance import (SKY_DEFAULTS, AngularTable, PragueSky, Response, Simulation, dni_extra,
+                                fixed_offset_tz, read_epw, solar_position, sun_times)
 
 from .bestest_geometry import ROOM, WINDOW, bestest_building, window_shading
 from .exterior import (ROUGHNESS_MULTIPLIER, energyplus_wind_at_height, exterior_coefficients, hourly_u_value,
@@ -444,6 +444,8 @@ SOURCES = {
                 "User's Guide)",
     "programs_mean": "reference programs' range (140-2020/2023; staRes.meanT of the Modelica "
                      "Buildings case file)",
+    "programs_solar": "reference programs' range (6 programs' solar outputs of 140-2020, results workbook "
+                      "RESULTS5-2A; thermal/bestest_solar.py)",
 }
 """Where each verdict's range comes from."""
 
@@ -651,7 +653,9 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     Returns
     -------
     dict of numpy.ndarray
-        (T,) ``window`` (transmitted + inward-flowing absorbed, less the escaped share),
+        (T,) ``window`` (transmitted + inward-flowing absorbed, less the escaped share), (T, 5)
+        ``window_walls`` the same per wall (N, E, S, W, roof; None from a ``poa`` without
+        ``window_gain_walls``),
         ``opaque`` (absorbed on walls and roof, ISO 13790 11.3.4), ``sky_loss`` (long-wave to the
         sky, ISO 13790 11.3.5) [W]; ``incident_south`` [W m-2]; ``temp_sky`` [degC];
         ``h_tr_w``, ``h_tr_op`` [W K-1] the transmission conductances per hour (``"hourly"``) or
@@ -684,15 +688,17 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     diffuse = irr["poa_sky_diffuse"] + irr["poa_ground_diffuse"]
     if poa is not None:
         window = poa["window_gain"][case.window.name] * case.window_area * (1 - esc)
+        walls = poa.get("window_gain_walls", {}).get(case.window.name)
+        window_walls = None if walls is None else walls * win_area[None, :] * (1 - esc)
     else:
         sunlit, sky_v, gnd_v, hor_v = _shading_factors(case, sp["zenith"].to_numpy(),
                                                        sp["azimuth"].to_numpy())
         hor = irr["poa_horizon"]
         diffuse_w = ((irr["poa_sky_diffuse"] - hor) * sky_v + irr["poa_ground_diffuse"] * gnd_v
                      + hor * hor_v * (horizon_g(ang, g) / g_d))
-        window = window_gains(win_area, irr["poa_direct"] * sunlit, diffuse_w, irr["aoi"], ang, g,
-                              g_d).sum(1)
-        window *= 1 - esc
+        window_walls = window_gains(win_area, irr["poa_direct"] * sunlit, diffuse_w, irr["aoi"], ang, g,
+                                    g_d) * (1 - esc)
+        window = window_walls.sum(1)
     t_sky = sky_temperature(np.maximum(weather["ghi_infrared"].to_numpy(), 1.0))
     ta = weather["temp_air"].to_numpy()
     eps_win = case.window.layers[0].emissivity_front
@@ -714,7 +720,8 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     sky_loss = (sky_losses(opq_area, u_opq, case.emissivity, tilt, ta, t_sky, r_opq).sum(1)
                 + sky_losses(win_area, u_win, eps_win, tilt, ta, t_sky, r_win).sum(1))
     south = int(np.argmin([abs(a - 180.0) for a, _, _ in case.walls]))
-    return {"window": window, "opaque": opaque, "sky_loss": sky_loss, "poa_global": irr["poa_global"],
+    return {"window": window, "window_walls": window_walls, "opaque": opaque, "sky_loss": sky_loss,
+            "poa_global": irr["poa_global"],
             "incident_south": irr["poa_global"][:, south], "temp_sky": t_sky,
             "h_tr_w": h_w, "h_tr_op": h_op}
 
@@ -742,7 +749,7 @@ def load_weather(weather="tmy3", data_dir=None):
 
 
 def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, progress=False,
-                          geometry=("south", None)):
+                          geometry=("south", None), quantity="shgc"):
     """Per-surface irradiance of the test room from widesky's integrator (the sky model's
     angular and spectral distribution scaled to the weather's measured DNI and DHI).
 
@@ -751,16 +758,21 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
     stands on a ground of albedo 0.2 with the shading devices of ``geometry`` = (layout, shading)
     (:func:`case_geometry`) as context meshes, which occlude and reflect every ray; each case's
     window is a rated-g Response (its g by angle, flat spectrum, as the records are broadband)
-    applied per incoming direction.
+    applied per incoming direction; ``quantity="transmittance"`` puts the unit's solar transmittance
+    by angle in its place (the transmitted light ASHRAE 140 reports).
 
     Returns
     -------
     dict
         (T, 5) ``poa_direct``, ``poa_sky_diffuse``, ``poa_ground_diffuse``, ``poa_global`` [W m-2]
         and ``aoi`` [deg] for the N, E, S, W walls and the roof; ``window_gain``: dict window name
-        -> (T,) [W m-2 of glass] (area-weighted over the windows); ``result``: the POAResult;
-        ``geometry``: the (layout, shading) computed.
+        -> (T,) [W m-2 of glass] (g, or the transmittance, times the light; area-weighted over the
+        windows); ``window_gain_walls``: dict window name -> (T, 5) the same per glazed wall (N, E, S,
+        W, roof; 0 where a wall has no window); ``result``: the POAResult; ``geometry``: the
+        (layout, shading) computed.
     """
+    if quantity not in ("shgc", "transmittance"):
+        raise ValueError(f"quantity={quantity!r} not one of ('shgc', 'transmittance')")
     if weather not in WEATHER_FILES or weather == "drycold":
         raise ValueError(f"weather={weather!r}: the integrator route reads the EPW ('tmy3')")
     w = read_epw(_data_file(WEATHER_FILES[weather], data_dir))
@@ -773,7 +785,12 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
                      n_jobs=n_jobs, progress=progress)
     units = {c: window_unit(c, data_dir) for c in ("600", "660", "670")}
     flat = np.array([280.0, 2500.0]), np.ones(2)
-    responses = [rated_glazing_response(u, *flat, name=u.name) for u in units.values()]
+    if quantity == "shgc":
+        responses = [rated_glazing_response(u, *flat, name=u.name) for u in units.values()]
+    else:
+        responses = [Response(u.name, *flat, unit="weight",
+                              angular=AngularTable(ANGLES, u.optics(ANGLES, flat[0])["transmittance"][:, 0]))
+                     for u in units.values()]
     res = sim.run(responses)
     order = []
     for az in (0.0, 90.0, 180.0, 270.0):
@@ -783,8 +800,18 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
     irr = irradiance_by_surface(res, [labels[i] for i in order])
     win = [lab for lab in labels if lab.startswith("window")]
     area = np.array([next(s.area for s in b.surfaces if s.label == lab) for lab in win])
-    M = group_weights(res, win) @ (area / area.sum()) / result_in_band_share(res)         # rated g on broadband light
-    irr["window_gain"] = {u.name: res.get(u.name, "global") @ M for u in units.values()}
+    M_win = group_weights(res, win) / result_in_band_share(res)          # rated g (or tau) on broadband light
+    irr["window_gain"] = {u.name: res.get(u.name, "global") @ M_win @ (area / area.sum()) for u in units.values()}
+    wall_of = [[round(s.azimuth) % 360 for s in b.surfaces if s.label == lab][0] for lab in win]
+    irr["window_gain_walls"] = {}
+    for u in units.values():
+        per = res.get(u.name, "global") @ M_win                              # (T, W) [W m-2 of glass]
+        walls, glass = np.zeros((per.shape[0], 5)), np.zeros(5)
+        for j, az in enumerate(wall_of):                                    # area-weighted over a wall's windows
+            k = (0, 90, 180, 270).index(az)
+            walls[:, k] += per[:, j] * area[j]
+            glass[k] += area[j]
+        irr["window_gain_walls"][u.name] = walls / np.maximum(glass, 1e-12)
     irr["result"] = res
     irr["geometry"] = (layout, shading)
     return irr

@@ -1,9 +1,9 @@
 """Figures of docs/thermal.md (matplotlib, written atomically as PNG).
 
-``python -m widesky.thermal.figures OUTDIR [--bestest-integrator JSON] [--study DIR ...]``: the glazing
-and ASHRAE 140 figures always; the integrator-route BESTEST markers from a JSON of
-:func:`widesky.thermal.bestest.run_case` results; the glazing-study figure from the folders
-``widesky thermal study`` wrote.
+``python -m widesky.thermal.figures OUTDIR [--bestest-integrator JSON] [--bestest-solar] [--study DIR ...]``: the
+glazing and ASHRAE 140 figures always; the integrator-route BESTEST markers from a JSON of
+:func:`widesky.thermal.bestest.run_case` results; ASHRAE 140's clear and cloudy days against the programs on both
+sky routes; the glazing-study figure from the folders ``widesky thermal study`` wrote.
 """
 
 from __future__ import annotations
@@ -112,6 +112,39 @@ def fig_bestest(outdir, integrator=None, data_dir=None):
     return table
 
 
+def fig_bestest_solar(outdir, data_dir=None, n_jobs=1):
+    """ASHRAE 140's clear (14 July) and cloudy (4 May) days, Case 600's south, west and horizontal surfaces: the six
+    programs' hourly range against widesky's weather (Perez) and integrator routes
+    (:func:`widesky.thermal.bestest_solar.solar_outputs`), written as ``thermal_bestest_solar.png``. Returns the
+    two routes' outputs."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from .bestest_solar import DAY_HOURLY_RANGE, HOURS, solar_outputs
+    routes = {"weather file (Perez 1990)": solar_outputs("weather", data_dir=data_dir),
+              "widesky integrator (all-sky)": solar_outputs("integrator", data_dir=data_dir, n_jobs=n_jobs)}
+    fig, axs = plt.subplots(2, 3, figsize=(13, 7), layout="constrained", sharex=True)
+    for row, day in zip(axs, ("july_14", "may_4")):
+        for ax, surf in zip(row, ("south", "west", "horizontal")):
+            lo, hi = DAY_HOURLY_RANGE[(day, surf)]
+            x = np.array(HOURS) - 0.5                                        # the hour's middle
+            ax.fill_between(x, lo, hi, color="0.8", step=None, label="six reference programs (range)")
+            for (name, out), style in zip(routes.items(), ("-o", "-s")):
+                y = np.asarray(out["hourly"][(day, surf)])[np.array(HOURS) - 1]
+                ax.plot(x, y, style, ms=3, lw=1, label=name)
+            title = {"july_14": "14 July (clear)", "may_4": "4 May (cloudy)"}[day]
+            ax.set_title(f"Case 600 {surf}, {title}", fontsize=10)
+            ax.grid(alpha=0.3)
+        row[0].set_ylabel("incident solar [Wh m-2]")
+    for ax in axs[1]:
+        ax.set_xlabel("hour, local standard time")
+    handles, labels = axs[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8)
+    _save(fig, Path(outdir) / "thermal_bestest_solar.png")
+    plt.close(fig)
+    return routes
+
+
 def _climate(folder):
     """'San Francisco' from 'study_USA_CA_San.Francisco.Intl.AP.724940_TMY3' and the like."""
     stem = Path(folder).name.replace("study_", "")
@@ -208,6 +241,8 @@ def main(argv=None):
     ap.add_argument("--bestest-integrator", default=None)
     ap.add_argument("--study", nargs="*", default=[])
     ap.add_argument("--facade", default=None, help="facade map PLY to render")
+    ap.add_argument("--bestest-solar", action="store_true",
+                    help="also draw ASHRAE 140's clear and cloudy days against the programs (both sky routes)")
     args = ap.parse_args(argv)
     out = Path(args.outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -217,6 +252,8 @@ def main(argv=None):
     t = fig_bestest(out, integ)
     for k, v in t.items():
         print(k, round(v, 3))
+    if args.bestest_solar:
+        fig_bestest_solar(out)
     if args.facade:
         fig_facade(out, args.facade, "widesky thermal loads: Denver TMY3, 2 storeys, WWR 0.4, "
                                      "1 m overhangs, 0.5 m fins, low-e, spectral route")

@@ -49,6 +49,10 @@ def register(subparsers) -> None:
                    help="a choice of the ISO 52016-1 run (repeatable; widesky.thermal.bestest.ISO52016_OPTIONS, "
                         "default the first of each), e.g. exterior=doe2 or lost=table: the alternatives measured in "
                         "docs/validation/thermal-bestest-cases.md")
+    b.add_argument("--solar", action="store_true",
+                   help="also check the light: Case 600's annual incident solar per surface, the annual transmitted "
+                        "solar of Cases 600-670 and the incident solar of 14 July and 4 May, against the six "
+                        "programs' solar outputs (on the same --sky route)")
     b.add_argument("--json", help="also write the results here (for python -m widesky.thermal.figures)")
     b.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     b.add_argument("--data-dir", default=None,
@@ -192,6 +196,9 @@ def _bestest(args) -> int:
         except ValueError as e:
             raise ValueError(f"--option {e}") from None
         options[key] = value
+    if args.solar and args.weather != "tmy3":
+        raise ValueError(f"--solar with --weather {args.weather}: the programs' solar outputs are for the 140-2020 "
+                         "weather, --weather tmy3")
     if options and args.zone_model != "iso52016":
         raise ValueError(f"--option {args.option[0]!r}: applies to --zone-model iso52016, not {args.zone_model}")
     cases = list(CASES) if args.case is None else args.case
@@ -209,7 +216,7 @@ def _bestest(args) -> int:
     chosen = "".join(f", {k}={v}" for k, v in options.items())
     ext = f", exterior {args.exterior}" if args.zone_model == "5r1c" else ""       # --exterior is 5R1C's
     print(f"ASHRAE 140 with {model}{chosen}, weather {args.weather}, sky {sky}{ext}")
-    print(f"{'case':6s} {'quantity':16s} {'widesky':>13s} {'range':>18s} {'verdict':8s} source")
+    print(f"{'case':6s} {'quantity':20s} {'widesky':>16s} {'range':>18s} {'verdict':8s} source")
     saved, outside = {}, []
     for c in cases:
         r = run_case(c, args.data_dir, weather=args.weather, poa=poas.get(case_geometry(c)),
@@ -224,13 +231,27 @@ def _bestest(args) -> int:
             # 2.394 against 2.054-2.388, not 2.39 against 2.05-2.39), two on temperatures
             d = 2 if v.unit == "degC" else 3
             rng = f"{v.low:.{d}f} to {v.high:.{d}f}"
-            print(f"{c:6s} {v.quantity:16s} {v.value:8.{d}f} {v.unit:4s} {rng:>18s} {verdict:8s} {v.source}")
+            print(f"{c:6s} {v.quantity:20s} {v.value:8.{d}f} {v.unit:7s} {rng:>18s} {verdict:8s} {v.source}")
             saved[c]["verdicts"][v.quantity] = {"value": v.value, "low": v.low, "high": v.high,
                                                 "unit": v.unit, "source": SOURCES[v.source],
                                                 "inside": v.inside}
             if not v.inside:
                 outside.append(f"{c} {v.quantity}")
-    print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items()))
+    if args.solar:
+        from widesky.thermal.bestest_solar import solar_outputs, solar_verdicts
+        solar = solar_outputs(args.sky, args.transposition, args.data_dir, n_jobs=args.jobs,
+                              progress=sys.stderr.isatty())
+        saved["solar"] = {}
+        for v in solar_verdicts(solar):
+            verdict = "inside" if v.inside else "OUTSIDE"
+            rng = f"{v.low:.1f} to {v.high:.1f}"
+            print(f"{v.case:6s} {v.quantity:20s} {v.value:8.1f} {v.unit:7s} {rng:>18s} {verdict:8s} {v.source}")
+            saved["solar"][f"{v.case} {v.quantity}"] = {"value": v.value, "low": v.low, "high": v.high,
+                                                        "unit": v.unit, "source": SOURCES[v.source],
+                                                        "inside": v.inside}
+            if not v.inside:
+                outside.append(f"{v.case} {v.quantity}")
+    print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items() if args.solar or k != "programs_solar"))
     if args.json:
         text = json.dumps(saved, indent=1).encode()
         atomic_write(args.json, lambda fh: fh.write(text))

@@ -1,0 +1,168 @@
+"""ASHRAE 140's solar outputs (issue 38: no compensating error): the light on Case 600's surfaces and through the
+windows of Cases 600-670, against the six reference programs' published figures (ASHRAE 140-2020 results workbook
+RESULTS5-2A; BSIMAC, CSE, DeST, EnergyPlus, ESP-r, TRNSYS; ``widesky.thermal.bestest_solar``), on both sky routes.
+
+The weather route (Perez 1990) is inside the programs' range on every figure; the integrator route misses three,
+each traced to a stated cause with its own check: the north wall (the room's shadow on the ground in front of it,
+which the programs' unobstructed ground does not have) and the south windows of 600 and 610 (the all-sky sky's
+summer distribution, which follows the Perez 1993 sky where the programs' transpositions follow Perez 1990).
+"""
+
+import functools
+import warnings
+
+import numpy as np
+import pytest
+
+from widesky.thermal.bestest_solar import (ANNUAL_INCIDENT, ANNUAL_TRANSMITTED, DAY_HOURLY_RANGE, DAY_INCIDENT,
+                                           HOURS, PROGRAMS, solar_outputs, solar_verdicts)
+
+
+def test_published_tables_are_whole_and_consistent():
+    """Every figure has one value per program; each day's hourly range holds every program's day (the sum of the
+    hourly lows is at most the lowest day, the sum of the highs at least the highest)."""
+    for table in (ANNUAL_INCIDENT, ANNUAL_TRANSMITTED, DAY_INCIDENT):
+        assert all(len(v) == len(PROGRAMS) for v in table.values())
+    assert sum(v is None for vals in ANNUAL_TRANSMITTED.values() for v in vals) == 2      # CSE: no 620/630
+    for key, (lo, hi) in DAY_HOURLY_RANGE.items():
+        assert len(lo) == len(hi) == len(HOURS) and all(a <= b for a, b in zip(lo, hi))
+        assert sum(lo) <= min(DAY_INCIDENT[key]) + 1e-6 and sum(hi) >= max(DAY_INCIDENT[key]) - 1e-6
+    # the same programs' loads figures elsewhere in the package: EnergyPlus's Case 600 south incident is the
+    # Perez 1990 transposition of the same weather (widesky's weather route gives 1370.0, tested below)
+    assert ANNUAL_INCIDENT["south"][PROGRAMS.index("EnergyPlus")] == 1370.48
+
+
+@functools.lru_cache(maxsize=None)
+def _outputs(route, transposition="perez"):
+    with warnings.catch_warnings():          # TMY3 visibilities beyond the sky model's range: clamped
+        warnings.filterwarnings("ignore", ".*clamped to the sky model's ranges", UserWarning)
+        return solar_outputs(route, transposition)
+
+
+def _hourly_outside(out, tolerance=0.01, floor=2.0):
+    """Hours whose incident solar leaves the programs' hourly range widened by 1 % + 2 Wh m-2 (the programs'
+    own hour conventions differ by about that at noon on the horizontal)."""
+    bad = []
+    for key, (lo, hi) in DAY_HOURLY_RANGE.items():
+        for h, a, b in zip(HOURS, lo, hi):
+            v = out["hourly"][key][h - 1]
+            if not (a * (1 - tolerance) - floor <= v <= b * (1 + tolerance) + floor):
+                bad.append((key, h, round(float(v), 1), a, b))
+    return bad
+
+
+@pytest.mark.reference
+def test_weather_route_light_inside_the_programs():
+    """Perez 1990 on the TMY3 file: all 17 solar figures inside the six programs' range, and every daylight hour of
+    14 July and 4 May within 1 % + 2 Wh m-2 of it. Hay-Davies (no horizon band) puts Case 600's transmitted solar
+    below all six programs (790.8 against 804.0-825.5): the check can fail."""
+    out = _outputs("weather")
+    bad = [(v.case, v.quantity, round(v.value, 1)) for v in solar_verdicts(out) if not v.inside]
+    assert bad == []
+    assert out["incident"]["south"] == pytest.approx(1370.0, abs=0.5)         # EnergyPlus 1370.48
+    assert _hourly_outside(out) == []
+    hd = {(v.case, v.quantity): v for v in solar_verdicts(_outputs("weather", "hay-davies"))}
+    assert not hd[("600", "transmitted_south")].inside and hd[("600", "transmitted_south")].value < 800.0
+
+
+@pytest.mark.reference
+@pytest.mark.xfail(strict=True, reason="integrator route: the north wall's light is 5 % under the programs' lowest "
+                   "(the room shades its ground) and the south windows' of 600 and 610 0.05 % and 1.9 % over their "
+                   "highest (the all-sky sky's summer distribution); docs/validation/thermal-bestest-cases.md")
+def test_integrator_route_light_inside_the_programs():
+    out = _outputs("integrator")
+    assert all(v.inside for v in solar_verdicts(out))
+
+
+@pytest.mark.reference
+def test_integrator_route_misses_are_the_stated_ones():
+    """Which figures the integrator route misses, and by how much: the north wall 380 against 399-477 kWh m-2,
+    600's and 610's transmitted 825.9 and 677.7 against 804.0-825.5 and 631.3-665.3; every other figure inside.
+    The 14 July and 4 May days are inside as sums; hour by hour the south wall's clear noon is up to 1.2 % over
+    the programs' highest (the sky's light, within the widened range) and the west wall's mornings (hours ending
+    07:00-10:00) under their lowest (its ground in the room's shadow)."""
+    out = _outputs("integrator")
+    bad = {(v.case, v.quantity): v for v in solar_verdicts(out) if not v.inside}
+    assert set(bad) == {("600", "incident_north"), ("600", "transmitted_south"), ("610", "transmitted_south")}
+    assert 0.93 < bad[("600", "incident_north")].value / bad[("600", "incident_north")].low < 0.97
+    assert 1.0 < bad[("600", "transmitted_south")].value / bad[("600", "transmitted_south")].high < 1.005
+    assert 1.01 < bad[("610", "transmitted_south")].value / bad[("610", "transmitted_south")].high < 1.03
+    hours = _hourly_outside(out)              # the west wall's mornings: the sun east, its ground in the room's shadow
+    assert hours and all(k[1] == "west" and 7 <= h <= 10 and v < lo for k, h, v, lo, _ in hours)
+
+
+@pytest.mark.reference
+def test_integrator_north_wall_miss_is_the_shaded_ground():
+    """The room's shadow on the ground north of it, and the sky it hides from that ground, take 27 % of the north
+    wall's ground-reflected light (121.6 against the unobstructed 0.2 x GHI / 2 = 167.0 kWh m-2). The programs model
+    an unobstructed ground: with it in place of the integrator's own, the wall's light is inside their range."""
+    from widesky.thermal.bestest import GROUND_REFLECTANCE, integrator_irradiance, load_weather
+    weather, _ = load_weather("tmy3")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ".*clamped to the sky model's ranges", UserWarning)
+        poa = integrator_irradiance("tmy3", geometry=("south", None))
+    north = {p: poa[f"poa_{p}"][:, 0].sum() / 1000.0 for p in ("direct", "sky_diffuse", "ground_diffuse")}
+    open_ground = GROUND_REFLECTANCE * weather["ghi"].to_numpy().sum() / 2.0 / 1000.0          # vertical: (1 - 0) / 2
+    assert north["ground_diffuse"] / open_ground == pytest.approx(0.73, abs=0.03)
+    lo, hi = min(ANNUAL_INCIDENT["north"]), max(ANNUAL_INCIDENT["north"])
+    assert north["direct"] + north["sky_diffuse"] + north["ground_diffuse"] < lo
+    assert lo <= north["direct"] + north["sky_diffuse"] + open_ground <= hi
+
+
+@pytest.mark.reference
+def test_integrator_south_windows_follow_the_perez_1993_sky():
+    """The south windows' summer excess is the sky's distribution: month by month the integrator's sky light on the
+    south wall stays within 3 % of the Perez (1993) all-weather sky fed with the same DNI and DHI (integrated over the
+    same patches), while that sky puts 4-9 % more light on the wall than the Perez (1990) transposition from April
+    to August, the months whose high sun shades the windows of 610 (the programs' transpositions are Perez 1990's
+    or close to it)."""
+    import pandas as pd
+    from widesky.irradiance import dni_extra, solar_position, sun_times
+    from widesky.irradiance.patches import cosine_weights, direction_from_angles, reinhart
+    from widesky.irradiance.perez_sky import perez_clearness_brightness, perez_patch_shape
+    from widesky.thermal.bestest import GROUND_REFLECTANCE, integrator_irradiance, load_weather
+    from widesky.thermal.surface import surface_irradiance
+    weather, site = load_weather("tmy3")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ".*clamped to the sky model's ranges", UserWarning)
+        poa = integrator_irradiance("tmy3", geometry=("south", None))
+    sp = solar_position(sun_times(weather.index, label="right"), site["latitude"], site["longitude"],
+                        site["altitude"])
+    zen, az = sp["zenith"].to_numpy(), sp["azimuth"].to_numpy()
+    dni, dhi, ghi = (weather[k].to_numpy() for k in ("dni", "dhi", "ghi"))
+    per = surface_irradiance([90.0], [180.0], zen, az, dni, dhi, ghi, dni_extra(sp["earth_sun_distance"].to_numpy()),
+                             GROUND_REFLECTANCE)
+    p = reinhart(1)
+    sun = np.stack([direction_from_angles(90.0 - z, a) for z, a in zip(zen, az)])
+    eps, delta, ok = perez_clearness_brightness(dhi, dni, 90.0 - zen, np.full(len(zen), 1361.0))
+    psm93 = dhi * (perez_patch_shape(p, sun, eps, delta, ok) @ cosine_weights(p, direction_from_angles(0.0, 180.0)
+                                                                               .reshape(1, 3))[0])
+    month = (weather.index - pd.Timedelta("1h")).month
+    m = pd.DataFrame({"integrator": poa["poa_sky_diffuse"][:, 2], "psm93": psm93,
+                      "perez1990": per["poa_circumsolar"][:, 0] + per["poa_sky_diffuse"][:, 0]}).groupby(month).sum()
+    assert np.all(np.abs(m["integrator"] / m["psm93"] - 1) < 0.03)
+    summer = (m["psm93"] / m["perez1990"]).loc[4:8]
+    assert summer.min() > 1.04 and summer.max() < 1.09
+
+
+@pytest.mark.reference
+def test_cli_solar_verdicts(capsys, tmp_path):
+    """``widesky thermal bestest --solar`` prints the 17 solar figures with their verdicts after the case's, counts
+    them in the exit status and writes them to ``--json``; the sources line names the programs' solar outputs only
+    when they were checked."""
+    import json
+    from widesky.cli import main
+    assert main(["thermal", "bestest", "--case", "600", "--solar", "--json", str(tmp_path / "b.json")]) == 0
+    out = capsys.readouterr().out
+    rows = [r.split() for r in out.splitlines() if "programs_solar" in r and not r.startswith("sources")]
+    assert len(rows) == 17 and all(r[-2] == "inside" for r in rows)
+    assert "every figure inside" in out and "RESULTS5-2A" in out
+    saved = json.loads((tmp_path / "b.json").read_text())
+    assert saved["solar"]["610 transmitted_south"]["value"] == pytest.approx(663.1, abs=0.1)
+    assert main(["thermal", "bestest", "--case", "600", "--solar", "--transposition", "hay-davies"]) == 1
+    assert "600 transmitted_south" in capsys.readouterr().out.splitlines()[-1]
+    assert main(["thermal", "bestest", "--case", "600"]) == 0
+    assert "RESULTS5-2A" not in capsys.readouterr().out
+    assert main(["thermal", "bestest", "--case", "600", "--solar", "--weather", "drycold"]) == 2
+    err = capsys.readouterr().err
+    assert "--solar with --weather drycold" in err and len(err.strip().splitlines()) == 1
