@@ -2,10 +2,12 @@
 windows of Cases 600-670, against the six reference programs' published figures (ASHRAE 140-2020 results workbook
 RESULTS5-2A; BSIMAC, CSE, DeST, EnergyPlus, ESP-r, TRNSYS; ``widesky.thermal.bestest_solar``), on both sky routes.
 
-The weather route (Perez 1990) is inside the programs' range on every figure; the integrator route misses three,
-each traced to a stated cause with its own check: the north wall (the room's shadow on the ground in front of it,
-which the programs' unobstructed ground does not have) and the south windows of 600 and 610 (the all-sky sky's
-summer distribution, which follows the Perez 1993 sky where the programs' transpositions follow Perez 1990).
+The weather route (Perez 1990) is inside the programs' range on 25 of the 26 figures (the single pane's cloudy day
+1.1 % under EnergyPlus's, the lowest); the integrator route misses four, each traced to a stated cause with its own
+check: the north wall (the room's shadow on the ground in front of it, which the programs' unobstructed ground does
+not have) and the south windows of 600 (the year and 14 July) and 610 (the all-sky sky's summer distribution, which
+follows the Perez 1993 sky where the programs' transpositions follow Perez 1990). The free-floating rooms' hourly
+temperatures on the Standard's days are inside the programs' hourly range on both routes.
 """
 
 import functools
@@ -15,13 +17,13 @@ import numpy as np
 import pytest
 
 from widesky.thermal.bestest_solar import (ANNUAL_INCIDENT, ANNUAL_TRANSMITTED, DAY_HOURLY_RANGE, DAY_INCIDENT,
-                                           HOURS, PROGRAMS, solar_outputs, solar_verdicts)
+                                           DAY_TRANSMITTED, HOURS, PROGRAMS, solar_outputs, solar_verdicts)
 
 
 def test_published_tables_are_whole_and_consistent():
     """Every figure has one value per program; each day's hourly range holds every program's day (the sum of the
     hourly lows is at most the lowest day, the sum of the highs at least the highest)."""
-    for table in (ANNUAL_INCIDENT, ANNUAL_TRANSMITTED, DAY_INCIDENT):
+    for table in (ANNUAL_INCIDENT, ANNUAL_TRANSMITTED, DAY_INCIDENT, DAY_TRANSMITTED):
         assert all(len(v) == len(PROGRAMS) for v in table.values())
     assert sum(v is None for vals in ANNUAL_TRANSMITTED.values() for v in vals) == 2      # CSE: no 620/630
     for key, (lo, hi) in DAY_HOURLY_RANGE.items():
@@ -53,12 +55,20 @@ def _hourly_outside(out, tolerance=0.01, floor=2.0):
 
 @pytest.mark.reference
 def test_weather_route_light_inside_the_programs():
-    """Perez 1990 on the TMY3 file: all 17 solar figures inside the six programs' range, and every daylight hour of
-    14 July and 4 May within 1 % + 2 Wh m-2 of it. Hay-Davies (no horizon band) puts Case 600's transmitted solar
-    below all six programs (790.8 against 804.0-825.5): the check can fail."""
+    """Perez 1990 on the TMY3 file: 25 of the 26 solar figures inside the six programs' range, and every daylight
+    hour of 14 July and 4 May within 1 % + 2 Wh m-2 of it. The miss: the single pane of 670 on the cloudy 4 May,
+    866.6 against 876.1-1013.4 Wh m-2 (EnergyPlus the lowest): the double pane of 600 that day is on the programs'
+    lowest too (694.3 against 693.9), and the single pane's light over the double pane's, 1.248, is inside the six
+    programs' 1.208-1.263 (EnergyPlus's 1.263 the highest). Hay-Davies (no horizon band) puts Case 600's transmitted
+    solar below all six programs (790.8 against 804.0-825.5): the check can fail."""
     out = _outputs("weather")
-    bad = [(v.case, v.quantity, round(v.value, 1)) for v in solar_verdicts(out) if not v.inside]
-    assert bad == []
+    bad = [(v.case, v.quantity) for v in solar_verdicts(out) if not v.inside]
+    assert bad == [("670", "may_4_transmitted")]
+    d = out["day_transmitted"]
+    lowest = min(DAY_TRANSMITTED[("600", "may_4")])
+    assert lowest <= d[("600", "may_4")] < 1.001 * lowest
+    ratios = [a / b for a, b in zip(DAY_TRANSMITTED[("670", "may_4")], DAY_TRANSMITTED[("600", "may_4")])]
+    assert min(ratios) <= d[("670", "may_4")] / d[("600", "may_4")] <= max(ratios)
     assert out["incident"]["south"] == pytest.approx(1370.0, abs=0.5)         # EnergyPlus 1370.48
     assert _hourly_outside(out) == []
     hd = {(v.case, v.quantity): v for v in solar_verdicts(_outputs("weather", "hay-davies"))}
@@ -67,8 +77,9 @@ def test_weather_route_light_inside_the_programs():
 
 @pytest.mark.reference
 @pytest.mark.xfail(strict=True, reason="integrator route: the north wall's light is 5 % under the programs' lowest "
-                   "(the room shades its ground) and the south windows' of 600 and 610 0.05 % and 1.9 % over their "
-                   "highest (the all-sky sky's summer distribution); docs/validation/thermal-bestest-cases.md")
+                   "(the room shades its ground) and the south windows' of 600 (the year, 14 July) and 610 0.05 %, "
+                   "0.3 % and 1.9 % over their highest (the all-sky sky's summer distribution); "
+                   "docs/validation/thermal-bestest-cases.md")
 def test_integrator_route_light_inside_the_programs():
     out = _outputs("integrator")
     assert all(v.inside for v in solar_verdicts(out))
@@ -77,13 +88,16 @@ def test_integrator_route_light_inside_the_programs():
 @pytest.mark.reference
 def test_integrator_route_misses_are_the_stated_ones():
     """Which figures the integrator route misses, and by how much: the north wall 380 against 399-477 kWh m-2,
-    600's and 610's transmitted 825.9 and 677.7 against 804.0-825.5 and 631.3-665.3; every other figure inside.
+    600's and 610's transmitted 825.9 and 677.7 against 804.0-825.5 and 631.3-665.3 kWh m-2, 600's on 14 July
+    1372.5 against 1266.9-1368.1 Wh m-2; every other figure inside.
     The 14 July and 4 May days are inside as sums; hour by hour the south wall's clear noon is up to 1.2 % over
     the programs' highest (the sky's light, within the widened range) and the west wall's mornings (hours ending
     07:00-10:00) under their lowest (its ground in the room's shadow)."""
     out = _outputs("integrator")
     bad = {(v.case, v.quantity): v for v in solar_verdicts(out) if not v.inside}
-    assert set(bad) == {("600", "incident_north"), ("600", "transmitted_south"), ("610", "transmitted_south")}
+    assert set(bad) == {("600", "incident_north"), ("600", "transmitted_south"), ("610", "transmitted_south"),
+                        ("600", "july_14_transmitted")}
+    assert 1.0 < bad[("600", "july_14_transmitted")].value / bad[("600", "july_14_transmitted")].high < 1.01
     assert 0.93 < bad[("600", "incident_north")].value / bad[("600", "incident_north")].low < 0.97
     assert 1.0 < bad[("600", "transmitted_south")].value / bad[("600", "transmitted_south")].high < 1.005
     assert 1.01 < bad[("610", "transmitted_south")].value / bad[("610", "transmitted_south")].high < 1.03
@@ -152,11 +166,11 @@ def test_cli_solar_verdicts(capsys, tmp_path):
     when they were checked."""
     import json
     from widesky.cli import main
-    assert main(["thermal", "bestest", "--case", "600", "--solar", "--json", str(tmp_path / "b.json")]) == 0
+    assert main(["thermal", "bestest", "--case", "600", "--solar", "--json", str(tmp_path / "b.json")]) == 1
     out = capsys.readouterr().out
     rows = [r.split() for r in out.splitlines() if "programs_solar" in r and not r.startswith("sources")]
-    assert len(rows) == 17 and all(r[-2] == "inside" for r in rows)
-    assert "every figure inside" in out and "RESULTS5-2A" in out
+    assert len(rows) == 26 and sum(r[-2] == "inside" for r in rows) == 25
+    assert out.splitlines()[-1] == "1 figure(s) outside their range: 670 may_4_transmitted" and "RESULTS5-2A" in out
     saved = json.loads((tmp_path / "b.json").read_text())
     assert saved["solar"]["610 transmitted_south"]["value"] == pytest.approx(663.1, abs=0.1)
     assert main(["thermal", "bestest", "--case", "600", "--solar", "--transposition", "hay-davies"]) == 1
@@ -166,3 +180,22 @@ def test_cli_solar_verdicts(capsys, tmp_path):
     assert main(["thermal", "bestest", "--case", "600", "--solar", "--weather", "drycold"]) == 2
     err = capsys.readouterr().err
     assert "--solar with --weather drycold" in err and len(err.strip().splitlines()) == 1
+    assert main(["thermal", "bestest", "--case", "950FF", "--days"]) == 0
+    out = capsys.readouterr().out
+    assert "950FF  july_14_hourly" in out and "programs_days" in out and "every figure inside" in out
+
+
+@pytest.mark.reference
+@pytest.mark.parametrize("route", ["weather", "integrator"])
+def test_free_floating_days_hour_by_hour(route):
+    """The free-floating rooms' hourly air temperature on the Standard's days (600FF and 900FF on 1 February, 650FF
+    and 950FF with the night fan on 14 July): every one of the 96 hours inside the six programs' hourly range, on both
+    routes. A room 1 K too warm in the afternoon (the 950FF day's band is 0.9-1.6 K wide then) would fail."""
+    from widesky.thermal.bestest_days import FREE_FLOAT_DAY_RANGE, day_verdicts, free_float_days
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ".*clamped to the sky model's ranges", UserWarning)
+        days = free_float_days(route)
+    assert set(days) == set(FREE_FLOAT_DAY_RANGE) and all(len(v) == 24 for v in days.values())
+    assert all(v.inside and v.value == 0.0 for v in day_verdicts(days))
+    hot = {k: v + 1.0 for k, v in days.items()}
+    assert not day_verdicts(hot)[3].inside                                # 950FF, 14 July, 1 K warmer

@@ -446,6 +446,8 @@ SOURCES = {
                      "Buildings case file)",
     "programs_solar": "reference programs' range (6 programs' solar outputs of 140-2020, results workbook "
                       "RESULTS5-2A; thermal/bestest_solar.py)",
+    "programs_days": "largest departure from the reference programs' hourly range (6 programs of 140-2020, "
+                     "results workbook RESULTS5-2A; thermal/bestest_days.py)",
 }
 """Where each verdict's range comes from."""
 

@@ -1,10 +1,11 @@
 """ASHRAE 140's solar outputs: the light on the test room's surfaces and through its windows, against the programs.
 
 Standard 140 asks every program for more than loads: the year's incident solar on each surface of Case 600, the
-year's transmitted solar through the windows of Cases 600-670, and the hourly incident solar of a clear day (14
-July) and a cloudy one (4 May). They isolate the light from the zone model, so a load that matches the programs for
-the wrong reason shows up here. The six reference programs' figures of the 2020 edition (Denver TMY3), as published
-in the Standard's results workbook (RESULTS5-2A) and converted to JSON in github.com/JasonGlazer/ashrae-140-automation
+year's transmitted solar through the windows of Cases 600-670, the hourly incident solar of a clear day (14 July)
+and a cloudy one (4 May), and the hourly transmitted solar of those days and of 1 February. They isolate the light
+from the zone model, so a load that matches the programs for the wrong reason shows up here. The six reference
+programs' figures of the 2020 edition (Denver TMY3), as published in the Standard's results workbook (RESULTS5-2A)
+and converted to JSON in github.com/JasonGlazer/ashrae-140-automation
 (``processed/<program>/<version>/results5-2a.json``, commits 13c830a2 and 0f1cc76d), stand below as scalar facts:
 BSIMAC 9.9.0.7.4, CSE 0.861.1, DeST 2.0.20190401, EnergyPlus 9.0.1, ESP-r 13.3, TRNSYS 18.00.0001, in that order
 (``None``: not reported). :func:`solar_outputs` computes widesky's same figures on either sky route and
@@ -19,7 +20,7 @@ from .bestest import (ANGLES, INTERIOR_SOLAR_ABSORPTANCE, Verdict, case_definiti
                       integrator_irradiance, load_weather, solar_escape_fraction)
 from .optics import hemispherical
 
-__all__ = ["PROGRAMS", "ANNUAL_INCIDENT", "ANNUAL_TRANSMITTED", "DAY_INCIDENT", "DAY_HOURLY_RANGE",
+__all__ = ["PROGRAMS", "ANNUAL_INCIDENT", "ANNUAL_TRANSMITTED", "DAY_INCIDENT", "DAY_TRANSMITTED", "DAY_HOURLY_RANGE",
            "SOLAR_SOURCE", "solar_outputs", "solar_verdicts"]
 
 PROGRAMS = ("BSIMAC", "CSE", "DeST", "EnergyPlus", "ESP-r", "TRNSYS")
@@ -88,10 +89,24 @@ DAY_HOURLY_RANGE = {    # hours ending 05:00 ... 20:00 local standard time; 0 in
 standard time of each day and surface (for the figure and the hour-by-hour comparison; the verdicts use the day's
 sums)."""
 
+DAY_TRANSMITTED = {
+    ("600", "feb_1"): (4591.5, 4485.5, 4613.3, 4490.1, 4488.6, 4597.3),
+    ("600", "may_4"): (784.4, 831.0, 802.3, 693.9, 731.3, 709.8),
+    ("600", "july_14"): (1318.9, 1266.9, 1332.3, 1310.8, 1356.2, 1368.1),
+    ("660", "feb_1"): (2521.4, 2705.3, 2780.6, 2442.8, 2459.3, 2521.0),
+    ("660", "may_4"): (429.4, 507.2, 517.5, 377.5, 398.3, 388.8),
+    ("660", "july_14"): (708.0, 785.3, 939.0, 704.9, 726.4, 733.2),
+    ("670", "feb_1"): (5619.5, 5254.9, 5471.4, 5528.1, 5506.7, 5624.6),
+    ("670", "may_4"): (982.8, 1004.0, 1013.4, 876.1, 911.8, 888.6),
+    ("670", "july_14"): (1831.4, 1667.0, 1845.5, 1839.7, 1859.1, 1900.4),
+}
+"""Solar transmitted through the south windows of Cases 600, 660 and 670 over 1 February (clear, winter), 4 May and
+14 July [Wh m-2 of glass]: each program's hourly values summed."""
+
 HOURS = tuple(range(5, 21))
 """The hours (ending) of :data:`DAY_HOURLY_RANGE`."""
 
-DAYS = {"july_14": (7, 14), "may_4": (5, 4)}
+DAYS = {"feb_1": (2, 1), "may_4": (5, 4), "july_14": (7, 14)}
 
 SOLAR_SOURCE = ("solar outputs of the reference programs (ASHRAE 140-2020 results workbook RESULTS5-2A; "
                 "thermal/bestest_solar.py)")
@@ -126,14 +141,15 @@ def solar_outputs(route="weather", transposition="perez", data_dir=None, n_jobs=
     dict
         ``incident``: surface -> Case 600's annual incident solar [kWh m-2]; ``transmitted``: (case, wall) ->
         annual transmitted solar [kWh m-2 of glass]; ``day``: (day, surface) -> the day's incident solar
-        [Wh m-2]; ``hourly``: (day, surface) -> (24,) incident solar of the hours ending 01:00 ... 24:00 local
-        standard time [Wh m-2].
+        [Wh m-2]; ``day_transmitted``: (case, day) -> the day's transmitted solar [Wh m-2 of glass];
+        ``hourly``: (day, surface) -> (24,) incident solar of the hours ending 01:00 ... 24:00 local standard
+        time [Wh m-2].
     """
     if route not in ("weather", "integrator"):
         raise ValueError(f"route={route!r} not one of ('weather', 'integrator')")
     weather, site = load_weather("tmy3", data_dir)
     start = weather.index - np.timedelta64(1, "h")           # each hour's start, local standard time
-    poas, out = {}, {"incident": {}, "transmitted": {}, "day": {}, "hourly": {}}
+    poas, out = {}, {"incident": {}, "transmitted": {}, "day": {}, "hourly": {}, "day_transmitted": {}}
     for case, wall in ANNUAL_TRANSMITTED:
         c = case_definition(case, data_dir)
         poa = None
@@ -148,13 +164,19 @@ def solar_outputs(route="weather", transposition="perez", data_dir=None, n_jobs=
         esc = solar_escape_fraction(table[3], c.window_area, c.interior_area, INTERIOR_SOLAR_ABSORPTANCE)
         k = SURFACES.index(wall)
         area = next(w[2] for w in c.walls if round(w[0]) % 360 == (0, 90, 180, 270)[k])
-        out["transmitted"][(case, wall)] = float(g["window_walls"][:, k].sum() / (1.0 - esc) / area / 1000.0)
+        through = g["window_walls"][:, k] / (1.0 - esc) / area                       # (T,) [W m-2 of glass]
+        out["transmitted"][(case, wall)] = float(through.sum() / 1000.0)
+        for day, (month, dom) in DAYS.items():
+            if (case, day) in DAY_TRANSMITTED:
+                out["day_transmitted"][(case, day)] = float(through[(start.month == month) & (start.day == dom)].sum())
         if case == "600":
             for j, s in enumerate(SURFACES):
                 out["incident"][s] = float(g["poa_global"][:, j].sum() / 1000.0)
             for day, (month, dom) in DAYS.items():
                 sel = np.flatnonzero((start.month == month) & (start.day == dom))
                 for s in ("south", "west", "horizontal"):
+                    if (day, s) not in DAY_INCIDENT:
+                        continue
                     hourly = g["poa_global"][sel, SURFACES.index(s)]
                     out["hourly"][(day, s)] = hourly
                     out["day"][(day, s)] = float(hourly.sum())
@@ -173,7 +195,8 @@ def solar_verdicts(outputs):
     -------
     list of Verdict
         ``case`` "600" (incident, days) or the window's case, ``quantity`` e.g. ``incident_north``,
-        ``transmitted_south``, ``july_14_south``; units kWh m-2 (annual) and Wh m-2 (days).
+        ``transmitted_south``, ``july_14_south``, ``feb_1_transmitted``; units kWh m-2 (annual) and Wh m-2
+        (days).
     """
     out = []
     for s, v in outputs["incident"].items():
@@ -183,4 +206,7 @@ def solar_verdicts(outputs):
                            "programs_solar"))
     for (day, s), v in outputs["day"].items():
         out.append(Verdict("600", f"{day}_{s}", v, *_range(DAY_INCIDENT[(day, s)]), "Wh m-2", "programs_solar"))
+    for (case, day), v in outputs["day_transmitted"].items():
+        out.append(Verdict(case, f"{day}_transmitted", v, *_range(DAY_TRANSMITTED[(case, day)]), "Wh m-2",
+                           "programs_solar"))
     return out

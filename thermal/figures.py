@@ -1,9 +1,10 @@
 """Figures of docs/thermal.md (matplotlib, written atomically as PNG).
 
-``python -m widesky.thermal.figures OUTDIR [--bestest-integrator JSON] [--bestest-solar] [--study DIR ...]``: the
-glazing and ASHRAE 140 figures always; the integrator-route BESTEST markers from a JSON of
-:func:`widesky.thermal.bestest.run_case` results; ASHRAE 140's clear and cloudy days against the programs on both
-sky routes; the glazing-study figure from the folders ``widesky thermal study`` wrote.
+``python -m widesky.thermal.figures OUTDIR [--bestest-integrator JSON] [--bestest-solar] [--bestest-days]
+[--study DIR ...]``: the glazing and ASHRAE 140 figures always; the integrator-route BESTEST markers from a JSON of
+:func:`widesky.thermal.bestest.run_case` results; ASHRAE 140's clear and cloudy days' light and its free-floating
+days against the programs on both sky routes; the glazing-study figure from the folders ``widesky thermal study``
+wrote.
 """
 
 from __future__ import annotations
@@ -145,6 +146,34 @@ def fig_bestest_solar(outdir, data_dir=None, n_jobs=1):
     return routes
 
 
+def fig_bestest_days(outdir, data_dir=None, n_jobs=1):
+    """The free-floating rooms hour by hour on the Standard's days (600FF and 900FF on 1 February, 650FF and 950FF on
+    14 July): the six programs' hourly range against widesky's weather (Perez) and integrator routes
+    (:func:`widesky.thermal.bestest_days.free_float_days`), written as ``thermal_bestest_days.png``."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from .bestest_days import FREE_FLOAT_DAY_RANGE, free_float_days
+    routes = {"weather file (Perez 1990)": free_float_days("weather", data_dir=data_dir),
+              "widesky integrator (all-sky)": free_float_days("integrator", data_dir=data_dir, n_jobs=n_jobs)}
+    fig, axs = plt.subplots(1, 4, figsize=(15, 3.8), layout="constrained")
+    x = np.arange(1, 25) - 0.5
+    for ax, (case, day) in zip(axs, FREE_FLOAT_DAY_RANGE):
+        lo, hi = FREE_FLOAT_DAY_RANGE[(case, day)]
+        ax.fill_between(x, lo, hi, color="0.8", label="six reference programs (range)")
+        for (name, out), style in zip(routes.items(), ("-o", "-s")):
+            ax.plot(x, out[(case, day)], style, ms=3, lw=1, label=name)
+        ax.set_title(f"{case}, {'1 February' if day == 'feb_1' else '14 July'}", fontsize=10)
+        ax.set_xlabel("hour, local standard time")
+        ax.grid(alpha=0.3)
+    axs[0].set_ylabel("zone air temperature [degC]")
+    handles, labels = axs[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8)
+    _save(fig, Path(outdir) / "thermal_bestest_days.png")
+    plt.close(fig)
+    return routes
+
+
 def _climate(folder):
     """'San Francisco' from 'study_USA_CA_San.Francisco.Intl.AP.724940_TMY3' and the like."""
     stem = Path(folder).name.replace("study_", "")
@@ -243,6 +272,8 @@ def main(argv=None):
     ap.add_argument("--facade", default=None, help="facade map PLY to render")
     ap.add_argument("--bestest-solar", action="store_true",
                     help="also draw ASHRAE 140's clear and cloudy days against the programs (both sky routes)")
+    ap.add_argument("--bestest-days", action="store_true",
+                    help="also draw the free-floating rooms hour by hour on the Standard's days (both sky routes)")
     args = ap.parse_args(argv)
     out = Path(args.outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -254,6 +285,8 @@ def main(argv=None):
         print(k, round(v, 3))
     if args.bestest_solar:
         fig_bestest_solar(out)
+    if args.bestest_days:
+        fig_bestest_days(out)
     if args.facade:
         fig_facade(out, args.facade, "widesky thermal loads: Denver TMY3, 2 storeys, WWR 0.4, "
                                      "1 m overhangs, 0.5 m fins, low-e, spectral route")

@@ -53,6 +53,9 @@ def register(subparsers) -> None:
                    help="also check the light: Case 600's annual incident solar per surface, the annual transmitted "
                         "solar of Cases 600-670 and the incident solar of 14 July and 4 May, against the six "
                         "programs' solar outputs (on the same --sky route)")
+    b.add_argument("--days", action="store_true",
+                   help="also check the free-floating rooms hour by hour on the Standard's days (600FF and 900FF on "
+                        "1 February, 650FF and 950FF on 14 July) against the six programs' hourly range")
     b.add_argument("--json", help="also write the results here (for python -m widesky.thermal.figures)")
     b.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     b.add_argument("--data-dir", default=None,
@@ -196,9 +199,10 @@ def _bestest(args) -> int:
         except ValueError as e:
             raise ValueError(f"--option {e}") from None
         options[key] = value
-    if args.solar and args.weather != "tmy3":
-        raise ValueError(f"--solar with --weather {args.weather}: the programs' solar outputs are for the 140-2020 "
-                         "weather, --weather tmy3")
+    for flag in ("solar", "days"):
+        if getattr(args, flag) and args.weather != "tmy3":
+            raise ValueError(f"--{flag} with --weather {args.weather}: the programs' hourly and solar outputs are for "
+                             "the 140-2020 weather, --weather tmy3")
     if options and args.zone_model != "iso52016":
         raise ValueError(f"--option {args.option[0]!r}: applies to --zone-model iso52016, not {args.zone_model}")
     cases = list(CASES) if args.case is None else args.case
@@ -237,21 +241,29 @@ def _bestest(args) -> int:
                                                 "inside": v.inside}
             if not v.inside:
                 outside.append(f"{c} {v.quantity}")
+    extra = []                                    # the Standard's other outputs: the light, the free-floating days
     if args.solar:
         from widesky.thermal.bestest_solar import solar_outputs, solar_verdicts
-        solar = solar_outputs(args.sky, args.transposition, args.data_dir, n_jobs=args.jobs,
-                              progress=sys.stderr.isatty())
-        saved["solar"] = {}
-        for v in solar_verdicts(solar):
+        extra.append(("solar", solar_verdicts(solar_outputs(args.sky, args.transposition, args.data_dir,
+                                                            n_jobs=args.jobs, progress=sys.stderr.isatty()))))
+    if args.days:
+        from widesky.thermal.bestest_days import day_verdicts, free_float_days
+        extra.append(("days", day_verdicts(free_float_days(args.sky, args.transposition, args.data_dir,
+                                                           n_jobs=args.jobs, progress=sys.stderr.isatty(),
+                                                           poas=poas))))
+    for key, found in extra:
+        saved[key] = {}
+        for v in found:
             verdict = "inside" if v.inside else "OUTSIDE"
-            rng = f"{v.low:.1f} to {v.high:.1f}"
-            print(f"{v.case:6s} {v.quantity:20s} {v.value:8.1f} {v.unit:7s} {rng:>18s} {verdict:8s} {v.source}")
-            saved["solar"][f"{v.case} {v.quantity}"] = {"value": v.value, "low": v.low, "high": v.high,
-                                                        "unit": v.unit, "source": SOURCES[v.source],
-                                                        "inside": v.inside}
+            d = 2 if v.unit == "K" else 1
+            rng = f"{v.low:.{d}f} to {v.high:.{d}f}"
+            print(f"{v.case:6s} {v.quantity:20s} {v.value:8.{d}f} {v.unit:7s} {rng:>18s} {verdict:8s} {v.source}")
+            saved[key][f"{v.case} {v.quantity}"] = {"value": v.value, "low": v.low, "high": v.high, "unit": v.unit,
+                                                    "source": SOURCES[v.source], "inside": v.inside}
             if not v.inside:
                 outside.append(f"{v.case} {v.quantity}")
-    print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items() if args.solar or k != "programs_solar"))
+    hidden = {"programs_solar": not args.solar, "programs_days": not args.days}
+    print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items() if not hidden.get(k)))
     if args.json:
         text = json.dumps(saved, indent=1).encode()
         atomic_write(args.json, lambda fh: fh.write(text))
