@@ -448,6 +448,8 @@ SOURCES = {
                       "RESULTS5-2A; thermal/bestest_solar.py)",
     "programs_days": "largest departure from the reference programs' hourly range (6 programs of 140-2020, "
                      "results workbook RESULTS5-2A; thermal/bestest_days.py)",
+    "programs_monthly": "largest departure from the reference programs' monthly range (6 programs of 140-2020, "
+                        "results workbook RESULTS5-2A; thermal/bestest_monthly.py)",
 }
 """Where each verdict's range comes from."""
 

@@ -56,6 +56,9 @@ def register(subparsers) -> None:
     b.add_argument("--days", action="store_true",
                    help="also check the free-floating rooms hour by hour on the Standard's days (600FF and 900FF on "
                         "1 February, 650FF and 950FF on 14 July) against the six programs' hourly range")
+    b.add_argument("--monthly", action="store_true",
+                   help="also check Cases 600 and 900 month by month (heating, cooling and their peaks) against the "
+                        "six programs' monthly range")
     b.add_argument("--json", help="also write the results here (for python -m widesky.thermal.figures)")
     b.add_argument("--jobs", type=int, default=None, help="ray-casting processes (default: all cores, as every command)")
     b.add_argument("--data-dir", default=None,
@@ -199,10 +202,10 @@ def _bestest(args) -> int:
         except ValueError as e:
             raise ValueError(f"--option {e}") from None
         options[key] = value
-    for flag in ("solar", "days"):
+    for flag in ("solar", "days", "monthly"):
         if getattr(args, flag) and args.weather != "tmy3":
-            raise ValueError(f"--{flag} with --weather {args.weather}: the programs' hourly and solar outputs are for "
-                             "the 140-2020 weather, --weather tmy3")
+            raise ValueError(f"--{flag} with --weather {args.weather}: the programs' solar, hourly and monthly outputs "
+                             "are for the 140-2020 weather, --weather tmy3")
     if options and args.zone_model != "iso52016":
         raise ValueError(f"--option {args.option[0]!r}: applies to --zone-model iso52016, not {args.zone_model}")
     cases = list(CASES) if args.case is None else args.case
@@ -245,24 +248,36 @@ def _bestest(args) -> int:
     if args.solar:
         from widesky.thermal.bestest_solar import solar_outputs, solar_verdicts
         extra.append(("solar", solar_verdicts(solar_outputs(args.sky, args.transposition, args.data_dir,
-                                                            n_jobs=args.jobs, progress=sys.stderr.isatty()))))
+                                                            n_jobs=args.jobs, progress=sys.stderr.isatty())), []))
     if args.days:
         from widesky.thermal.bestest_days import day_verdicts, free_float_days
         extra.append(("days", day_verdicts(free_float_days(args.sky, args.transposition, args.data_dir,
                                                            n_jobs=args.jobs, progress=sys.stderr.isatty(),
-                                                           poas=poas))))
-    for key, found in extra:
+                                                           poas=poas)), []))
+    if args.monthly:
+        import pandas as pd
+        from widesky.thermal.bestest_monthly import monthly_loads, monthly_verdicts, months_outside
+        monthly = monthly_loads(args.sky, args.transposition, args.data_dir, n_jobs=args.jobs,
+                                progress=sys.stderr.isatty(), poas=poas)
+        detail = [f"  {c} {q} {pd.Timestamp(2001, m, 1):%b}: {v:.{3 if 'peak' in q else 1}f} "
+                  f"{'kW' if 'peak' in q else 'kWh'}, programs {lo:g} to {hi:g}"
+                  for c, q, m, v, lo, hi in months_outside(monthly)]
+        extra.append(("monthly", monthly_verdicts(monthly), ["months outside the programs' range:"] * bool(detail)
+                      + detail))
+    for key, found, detail in extra:
         saved[key] = {}
         for v in found:
             verdict = "inside" if v.inside else "OUTSIDE"
-            d = 2 if v.unit == "K" else 1
+            d = 2 if v.unit in ("K", "%") else 1
             rng = f"{v.low:.{d}f} to {v.high:.{d}f}"
             print(f"{v.case:6s} {v.quantity:20s} {v.value:8.{d}f} {v.unit:7s} {rng:>18s} {verdict:8s} {v.source}")
             saved[key][f"{v.case} {v.quantity}"] = {"value": v.value, "low": v.low, "high": v.high, "unit": v.unit,
                                                     "source": SOURCES[v.source], "inside": v.inside}
             if not v.inside:
                 outside.append(f"{v.case} {v.quantity}")
-    hidden = {"programs_solar": not args.solar, "programs_days": not args.days}
+        for line in detail:
+            print(line)
+    hidden = {"programs_solar": not args.solar, "programs_days": not args.days, "programs_monthly": not args.monthly}
     print("sources: " + "; ".join(f"{k}: {t}" for k, t in SOURCES.items() if not hidden.get(k)))
     if args.json:
         text = json.dumps(saved, indent=1).encode()
