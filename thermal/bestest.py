@@ -63,7 +63,7 @@ __all__ = ["CASES", "GROUND_REFLECTANCE", "WEATHER_FILES", "read_mos", "read_mod
            "setpoint_schedules", "construction_layers", "iso52016_elements", "ZONE_MODELS",
            "INTERIOR_SOLAR_DISTRIBUTION", "interior_solar_distribution", "ISO52016_OPTIONS", "parse_iso52016_option",
            "setback_substeps",
-           "interior_longwave", "lost_share"]
+           "interior_longwave", "lost_share", "run_case_on_route"]
 
 
 @dataclass(frozen=True)
@@ -1107,3 +1107,20 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
             "temp_min": hourly["temp_air"].min(), "temp_max": hourly["temp_air"].max(),
             "temp_mean": hourly["temp_air"].mean(),
             "hourly": hourly, "case": c}
+
+
+def run_case_on_route(case, route="weather", transposition="perez", data_dir=None, n_jobs=1, progress=False,
+                      poas=None):
+    """:func:`run_case` (TMY3, ISO 52016-1) on a sky ``route``: ``"weather"`` (the file transposed by
+    ``transposition``) or ``"integrator"`` (:func:`integrator_irradiance` of the case's room geometry, computed once
+    per geometry into ``poas``, a dict to share between calls)."""
+    if route not in ("weather", "integrator"):
+        raise ValueError(f"route={route!r} not one of ('weather', 'integrator')")
+    poa = None
+    if route == "integrator":
+        poas = {} if poas is None else poas
+        geo = case_geometry(case)
+        if geo not in poas:
+            poas[geo] = integrator_irradiance("tmy3", data_dir, n_jobs=n_jobs, progress=progress, geometry=geo)
+        poa = poas[geo]
+    return run_case(case, data_dir, poa=poa, transposition=transposition)

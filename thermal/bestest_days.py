@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .bestest import Verdict, case_geometry, integrator_irradiance, run_case
+from .bestest import Verdict, run_case_on_route
 
 __all__ = ["FREE_FLOAT_DAY_RANGE", "free_float_days", "day_verdicts"]
 
@@ -58,18 +58,10 @@ def free_float_days(route="weather", transposition="perez", data_dir=None, n_job
     dict
         (case, day) -> (24,) [degC] for the hours ending 01:00 ... 24:00 local standard time.
     """
-    if route not in ("weather", "integrator"):
-        raise ValueError(f"route={route!r} not one of ('weather', 'integrator')")
     poas = {} if poas is None else poas
     out = {}
     for case, day in FREE_FLOAT_DAY_RANGE:
-        poa = None
-        if route == "integrator":
-            geo = case_geometry(case)
-            if geo not in poas:
-                poas[geo] = integrator_irradiance("tmy3", data_dir, n_jobs=n_jobs, progress=progress, geometry=geo)
-            poa = poas[geo]
-        t = run_case(case, data_dir, poa=poa, transposition=transposition)["hourly"]["temp_air"]
+        t = run_case_on_route(case, route, transposition, data_dir, n_jobs, progress, poas)["hourly"]["temp_air"]
         start = t.index - np.timedelta64(1, "h")
         month, dom = DAYS[day]
         out[(case, day)] = t.to_numpy()[(start.month == month) & (start.day == dom)]

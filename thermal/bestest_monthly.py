@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .bestest import Verdict, case_geometry, integrator_irradiance, run_case
+from .bestest import Verdict, run_case_on_route
 
 __all__ = ["MONTHLY_RANGE", "monthly_loads", "monthly_verdicts"]
 
@@ -66,18 +66,10 @@ def monthly_loads(route="weather", transposition="perez", data_dir=None, n_jobs=
     dict
         (case, quantity) -> (12,) January to December: energy [kWh], peaks [kW].
     """
-    if route not in ("weather", "integrator"):
-        raise ValueError(f"route={route!r} not one of ('weather', 'integrator')")
     poas = {} if poas is None else poas
     out = {}
     for case in dict.fromkeys(c for c, _ in MONTHLY_RANGE):
-        poa = None
-        if route == "integrator":
-            geo = case_geometry(case)
-            if geo not in poas:
-                poas[geo] = integrator_irradiance("tmy3", data_dir, n_jobs=n_jobs, progress=progress, geometry=geo)
-            poa = poas[geo]
-        hourly = run_case(case, data_dir, poa=poa, transposition=transposition)["hourly"]
+        hourly = run_case_on_route(case, route, transposition, data_dir, n_jobs, progress, poas)["hourly"]
         month = (hourly.index - np.timedelta64(1, "h")).month          # each hour's start, local standard time
         for q, (column, how) in QUANTITIES.items():
             g = hourly[column].abs().groupby(month)
