@@ -1110,10 +1110,11 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
 
 
 def run_case_on_route(case, route="weather", transposition="perez", data_dir=None, n_jobs=1, progress=False,
-                      poas=None):
-    """:func:`run_case` (TMY3, ISO 52016-1) on a sky ``route``: ``"weather"`` (the file transposed by
-    ``transposition``) or ``"integrator"`` (:func:`integrator_irradiance` of the case's room geometry, computed once
-    per geometry into ``poas``, a dict to share between calls)."""
+                      poas=None, **model):
+    """:func:`run_case` (TMY3) on a sky ``route``: ``"weather"`` (the file transposed by ``transposition``) or
+    ``"integrator"`` (:func:`integrator_irradiance` of the case's room geometry, computed once per geometry into
+    ``poas``, a dict to share between calls); ``model``: :func:`run_case`'s ``zone_model``, ``exterior`` and
+    ``iso52016_options``."""
     if route not in ("weather", "integrator"):
         raise ValueError(f"route={route!r} not one of ('weather', 'integrator')")
     poa = None
@@ -1123,4 +1124,4 @@ def run_case_on_route(case, route="weather", transposition="perez", data_dir=Non
         if geo not in poas:
             poas[geo] = integrator_irradiance("tmy3", data_dir, n_jobs=n_jobs, progress=progress, geometry=geo)
         poa = poas[geo]
-    return run_case(case, data_dir, poa=poa, transposition=transposition)
+    return run_case(case, data_dir, poa=poa, transposition=transposition, **model)

@@ -48,10 +48,12 @@ FREE_FLOAT_DAY_RANGE = {
 DAYS = {"feb_1": (2, 1), "july_14": (7, 14)}
 
 
-def free_float_days(route="weather", transposition="perez", data_dir=None, n_jobs=1, progress=False, poas=None):
+def free_float_days(route="weather", transposition="perez", data_dir=None, n_jobs=1, progress=False, poas=None,
+                    **model):
     """widesky's hourly zone air temperature [degC] (the hour's mean, as the programs report it) on the days of
-    :data:`FREE_FLOAT_DAY_RANGE`, by :func:`~widesky.thermal.bestest.run_case` (ISO 52016-1) on the ``route``
-    ("weather" or "integrator"). ``poas``: integrator results by room geometry to reuse (filled in).
+    :data:`FREE_FLOAT_DAY_RANGE`, by :func:`~widesky.thermal.bestest.run_case` on the ``route`` ("weather" or
+    "integrator"). ``poas``: integrator results by room geometry to reuse (filled in); ``model``: run_case's
+    ``zone_model`` (default ISO 52016-1), ``exterior`` and ``iso52016_options``.
 
     Returns
     -------
@@ -61,7 +63,7 @@ def free_float_days(route="weather", transposition="perez", data_dir=None, n_job
     poas = {} if poas is None else poas
     out = {}
     for case, day in FREE_FLOAT_DAY_RANGE:
-        t = run_case_on_route(case, route, transposition, data_dir, n_jobs, progress, poas)["hourly"]["temp_air"]
+        t = run_case_on_route(case, route, transposition, data_dir, n_jobs, progress, poas, **model)["hourly"]["temp_air"]
         start = t.index - np.timedelta64(1, "h")
         month, dom = DAYS[day]
         out[(case, day)] = t.to_numpy()[(start.month == month) & (start.day == dom)]

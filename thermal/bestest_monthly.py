@@ -57,9 +57,11 @@ QUANTITIES = {"heating": ("heating", "sum"), "cooling": ("cooling", "sum"), "pea
               "peak_cooling": ("cooling", "max")}
 
 
-def monthly_loads(route="weather", transposition="perez", data_dir=None, n_jobs=1, progress=False, poas=None):
-    """widesky's monthly figures of :data:`MONTHLY_RANGE` by :func:`~widesky.thermal.bestest.run_case` (ISO 52016-1)
-    on the ``route`` ("weather" or "integrator"); ``poas``: integrator results by room geometry to reuse (filled in).
+def monthly_loads(route="weather", transposition="perez", data_dir=None, n_jobs=1, progress=False, poas=None,
+                  **model):
+    """widesky's monthly figures of :data:`MONTHLY_RANGE` by :func:`~widesky.thermal.bestest.run_case` on the
+    ``route`` ("weather" or "integrator"); ``poas``: integrator results by room geometry to reuse (filled in);
+    ``model``: run_case's ``zone_model`` (default ISO 52016-1), ``exterior`` and ``iso52016_options``.
 
     Returns
     -------
@@ -69,7 +71,7 @@ def monthly_loads(route="weather", transposition="perez", data_dir=None, n_jobs=
     poas = {} if poas is None else poas
     out = {}
     for case in dict.fromkeys(c for c, _ in MONTHLY_RANGE):
-        hourly = run_case_on_route(case, route, transposition, data_dir, n_jobs, progress, poas)["hourly"]
+        hourly = run_case_on_route(case, route, transposition, data_dir, n_jobs, progress, poas, **model)["hourly"]
         month = (hourly.index - np.timedelta64(1, "h")).month          # each hour's start, local standard time
         for q, (column, how) in QUANTITIES.items():
             g = hourly[column].abs().groupby(month)

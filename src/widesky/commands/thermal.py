@@ -245,6 +245,7 @@ def _bestest(args) -> int:
             if not v.inside:
                 outside.append(f"{c} {v.quantity}")
     extra = []                                    # the Standard's other outputs: the light, the free-floating days
+    model = {"zone_model": args.zone_model, "exterior": args.exterior, "iso52016_options": options or None}
     if args.solar:
         from widesky.thermal.bestest_solar import solar_outputs, solar_verdicts
         extra.append(("solar", solar_verdicts(solar_outputs(args.sky, args.transposition, args.data_dir,
@@ -253,12 +254,12 @@ def _bestest(args) -> int:
         from widesky.thermal.bestest_days import day_verdicts, free_float_days
         extra.append(("days", day_verdicts(free_float_days(args.sky, args.transposition, args.data_dir,
                                                            n_jobs=args.jobs, progress=sys.stderr.isatty(),
-                                                           poas=poas)), []))
+                                                           poas=poas, **model)), []))
     if args.monthly:
         import pandas as pd
         from widesky.thermal.bestest_monthly import monthly_loads, monthly_verdicts, months_outside
         monthly = monthly_loads(args.sky, args.transposition, args.data_dir, n_jobs=args.jobs,
-                                progress=sys.stderr.isatty(), poas=poas)
+                                progress=sys.stderr.isatty(), poas=poas, **model)
         detail = [f"  {c} {q} {pd.Timestamp(2001, m, 1):%b}: {v:.{3 if 'peak' in q else 1}f} "
                   f"{'kW' if 'peak' in q else 'kWh'}, programs {lo:g} to {hi:g}"
                   for c, q, m, v, lo, hi in months_outside(monthly)]
