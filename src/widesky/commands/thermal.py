@@ -51,8 +51,8 @@ def register(subparsers) -> None:
                         "docs/validation/thermal-bestest-cases.md")
     b.add_argument("--solar", action="store_true",
                    help="also check the light: Case 600's annual incident solar per surface, the annual transmitted "
-                        "solar of Cases 600-670 and the incident solar of 14 July and 4 May, against the six "
-                        "programs' solar outputs (on the same --sky route)")
+                        "solar of Cases 600-670, and the incident and transmitted solar of the Standard's days (1 Feb, "
+                        "4 May, 14 July), against the six programs' solar outputs (on the same --sky route)")
     b.add_argument("--days", action="store_true",
                    help="also check the free-floating rooms hour by hour on the Standard's days (600FF and 900FF on "
                         "1 February, 650FF and 950FF on 14 July) against the six programs' hourly range")
