@@ -10,7 +10,9 @@ The ``[thermal]`` section sets the use (internal gains constant or on the office
 :mod:`widesky.thermal.schedules`), the window frames (frame share and U_f) and an operable shading device: in an
 occupied hour (occupancy fraction >= :data:`widesky.thermal.schedules.OCCUPIED_THRESHOLD`; every hour with constant
 gains) a window's device is deployed when the global irradiance on that window exceeds ``shading_threshold``
-[W m-2], and then multiplies its transmitted gain by ``shading_factor`` (ISO 13790 11.4.3, ``g_gl+sh / g_gl``).
+[W m-2], and then multiplies its transmitted gain by ``shading_factor`` (ISO 13790 11.4.3, ``g_gl+sh / g_gl``),
+and the thermostat (``thermostat = "office"``: the set-points in the hours of
+:data:`widesky.thermal.schedules.OFFICE_HVAC`, ``heating_setback`` and ``cooling_setup`` otherwise).
 With a rated spectrum, :func:`glazing_responses` adds each unit's rated route (AM1.5-weighted g by angle), so the
 same run gives the spectral-versus-rated difference.
 
@@ -25,7 +27,7 @@ import numpy as np
 
 from widesky.thermal import (Construction, ZoneSpec, building_loads, glazing_response, irradiance_by_surface,
                              rated_glazing_response, window_gain_by_surface)
-from widesky.thermal.schedules import occupied_hours, office_gains
+from widesky.thermal.schedules import occupied_hours, office_gains, office_setpoints
 
 __all__ = ["ThermalRun", "ORIENTATIONS", "orientation_name", "prepare_building", "glazing_responses",
            "design_day_temperature", "building_thermal", "surface_display_labels", "shading_factors"]
@@ -245,6 +247,10 @@ def building_thermal(result, building, tcfg, units, rated, temp_air, temp_sky=No
         internal = {"total": np.full(len(times), float(tcfg["internal_gains"]))}
         occupied = np.ones(len(times), bool)
         series = None
+    setpoints = None
+    if tcfg.get("thermostat", "constant") == "office":
+        setpoints = office_setpoints(times, step_h, label, tcfg["heating_setpoint"], tcfg["cooling_setpoint"],
+                                     tcfg["heating_setback"], tcfg["cooling_setup"])
     deployed, reduction = shading_factors(incident, occupied, tcfg.get("shading_threshold", 200.0),
                                           tcfg.get("shading_factor", 1.0))
     names = set(result.responses)
@@ -257,7 +263,8 @@ def building_thermal(result, building, tcfg, units, rated, temp_air, temp_sky=No
         if f"{name}:rated" in names:
             rated_g[name] = window_gain_by_surface(result, labels, building, cons, "rated")
         loads[name] = building_loads(building, cons, times, temp_air, irr, temp_sky=temp_sky, window_gain=wg,
-                                     mass_class=tcfg["mass"], shading=reduction, internal_gains=series)
+                                     mass_class=tcfg["mass"], shading=reduction, internal_gains=series,
+                                     setpoints=setpoints)
     ff = float(tcfg.get("frame_fraction", 0.0))
     return ThermalRun(units, rated, [surf[j] for j in wins], np.array([surf[j].area for j in wins]) * (1.0 - ff),
                       incident, gains, loads, np.asarray(temp_air, float),

@@ -157,8 +157,18 @@ SCHEMA = {
         "shading_threshold": Field("float", 200.0, "W m-2", 0.0, 1500.0, help="the device is deployed in occupied "
                                    "hours when the global irradiance on the window exceeds this"),
         "air_changes": Field("float", 0.7, "h-1", 0.0, 20.0, help="ventilation and infiltration air changes"),
-        "heating_setpoint": Field("float", 20.0, "degC", 5.0, 25.0, help="heating set-point"),
-        "cooling_setpoint": Field("float", 26.0, "degC", 18.0, 35.0, help="cooling set-point"),
+        "heating_setpoint": Field("float", 20.0, "degC", 5.0, 25.0, help="heating set-point (thermostat = 'office': "
+                                  "in the thermostat's hours)"),
+        "cooling_setpoint": Field("float", 26.0, "degC", 18.0, 35.0, help="cooling set-point (thermostat = 'office': "
+                                  "in the thermostat's hours)"),
+        "thermostat": Field("str", "constant", choices=("constant", "office"),
+                            help="'constant': the set-points every hour; 'office': the set-points on weekdays "
+                                 "06:00-22:00 and Saturdays 06:00-18:00, heating_setback and cooling_setup otherwise "
+                                 "(the DOE reference office's thermostat hours, thermal.schedules)"),
+        "heating_setback": Field("float", 15.6, "degC", 5.0, 25.0, help="heating set-point outside the thermostat's "
+                                 "hours (thermostat = 'office'; the DOE reference office's 15.6)"),
+        "cooling_setup": Field("float", 26.7, "degC", 18.0, 40.0, help="cooling set-point outside the thermostat's "
+                               "hours (thermostat = 'office'; the DOE reference office's 26.7)"),
         "wall_u": Field("float", 0.35, "W m-2 K-1", 0.05, 5.0, help="opaque wall U-value"),
         "roof_u": Field("float", 0.25, "W m-2 K-1", 0.05, 5.0, help="roof U-value"),
         "floor_u": Field("float", 0.35, "W m-2 K-1", 0.05, 5.0, help="ground floor U-value (b = 0.5 to outdoor air)"),
@@ -379,6 +389,18 @@ def validate(data: dict, folder, source="case.toml") -> dict:
         if any(with_weather) != (out["sky"]["weather"] is not None) or len(set(with_weather)) > 1:
             raise ConfigError(f"{source}: compare.sites: give every site a weather file when [sky] names one "
                               "(sky.weather), and none otherwise (the clear sky at every site)")
+    th = out["thermal"]
+    if th is not None:
+        office = th["thermostat"] == "office"
+        stray = [k for k in ("heating_setback", "cooling_setup") if k in data["thermal"] and not office]
+        if stray:
+            raise ConfigError(f"{source}: thermal.{stray[0]} applies only with thermal.thermostat = 'office' (the "
+                              "'constant' thermostat holds the set-points every hour)")
+        order = (("heating_setback", "heating_setpoint", "cooling_setpoint", "cooling_setup") if office
+                 else ("heating_setpoint", "cooling_setpoint"))
+        if any(th[a] > th[b] for a, b in zip(order, order[1:])):
+            raise ConfigError(f"{source}: thermal: " + " <= ".join(f"{k} ({th[k]:g} degC)" for k in order)
+                              + " does not hold")
     k = int(round(out["scene"]["samples_per_face"] ** 0.5))
     if k * k != out["scene"]["samples_per_face"]:
         raise ConfigError(f"{source}: scene.samples_per_face = {out['scene']['samples_per_face']}: expected a "

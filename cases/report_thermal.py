@@ -228,6 +228,16 @@ def _monthly_loads_chart(th, times, step_hours, book, label="left"):
                              "how": "sum over each month's steps (by the interval's start) x step hours / 1e6"})
 
 
+def _thermostat_text(tcfg):
+    """The thermostat in words: the set-points and when they hold."""
+    heat, cool = tcfg["heating_setpoint"], tcfg["cooling_setpoint"]
+    if tcfg.get("thermostat", "constant") != "office":
+        return f"{heat:g} / {cool:g} degC every hour"
+    return (f"{heat:g} / {cool:g} degC on weekdays 06:00-22:00 and Saturdays 06:00-18:00, "
+            f"{tcfg['heating_setback']:g} / {tcfg['cooling_setup']:g} degC otherwise (the DOE reference office's "
+            "thermostat hours)")
+
+
 def _use_text(th, tcfg):
     """The zones' use, frames and shading device in words."""
     if tcfg.get("schedule", "constant") == "office":
@@ -351,7 +361,7 @@ on the glass. Glass per facade: {area_text}.</p>
 {monthly}
 {chart}
 <p class="note">ISO 13790 5R1C zones (thermal), {len(th.loads[next(iter(th.loads))].cooling.columns)} zones,
-{fa:.0f} m2 of floor; ideal plant holding {tcfg['heating_setpoint']:g} / {tcfg['cooling_setpoint']:g} degC every hour;
+{fa:.0f} m2 of floor; ideal plant holding {escape(_thermostat_text(tcfg))};
 {tcfg['air_changes']:g} h-1, {escape(_use_text(th, tcfg))}; {tcfg['mass']} mass,
 walls U {tcfg['wall_u']:g}, roof {tcfg['roof_u']:g}, ground floor {tcfg['floor_u']:g} W m-2 K-1 (b = 0.5);
 outdoor air: {temp_text}; {sky_loss}. The first 14 days are run twice (warm-up). Per zone: <code>loads.csv</code>.</p>

@@ -206,6 +206,24 @@ def test_thermal_glazing_is_validated(tmp_path):
         cases.load_config(folder)
 
 
+@pytest.mark.parametrize("extra, message", [
+    ('thermostat = "office"\nheating_setpoint = 20.0\nheating_setback = 22.0',
+     r"thermal: heating_setback \(22 degC\) <= heating_setpoint \(20 degC\) <= cooling_setpoint \(26 degC\) <= "
+     r"cooling_setup \(26.7 degC\) does not hold"),
+    ('heating_setpoint = 25.0\ncooling_setpoint = 22.0',
+     r"thermal: heating_setpoint \(25 degC\) <= cooling_setpoint \(22 degC\) does not hold"),
+    ('cooling_setup = 30.0', r"thermal.cooling_setup applies only with thermal.thermostat = 'office'"),
+    ('thermostat = "night"', r"thermal.thermostat = 'night': expected one of constant, office"),
+])
+def test_thermostat_settings_are_validated(tmp_path, extra, message):
+    """Set-points out of order (a set-back above the occupied set-point, heating above cooling) and a set-back
+    without the office thermostat that would apply it are refused, naming the keys."""
+    folder = _case(tmp_path, "facade", FACADE.format(tz="Europe/Prague", weather="")
+                   .replace('glazing = ["clear", "solar-control"]', 'glazing = ["clear"]\n' + extra))
+    with pytest.raises(ConfigError, match=message):
+        cases.load_config(folder)
+
+
 # ---- weather files -----------------------------------------------------------------------------------------
 
 def _epw(path, run, factor, temp_air, dhi_factor=None):
@@ -368,6 +386,67 @@ def test_office_schedule_totals_against_the_published_profiles():
         office_gains(times, densities={"people_m2": 0.0})
 
 
+def test_office_thermostat_against_the_published_schedule():
+    """The DOE reference office's thermostat (HTGSETP_SCH / CLGSETP_SCH, Deru et al. 2011): 21.0 / 24.0 degC on
+    weekdays 06:00-22:00 and Saturdays 06:00-18:00, 15.6 / 26.7 degC otherwise and all Sunday. 2023 has 260 weekdays
+    and 52 Saturdays: 260 x 16 + 52 x 12 = 4784 hours at the occupied set-points, 3976 set back."""
+    from widesky.thermal.schedules import office_setpoints
+    times = pd.date_range("2023-01-01", periods=8760, freq="h", tz="-07:00")
+    heat, cool = office_setpoints(times)
+    on = heat == 21.0
+    assert on.sum() == 4784 and np.array_equal(on, cool == 24.0)
+    assert np.all(heat[~on] == 15.6) and np.all(cool[~on] == 26.7)
+    hour = {str(t)[:13]: (h, c) for t, h, c in zip(times, heat, cool)}
+    assert hour["2023-01-02 05"] == (15.6, 26.7) and hour["2023-01-02 06"] == (21.0, 24.0)      # Monday
+    assert hour["2023-01-02 21"] == (21.0, 24.0) and hour["2023-01-02 22"] == (15.6, 26.7)
+    assert hour["2023-01-07 17"] == (21.0, 24.0) and hour["2023-01-07 18"] == (15.6, 26.7)      # Saturday
+    assert hour["2023-01-08 12"] == (15.6, 26.7)                                                # Sunday
+    # an EPW's stamps (the interval end) give the same hours one stamp later; the set-points can be the case's
+    h_right, _ = office_setpoints(times + pd.Timedelta(hours=1), label="right")
+    np.testing.assert_array_equal(h_right, heat)
+    h20, c26 = office_setpoints(times, heating=20.0, cooling=26.0, heating_setback=12.0, cooling_setup=30.0)
+    assert set(h20) == {20.0, 12.0} and set(c26) == {26.0, 30.0} and np.array_equal(h20 == 20.0, on)
+    with pytest.raises(ValueError, match="heating_setback <= heating <= cooling <= cooling_setup"):
+        office_setpoints(times, heating_setback=22.0)
+    with pytest.raises(ValueError, match="cooling=nan degC must be finite"):
+        office_setpoints(times, cooling=float("nan"))
+
+
+def test_office_thermostat_holds_its_set_points_in_the_zones():
+    """Two January weeks at 0 degC outside with no sun and no internal gains: with the office thermostat every zone's
+    air stays between the hour's set-points, sits on 21 degC whenever it heats in the thermostat's hours and on 15.6
+    degC overnight and on Sunday once the mass has cooled; the set-back needs less heat than 21 degC every hour,
+    and the building's heating peaks in a morning recovery hour (06:00-07:00)."""
+    from widesky.thermal.building import ZoneSpec, box_building
+    from widesky.thermal.loads import Construction, building_loads
+    from widesky.thermal.schedules import office_setpoints
+    b = box_building(20, 12, 3.5, floors=2, wwr=0.3, zone_use=ZoneSpec("u", internal_gains=0.0))
+    surf = [s for s in b.surfaces if s.kind != "shading"]
+    T = 24 * 14
+    times = pd.date_range("2023-01-02", periods=T, freq="h", tz="-07:00")     # from a Monday 00:00-01:00
+    zero = {k: np.zeros((T, len(surf))) for k in ("poa_direct", "poa_sky_diffuse", "poa_ground_diffuse")}
+    zero["aoi"] = np.full((T, len(surf)), 90.0)
+    from widesky.cases.glazing import glazing_units
+    cons = {"wall": Construction("wall", 0.3), "roof": Construction("roof", 0.2),
+            "floor": Construction("floor", 0.3, b=0.5),
+            "window": Construction("window", glazing=glazing_units(["low-e"])["low-e"])}
+    ta = np.zeros(T)
+    heat, cool = office_setpoints(times)
+    r = building_loads(b, cons, times, ta, zero, setpoints=(heat, cool))
+    t_air, q = r.temp_air.to_numpy(), r.heating.to_numpy()
+    assert np.all(t_air >= heat[:, None] - 1e-6) and np.all(t_air <= cool[:, None] + 1e-6)
+    on = heat == 21.0
+    np.testing.assert_allclose(t_air[on], 21.0, atol=1e-6)            # 0 degC outside: it heats every such hour
+    sunday = np.asarray((times.day_of_week == 6) & (times.hour >= 6))
+    np.testing.assert_allclose(t_air[sunday], 15.6, atol=1e-6)
+    flat = building_loads(b, cons, times, ta, zero, setpoints=(np.full(T, 21.0), np.full(T, 24.0)))
+    assert q.sum() < 0.9 * flat.heating.to_numpy().sum()
+    total = q.sum(1)
+    assert times[int(np.argmax(total))].hour == 6
+    with pytest.raises(ValueError, match=r"setpoints must be \(heating, cooling\), each \(336,\)"):
+        building_loads(b, cons, times, ta, zero, setpoints=(heat[:-1], cool))
+
+
 def test_sky_temperature_from_the_weather_file():
     """T_sky = (IR_h / sigma)^(1/4): 0 degC at sigma 273.15^4 = 315.66 W m-2. The Denver TMY3 file's horizontal
     infrared is Clark & Allen's (1978) clear-and-cloudy sky emissivity from its dew point and opaque sky cover,
@@ -466,7 +545,8 @@ def test_shipped_facade_case_is_an_annual_study(tmp_path):
     assert {"facade-balance", "spectral-rated", "loads-monthly", "window-gain", "cooling-daily"} <= ids
     html = (rep / "index.html").read_text()
     for text in ("Peak loads per zone", "Gains and losses per facade", "Energy balance of the building",
-                 "Spectral against rated glazing, per month", "ASHRAE 90.1 User&#x27;s Manual office"):
+                 "Spectral against rated glazing, per month", "ASHRAE 90.1 User&#x27;s Manual office",
+                 "21 / 24 degC on weekdays 06:00-22:00 and Saturdays 06:00-18:00, 15.6 / 26.7 degC otherwise"):
         assert text in html, text
     run = compute(SHIPPED / "facade", n_jobs=1, progress=False)
     bal = _closure(run.thermal)

@@ -321,7 +321,7 @@ class LoadsResult:
 
 def building_loads(building, constructions, times, temp_air, irradiance, temp_sky=None,
                    window_gain=None, mass_class="medium", warmup_steps=24 * 14, g_spectrum=None,
-                   shading=None, internal_gains=None):
+                   shading=None, internal_gains=None, setpoints=None):
     """Hourly solar gains and 5R1C loads for every zone.
 
     Parameters
@@ -354,6 +354,10 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
     internal_gains : array_like, optional
         (T,) internal gains per m2 of floor [W m-2] (e.g. :func:`widesky.thermal.schedules.office_gains`),
         replacing each zone's constant ``ZoneSpec.internal_gains``.
+    setpoints : tuple of array_like, optional
+        (heating, cooling): (T,) air set-points [degC] of every zone (e.g.
+        :func:`widesky.thermal.schedules.office_setpoints`), replacing each zone's constant
+        ``ZoneSpec.heating_setpoint`` and ``cooling_setpoint``.
 
     Returns
     -------
@@ -427,9 +431,16 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
     else:
         phi_int = np.array([[z.internal_gains for z in spec]])
     ta_out = np.asarray(temp_air, float)
-    res = simulate_5r1c(params, ta_out, phi_int, zone_solar,
-                        np.array([[z.heating_setpoint for z in spec]]),
-                        np.array([[z.cooling_setpoint for z in spec]]), warmup_steps=warmup_steps)
+    if setpoints is not None:
+        sp_h, sp_c = (np.asarray(a, float) for a in setpoints)
+        if sp_h.shape != (T,) or sp_c.shape != (T,) or not (np.all(np.isfinite(sp_h)) and np.all(np.isfinite(sp_c))):
+            raise ValueError(f"setpoints must be (heating, cooling), each ({T},) finite values in degC, got shapes "
+                             f"{sp_h.shape} and {sp_c.shape}")
+        sp_h, sp_c = sp_h[:, None], sp_c[:, None]
+    else:
+        sp_h = np.array([[z.heating_setpoint for z in spec]])
+        sp_c = np.array([[z.cooling_setpoint for z in spec]])
+    res = simulate_5r1c(params, ta_out, phi_int, zone_solar, sp_h, sp_c, warmup_steps=warmup_steps)
     idx = pd.DatetimeIndex(times)
 
     def frame(a, cols):

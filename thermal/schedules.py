@@ -20,8 +20,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["OFFICE_PROFILES", "OFFICE_DENSITIES", "OCCUPIED_THRESHOLD", "profile_fractions", "office_gains",
-           "occupied_hours"]
+__all__ = ["OFFICE_PROFILES", "OFFICE_DENSITIES", "OCCUPIED_THRESHOLD", "OFFICE_HVAC", "OFFICE_THERMOSTAT",
+           "profile_fractions", "office_gains", "occupied_hours", "office_setpoints"]
 
 
 def _steps(*spans):
@@ -65,6 +65,16 @@ OFFICE_DENSITIES = {
     "equipment_w_m2": 8.07,   # 0.75 W ft-2: office plug loads of the DOE reference medium office (Deru et al. 2011)
 }
 """Peak densities of an office's internal gains, each with its source."""
+
+OFFICE_HVAC = {"weekday": _steps((6, 0.0), (22, 1.0), (24, 0.0)), "saturday": _steps((6, 0.0), (18, 1.0), (24, 0.0)),
+               "sunday": _steps((24, 0.0))}
+"""Hours the office's thermostat holds its occupied set-points (1) rather than its set-back and set-up (0): weekdays
+06:00-22:00, Saturdays 06:00-18:00, never on Sundays; the periods of the DOE commercial reference office's
+``HTGSETP_SCH`` and ``CLGSETP_SCH`` (Deru et al. 2011, after the ASHRAE 90.1-1989 User's Manual office)."""
+
+OFFICE_THERMOSTAT = {"heating": 21.0, "heating_setback": 15.6, "cooling": 24.0, "cooling_setup": 26.7}
+"""The DOE commercial reference office's air set-points [degC] (``HTGSETP_SCH``: 21.0 in the hours of
+:data:`OFFICE_HVAC`, 15.6 (60 F) otherwise; ``CLGSETP_SCH``: 24.0, 26.7 (80 F) otherwise; Deru et al. 2011)."""
 
 OCCUPIED_THRESHOLD = 0.5
 """An hour counts as occupied when the occupancy fraction is at least this [1] (weekdays 08:00-18:00, Saturdays
@@ -146,3 +156,39 @@ def occupied_hours(times, step_hours=1.0, threshold=OCCUPIED_THRESHOLD, label="l
     """(T,) bool: the steps whose occupancy fraction is at least ``threshold`` [1] (``label``: see
     :func:`profile_fractions`)."""
     return profile_fractions(times, step_hours, label=label)["occupancy"] >= threshold
+
+
+def office_setpoints(times, step_hours=1.0, label="left", heating=None, cooling=None, heating_setback=None,
+                     cooling_setup=None):
+    """The office thermostat's air set-points at each step: the occupied ``heating`` / ``cooling`` in the hours of
+    :data:`OFFICE_HVAC`, the ``heating_setback`` / ``cooling_setup`` otherwise.
+
+    Parameters
+    ----------
+    times : pandas.DatetimeIndex
+        (T,) local step labels.
+    step_hours : float
+        [h].
+    label : {"left", "right", "center"}
+        See :func:`profile_fractions`.
+    heating, cooling, heating_setback, cooling_setup : float, optional
+        [degC]; default the DOE reference office's (:data:`OFFICE_THERMOSTAT`). They must satisfy
+        ``heating_setback <= heating <= cooling <= cooling_setup``.
+
+    Returns
+    -------
+    heating, cooling : numpy.ndarray
+        (T,) [degC].
+    """
+    given = {"heating": heating, "cooling": cooling, "heating_setback": heating_setback,
+             "cooling_setup": cooling_setup}
+    v = {k: float(OFFICE_THERMOSTAT[k] if x is None else x) for k, x in given.items()}
+    bad = [k for k, x in v.items() if not np.isfinite(x)]
+    if bad:
+        raise ValueError(f"{bad[0]}={v[bad[0]]!r} degC must be finite")
+    if not v["heating_setback"] <= v["heating"] <= v["cooling"] <= v["cooling_setup"]:
+        raise ValueError(f"set-points must satisfy heating_setback <= heating <= cooling <= cooling_setup, got "
+                         f"{v['heating_setback']:g} / {v['heating']:g} / {v['cooling']:g} / "
+                         f"{v['cooling_setup']:g} degC")
+    on = profile_fractions(times, step_hours, {"hvac": OFFICE_HVAC}, label)["hvac"] > 0.5
+    return (np.where(on, v["heating"], v["heating_setback"]), np.where(on, v["cooling"], v["cooling_setup"]))
