@@ -10,7 +10,8 @@ The ``[thermal]`` section sets the use (internal gains constant or on the office
 :mod:`widesky.thermal.schedules`), the window frames (frame share and U_f) and an operable shading device: in an
 occupied hour (occupancy fraction >= :data:`widesky.thermal.schedules.OCCUPIED_THRESHOLD`; every hour with constant
 gains) a window's device is deployed when the global irradiance on that window exceeds ``shading_threshold``
-[W m-2], and then multiplies its transmitted gain by ``shading_factor`` (ISO 13790 11.4.3, ``g_gl+sh / g_gl``),
+[W m-2] (with ``shading_control = "solar-not-heating"`` not while its zone heated in the previous hour), and then
+multiplies its transmitted gain by ``shading_factor`` (ISO 13790 11.4.3, ``g_gl+sh / g_gl``),
 and the thermostat (``thermostat = "office"``: the set-points in the hours of
 :data:`widesky.thermal.schedules.OFFICE_HVAC`, ``heating_setback`` and ``cooling_setup`` otherwise).
 With a rated spectrum, :func:`glazing_responses` adds each unit's rated route (AM1.5-weighted g by angle), so the
@@ -134,8 +135,9 @@ class ThermalRun:
     bare_gain, rated_gain : dict of str to numpy.ndarray
         Per unit (T, W) gain per m2 of glass without the shading device [W m-2]: spectral route, and rated route
         (empty when the run carried no rated responses).
-    deployed : numpy.ndarray
-        (T, W) bool, the shading device deployed.
+    deployed : dict of str to numpy.ndarray
+        Per unit (T, W) bool, the shading device deployed (with ``shading_control = "solar-not-heating"`` it depends
+        on the zones' heating, so on the unit).
     occupied : numpy.ndarray
         (T,) bool, the occupied steps.
     internal : dict of str to numpy.ndarray
@@ -162,7 +164,7 @@ class ThermalRun:
     floor_area: float
     bare_gain: dict = None
     rated_gain: dict = None
-    deployed: np.ndarray = None
+    deployed: dict = None
     occupied: np.ndarray = None
     internal: dict = None
     facade_of: dict = None
@@ -251,20 +253,22 @@ def building_thermal(result, building, tcfg, units, rated, temp_air, temp_sky=No
     if tcfg.get("thermostat", "constant") == "office":
         setpoints = office_setpoints(times, step_h, label, tcfg["heating_setpoint"], tcfg["cooling_setpoint"],
                                      tcfg["heating_setback"], tcfg["cooling_setup"])
-    deployed, reduction = shading_factors(incident, occupied, tcfg.get("shading_threshold", 200.0),
-                                          tcfg.get("shading_factor", 1.0))
+    requested, reduction = shading_factors(incident, occupied, tcfg.get("shading_threshold", 200.0),
+                                           tcfg.get("shading_factor", 1.0))
+    rule = tcfg.get("shading_control", "solar")
     names = set(result.responses)
-    gains, bare, rated_g, loads = {}, {}, {}, {}
+    gains, bare, rated_g, loads, deployed = {}, {}, {}, {}, {}
     for name, unit in units.items():
         cons = _constructions(tcfg, name, unit)
         wg = window_gain_by_surface(result, labels, building, cons, "spectral")
         bare[name] = wg
-        gains[name] = wg * reduction
         if f"{name}:rated" in names:
             rated_g[name] = window_gain_by_surface(result, labels, building, cons, "rated")
         loads[name] = building_loads(building, cons, times, temp_air, irr, temp_sky=temp_sky, window_gain=wg,
                                      mass_class=tcfg["mass"], shading=reduction, internal_gains=series,
-                                     setpoints=setpoints)
+                                     setpoints=setpoints, shading_rule=rule)
+        deployed[name] = loads[name].shading_state.to_numpy() if rule != "solar" else requested
+        gains[name] = wg * np.where(deployed[name], reduction, 1.0)
     ff = float(tcfg.get("frame_fraction", 0.0))
     return ThermalRun(units, rated, [surf[j] for j in wins], np.array([surf[j].area for j in wins]) * (1.0 - ff),
                       incident, gains, loads, np.asarray(temp_air, float),

@@ -156,6 +156,10 @@ SCHEMA = {
                                 "without it (1: no device; ISO 13790 Table 16, exterior white venetian blinds 0.15)"),
         "shading_threshold": Field("float", 200.0, "W m-2", 0.0, 1500.0, help="the device is deployed in occupied "
                                    "hours when the global irradiance on the window exceeds this"),
+        "shading_control": Field("str", "solar", choices=("solar", "solar-not-heating"),
+                                 help="'solar': the device down whenever the threshold asks; 'solar-not-heating': "
+                                      "not while the window's zone heated in the previous hour (it keeps the sun's "
+                                      "heat then)"),
         "air_changes": Field("float", 0.7, "h-1", 0.0, 20.0, help="ventilation and infiltration air changes"),
         "heating_setpoint": Field("float", 20.0, "degC", 5.0, 25.0, help="heating set-point (thermostat = 'office': "
                                   "in the thermostat's hours)"),

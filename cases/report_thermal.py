@@ -95,7 +95,7 @@ def _facade_html(th, step_hours, book):
         for f, parts in th.facade_parts(name).items():
             e = {k: float(v.sum() * step_hours / 1e6) for k, v in parts.items()}
             sel = [j for j, o in enumerate(orient) if o == f]
-            hours = (f"{th.deployed[:, sel].mean(axis=1).sum() * step_hours:.0f}"
+            hours = (f"{th.deployed[name][:, sel].mean(axis=1).sum() * step_hours:.0f}"
                      if sel and th.deployed is not None else "-")
             rows.append([name, f, f"{e['transmitted']:.2f}", f"{e['opaque']:.2f}", f"{e['sky_loss']:.2f}",
                          f"{e['transmitted'] + e['opaque'] - e['sky_loss']:.2f}", hours])
@@ -238,8 +238,8 @@ def _thermostat_text(tcfg):
             "thermostat hours)")
 
 
-def _use_text(th, tcfg):
-    """The zones' use, frames and shading device in words."""
+def _use_text(th, tcfg, step_hours=1.0):
+    """The zones' use, frames and shading device in words (``step_hours`` [h])."""
     if tcfg.get("schedule", "constant") == "office":
         from widesky.thermal.schedules import OFFICE_DENSITIES as d
         occ = int(th.occupied.sum())
@@ -256,10 +256,13 @@ def _use_text(th, tcfg):
               if ff > 0 else "no frames (the whole window is glass)")
     fsh = float(tcfg.get("shading_factor", 1.0))
     if fsh < 1:
-        hours = th.deployed.mean(axis=1).sum() if th.deployed is not None else 0.0
+        hours = ", ".join(f"{name} {th.deployed[name].mean(axis=1).sum() * step_hours:.0f}" for name in th.units) \
+            if th.deployed is not None else "0"
+        unless = (", unless its zone heated in the previous hour" if tcfg.get("shading_control") == "solar-not-heating"
+                  else "")
         shade = (f"a shading device that multiplies the glazing's g by {fsh:g} when lowered (ISO 13790 Table 16), "
                  f"lowered in an occupied hour when the global irradiance on that window exceeds "
-                 f"{tcfg['shading_threshold']:g} W m-2 (on average {hours:.0f} hours per window)")
+                 f"{tcfg['shading_threshold']:g} W m-2{unless} (hours per window on average: {hours})")
     else:
         shade = "no shading device"
     return f"{use}; {frames}; {shade}"
@@ -362,7 +365,7 @@ on the glass. Glass per facade: {area_text}.</p>
 {chart}
 <p class="note">ISO 13790 5R1C zones (thermal), {len(th.loads[next(iter(th.loads))].cooling.columns)} zones,
 {fa:.0f} m2 of floor; ideal plant holding {escape(_thermostat_text(tcfg))};
-{tcfg['air_changes']:g} h-1, {escape(_use_text(th, tcfg))}; {tcfg['mass']} mass,
+{tcfg['air_changes']:g} h-1, {escape(_use_text(th, tcfg, run.step_hours))}; {tcfg['mass']} mass,
 walls U {tcfg['wall_u']:g}, roof {tcfg['roof_u']:g}, ground floor {tcfg['floor_u']:g} W m-2 K-1 (b = 0.5);
 outdoor air: {temp_text}; {sky_loss}. The first 14 days are run twice (warm-up). Per zone: <code>loads.csv</code>.</p>
 {peaks_html}

@@ -96,6 +96,47 @@ def test_zero_solar_limit_and_gain_formulas():
     assert g[0, 0] == pytest.approx(2.0 * 400.0 * o["shgc"][0, 0])
 
 
+def test_shading_kept_up_while_the_zone_heats():
+    """A January fortnight, sunny days at -5 to 5 degC: blinds requested on every sunlit window in the day. With the
+    rule "solar-not-heating" each window's blinds are down exactly where requested and its zone did not heat in the
+    previous hour; the transmitted gains follow that state; the energy balance still closes; and the heating lies
+    between that with the blinds down wherever requested and that with no blinds (more of the sun's heat kept)."""
+    T = 24 * 14
+    times = pd.date_range("2021-01-04", periods=T, freq="h", tz="UTC")
+    hour = np.arange(T) % 24
+    b = box_building(20, 12, 3.5, wwr=0.4, zone_use=ZoneSpec("u", internal_gains=2000.0))
+    surf = [s for s in b.surfaces if s.kind != "shading"]
+    el = np.clip(30.0 * np.sin(np.pi * (hour - 6) / 12), -10, None)
+    irr = surface_irradiance([s.tilt for s in surf], [s.azimuth for s in surf], 90.0 - el,
+                             90.0 + 180.0 * np.clip((hour - 6) / 12, 0, 1), np.where(el > 0, 800.0, 0.0),
+                             np.where(el > 0, 80.0, 0.0), np.where(el > 0, 800.0 * np.sin(np.radians(el)) + 80, 0),
+                             np.full(T, 1361.0), transposition="hay-davies")
+    ta = 5.0 * np.cos(2 * np.pi * (hour - 15) / 24)
+    wins = [j for j, s in enumerate(surf) if s.kind == "window"]
+    glob = (irr["poa_direct"] + irr["poa_sky_diffuse"] + irr["poa_ground_diffuse"])[:, wins]
+    shade = np.where((glob > 200.0) & ((hour >= 8) & (hour < 18))[:, None], 0.15, 1.0)
+    run = {rule: building_loads(b, CONS, times, ta, irr, shading=shade, shading_rule=rule)
+           for rule in ("solar", "solar-not-heating")}
+    none = building_loads(b, CONS, times, ta, irr)
+    r = run["solar-not-heating"]
+    state = r.shading_state.to_numpy()
+    heated = r.heating[[surf[j].zone for j in wins]].to_numpy() > 0
+    want = (shade < 1)
+    want[1:] &= ~heated[:-1]
+    np.testing.assert_array_equal(state, want)
+    assert state.any() and (state != (shade < 1)).any()
+    assert np.array_equal(run["solar"].shading_state.to_numpy(), shade < 1)
+    bare = none.parts["transmitted"].to_numpy()[:, wins]
+    np.testing.assert_allclose(r.parts["transmitted"].to_numpy()[:, wins], bare * np.where(state, shade, 1.0),
+                               rtol=1e-12)
+    bal = r.balance()
+    assert abs(bal.loc["total", "residual"]) < 1e-6 * (bal.loc["total", "heating"] + bal.loc["total", "internal"])
+    h = {k: v.heating.to_numpy().sum() for k, v in {**run, "none": none}.items()}
+    assert h["none"] < h["solar-not-heating"] < h["solar"], h
+    with pytest.raises(ValueError, match="shading_rule='night' not one of"):
+        building_loads(b, CONS, times, ta, irr, shading=shade, shading_rule="night")
+
+
 @pytest.mark.slow
 def test_glazing_response_through_integrator():
     """The integrator with the glazing as a SpectralAngularTable under a uniform (isotropic,

@@ -86,6 +86,42 @@ def test_zone_errors():
         simulate_5r1c(P, np.zeros(3), 0.0, np.zeros(2))
 
 
+def test_shading_device_run_by_the_zone_state():
+    """A device requested every step: without any heating it is down every step and the run equals the shaded gains'
+    run; never requested, the bare run; with a heating set-point it is kept up exactly in the steps after one that
+    heated (checked step by step against the run's own heating), and the scheme's outputs are those of a plain run
+    fed the realised gains (the switching adds no energy)."""
+    T = 24 * 10
+    hour = np.arange(T) % 24
+    te = 8.0 + 8.0 * np.cos(2 * np.pi * (hour - 15) / 24)
+    sun = np.clip(np.sin(np.pi * (hour - 6) / 12), 0, None)
+    up, down = 3000.0 * sun, 450.0 * sun
+    for zones in (1, 3):
+        p = ZoneParameters(*(np.full(zones, v) for v in (48.0, 36.0, 51.0, 18.0, 2.0e6, 140.0)))
+        col = np.repeat(up[:, None], zones, 1), np.repeat(down[:, None], zones, 1)
+        warm = dict(heating_setpoint=-np.inf, cooling_setpoint=np.inf, temp_mass_start=15.0)
+        r = simulate_5r1c(p, te, 0.0, col[0], phi_sol_shaded=col[1], shade_request=np.ones((T, zones), bool), **warm)
+        ref = simulate_5r1c(p, te, 0.0, col[1], **warm)
+        assert r["shaded"].all()
+        np.testing.assert_allclose(r["temp_air"], ref["temp_air"], rtol=1e-12, atol=1e-12)
+        r0 = simulate_5r1c(p, te, 0.0, col[0], phi_sol_shaded=col[1], shade_request=np.zeros(T, bool), **warm)
+        assert not r0["shaded"].any()
+        np.testing.assert_allclose(r0["temp_air"], simulate_5r1c(p, te, 0.0, col[0], **warm)["temp_air"], rtol=1e-12)
+        req = np.ones((T, zones), bool)
+        r = simulate_5r1c(p, te, 0.0, col[0], 20.0, 26.0, phi_sol_shaded=col[1], shade_request=req,
+                          temp_mass_start=15.0)
+        heated = r["heating"] > 0
+        assert heated.any() and (~heated).any()
+        np.testing.assert_array_equal(r["shaded"][1:], ~heated[:-1])
+        fed = simulate_5r1c(p, te, 0.0, np.where(r["shaded"], col[1], col[0]), 20.0, 26.0, temp_mass_start=15.0)
+        np.testing.assert_allclose(r["heating"], fed["heating"], rtol=1e-9, atol=1e-6)
+        np.testing.assert_allclose(r["cooling"], fed["cooling"], rtol=1e-9, atol=1e-6)
+    with pytest.raises(ValueError, match="give phi_sol_shaded and shade_request together"):
+        simulate_5r1c(P, te, 0.0, up, phi_sol_shaded=down)
+    with pytest.raises(ValueError, match="shade_request must be bool"):
+        simulate_5r1c(P, te, 0.0, up, phi_sol_shaded=down, shade_request=np.ones(T))
+
+
 def test_surface_irradiance_against_pvlib_haydavies():
     """Against pvlib 0.16 (independent code): beam + Hay-Davies sky diffuse + isotropic ground."""
     pvlib = pytest.importorskip("pvlib")

@@ -36,7 +36,8 @@ from .optics import hemispherical
 from .zone import H_MS, ZoneParameters, simulate_5r1c
 
 __all__ = ["Construction", "MASS_CLASSES", "R_SE", "window_gains", "opaque_gains", "sky_losses",
-           "zone_parameters", "building_loads", "LoadsResult", "BALANCE_TERMS", "glazing_g_table"]
+           "zone_parameters", "building_loads", "LoadsResult", "BALANCE_TERMS", "SHADING_RULES",
+           "glazing_g_table"]
 
 R_SE = 0.04
 """External surface resistance [m2 K W-1] (ISO 13790 11.3.4)."""
@@ -230,6 +231,10 @@ def zone_parameters(building, constructions, mass_class="medium"):
                           np.maximum(cols["hve"], 1e-3), cols["cm"], cols["am"])
 
 
+SHADING_RULES = ("solar", "solar-not-heating")
+"""Rules of an operable shading device (:func:`building_loads`): down wherever requested, or also kept up while the
+window's zone heats."""
+
 BALANCE_TERMS = ("internal", "solar_transmitted", "solar_opaque", "sky_loss", "radiated_out", "ventilation",
                  "transmission_windows", "transmission_opaque", "heating", "cooling", "storage")
 """Terms of :meth:`LoadsResult.balance` [kWh]: gains positive as named, losses positive as named."""
@@ -257,6 +262,8 @@ class LoadsResult:
         13790 C.2 sends straight out through the glazing).
     storage_kwh : pandas.Series, optional
         (Z,) heat stored in each zone's mass over the period [kWh] (C_m times the change of theta_m).
+    shading_state : pandas.DataFrame, optional
+        (T, W) bool per window: the steps its shading device was down (``building_loads(shading=...)``).
     """
 
     surface_gains: pd.DataFrame
@@ -267,6 +274,7 @@ class LoadsResult:
     parts: dict = None
     flows: dict = None
     storage_kwh: pd.Series = None
+    shading_state: pd.DataFrame = None
 
     def _dt(self):
         return (self.heating.index[1] - self.heating.index[0]).total_seconds() / 3600.0
@@ -321,7 +329,7 @@ class LoadsResult:
 
 def building_loads(building, constructions, times, temp_air, irradiance, temp_sky=None,
                    window_gain=None, mass_class="medium", warmup_steps=24 * 14, g_spectrum=None,
-                   shading=None, internal_gains=None, setpoints=None):
+                   shading=None, internal_gains=None, setpoints=None, shading_rule="solar"):
     """Hourly solar gains and 5R1C loads for every zone.
 
     Parameters
@@ -351,6 +359,11 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
     shading : array_like, optional
         (T, W) the shading device's reduction factor of each window's transmitted gain per step [1]
         (1: not deployed; ISO 13790 11.4.3 ``g_gl+sh / g_gl`` when deployed); default no shading.
+    shading_rule : {"solar", "solar-not-heating"}
+        ``"solar"``: the device as ``shading`` gives it, every step; ``"solar-not-heating"``: ``shading`` is where
+        the device is requested, and it goes down there unless the window's zone heated in the previous step
+        (:func:`~widesky.thermal.zone.simulate_5r1c`'s ``shade_request``); ``LoadsResult.shading_state`` has the
+        steps it was down.
     internal_gains : array_like, optional
         (T,) internal gains per m2 of floor [W m-2] (e.g. :func:`widesky.thermal.schedules.office_gains`),
         replacing each zone's constant ``ZoneSpec.internal_gains``.
@@ -402,8 +415,6 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
                 trans[:, j] = window_gains(s.area, E["poa_direct"][:, j],
                                            E["poa_sky_diffuse"][:, j] + E["poa_ground_diffuse"][:, j],
                                            E["aoi"][:, j], ang, g, gd, c.frame_fraction)
-            if shading is not None:
-                trans[:, j] *= shading[:, wins.index(j)]
             frame = s.area * c.frame_fraction
             if frame > 0:
                 opaque[:, j] = opaque_gains(frame, c.frame_u, c.absorptance, glob)
@@ -415,12 +426,21 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
             if temp_sky is not None:
                 sky[:, j] = sky_losses([s.area], [c.u_value], [c.emissivity], [s.tilt], temp_air,
                                        temp_sky)[:, 0]
+    if shading_rule not in SHADING_RULES:
+        raise ValueError(f"shading_rule={shading_rule!r} not one of {SHADING_RULES}")
+    trans_bare = trans.copy()
+    requested = np.zeros((T, len(wins)), bool)
+    if shading is not None:
+        trans[:, wins] = trans_bare[:, wins] * shading
+        requested = shading < 1.0
     gains = trans + opaque - sky
     zones = list(building.zones)
     M = np.zeros((S, len(zones)))
     for j, s in enumerate(surf):
         M[j, zones.index(s.zone)] = 1.0
     zone_solar = gains @ M
+    by_state = shading is not None and shading_rule == "solar-not-heating"
+    zone_of_win = [zones.index(surf[j].zone) for j in wins]
     params = zone_parameters(building, constructions, mass_class)
     spec = [building.zones[z] for z in zones]
     if internal_gains is not None:
@@ -440,7 +460,18 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
     else:
         sp_h = np.array([[z.heating_setpoint for z in spec]])
         sp_c = np.array([[z.cooling_setpoint for z in spec]])
-    res = simulate_5r1c(params, ta_out, phi_int, zone_solar, sp_h, sp_c, warmup_steps=warmup_steps)
+    extra = {}
+    if by_state:
+        req_zone = (requested.astype(float) @ M[wins] > 0) if wins else np.zeros((T, len(zones)), bool)
+        extra = {"phi_sol_shaded": zone_solar, "shade_request": req_zone}
+        zone_solar = (trans_bare + opaque - sky) @ M                  # the device up
+    res = simulate_5r1c(params, ta_out, phi_int, zone_solar, sp_h, sp_c, warmup_steps=warmup_steps, **extra)
+    state = requested
+    if by_state:                              # the steps each window's device was down: requested, zone allowed
+        state = requested & res["shaded"][:, zone_of_win]
+        trans[:, wins] = trans_bare[:, wins] * np.where(state, shading, 1.0)
+        gains = trans + opaque - sky
+        zone_solar = gains @ M
     idx = pd.DatetimeIndex(times)
 
     def frame(a, cols):
@@ -463,4 +494,5 @@ def building_loads(building, constructions, times, temp_air, irradiance, temp_sk
                        {"transmitted": frame(trans, labels), "opaque": frame(opaque, labels),
                         "sky_loss": frame(sky, labels)},
                        {k: frame(v, zones) for k, v in flows.items()},
-                       pd.Series(storage, index=zones))
+                       pd.Series(storage, index=zones),
+                       None if shading is None else frame(state, [labels[j] for j in wins]))

@@ -97,7 +97,8 @@ class ZoneParameters:
 def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heating_setpoint=20.0,
                   cooling_setpoint=27.0, heating_max=np.inf, cooling_max=np.inf, *,
                   internal_convective_fraction=0.5, temp_supply=None, timestep=3600.0,
-                  temp_mass_start=None, warmup_steps=0, h_tr_w=None, h_tr_op=None, h_ve=None):
+                  temp_mass_start=None, warmup_steps=0, h_tr_w=None, h_tr_op=None, h_ve=None,
+                  phi_sol_shaded=None, shade_request=None):
     """Run the 5R1C zone model hour by hour.
 
     Parameters
@@ -134,13 +135,20 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
     h_ve : array_like, optional
         (T,) or (T, Z) ventilation conductance per step [W K-1] (> 0), replacing ``params.h_ve``
         (e.g. a night-ventilation fan on a schedule, ASHRAE 140 Case 650).
+    phi_sol_shaded, shade_request : array_like, optional
+        A shading device run by the zone's state: (T,) or (T, Z) the solar gains [W] with the device down where it
+        is requested, and (T,) or (T, Z) bool, the steps it is requested (e.g. high irradiance on the windows in an
+        occupied hour). The device goes down in a requested step unless the zone heated in the previous step (kept
+        up for the sun's heat while the zone needs heat; one step behind, as a building controller reads the zone's
+        state); ``phi_sol`` are then the gains with it up.
 
     Returns
     -------
     dict of numpy.ndarray
         (T, Z): ``temp_air``, ``temp_surface``, ``temp_mass`` (step means), ``temp_mass_end``
         (mass temperature at the end of each step) [degC]; ``heating`` (>= 0),
-        ``cooling`` (>= 0) [W] (mean power over each step).
+        ``cooling`` (>= 0) [W] (mean power over each step); with ``phi_sol_shaded``, ``shaded`` (bool): the
+        steps the device was down.
     """
     g = params.conductances()
     Z = int(np.broadcast(*(np.atleast_1d(v) for v in g.values())).shape[0])
@@ -161,6 +169,14 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
     series = {"phi_int": col(phi_int, "phi_int"), "phi_sol": col(phi_sol, "phi_sol"),
               "heating_setpoint": col(heating_setpoint, "heating_setpoint"),
               "cooling_setpoint": col(cooling_setpoint, "cooling_setpoint")}
+    if (phi_sol_shaded is None) != (shade_request is None):
+        raise ValueError("give phi_sol_shaded and shade_request together")
+    if phi_sol_shaded is not None:
+        series["phi_sol_shaded"] = col(phi_sol_shaded, "phi_sol_shaded")
+        req = np.asarray(shade_request)
+        if req.dtype != bool:
+            raise ValueError(f"shade_request must be bool, got {req.dtype}")
+        series["shade_request"] = col(req, "shade_request") > 0.5
     for name, a in series.items():
         if a.shape[0] not in (1, T):
             raise ValueError(f"{name} has {a.shape[0]} steps, temp_air_out {T}")
@@ -209,10 +225,10 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
     num_m = cm - 0.5 * (h3 + h_em)
     fc = internal_convective_fraction
 
-    def step(tm_prev, phi_hc):
+    def step(tm_prev, phi_hc, phi_sol=series["phi_sol"]):
         """All steps at once for given previous mass temperatures and heat inputs, (T, Z)."""
         p_ia = fc * series["phi_int"] + phi_hc
-        p_rad = (1.0 - fc) * series["phi_int"] + series["phi_sol"]
+        p_rad = (1.0 - fc) * series["phi_int"] + phi_sol
         p_m, p_st = f_m * p_rad, f_st * p_rad
         p_mtot = p_m + h_em * te + h3 * (p_st + h_w * te + h1 * (p_ia / h_ve + tsup)) / h2
         tm_t = (tm_prev * num_m + p_mtot) / den_m
@@ -229,13 +245,22 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
     ta_q, _, _, tm_q = (v - w for v, w in zip(step(zero, zero + 1.0), (ta_c, 0, 0, tm_c)))
     hs = np.broadcast_to(series["heating_setpoint"], (T, Z))
     cs = np.broadcast_to(series["cooling_setpoint"], (T, Z))
+    shading = "phi_sol_shaded" in series
+    if shading:             # the device's effect on the air and the mass: another basis case, switched per step
+        ta_s, _, _, tm_s = step(zero, zero, series["phi_sol_shaded"])
+        ta_d, tm_d = ta_s - ta_c, tm_s - tm_c
+        req_t = np.broadcast_to(series["shade_request"], (T, Z))
+    else:
+        ta_d = tm_d = np.zeros((1, Z))
+        req_t = np.zeros((1, Z), bool)
+    shaded = np.zeros((T, Z), bool)
     sp0 = float(np.nan_to_num(hs[0].min(), neginf=20.0, posinf=20.0))
     tm = np.full(Z, sp0 if temp_mass_start is None else float(temp_mass_start))
     order = list(range(min(warmup_steps, T))) + list(range(T))
     n_warm = len(order) - T
     tm_prev = np.empty((T, Z))
     need = np.empty((T, Z))
-    if Z == 1:                       # plain floats: ~20x faster than numpy on 1-element arrays
+    if Z == 1 and not shading:       # plain floats: ~20x faster than numpy on 1-element arrays
         cols = [a[:, 0].tolist() for a in (ta_c, ta_m, ta_q, tm_c, tm_m, tm_q, hs, cs)]
         c0, c1, c2, m0, m1, m2, hs1, cs1 = cols
         x, hm, cm1 = float(tm[0]), float(hmax[0]), float(cmax[0])
@@ -252,15 +277,28 @@ def simulate_5r1c(params: ZoneParameters, temp_air_out, phi_int, phi_sol, heatin
             x = m0[t] + m1[t] * x + m2[t] * q
         tm_prev[:, 0], need[:, 0] = tp, nd
     else:
+        heated = np.zeros(Z, bool)
         for i, t in enumerate(order):
+            down = req_t[t] & ~heated if shading else False
             ta0 = ta_c[t] + ta_m[t] * tm
+            if shading:
+                ta0 = ta0 + np.where(down, ta_d[t], 0.0)
             q = np.where(ta0 < hs[t], (hs[t] - ta0) / ta_q[t],
                          np.where(ta0 > cs[t], (cs[t] - ta0) / ta_q[t], 0.0))
             q = np.clip(q, -cmax, hmax)
             if i >= n_warm:
                 tm_prev[t], need[t] = tm, q
+                if shading:
+                    shaded[t] = down
             tm = tm_c[t] + tm_m[t] * tm + tm_q[t] * q
-    ta, ts, tmm, tm_t = step(tm_prev, need)
+            if shading:
+                tm = tm + np.where(down, tm_d[t], 0.0)
+                heated = q > 0.0
+    phi_eff = np.where(shaded, np.broadcast_to(series["phi_sol_shaded"], (T, Z)), series["phi_sol"]) if shading \
+        else series["phi_sol"]
+    ta, ts, tmm, tm_t = step(tm_prev, need, phi_eff)
     out = {"temp_air": ta, "temp_surface": ts, "temp_mass": tmm, "temp_mass_end": tm_t,
            "heating": np.maximum(need, 0.0), "cooling": np.maximum(-need, 0.0)}
+    if shading:
+        out["shaded"] = shaded
     return out
