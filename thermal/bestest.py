@@ -620,7 +620,7 @@ def horizon_g(angles, g):
 
 
 def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterior="hourly",
-               transposition="perez"):
+               transposition="perez", diffuse_optics="angular"):
     """Hourly solar gains of a case [W] split by element, from the weather (Perez or Hay-Davies) or
     from the integrator (``poa``, see :func:`integrator_irradiance`).
 
@@ -643,6 +643,12 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     transposition : str
         The weather route's transposition (:data:`widesky.thermal.surface.TRANSPOSITIONS`): ``"perez"``
         (Perez et al. 1990, default) or ``"hay-davies"``.
+    diffuse_optics : str
+        A key of :data:`DIFFUSE_OPTICS`: how the glass takes the diffuse light. ``"angular"`` (default): each route's
+        own angles (below; the integrator's glass at every ray's own angle); ``"hemispherical"``: the glass's g at
+        the sun's angle on the beam alone and its hemispherical g on all diffuse light, circumsolar and horizon band
+        included (circumsolar light still shaded like the beam): the same convention on both routes, to compare
+        their light through it.
 
     Shading devices (Cases 610, 630 ...): on the weather route the window's beam (with the
     circumsolar part) is scaled by its sunlit share, its isotropic sky and ground-reflected light by
@@ -690,7 +696,17 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
     u_opq = np.array([case.u_wall] * len(case.walls) + [case.u_roof])
     tilt = np.array([s[0] for s in surf])
     diffuse = irr["poa_sky_diffuse"] + irr["poa_ground_diffuse"]
-    if poa is not None:
+    if diffuse_optics not in DIFFUSE_OPTICS:
+        raise ValueError(f"diffuse_optics={diffuse_optics!r} not one of {DIFFUSE_OPTICS}")
+    if poa is not None and diffuse_optics == "hemispherical":
+        if "window_light_walls" not in poa:
+            raise ValueError("diffuse_optics='hemispherical' needs a poa with window_light_walls "
+                             "(integrator_irradiance)")
+        wl = poa["window_light_walls"]
+        gain = (np.interp(np.clip(wl["aoi"], 0.0, 90.0), ang, g) * wl["direct"] + g_d * wl["diffuse"])   # (T, 5)
+        window_walls = gain * win_area[None, :] * (1 - esc)
+        window = window_walls.sum(1)
+    elif poa is not None:
         window = poa["window_gain"][case.window.name] * case.window_area * (1 - esc)
         walls = poa.get("window_gain_walls", {}).get(case.window.name)
         window_walls = None if walls is None else walls * win_area[None, :] * (1 - esc)
@@ -698,10 +714,14 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
         sunlit, sky_v, gnd_v, hor_v = _shading_factors(case, sp["zenith"].to_numpy(),
                                                        sp["azimuth"].to_numpy())
         hor = irr["poa_horizon"]
-        diffuse_w = ((irr["poa_sky_diffuse"] - hor) * sky_v + irr["poa_ground_diffuse"] * gnd_v
-                     + hor * hor_v * (horizon_g(ang, g) / g_d))
-        window_walls = window_gains(win_area, irr["poa_direct"] * sunlit, diffuse_w, irr["aoi"], ang, g,
-                                    g_d) * (1 - esc)
+        direct_w = irr["poa_direct"] * sunlit
+        band = horizon_g(ang, g) / g_d
+        if diffuse_optics == "hemispherical":        # circumsolar light at the hemispherical g, shaded as the beam
+            direct_w = (irr["poa_direct"] - irr["poa_circumsolar"]) * sunlit
+            band = 1.0
+        diffuse_w = ((irr["poa_sky_diffuse"] - hor) * sky_v + irr["poa_ground_diffuse"] * gnd_v + hor * hor_v * band
+                     + (irr["poa_direct"] * sunlit - direct_w))
+        window_walls = window_gains(win_area, direct_w, diffuse_w, irr["aoi"], ang, g, g_d) * (1 - esc)
         window = window_walls.sum(1)
     t_sky = sky_temperature(np.maximum(weather["ghi_infrared"].to_numpy(), 1.0))
     ta = weather["temp_air"].to_numpy()
@@ -729,6 +749,10 @@ def case_gains(case: BestestCase, weather, site, g_table=None, poa=None, exterio
             "incident_south": irr["poa_global"][:, south], "temp_sky": t_sky,
             "h_tr_w": h_w, "h_tr_op": h_op}
 
+
+DIFFUSE_OPTICS = ("angular", "hemispherical")
+"""How the windows take the diffuse light (:func:`case_gains`): each route's own angles, or the glass's hemispherical
+value on all of it (the beam alone at its angle)."""
 
 WEATHER_FILES = {"tmy3": "weather/USA_CO_Denver.Intl.AP.725650_TMY3.epw",
                  "drycold": "weather/DRYCOLD.mos"}
@@ -772,8 +796,10 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
         and ``aoi`` [deg] for the N, E, S, W walls and the roof; ``window_gain``: dict window name
         -> (T,) [W m-2 of glass] (g, or the transmittance, times the light; area-weighted over the
         windows); ``window_gain_walls``: dict window name -> (T, 5) the same per glazed wall (N, E, S,
-        W, roof; 0 where a wall has no window); ``result``: the POAResult; ``geometry``: the
-        (layout, shading) computed.
+        W, roof; 0 where a wall has no window); ``window_light_walls``: dict ``direct``, ``diffuse`` (sky and
+        ground) (T, 5) [W m-2] and ``aoi`` (T, 5) [deg] on each wall's glass (area-weighted; for
+        ``diffuse_optics="hemispherical"``); ``result``: the POAResult; ``geometry``: the (layout, shading)
+        computed.
     """
     if quantity not in ("shgc", "transmittance"):
         raise ValueError(f"quantity={quantity!r} not one of ('shgc', 'transmittance')")
@@ -816,6 +842,16 @@ def integrator_irradiance(weather="tmy3", data_dir=None, sky=None, n_jobs=1, pro
             walls[:, k] += per[:, j] * area[j]
             glass[k] += area[j]
         irr["window_gain_walls"][u.name] = walls / np.maximum(glass, 1e-12)
+    light = irradiance_by_surface(res, win)                                 # (T, W) on each window's faces
+    wl = {k: np.zeros((len(res.times), 5)) for k in ("direct", "diffuse", "aoi")}
+    glass = np.zeros(5)
+    for j, az in enumerate(wall_of):
+        k = (0, 90, 180, 270).index(az)
+        wl["direct"][:, k] += light["poa_direct"][:, j] * area[j]
+        wl["diffuse"][:, k] += (light["poa_sky_diffuse"][:, j] + light["poa_ground_diffuse"][:, j]) * area[j]
+        wl["aoi"][:, k] += light["aoi"][:, j] * area[j]
+        glass[k] += area[j]
+    irr["window_light_walls"] = {k: v / np.maximum(glass, 1e-12) for k, v in wl.items()}
     irr["result"] = res
     irr["geometry"] = (layout, shading)
     return irr
@@ -1051,7 +1087,8 @@ def _run_iso52016(c, weather, gains, heat, cool, h_ve, warmup_steps, data_dir, o
 
 
 def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=None, poa=None,
-             exterior="hourly", zone_model="iso52016", iso52016_options=None, transposition="perez"):
+             exterior="hourly", zone_model="iso52016", iso52016_options=None, transposition="perez",
+             diffuse_optics="angular"):
     """Simulate ASHRAE 140 Case ``case`` for a weather year (hourly, 8760 steps).
 
     ``weather``: a key of :data:`WEATHER_FILES`, or a (data, site) pair as :func:`load_weather`.
@@ -1063,7 +1100,8 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
     52016-1's balance per element, :mod:`widesky.thermal.zone_iso52016`, with the
     layers of :func:`iso52016_elements` and hourly outside coefficients; ``exterior`` then does not apply;
     ``iso52016_options``: choices of :data:`ISO52016_OPTIONS`, by default the first of each; it misses fewer
-    figures than 5R1C, docs/thermal.md) or ``"5r1c"`` (ISO 13790's network).
+    figures than 5R1C, docs/thermal.md) or ``"5r1c"`` (ISO 13790's network). ``diffuse_optics``: how the windows
+    take the diffuse light (:func:`case_gains`).
 
     Returns
     -------
@@ -1078,7 +1116,7 @@ def run_case(case, data_dir=None, weather="tmy3", warmup_steps=24 * 31, g_table=
     """
     c = case if isinstance(case, BestestCase) else case_definition(case, data_dir)
     weather, site = load_weather(weather, data_dir) if isinstance(weather, str) else weather
-    gains = case_gains(c, weather, site, g_table, poa, exterior, transposition)
+    gains = case_gains(c, weather, site, g_table, poa, exterior, transposition, diffuse_optics)
     phi_sol = gains["window"] + gains["opaque"] - gains["sky_loss"]
     heat, cool, h_ve = setpoint_schedules(c, weather.index)
     if zone_model not in ZONE_MODELS:
@@ -1113,8 +1151,8 @@ def run_case_on_route(case, route="weather", transposition="perez", data_dir=Non
                       poas=None, **model):
     """:func:`run_case` (TMY3) on a sky ``route``: ``"weather"`` (the file transposed by ``transposition``) or
     ``"integrator"`` (:func:`integrator_irradiance` of the case's room geometry, computed once per geometry into
-    ``poas``, a dict to share between calls); ``model``: :func:`run_case`'s ``zone_model``, ``exterior`` and
-    ``iso52016_options``."""
+    ``poas``, a dict to share between calls); ``model``: :func:`run_case`'s ``zone_model``, ``exterior``,
+    ``iso52016_options`` and ``diffuse_optics``."""
     if route not in ("weather", "integrator"):
         raise ValueError(f"route={route!r} not one of ('weather', 'integrator')")
     poa = None

@@ -53,7 +53,7 @@ def free_float_days(route="weather", transposition="perez", data_dir=None, n_job
     """widesky's hourly zone air temperature [degC] (the hour's mean, as the programs report it) on the days of
     :data:`FREE_FLOAT_DAY_RANGE`, by :func:`~widesky.thermal.bestest.run_case` on the ``route`` ("weather" or
     "integrator"). ``poas``: integrator results by room geometry to reuse (filled in); ``model``: run_case's
-    ``zone_model`` (default ISO 52016-1), ``exterior`` and ``iso52016_options``.
+    ``zone_model`` (default ISO 52016-1), ``exterior``, ``iso52016_options`` and ``diffuse_optics``.
 
     Returns
     -------

@@ -61,7 +61,8 @@ def monthly_loads(route="weather", transposition="perez", data_dir=None, n_jobs=
                   **model):
     """widesky's monthly figures of :data:`MONTHLY_RANGE` by :func:`~widesky.thermal.bestest.run_case` on the
     ``route`` ("weather" or "integrator"); ``poas``: integrator results by room geometry to reuse (filled in);
-    ``model``: run_case's ``zone_model`` (default ISO 52016-1), ``exterior`` and ``iso52016_options``.
+    ``model``: run_case's ``zone_model`` (default ISO 52016-1), ``exterior``, ``iso52016_options`` and
+    ``diffuse_optics``.
 
     Returns
     -------

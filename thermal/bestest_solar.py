@@ -120,7 +120,8 @@ def _transmittance_table(case):
     return ANGLES, tau, tau_d, tau_d
 
 
-def solar_outputs(route="weather", transposition="perez", data_dir=None, n_jobs=1, progress=False):
+def solar_outputs(route="weather", transposition="perez", data_dir=None, n_jobs=1, progress=False,
+                  diffuse_optics="angular"):
     """widesky's counterparts of :data:`ANNUAL_INCIDENT`, :data:`ANNUAL_TRANSMITTED` and :data:`DAY_INCIDENT`.
 
     Parameters
@@ -135,6 +136,9 @@ def solar_outputs(route="weather", transposition="perez", data_dir=None, n_jobs=
     data_dir : str, optional
     n_jobs : int
         Ray-casting processes of the integrator route.
+    diffuse_optics : str
+        How the windows take the diffuse light (:func:`~widesky.thermal.bestest.case_gains`; the incident figures
+        do not depend on it).
 
     Returns
     -------
@@ -160,7 +164,8 @@ def solar_outputs(route="weather", transposition="perez", data_dir=None, n_jobs=
                                                   quantity="transmittance")
             poa = poas[geo]
         table = _transmittance_table(c)
-        g = case_gains(c, weather, site, g_table=table, poa=poa, transposition=transposition)
+        g = case_gains(c, weather, site, g_table=table, poa=poa, transposition=transposition,
+                       diffuse_optics=diffuse_optics)
         esc = solar_escape_fraction(table[3], c.window_area, c.interior_area, INTERIOR_SOLAR_ABSORPTANCE)
         k = SURFACES.index(wall)
         area = next(w[2] for w in c.walls if round(w[0]) % 360 == (0, 90, 180, 270)[k])

@@ -39,6 +39,12 @@ def register(subparsers) -> None:
                         "widesky's all-sky spectra at the file's DNI/DHI (minutes; tmy3 only)")
     b.add_argument("--transposition", default="perez", choices=("perez", "hay-davies"),
                    help="transposition of --sky weather: Perez et al. 1990 (default) or Hay-Davies 1980")
+    b.add_argument("--diffuse-optics", default="angular", choices=("angular", "hemispherical"),
+                   help="how the windows take the diffuse light: angular (default): each route's own angles (the "
+                        "integrator: every ray at its own angle; the weather route: Perez's circumsolar light at the "
+                        "sun's, its horizon band at the band's); hemispherical: the glass's hemispherical g on all "
+                        "diffuse light, the beam alone at its angle (one convention on both routes, to compare "
+                        "their light)")
     b.add_argument("--exterior", default="hourly", choices=("hourly", "constant"),
                    help="outside surface coefficients of --zone-model 5r1c: hourly from wind and air temperature "
                         "(ISO 6946 Annex C, default) or ISO 13790's constant R_se = 0.04")
@@ -221,6 +227,7 @@ def _bestest(args) -> int:
     model = {"5r1c": "the ISO 13790 5R1C model", "iso52016": "the ISO 52016-1 hourly method"}[args.zone_model]
     sky = args.sky if args.sky == "integrator" else f"{args.sky} ({args.transposition})"
     chosen = "".join(f", {k}={v}" for k, v in options.items())
+    chosen += f", diffuse optics {args.diffuse_optics}" if args.diffuse_optics != "angular" else ""
     ext = f", exterior {args.exterior}" if args.zone_model == "5r1c" else ""       # --exterior is 5R1C's
     print(f"ASHRAE 140 with {model}{chosen}, weather {args.weather}, sky {sky}{ext}")
     print(f"{'case':6s} {'quantity':20s} {'widesky':>16s} {'range':>18s} {'verdict':8s} source")
@@ -228,7 +235,7 @@ def _bestest(args) -> int:
     for c in cases:
         r = run_case(c, args.data_dir, weather=args.weather, poa=poas.get(case_geometry(c)),
                      exterior=args.exterior, zone_model=args.zone_model, transposition=args.transposition,
-                     iso52016_options=options or None)
+                     iso52016_options=options or None, diffuse_optics=args.diffuse_optics)
         saved[c] = {k: (str(v) if hasattr(v, "isoformat") else float(v)) for k, v in r.items()
                     if k not in ("hourly", "case")}
         saved[c]["verdicts"] = {}
@@ -245,11 +252,13 @@ def _bestest(args) -> int:
             if not v.inside:
                 outside.append(f"{c} {v.quantity}")
     extra = []                                    # the Standard's other outputs: the light, the free-floating days
-    model = {"zone_model": args.zone_model, "exterior": args.exterior, "iso52016_options": options or None}
+    model = {"zone_model": args.zone_model, "exterior": args.exterior, "iso52016_options": options or None,
+             "diffuse_optics": args.diffuse_optics}
     if args.solar:
         from widesky.thermal.bestest_solar import solar_outputs, solar_verdicts
         extra.append(("solar", solar_verdicts(solar_outputs(args.sky, args.transposition, args.data_dir,
-                                                            n_jobs=args.jobs, progress=sys.stderr.isatty())), []))
+                                                            n_jobs=args.jobs, progress=sys.stderr.isatty(),
+                                                            diffuse_optics=args.diffuse_optics)), []))
     if args.days:
         from widesky.thermal.bestest_days import day_verdicts, free_float_days
         extra.append(("days", day_verdicts(free_float_days(args.sky, args.transposition, args.data_dir,
