@@ -81,7 +81,7 @@ def test_weather_route_light_inside_the_programs():
 @pytest.mark.reference
 @pytest.mark.xfail(strict=True, reason="integrator route: the north wall's light is 5 % under the programs' lowest "
                    "(the room shades its ground) and the south windows' of 600 (the year, 14 July) and 610 0.05 %, "
-                   "0.3 % and 1.9 % over their highest (the all-sky sky's summer distribution); "
+                   "0.3 % and 1.9 % over their highest (the angles the all-sky sky's light reaches the glass at); "
                    "docs/validation/thermal-bestest-cases.md")
 def test_integrator_route_light_inside_the_programs():
     out = _outputs("integrator")
