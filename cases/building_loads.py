@@ -253,8 +253,8 @@ def building_thermal(result, building, tcfg, units, rated, temp_air, temp_sky=No
     if tcfg.get("thermostat", "constant") == "office":
         setpoints = office_setpoints(times, step_h, label, tcfg["heating_setpoint"], tcfg["cooling_setpoint"],
                                      tcfg["heating_setback"], tcfg["cooling_setup"])
-    requested, reduction = shading_factors(incident, occupied, tcfg.get("shading_threshold", 200.0),
-                                           tcfg.get("shading_factor", 1.0))
+    _, reduction = shading_factors(incident, occupied, tcfg.get("shading_threshold", 200.0),
+                                   tcfg.get("shading_factor", 1.0))
     rule = tcfg.get("shading_control", "solar")
     names = set(result.responses)
     gains, bare, rated_g, loads, deployed = {}, {}, {}, {}, {}
@@ -267,7 +267,7 @@ def building_thermal(result, building, tcfg, units, rated, temp_air, temp_sky=No
         loads[name] = building_loads(building, cons, times, temp_air, irr, temp_sky=temp_sky, window_gain=wg,
                                      mass_class=tcfg["mass"], shading=reduction, internal_gains=series,
                                      setpoints=setpoints, shading_rule=rule)
-        deployed[name] = loads[name].shading_state.to_numpy() if rule != "solar" else requested
+        deployed[name] = loads[name].shading_state.to_numpy()          # as the rule left it
         gains[name] = wg * np.where(deployed[name], reduction, 1.0)
     ff = float(tcfg.get("frame_fraction", 0.0))
     return ThermalRun(units, rated, [surf[j] for j in wins], np.array([surf[j].area for j in wins]) * (1.0 - ff),
