@@ -41,10 +41,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import _iso52016
 from .exterior import doe2_convection, energyplus_longwave
 
 __all__ = ["Layer", "Element", "H_RI", "H_CI", "H_CI_UP", "H_CI_DOWN", "CONVECTION", "EXTERIOR_CONVECTION",
-           "EXTERIOR_LONGWAVE", "simulate_iso52016",
+           "EXTERIOR_LONGWAVE", "ENGINES", "simulate_iso52016",
            "element_nodes", "window_resistance", "radiant_exchange", "box_view_factors", "iso15099_window_convection"]
 
 SIGMA = 5.670374419e-8
@@ -219,6 +220,30 @@ def iso15099_window_convection(dt, tilt, height, temp_air, pressure=101325.0):
     return max(nu * k / height, 0.1)
 
 
+_FIXED, _TARP, _ISO15099, _DIR_ROOF, _DIR_FLOOR = range(5)
+"""The compiled loop's inside convection per element (thermal/_iso52016.c)."""
+ENGINES = ("auto", "python")
+"""Step loops of :func:`simulate_iso52016`: ``"auto"`` the compiled one where it applies, ``"python"`` numpy's."""
+
+
+def _chains_only(base, outside, inside):
+    """True when the conductance matrix ``base`` (N, N) couples each element's nodes (``outside[i]`` to
+    ``inside[i]``, consecutive from node 1) only along their chain, symmetrically, and otherwise only the air
+    (node 0) and the inside surfaces: the pattern thermal/_iso52016.c solves."""
+    N = len(base)
+    if outside[0] != 1 or inside[-1] != N - 1 or np.any(outside[1:] != inside[:-1] + 1):
+        return False
+    allowed = np.eye(N, dtype=bool)
+    core = np.concatenate([[0], inside])
+    allowed[np.ix_(core, core)] = True
+    for f, l in zip(outside, inside):
+        k = np.arange(f, l)
+        allowed[k, k + 1] = allowed[k + 1, k] = True
+        if not np.array_equal(base[k, k + 1], base[k + 1, k]):
+            return False
+    return not np.any(base[~allowed])
+
+
 def window_resistance(element: Element, mean_temperature=EN673_MEAN_TEMPERATURE):
     """Surface-to-surface resistance of a window element [m2 K W-1] with its gaps at ``mean_temperature`` [K]."""
     return element.resistance + sum(1.0 / (hg + 4 * SIGMA * eps * mean_temperature ** 3) for hg, eps in element.gaps)
@@ -328,7 +353,7 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
                       air_capacity_per_volume=1200.0, timestep=3600.0, warmup_steps=0, temp_start=20.0,
                       solar_distribution=None, convection="fixed", substeps=1, longwave=None,
                       surface_gains=None, air_pressure=101325.0, iterate=0, iterate_tol=1e-3,
-                      exterior_convection="given", roughness=None, exterior_longwave="given"):
+                      exterior_convection="given", roughness=None, exterior_longwave="given", engine="auto"):
     """Run the ISO 52016-1 hourly balance of one zone (module doc).
 
     Parameters
@@ -409,6 +434,12 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         EnergyPlus's coefficients linearised at the previous sub-step's outside surface temperature
         (:func:`widesky.thermal.exterior.energyplus_longwave`: sky ``F_sky beta``, air ``F_sky (1 - beta)``, ground
         ``F_gnd`` at the air temperature; the element's ``emissivity``; unexposed elements: all at the air's).
+    engine : str
+        A key of :data:`ENGINES`. ``"auto"`` (default): the compiled step loop (``widesky.thermal._iso52016``: each
+        element's chain of nodes swept onto its inside surface, then a dense solve on the air and the inside
+        surfaces; the same equations, the results equal to rounding) where it applies (``iterate`` 0, the
+        ``"given"`` outside coefficients), else this module's loop around ``numpy.linalg.solve``; ``"python"``:
+        always the latter (the reference the compiled loop is tested against).
 
     Returns
     -------
@@ -458,6 +489,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         raise ValueError("heating_setpoint must be <= cooling_setpoint")
     if not (isinstance(iterate, (int, np.integer)) and iterate >= 0) or not iterate_tol >= 0:
         raise ValueError(f"iterate={iterate!r} must be an integer >= 0 and iterate_tol={iterate_tol!r} >= 0")
+    if engine not in ENGINES:
+        raise ValueError(f"engine={engine!r} not one of {ENGINES}")
     if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
         raise ValueError(f"substeps={substeps!r} must be an integer >= 1")
     n_sub = int(substeps)
@@ -612,7 +645,24 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     change = np.zeros(n_iter + 1 if n_iter else 0)  # per solve: the largest |h(x) - h_used| of the steps
     rhs_t = np.zeros((N, 2))                        # the step's right-hand side and the unit heat at the air
     rhs_t[0, 1] = 1.0
-    for i, t in enumerate(order):
+    native = engine == "auto" and not ext_var and not n_iter and _chains_only(base, outside, inside)
+    if native:
+        mode = np.array([(_ISO15099 if iso15099 and kinds[j] == "window" else _TARP) if j in tarp
+                         else (_DIR_ROOF if kinds[j] == "roof" else _DIR_FLOOR) if j in horiz else _FIXED
+                         for j in range(E)], dtype=np.int64)
+        gaps = [elements[j].gaps for j in wins]
+        f64 = np.ascontiguousarray
+        _iso52016.run(N, E, T, n_warm, len(wins), float(temp_start), f64(base, float), f64(cdt, float),
+                      f64(h_out, float), f64(hve, float), f64(rhs, float), f64(hs, float), f64(cs, float),
+                      outside.astype(np.int64), inside.astype(np.int64), f64(area, float), f64(h_base, float), mode,
+                      np.array(cos_in, float), np.array([el.tilt for el in elements], float),
+                      np.array([el.height for el in elements], float), f64(pres, float),
+                      np.array(wins, dtype=np.int64), np.array([elements[j].resistance for j in wins], float),
+                      np.array([r_window[j] for j in wins], float),
+                      np.cumsum([0] + [len(g) for g in gaps]).astype(np.int64),
+                      np.array([hg for g in gaps for hg, _ in g], float),
+                      np.array([eps for g in gaps for _, eps in g], float), ta, tsurf, need)
+    for i, t in enumerate(order if not native else ()):
         M0 = base.copy()
         rhs_step = rhs[t]
         if ext_var:
