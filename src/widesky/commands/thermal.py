@@ -36,7 +36,7 @@ def register(subparsers) -> None:
                    help="tmy3: Denver Intl AP TMY3 (the 140-2020 weather, default); drycold: older")
     b.add_argument("--sky", default="weather", choices=("weather", "integrator"),
                    help="weather: the file's DNI/DHI transposed (--transposition; default, seconds); integrator: "
-                        "widesky's all-sky spectra at the file's DNI/DHI (minutes; tmy3 only)")
+                        "widesky's all-sky spectra at the file's DNI/DHI (ray casting: a few times longer; tmy3 only)")
     b.add_argument("--transposition", default="perez", choices=("perez", "hay-davies"),
                    help="transposition of --sky weather: Perez et al. 1990 (default) or Hay-Davies 1980")
     b.add_argument("--diffuse-optics", default="angular", choices=("angular", "hemispherical"),
