@@ -82,6 +82,8 @@ def test_kernel_runs_where_it_applies(monkeypatch):
     assert np.abs(moved["temp_air"] - base["temp_air"]).max() > 1e-7
     with pytest.raises(ValueError, match="engine="):
         simulate_iso52016(els, engine="fortran", **kw)
+    with pytest.raises(ValueError, match="at least one Element"):
+        simulate_iso52016([], **{**kw, "solar_out": np.zeros((len(kw["solar_in"]), 0))})
 
 
 def test_chain_pattern_check():

@@ -450,6 +450,8 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
         elements, ``x`` that solve's temperatures (entry 0: the lag of the one-solve scheme).
     """
     elements = list(elements)
+    if not elements:
+        raise ValueError("elements: give at least one Element (a zone needs an enclosure)")
     if convection not in CONVECTION:
         raise ValueError(f"convection={convection!r} not one of {CONVECTION}")
     if exterior_convection not in EXTERIOR_CONVECTION:
