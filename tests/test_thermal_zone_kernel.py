@@ -82,6 +82,10 @@ def test_kernel_runs_where_it_applies(monkeypatch):
     assert np.abs(moved["temp_air"] - base["temp_air"]).max() > 1e-7
     with pytest.raises(ValueError, match="engine="):
         simulate_iso52016(els, engine="fortran", **kw)
+    te = kw["temp_air_out"].copy()
+    te[30] = np.nan
+    with pytest.raises(ValueError, match="temp_air_out is not finite at 1 step.*index 30"):
+        simulate_iso52016(els, **{**kw, "temp_air_out": te})
     with pytest.raises(ValueError, match="at least one Element"):
         simulate_iso52016([], **{**kw, "solar_out": np.zeros((len(kw["solar_in"]), 0))})
 

@@ -482,6 +482,13 @@ def simulate_iso52016(elements, temp_air_out, temp_sky, h_ce, h_re, solar_out, s
     sgain = np.zeros((T, E, 2)) if surface_gains is None else np.asarray(surface_gains, float)
     if sgain.shape != (T, E, 2):
         raise ValueError(f"surface_gains has shape {sgain.shape}, expected {(T, E, 2)}")
+    for name, a in (("temp_air_out", te), ("temp_sky", ts), ("h_ce", hce), ("h_re", hre), ("solar_out", sol_out),
+                    ("solar_in", sol_in), ("phi_int", pint), ("h_ve", hve), ("air_pressure", pres),
+                    ("surface_gains", sgain)):
+        if not np.all(np.isfinite(a)):
+            bad = np.flatnonzero(~np.isfinite(np.reshape(a, (T, -1))).all(1))
+            raise ValueError(f"{name} is not finite at {len(bad)} step(s), the first at index {bad[0]} "
+                             "(fill the gaps in the weather or the inputs first)")
     sub_set = [np.asarray(a, float) for a in (heating_setpoint, cooling_setpoint)]
     per_sub = [isinstance(substeps, (int, np.integer)) and substeps > 1 and a.shape == (T * substeps,)
                for a in sub_set]
